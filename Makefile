@@ -1,0 +1,54 @@
+# Every target bootstraps .venv from nothing (python3 -m venv + pip install -e .[dev]).
+PY      := .venv/bin/python
+STAMP   := .venv/.installed
+JOBS    ?= 2
+
+.PHONY: test test-all bench lint format calibrate sweep-stiffness sweep-process \
+        optimise-process optimise-design sensitivity validate clean-venv
+
+$(STAMP): pyproject.toml
+	python3 -m venv .venv
+	$(PY) -m pip install --quiet --upgrade pip
+	$(PY) -m pip install --quiet -e '.[dev]'
+	touch $(STAMP)
+
+test: $(STAMP)
+	$(PY) -m pytest -m "not slow" tests
+
+test-all: $(STAMP)
+	$(PY) -m pytest tests
+
+bench: $(STAMP)
+	$(PY) benchmarks/run.py
+
+lint: $(STAMP)
+	$(PY) -m ruff check ufmt tests benchmarks
+	$(PY) -m ruff format --check ufmt tests benchmarks
+
+format: $(STAMP)
+	$(PY) -m ruff format ufmt tests benchmarks
+	$(PY) -m ruff check --fix ufmt tests benchmarks
+
+calibrate: $(STAMP)
+	$(PY) -m ufmt.cli calibrate
+
+validate: $(STAMP)
+	$(PY) -m ufmt.cli validate
+
+sweep-stiffness: $(STAMP)
+	$(PY) -m ufmt.cli run studies/sweep-stiffness.toml --jobs $(JOBS)
+
+sweep-process: $(STAMP)
+	$(PY) -m ufmt.cli run studies/sweep-process.toml --jobs $(JOBS)
+
+optimise-process: $(STAMP)
+	$(PY) -m ufmt.cli run studies/optimise-process.toml --jobs $(JOBS)
+
+optimise-design: $(STAMP)
+	$(PY) -m ufmt.cli run studies/optimise-design.toml --jobs $(JOBS)
+
+sensitivity: $(STAMP)
+	$(PY) -m ufmt.cli run studies/sensitivity.toml --jobs $(JOBS)
+
+clean-venv:
+	rm -rf .venv

@@ -1,0 +1,1 @@
+"""ufmt: dynamics of ultra-precision fly-cutting machine tools (MSTMM)."""

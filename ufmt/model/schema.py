@@ -1,0 +1,163 @@
+"""Immutable model objects: bodies, hinges and the model that holds them.
+
+All quantities are SI and expressed in one global frame (see ../shared/DESIGN.md and the
+README's model-file schema). Objects are built by :mod:`ufmt.model.load`, which validates every
+field; constructing them directly skips validation. Vectors are read-only numpy arrays.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+
+GROUND = "ground"
+
+
+def frozen_array(values, shape=None) -> np.ndarray:
+    """A read-only float copy of ``values`` (optionally reshaped) [same units as input]."""
+    a = np.array(values, dtype=float)
+    if shape is not None:
+        a = a.reshape(shape)
+    a.setflags(write=False)
+    return a
+
+
+@dataclass(frozen=True, eq=False)
+class RigidBody:
+    """Rigid body (paper eqs. 2.8, 2.9, 3.1).
+
+    mass [kg]; center_of_mass [m]; inertia [kg m^2] tensor about the centre of mass.
+    """
+
+    name: str
+    mass: float
+    center_of_mass: np.ndarray
+    inertia: np.ndarray
+    number: int | None = None
+    kind: str = field(default="rigid", init=False)
+
+
+@dataclass(frozen=True, eq=False)
+class VirtualBody:
+    """Massless point body (paper eq. 2.11); every hinge on it must share one point."""
+
+    name: str
+    number: int | None = None
+    kind: str = field(default="virtual", init=False)
+
+
+@dataclass(frozen=True, eq=False)
+class Beam:
+    """Euler-Bernoulli beam: axial, torsion, bending in two planes (paper eqs. 2.12, 3.3).
+
+    start, end [m] end points; density [kg/m^3]; youngs_modulus, shear_modulus [Pa];
+    area [m^2]; second_moment_y, second_moment_z [m^4] about the local y and z axes;
+    polar_moment [m^4] (rotary inertia in torsion, rho*J_p); torsion_constant [m^4]
+    (torsional stiffness G*J_t); orientation: a vector fixing the local y axis, or None for
+    the default (global z projected off the axis; global x when the axis is vertical).
+    """
+
+    name: str
+    start: np.ndarray
+    end: np.ndarray
+    density: float
+    youngs_modulus: float
+    shear_modulus: float
+    area: float
+    second_moment_y: float
+    second_moment_z: float
+    polar_moment: float
+    torsion_constant: float
+    orientation: np.ndarray | None = None
+    number: int | None = None
+    kind: str = field(default="beam", init=False)
+
+    @property
+    def length(self) -> float:
+        """Beam length [m]."""
+        return float(np.linalg.norm(self.end - self.start))
+
+    @property
+    def mass(self) -> float:
+        """Beam mass [kg]."""
+        return self.density * self.area * self.length
+
+
+Body = RigidBody | VirtualBody | Beam
+
+
+@dataclass(frozen=True, eq=False)
+class Hinge:
+    """Spatial spring-damper hinge (paper eqs. 2.13, 2.14).
+
+    between: two body names (or "ground"); at [m] the hinge point;
+    stiffness [N/m] along global x, y, z; rotational_stiffness [N m/rad] about global x, y, z
+    (0 = released direction, inf = rigid); damping [N s/m]; rotational_damping [N m s/rad].
+    """
+
+    name: str
+    between: tuple[str, str]
+    at: np.ndarray
+    stiffness: np.ndarray
+    rotational_stiffness: np.ndarray
+    damping: np.ndarray
+    rotational_damping: np.ndarray
+    number: int | None = None
+
+    @property
+    def stiffness6(self) -> np.ndarray:
+        """[kx, ky, kz, k'x, k'y, k'z] [N/m, N m/rad]."""
+        return np.concatenate([self.stiffness, self.rotational_stiffness])
+
+    @property
+    def damping6(self) -> np.ndarray:
+        """[cx, cy, cz, c'x, c'y, c'z] [N s/m, N m s/rad]."""
+        return np.concatenate([self.damping, self.rotational_damping])
+
+    @property
+    def released(self) -> np.ndarray:
+        """Boolean mask of the six directions that transmit nothing (stiffness 0)."""
+        return self.stiffness6 == 0.0
+
+    @property
+    def rigid(self) -> np.ndarray:
+        """Boolean mask of the six directions that are rigid (stiffness inf)."""
+        return np.isinf(self.stiffness6)
+
+
+@dataclass(frozen=True, eq=False)
+class Model:
+    """A validated machine model: bodies, hinges and free-form metadata.
+
+    ``machine`` holds the optional ``[machine]`` table (tool, workpiece and process metadata
+    used by the cutting dynamics); ``source`` is the file it came from (for messages).
+    """
+
+    name: str
+    bodies: tuple[Body, ...]
+    hinges: tuple[Hinge, ...]
+    machine: dict[str, Any] = field(default_factory=dict)
+    source: str = "<memory>"
+
+    def body(self, name: str) -> Body:
+        """The body called ``name`` (KeyError lists the valid names)."""
+        for b in self.bodies:
+            if b.name == name:
+                return b
+        raise KeyError(f"unknown body {name!r}; bodies are {[b.name for b in self.bodies]}")
+
+    def hinge(self, name: str) -> Hinge:
+        """The hinge called ``name`` (KeyError lists the valid names)."""
+        for h in self.hinges:
+            if h.name == name:
+                return h
+        raise KeyError(f"unknown hinge {name!r}; hinges are {[h.name for h in self.hinges]}")
+
+    def with_hinge(self, name: str, **changes) -> Model:
+        """A copy with hinge ``name`` changed, e.g. ``stiffness=[...]`` (values as in Hinge)."""
+        self.hinge(name)
+        conv = {k: frozen_array(v) if k != "between" else v for k, v in changes.items()}
+        hinges = tuple(replace(h, **conv) if h.name == name else h for h in self.hinges)
+        return replace(self, hinges=hinges)

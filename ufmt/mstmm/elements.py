@@ -1,0 +1,212 @@
+"""Element transfer matrices of the MSTMM, batched over an array of angular frequencies.
+
+State vector at a point (paper eq. 2.1): ``[x y z θx θy θz mx my mz qx qy qz]``; transfer runs
+from the tip (input end) to the root (output end). ``q`` is the force that the tip-side element
+exerts on the root-side one; the torque ``m`` has the opposite sense (paper eq. 3.1). Every
+function returns an array of shape ``(n_omega, 12, 12)``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ufmt.model.schema import Beam
+
+I3 = np.eye(3)
+
+
+def tilde(v) -> np.ndarray:
+    """Cross-product matrix of a vector, ``tilde(a) @ b == a x b`` (paper eq. 2.10)."""
+    x, y, z = v
+    return np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
+
+
+def inertia_about(inertia_c: np.ndarray, mass: float, offset) -> np.ndarray:
+    """Inertia tensor about a point ``offset`` = (point → centre of mass) away [kg m^2]."""
+    d = np.asarray(offset, dtype=float)
+    return inertia_c + mass * (d @ d * I3 - np.outer(d, d))
+
+
+def rigid_body_first_input(
+    omega: np.ndarray, mass: float, inertia_c, com, p_in, p_out
+) -> np.ndarray:
+    """U_{i,I1} of a rigid body (paper eq. 2.8) [SI].
+
+    mass [kg], inertia_c [kg m^2] about the centre of mass ``com`` [m], first input point
+    ``p_in`` and output point ``p_out`` [m]. Affine in ω²: the constant part is the kinematic
+    transfer, the ω² part the inertia forces.
+    """
+    l_io = tilde(np.asarray(p_out) - p_in)
+    l_ic = tilde(np.asarray(com) - p_in)
+    l_co = tilde(np.asarray(p_out) - com)
+    j_i = inertia_about(np.asarray(inertia_c), mass, np.asarray(com) - p_in)
+    base = np.eye(12)
+    base[0:3, 3:6] = -l_io
+    base[6:9, 9:12] = l_io
+    inertial = np.zeros((12, 12))
+    inertial[6:9, 0:3] = mass * l_co
+    inertial[6:9, 3:6] = -(mass * l_io @ l_ic + j_i)
+    inertial[9:12, 0:3] = mass * I3
+    inertial[9:12, 3:6] = -mass * l_ic
+    w2 = np.asarray(omega, dtype=float)[:, None, None] ** 2
+    return base[None] + w2 * inertial[None]
+
+
+def rigid_body_other_input(n_omega: int, p_in, p_out) -> np.ndarray:
+    """U_{i,Ik}, k ≥ 2, of a rigid or virtual body (paper eqs. 2.9, 2.11): forces only."""
+    u = np.zeros((12, 12))
+    u[6:9, 6:9] = I3
+    u[6:9, 9:12] = tilde(np.asarray(p_out, dtype=float) - p_in)
+    u[9:12, 9:12] = I3
+    return np.broadcast_to(u, (n_omega, 12, 12))
+
+
+def hinge(
+    omega: np.ndarray, stiffness6: np.ndarray, damping6: np.ndarray | None = None
+) -> np.ndarray:
+    """Spatial spring-damper hinge (paper eqs. 2.13, 2.14) with complex stiffness k + iωc.
+
+    stiffness6 [N/m, N m/rad] along/about global x, y, z; ``inf`` is rigid (zero compliance).
+    Released directions (stiffness 0) are not representable as a transfer matrix; the caller
+    handles them exactly with an extra unknown, and this function gives them zero compliance.
+    """
+    omega = np.asarray(omega, dtype=float)
+    k = np.asarray(stiffness6, dtype=float)
+    elastic = (k > 0) & np.isfinite(k)  # rigid and released directions get zero compliance
+    if damping6 is not None and np.any(damping6):
+        kc = k[None, :] + 1j * omega[:, None] * np.asarray(damping6)[None, :]
+    else:
+        kc = np.broadcast_to(k, (omega.size, 6))
+    compliance = np.zeros(kc.shape, dtype=kc.dtype)
+    compliance[:, elastic] = 1.0 / kc[:, elastic]
+    u = np.zeros((omega.size, 12, 12), dtype=compliance.dtype)
+    idx = np.arange(12)
+    u[:, idx, idx] = 1.0
+    u[:, [0, 1, 2], [9, 10, 11]] = -compliance[:, :3]  # K = -1/k (translation)
+    u[:, [3, 4, 5], [6, 7, 8]] = compliance[:, 3:]  # K' = +1/k' (rotation)
+    return u
+
+
+def beam_frame(beam: Beam, p_in, p_out) -> np.ndarray:
+    """Columns e1, e2, e3 of the beam's local frame for transfer from p_in to p_out.
+
+    e1 runs along the transfer direction; e2 is ``orientation`` (default global z, or global
+    x for a vertical beam) projected off e1; e3 = e1 x e2. Flipping e1 flips e3 only, which
+    leaves the section's second moments about e2 and e3 unchanged.
+    """
+    e1 = np.asarray(p_out, dtype=float) - p_in
+    e1 /= np.linalg.norm(e1)
+    ref = beam.orientation
+    if ref is None:
+        ref = np.array([0.0, 0.0, 1.0])
+        if abs(e1 @ ref) > 0.9:
+            ref = np.array([1.0, 0.0, 0.0])
+    e2 = ref - (ref @ e1) * e1
+    e2 /= np.linalg.norm(e2)
+    return np.column_stack([e1, e2, np.cross(e1, e2)])
+
+
+def _krylov_scaled(x4: np.ndarray):
+    """Entire Krylov-Duncan functions in terms of x⁴ = (λL)⁴, stable for all x ≥ 0.
+
+    Returns s, t, u, v with S(x) = s, T(x)/x = t, U(x)/x² = u, V(x)/x³ = v, where
+    S = (cosh+cos)/2, T = (sinh+sin)/2, U = (cosh-cos)/2, V = (sinh-sin)/2.
+    A power series in x⁴ is used below x = 2 (no cancellation), closed forms above.
+    """
+    x4 = np.asarray(x4, dtype=float)
+    small = x4 < 16.0
+    xs = np.where(small, x4, 0.0)
+    s = np.zeros_like(x4)
+    t = np.zeros_like(x4)
+    u = np.zeros_like(x4)
+    v = np.zeros_like(x4)
+    term = np.ones_like(x4)
+    for k in range(12):  # 16^12/(48)! is far below machine precision
+        n = 4 * k
+        s += term
+        t += term / (n + 1)
+        u += term / ((n + 1) * (n + 2))
+        v += term / ((n + 1) * (n + 2) * (n + 3))
+        term = term * xs / ((n + 1) * (n + 2) * (n + 3) * (n + 4))
+    if np.any(~small):
+        x = np.sqrt(np.sqrt(x4[~small]))
+        ch, c, sh, sn = np.cosh(x), np.cos(x), np.sinh(x), np.sin(x)
+        s[~small] = (ch + c) / 2
+        t[~small] = (sh + sn) / 2 / x
+        u[~small] = (ch - c) / 2 / x**2
+        v[~small] = (sh - sn) / 2 / x**3
+    return s, t, u, v
+
+
+def _axial(omega2, stiffness, inertia_per_length, length):
+    """cos(βL), sin(βL)/β, β sin(βL) for u'' + β²u = 0, β² = ρA ω²/EA, stable at β → 0."""
+    b2 = omega2 * inertia_per_length / stiffness
+    bl = np.sqrt(b2) * length
+    sinc = np.sinc(bl / np.pi)  # sin(βL)/(βL)
+    return np.cos(bl), length * sinc, b2 * length * sinc
+
+
+def beam_local(omega: np.ndarray, beam: Beam, length: float | None = None) -> np.ndarray:
+    """Transfer matrix of an Euler-Bernoulli beam in its own axes (paper eqs. 2.12, 3.3).
+
+    Derived from eq. 3.3 in the state conventions of this module (the printed eq. 2.12 mixes
+    λy and λz and has sign slips). Local axes: x1 along the beam from input to output; bending
+    in the x1-y plane uses I_z (θz = v'), in the x1-z plane I_y (θy = -w'). ``length`` [m]
+    gives the transfer over a part of the beam (default: the whole beam).
+    """
+    w2 = np.asarray(omega, dtype=float) ** 2
+    n = w2.size
+    L = beam.length if length is None else length
+    rho, E, G = beam.density, beam.youngs_modulus, beam.shear_modulus
+    A, Iy, Iz = beam.area, beam.second_moment_y, beam.second_moment_z
+    u = np.zeros((n, 12, 12))
+    # axial: x, qx  (q = -N, N = EA u')
+    c, sl, bs = _axial(w2, E * A, rho * A, L)
+    u[:, 0, 0] = c
+    u[:, 0, 9] = -sl / (E * A)
+    u[:, 9, 0] = E * A * bs
+    u[:, 9, 9] = c
+    # torsion: θx, mx  (m = +GJ θ')
+    gj = G * beam.torsion_constant
+    c, sl, bs = _axial(w2, gj, rho * beam.polar_moment, L)
+    u[:, 3, 3] = c
+    u[:, 3, 6] = sl / gj
+    u[:, 6, 3] = -gj * bs
+    u[:, 6, 6] = c
+    for ei, (d, th, m, q, sgn) in (
+        (E * Iz, (1, 5, 8, 10, 1.0)),  # y, θz, mz, qy: θz = v', mz = EI v'', qy = EI v'''
+        (E * Iy, (2, 4, 7, 11, -1.0)),  # z, θy, my, qz: θy = -w', my = -EI w'', qz = EI w'''
+    ):
+        lam4 = rho * A * w2 / ei
+        s, t, uu, v = _krylov_scaled(lam4 * L**4)
+        T_l, U_l2, V_l3 = L * t, L**2 * uu, L**3 * v  # T/λ, U/λ², V/λ³
+        lV, l2U, l3T = lam4 * V_l3, lam4 * U_l2, lam4 * T_l  # λV, λ²U, λ³T
+        u[:, d, d] = s
+        u[:, d, th] = sgn * T_l
+        u[:, d, m] = sgn * U_l2 / ei
+        u[:, d, q] = V_l3 / ei
+        u[:, th, d] = sgn * lV
+        u[:, th, th] = s
+        u[:, th, m] = T_l / ei
+        u[:, th, q] = sgn * U_l2 / ei
+        u[:, m, d] = sgn * ei * l2U
+        u[:, m, th] = ei * np.sqrt(lam4) * T_l  # λT = λ²·(T/λ)
+        u[:, m, m] = s
+        u[:, m, q] = sgn * T_l
+        u[:, q, d] = ei * l3T
+        u[:, q, th] = sgn * ei * l2U
+        u[:, q, m] = sgn * lV
+        u[:, q, q] = s
+    return u
+
+
+def beam(omega: np.ndarray, beam: Beam, p_in, p_out, length: float | None = None) -> np.ndarray:
+    """Beam transfer matrix from end ``p_in`` towards end ``p_out`` in the global frame [SI].
+
+    ``length`` [m] stops the transfer part-way along the beam (for mode shapes).
+    """
+    r = beam_frame(beam, p_in, p_out)
+    t = np.zeros((12, 12))
+    for k in range(4):
+        t[3 * k : 3 * k + 3, 3 * k : 3 * k + 3] = r
+    return t[None] @ beam_local(omega, beam, length) @ t.T[None]

@@ -1,0 +1,178 @@
+"""Overall transfer equation U_all(ω) Z_all = 0 (paper eqs. 2.15-2.22), batched over ω.
+
+Every state vector in the system is a linear function of the boundary unknowns Z_all. Starting
+from the tips (cut states, ground reactions of cut ground hinges, free tips) the states are
+transferred element by element towards the root; each state is kept as a block of columns of
+Z_all only (the unknowns of its own subtree), which makes the work per element proportional to
+the paper's path products. The rows of U_all are the root conditions (zero displacement at
+ground, reactions), the geometric equations of multi-input bodies (eqs. 2.5-2.7) and one
+zero-force condition per released direction of a tree hinge.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ufmt.model.schema import GROUND, Model
+from ufmt.mstmm import elements
+from ufmt.mstmm.topology import Topology, build_topology
+
+CUT = np.diag(np.r_[np.ones(6), -np.ones(6)])  # C = diag(I3, I3, -I3, -I3)
+
+
+@dataclass
+class State:
+    """A state vector as a linear map of the unknowns: ``Z = arr @ Z_all[cols]``."""
+
+    cols: np.ndarray  # (k,) column indices into Z_all
+    arr: np.ndarray  # (n_omega, 12, k)
+
+    def transfer(self, u: np.ndarray) -> State:
+        """U @ Z for a batch of transfer matrices ``u`` (n_omega, 12, 12)."""
+        return State(self.cols, u @ self.arr)
+
+    def __add__(self, other: State) -> State:
+        cols = np.union1d(self.cols, other.cols)
+        arr = np.zeros(self.arr.shape[:2] + (cols.size,), dtype=np.result_type(self.arr, other.arr))
+        arr[:, :, np.searchsorted(cols, self.cols)] += self.arr
+        arr[:, :, np.searchsorted(cols, other.cols)] += other.arr
+        return State(cols, arr)
+
+    def dense(self, rows, n: int) -> np.ndarray:
+        """Rows ``rows`` of the map as a dense (n_omega, len(rows), n) array."""
+        out = np.zeros(self.arr.shape[:1] + (len(rows), n), dtype=self.arr.dtype)
+        out[:, :, self.cols] = self.arr[:, rows, :]
+        return out
+
+
+def _unknown_state(n_omega: int, columns: np.ndarray) -> State:
+    """A state whose 12 entries are unknowns ``columns`` (-1 = known zero)."""
+    known = columns >= 0
+    arr = np.zeros((n_omega, 12, int(known.sum())))
+    arr[:, np.flatnonzero(known), np.arange(known.sum())] = 1.0
+    return State(columns[known], arr)
+
+
+class TransferSystem:
+    """The MSTMM of one model: topology plus element data, evaluated at any ω array."""
+
+    def __init__(self, model: Model):
+        self.model = model
+        self.topology: Topology = build_topology(model)
+
+    @property
+    def order(self) -> int:
+        """Order of U_all."""
+        return self.topology.order_size
+
+    def _edge_matrix(self, index: int, omega: np.ndarray) -> np.ndarray:
+        e = self.topology.edges[index]
+        if e.kind == "beam":
+            p_in = e.point_at(e.input_node)
+            p_out = e.point_at(e.output_node) if e.output_node != "" else None
+            if e.output_node == e.input_node:  # pragma: no cover - impossible by construction
+                raise AssertionError
+            return elements.beam(omega, e.element, p_in, p_out)
+        return elements.hinge(omega, e.element.stiffness6, None)
+
+    def _edge_input(self, index: int, n_omega: int) -> State | None:
+        topo = self.topology
+        if index in topo.cut_columns:
+            return _unknown_state(n_omega, topo.cut_columns[index])
+        if index in topo.ground_columns:
+            return _unknown_state(n_omega, topo.ground_columns[index])
+        return None
+
+    def _edge_output(self, index: int, state_in: State, omega: np.ndarray) -> State:
+        out = state_in.transfer(self._edge_matrix(index, omega))
+        for direction, col in self.topology.released_columns.get(index, {}).items():
+            delta = np.zeros((omega.size, 12, 1))
+            delta[:, direction, 0] = 1.0
+            out = out + State(np.array([col]), delta)
+        return out
+
+    def evaluate(self, omega, keep_states: bool = False):
+        """U_all(ω) as (n_omega, n, n); with ``keep_states`` also every state map.
+
+        The states dict maps ``("node_in", node, k)`` (k-th input end), ``("node_out", node)``,
+        ``("edge_in", edge)`` and ``("edge_out", edge)`` to State objects.
+        """
+        omega = np.atleast_1d(np.asarray(omega, dtype=float))
+        nw = omega.size
+        topo = self.topology
+        n = topo.order_size
+        rows: list[np.ndarray] = []
+        states: dict = {}
+        edge_out: dict[int, State] = {}
+        for i in list(topo.cut_columns) + list(topo.ground_columns):
+            z_in = self._edge_input(i, nw)
+            edge_out[i] = self._edge_output(i, z_in, omega)
+            if keep_states:
+                states[("edge_in", i)] = z_in
+                states[("edge_out", i)] = edge_out[i]
+        for name in topo.order:
+            node = topo.nodes[name]
+            p_out = node.output_point
+            inputs: list[tuple[State, np.ndarray]] = []
+            for i, role in node.inputs:
+                e = topo.edges[i]
+                if role == "cut":
+                    z = _unknown_state(nw, topo.cut_columns[i])
+                    inputs.append((State(z.cols, CUT @ z.arr), e.point_at(name)))
+                else:
+                    inputs.append((edge_out[i], e.point_at(name)))
+            if not inputs:  # free tip: six unknown displacements, zero forces
+                cols = topo.free_tip_columns[name]
+                arr = np.zeros((nw, 12, 6))
+                arr[:, np.arange(6), np.arange(6)] = 1.0
+                inputs.append((State(cols, arr), p_out))
+            out = self._node_output(node, inputs, omega)
+            for k in range(1, len(inputs)):  # geometric equations (2.5-2.7)
+                (z1, p1), (zk, pk) = inputs[0], inputs[k]
+                h_k = np.zeros((6, 12))
+                h_k[0:3, 0:3] = np.eye(3)
+                h_k[0:3, 3:6] = elements.tilde(np.asarray(pk) - p1) if node.kind == "rigid" else 0
+                h_k[3:6, 3:6] = np.eye(3)
+                zk_h = State(zk.cols, h_k[None] @ zk.arr)
+                z1_h = State(z1.cols, -z1.arr[:, 0:6, :])
+                rows.append((zk_h + z1_h).dense(range(6), n))
+            if keep_states:
+                for k, (z, _) in enumerate(inputs):
+                    states[("node_in", name, k)] = z
+                states[("node_out", name)] = out
+            i = node.parent_edge
+            for direction in topo.released_columns.get(i, {}):
+                force_row = 9 + direction if direction < 3 else 6 + direction - 3
+                rows.append(out.dense([force_row], n))
+            edge_out[i] = self._edge_output(i, out, omega)
+            if keep_states:
+                states[("edge_in", i)] = out
+                states[("edge_out", i)] = edge_out[i]
+            if topo.edges[i].output_node == GROUND:  # root: zero displacement, reactions
+                z = edge_out[i].dense(range(12), n)
+                z[:, 6:12, topo.root_columns[i]] -= np.eye(6)
+                rows.append(z)
+        u_all = np.concatenate(rows, axis=1)
+        if u_all.shape[1] != n:  # pragma: no cover - guarded by the counting argument
+            raise AssertionError(f"U_all is {u_all.shape[1]}x{n}")
+        return (u_all, states) if keep_states else u_all
+
+    def _node_output(self, node, inputs, omega) -> State:
+        """Output state of a body from its input states (eqs. 2.4, 2.8, 2.9, 2.11)."""
+        nw = omega.size
+        (z1, p1) = inputs[0]
+        p_out = node.output_point
+        if node.kind == "rigid":
+            b = node.body
+            u1 = elements.rigid_body_first_input(
+                omega, b.mass, b.inertia, b.center_of_mass, p1, p_out
+            )
+            out = z1.transfer(u1)
+        else:
+            out = z1
+        for zk, pk in inputs[1:]:
+            lever = pk if node.kind == "rigid" else p_out
+            out = out + zk.transfer(elements.rigid_body_other_input(nw, lever, p_out))
+        return out

@@ -1,0 +1,204 @@
+"""Natural frequencies: every root of det U_all(ω) = 0 in (0, f_max] (paper eq. 2.23).
+
+det U_all has no poles for these elements, so it changes sign only at roots of odd
+multiplicity. The assembled mass-stiffness model of the same file (``ufmt.assembled``) counts
+the roots and says where they are; the MSTMM then finds each one on its own:
+
+1. sign of det on a grid refined around every estimate (geometric steps down to 1e-7) and at
+   the midpoints between neighbouring estimates, plus a uniform background grid;
+2. every sign change is refined by a vectorised Illinois (regula falsi) iteration on det of
+   the row/column-equilibrated U_all (positive scaling, so the sign is unchanged);
+3. where fewer roots than estimates were found (a repeated root of a symmetric structure, or an
+   even-multiplicity cluster) the smallest singular values of U_all are minimised by golden
+   section; a root is accepted when they fall by many orders of magnitude, and its multiplicity
+   is the number of singular values that vanish together.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ufmt.mstmm.overall import TransferSystem
+
+TWO_PI = 2.0 * np.pi
+STEPS = np.array([3e-2, 1e-2, 3e-3, 1e-3, 3e-4, 1e-4, 1e-5, 1e-6, 1e-7])
+
+
+@dataclass(frozen=True)
+class Roots:
+    """Natural frequencies [Hz] ascending, repeated roots listed once per multiplicity."""
+
+    frequencies_hz: np.ndarray
+    expected: int  # how many the assembled model counts in (0, f_max]
+    evaluations: int  # number of U_all evaluations (cost measure)
+
+    @property
+    def complete(self) -> bool:
+        """True when the MSTMM found as many roots as the assembled model counts."""
+        return self.frequencies_hz.size >= self.expected
+
+
+def _equilibrate(u: np.ndarray):
+    """Positive row and column scalings making U_all's rows and columns O(1)."""
+    a = np.abs(u)
+    r = a.max(axis=2, keepdims=True)
+    r[r == 0] = 1.0
+    c = (a / r).max(axis=1, keepdims=True)
+    c[c == 0] = 1.0
+    return 1.0 / r, 1.0 / c
+
+
+def _sign_det(system: TransferSystem, omega: np.ndarray) -> np.ndarray:
+    u = system.evaluate(omega)
+    r, c = _equilibrate(u)
+    sign, _ = np.linalg.slogdet(u * r * c)
+    return sign
+
+
+def _illinois(system, lo, hi, s_lo, rtol, max_iter=80):
+    """Vectorised Illinois iteration on brackets [lo, hi] of det sign changes [rad/s]."""
+    n_eval = 0
+    mid = 0.5 * (lo + hi)
+    u = system.evaluate(mid)
+    r, c = _equilibrate(u)  # fixed scaling per bracket keeps det continuous in ω
+
+    def f(w):
+        s, ld = np.linalg.slogdet(system.evaluate(w) * r * c)
+        return s * np.exp(ld - ref)
+
+    _, ref = np.linalg.slogdet(u * r * c)
+    a, b = lo.copy(), hi.copy()
+    fa, fb = f(a), f(b)
+    n_eval += 3
+    fa = np.where(np.sign(fa) == s_lo, fa, s_lo * np.abs(fa))  # guard noise at the bracket end
+    for it in range(max_iter):
+        width = np.abs(b - a)
+        active = width > rtol * np.abs(b)
+        if not active.any():
+            break
+        with np.errstate(divide="ignore", invalid="ignore"):
+            cpt = b - fb * (b - a) / (fb - fa)
+        lo_, hi_ = np.minimum(a, b), np.maximum(a, b)
+        bad = ~np.isfinite(cpt) | (cpt <= lo_) | (cpt >= hi_) | (it % 4 == 3)
+        cpt = np.where(bad, 0.5 * (a + b), cpt)
+        cpt = np.where(active, cpt, b)
+        fc = f(cpt)
+        n_eval += 1
+        flip = np.sign(fc) != np.sign(fb)
+        a_new = np.where(flip, b, a)
+        fa_new = np.where(flip, fb, 0.5 * fa)
+        a = np.where(active, a_new, a)
+        fa = np.where(active, fa_new, fa)
+        b = np.where(active, cpt, b)
+        fb = np.where(active, fc, fb)
+        zero = fc == 0
+        a = np.where(active & zero, cpt, a)
+    return 0.5 * (a + b), n_eval
+
+
+def _golden_nullity(system, lo, hi, k, iters=64):
+    """Minimise the k-th smallest singular value of U_all over [lo, hi] (vectorised)."""
+    u = system.evaluate(0.5 * (lo + hi))
+    r, c = _equilibrate(u)
+
+    def sigma(w):
+        s = np.linalg.svd(system.evaluate(w) * r * c, compute_uv=False)
+        return s[np.arange(w.size), -k]
+
+    g = (np.sqrt(5.0) - 1.0) / 2.0
+    a, b = lo.copy(), hi.copy()
+    x1, x2 = b - g * (b - a), a + g * (b - a)
+    f1, f2 = sigma(x1), sigma(x2)
+    for _ in range(iters):
+        left = f1 < f2
+        b = np.where(left, x2, b)
+        a = np.where(left, a, x1)
+        x2n = np.where(left, x1, a + g * (b - a))
+        x1n = np.where(left, b - g * (b - a), x2)
+        f2n = np.where(left, f1, np.nan)
+        f1n = np.where(left, np.nan, f2)
+        x1, x2 = x1n, x2n
+        fx = sigma(np.where(left, x1, x2))
+        f1 = np.where(left, fx, f1n)
+        f2 = np.where(left, f2n, fx)
+    w = 0.5 * (a + b)
+    s_min = np.linalg.svd(system.evaluate(w) * r * c, compute_uv=False)
+    s_edge = np.linalg.svd(system.evaluate(lo) * r * c, compute_uv=False)
+    s_edge2 = np.linalg.svd(system.evaluate(hi) * r * c, compute_uv=False)
+    return w, s_min, np.minimum(s_edge, s_edge2), iters + 5
+
+
+def natural_frequencies(
+    system: TransferSystem, fmax_hz: float, estimates_hz, rtol: float = 1e-12
+) -> Roots:
+    """Every natural frequency in (0, fmax_hz] [Hz], to relative precision ``rtol``.
+
+    ``estimates_hz`` are the assembled model's nonzero frequencies (ascending, repeated roots
+    repeated); they bracket and count the roots, the MSTMM values are computed independently.
+    """
+    est = np.sort(np.asarray(estimates_hz, dtype=float))
+    est = est[est > 0]
+    expected = int(np.sum(est <= fmax_hz))
+    if est.size == 0:
+        return Roots(np.zeros(0), 0, 0)
+    f_lo = 0.5 * est[0]
+    near = est[est <= fmax_hz * 1.05]
+    grid = [np.linspace(f_lo, fmax_hz, 64), near, np.sqrt(near[1:] * near[:-1])]
+    for s in (-1.0, 1.0):
+        grid.append((near[:, None] * (1.0 + s * STEPS[None, :])).ravel())
+    f = np.unique(np.clip(np.concatenate(grid), f_lo, fmax_hz))
+    w = TWO_PI * f
+    sign = _sign_det(system, w)
+    n_eval = w.size
+    change = np.flatnonzero((sign[1:] != sign[:-1]) & (sign[1:] != 0) & (sign[:-1] != 0))
+    exact = w[1:-1][(sign[1:-1] == 0)]
+    roots_w, cost = (np.zeros(0), 0)
+    if change.size:
+        roots_w, cost = _illinois(system, w[change], w[change + 1], sign[change], rtol)
+    n_eval += cost
+    found = np.sort(np.concatenate([roots_w, exact])) / TWO_PI
+    found = _add_even_roots(system, found, near, fmax_hz, f_lo)
+    return Roots(found, expected, n_eval)
+
+
+def _add_even_roots(system, found, near, fmax_hz, f_lo):
+    """Find repeated (even-multiplicity) roots the sign scan cannot see, near the estimates."""
+    clusters = _clusters(near)
+    lo_list, hi_list, need = [], [], []
+    for idx in clusters:
+        centre = near[idx].mean()
+        if centre > fmax_hz:
+            continue
+        prev_e = near[idx[0] - 1] if idx[0] > 0 else f_lo
+        next_e = near[idx[-1] + 1] if idx[-1] + 1 < near.size else fmax_hz * 1.05
+        lo = max(np.sqrt(prev_e * near[idx[0]]), centre * (1 - 3e-2))
+        hi = min(np.sqrt(next_e * near[idx[-1]]), centre * (1 + 3e-2))
+        have = np.sum((found >= lo) & (found <= hi))
+        missing = len(idx) - have
+        if missing > 0:
+            lo_list.append(lo)
+            hi_list.append(hi)
+            need.append(missing)
+    if not need:
+        return found
+    extra = []
+    for k in sorted(set(need)):
+        sel = [i for i, m in enumerate(need) if m == k]
+        lo = TWO_PI * np.array([lo_list[i] for i in sel])
+        hi = TWO_PI * np.array([hi_list[i] for i in sel])
+        w, s_min, s_edge, _ = _golden_nullity(system, lo, hi, k)
+        for j in range(w.size):
+            vanished = int(np.sum(s_min[j, -k:] < 1e-7 * s_edge[j, -1]))
+            if vanished and w[j] / TWO_PI <= fmax_hz:
+                extra.extend([w[j] / TWO_PI] * vanished)
+    return np.sort(np.concatenate([found, extra]))
+
+
+def _clusters(est: np.ndarray, rel: float = 1e-6) -> list[np.ndarray]:
+    """Group estimates closer than ``rel`` (relative) into clusters of repeated roots."""
+    if est.size == 0:
+        return []
+    breaks = np.flatnonzero(np.diff(est) > rel * est[1:]) + 1
+    return np.split(np.arange(est.size), breaks)

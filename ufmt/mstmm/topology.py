@@ -1,0 +1,235 @@
+"""Automatic deduction of the MSTMM topology: orient the connection graph towards ground, cut
+closed loops, and lay out the boundary unknowns (paper section 2.4, eqs. 2.15-2.22).
+
+The graph has a node per rigid or virtual body, two virtual nodes per beam (its end points,
+``"<beam>@start"`` and ``"<beam>@end"``) and the ground node. Edges are the hinges and the
+beams (both two-port elements). A maximum spanning tree rooted at ground is chosen so that
+beams and fully elastic hinges stay in the tree and hinges with released directions are cut
+where a loop allows it (a released direction in a cut hinge costs no extra unknown).
+Tree edges run from the child (input end) to the parent (output end). A non-tree edge is cut
+where its input end meets a body: that body gets an extra input end with state C·Z
+(DESIGN.md), and the edge's output enters the other body as an input end. Non-tree edges at
+ground take their input at ground (zero displacement, six unknown reactions).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ufmt.errors import ModelError
+from ufmt.model.schema import GROUND, Beam, Hinge, Model, RigidBody
+
+#: Unknown label kinds of the overall state vector Z_all.
+DISPLACEMENT_NAMES = ("x", "y", "z", "θx", "θy", "θz")
+STATE_NAMES = DISPLACEMENT_NAMES + ("mx", "my", "mz", "qx", "qy", "qz")
+
+
+@dataclass
+class Node:
+    """A body of the transfer graph: rigid body, virtual body, beam end or ground."""
+
+    name: str
+    kind: str  # "rigid" | "virtual" | "ground"
+    body: RigidBody | None = None
+    point: np.ndarray | None = None  # for virtual nodes
+    parent_edge: int | None = None
+    depth: int = 0
+    inputs: list[tuple[int, str]] = field(default_factory=list)  # (edge index, "edge"|"cut")
+    output_point: np.ndarray | None = None
+
+
+@dataclass
+class Edge:
+    """A two-port element: a hinge or a beam, between nodes a and b at points pa, pb."""
+
+    name: str
+    kind: str  # "hinge" | "beam"
+    element: Hinge | Beam
+    a: str
+    b: str
+    pa: np.ndarray
+    pb: np.ndarray
+    tree: bool = False
+    input_node: str = ""
+    output_node: str = ""
+
+    def point_at(self, node: str) -> np.ndarray:
+        """The edge's end point at ``node`` [m]."""
+        return self.pa if node == self.a else self.pb
+
+    @property
+    def released(self) -> np.ndarray:
+        """Released directions (six booleans); none for a beam."""
+        if self.kind == "hinge":
+            return self.element.released
+        return np.zeros(6, dtype=bool)
+
+
+@dataclass
+class Topology:
+    """Oriented graph with the boundary unknowns and the processing order."""
+
+    nodes: dict[str, Node]
+    edges: list[Edge]
+    order: list[str]  # non-ground nodes, tips first (post-order)
+    unknown_labels: list[str]
+    cut_columns: dict[int, np.ndarray]  # edge index -> 12 column indices (-1 = known zero)
+    ground_columns: dict[int, np.ndarray]  # non-tree ground edge -> 12 columns (-1 = zero)
+    released_columns: dict[int, dict[int, int]]  # edge -> {direction: δ column}
+    free_tip_columns: dict[str, np.ndarray]  # node -> 6 displacement columns
+    root_columns: dict[int, np.ndarray]  # root edge -> 6 reaction columns
+
+    @property
+    def order_size(self) -> int:
+        """Order of the overall transfer matrix U_all (number of boundary unknowns)."""
+        return len(self.unknown_labels)
+
+
+def beam_end_node(beam: Beam, point) -> str:
+    """Name of the virtual node at the beam end nearest ``point``."""
+    d0 = np.linalg.norm(np.asarray(point) - beam.start)
+    d1 = np.linalg.norm(np.asarray(point) - beam.end)
+    return f"{beam.name}@start" if d0 <= d1 else f"{beam.name}@end"
+
+
+def _virtual_point(model: Model, name: str) -> np.ndarray:
+    for h in model.hinges:
+        if name in h.between:
+            return h.at
+    raise ModelError(f"{model.source}: body {name!r}: no hinge attaches to it")
+
+
+def build_topology(model: Model) -> Topology:
+    """Orient the graph towards ground, cut loops and lay out Z_all (paper eqs. 2.15-2.22)."""
+    nodes: dict[str, Node] = {GROUND: Node(GROUND, "ground")}
+    edges: list[Edge] = []
+    for body in model.bodies:
+        if isinstance(body, RigidBody):
+            nodes[body.name] = Node(body.name, "rigid", body=body)
+        elif isinstance(body, Beam):
+            for end, p in (("start", body.start), ("end", body.end)):
+                nodes[f"{body.name}@{end}"] = Node(f"{body.name}@{end}", "virtual", point=p)
+            edges.append(
+                Edge(body.name, "beam", body, f"{body.name}@start", f"{body.name}@end",
+                     body.start, body.end)
+            )
+        else:
+            nodes[body.name] = Node(body.name, "virtual", point=_virtual_point(model, body.name))
+    beams = {b.name: b for b in model.bodies if isinstance(b, Beam)}
+    for h in model.hinges:
+        ends = [beam_end_node(beams[s], h.at) if s in beams else s for s in h.between]
+        edges.append(Edge(h.name, "hinge", h, ends[0], ends[1], h.at, h.at))
+
+    _spanning_tree(nodes, edges, model)
+    order = _orient(nodes, edges)
+    return _layout_unknowns(nodes, edges, order)
+
+
+def _spanning_tree(nodes, edges, model) -> None:
+    """Kruskal maximum spanning tree: beams > elastic hinges > hinges with releases."""
+    parent = {n: n for n in nodes}
+
+    def find(n):
+        while parent[n] != n:
+            parent[n] = parent[parent[n]]
+            n = parent[n]
+        return n
+
+    def weight(e: Edge) -> int:
+        if e.kind == "beam":
+            return 3
+        return 1 if e.released.any() else 2
+
+    for i in sorted(range(len(edges)), key=lambda i: (-weight(edges[i]), i)):
+        e = edges[i]
+        ra, rb = find(e.a), find(e.b)
+        if ra != rb:
+            parent[ra] = rb
+            e.tree = True
+    root = find(GROUND)
+    for n in nodes:
+        if find(n) != root:
+            body = n.split("@")[0]
+            raise ModelError(f"{model.source}: body {body!r}: not connected to ground")
+
+
+def _orient(nodes: dict[str, Node], edges: list[Edge]) -> list[str]:
+    """Root the tree at ground (BFS), orient every edge, return nodes tips-first."""
+    adjacency: dict[str, list[int]] = {n: [] for n in nodes}
+    for i, e in enumerate(edges):
+        if e.tree:
+            adjacency[e.a].append(i)
+            adjacency[e.b].append(i)
+    bfs = [GROUND]
+    seen = {GROUND}
+    for n in bfs:
+        for i in adjacency[n]:
+            e = edges[i]
+            child = e.b if e.a == n else e.a
+            if child in seen:
+                continue
+            seen.add(child)
+            nodes[child].parent_edge = i
+            nodes[child].depth = nodes[n].depth + 1
+            e.input_node, e.output_node = child, n
+            bfs.append(child)
+    for i, e in enumerate(edges):
+        if e.tree:
+            if e.output_node != GROUND:
+                nodes[e.output_node].inputs.append((i, "edge"))
+            continue
+        if GROUND in (e.a, e.b):  # input at ground: zero displacement, unknown reactions
+            e.input_node = GROUND
+            e.output_node = e.b if e.a == GROUND else e.a
+        else:  # cut where the input end meets the deeper body
+            deeper_a = nodes[e.a].depth >= nodes[e.b].depth
+            e.input_node, e.output_node = (e.a, e.b) if deeper_a else (e.b, e.a)
+            nodes[e.input_node].inputs.append((i, "cut"))
+        nodes[e.output_node].inputs.append((i, "edge"))
+    for name, node in nodes.items():
+        if name != GROUND:
+            node.output_point = edges[node.parent_edge].point_at(name)
+    return [n for n in reversed(bfs) if n != GROUND]
+
+
+def _layout_unknowns(nodes, edges, order) -> Topology:
+    labels: list[str] = []
+
+    def new(label: str) -> int:
+        labels.append(label)
+        return len(labels) - 1
+
+    root_columns, cut_columns, ground_columns = {}, {}, {}
+    released_columns: dict[int, dict[int, int]] = {}
+    free_tip_columns = {}
+    for i, e in enumerate(edges):
+        if e.tree and e.output_node == GROUND:
+            root_columns[i] = np.array([new(f"{e.name}:reaction {s}") for s in STATE_NAMES[6:]])
+    for i, e in enumerate(edges):
+        if e.tree:
+            continue
+        rel = e.released
+        cols = -np.ones(12, dtype=int)
+        first = 6 if e.input_node == GROUND else 0
+        for s in range(first, 12):
+            direction = s - 9 if s >= 9 else s - 3 if s >= 6 else None
+            if direction is not None and rel[direction]:
+                continue  # a released direction transmits nothing: known zero
+            cols[s] = new(f"{e.name}:input {STATE_NAMES[s]}")
+        (ground_columns if e.input_node == GROUND else cut_columns)[i] = cols
+    for i, e in enumerate(edges):
+        for d in np.flatnonzero(e.released):
+            released_columns.setdefault(i, {})[int(d)] = new(
+                f"{e.name}:released Δ{DISPLACEMENT_NAMES[d]}"
+            )
+    for name in order:
+        if not nodes[name].inputs:
+            free_tip_columns[name] = np.array(
+                [new(f"{name}:free tip {s}") for s in DISPLACEMENT_NAMES]
+            )
+    return Topology(
+        nodes, edges, order, labels, cut_columns, ground_columns, released_columns,
+        free_tip_columns, root_columns,
+    )
