@@ -41,23 +41,12 @@ BODY_FIELDS = ("name", "kind", "number")
 RIGID_FIELDS = ("mass", "center_of_mass", "inertia")
 CIRCLE_FIELDS = ("diameter", "inner_diameter")
 SECTION_FIELDS = ("area", "second_moment_y", "second_moment_z", "polar_moment")
-BEAM_FIELDS = (
-    ("start", "end", "density", "youngs_modulus", "shear_modulus")
-    + CIRCLE_FIELDS
-    + SECTION_FIELDS
-    + ("torsion_constant", "orientation")
-)
+BEAM_REQUIRED = ("start", "end", "density", "youngs_modulus", "shear_modulus")
+BEAM_FIELDS = BEAM_REQUIRED + CIRCLE_FIELDS + SECTION_FIELDS + ("torsion_constant", "orientation")
 KIND_FIELDS = {"rigid": RIGID_FIELDS, "virtual": (), "beam": BEAM_FIELDS}
-HINGE_FIELDS = (
-    "name",
-    "between",
-    "at",
-    "stiffness",
-    "rotational_stiffness",
-    "damping",
-    "rotational_damping",
-    "number",
-)
+KIND_REQUIRED = {"rigid": RIGID_FIELDS, "virtual": (), "beam": BEAM_REQUIRED}
+HINGE_REQUIRED = ("name", "between", "at", "stiffness", "rotational_stiffness")
+HINGE_FIELDS = HINGE_REQUIRED + ("damping", "rotational_damping", "number")
 
 SYMMETRY_RTOL = 1e-9  # inertia symmetry, relative to its largest entry
 TRIANGLE_RTOL = 1e-9  # principal-moment triangle inequality, relative to the largest moment
@@ -148,6 +137,7 @@ def model_to_toml(model: Model) -> str:
 
     Numbers are written at full precision (``repr``), infinite stiffness as ``inf``; beams are
     written with their explicit section (area, second moments, polar moment, torsion constant).
+    A file's ``description`` is not kept (``Model`` has no field for it).
     """
     lines = [f"name = {_toml_value(model.name)}"]
     for body in model.bodies:
@@ -192,6 +182,12 @@ def _vec(values) -> str:
     return "[" + ", ".join(_num(v) for v in np.ravel(values)) + "]"
 
 
+def _derived(values) -> str:
+    """Computed quantities (distances, principal moments) to 4 significant digits."""
+    text = ", ".join(f"{v:.4g}" for v in np.ravel(values))
+    return f"[{text}]" if np.ndim(values) else text
+
+
 def _type_name(value) -> str:
     if isinstance(value, bool | np.bool_):
         return f"boolean {value!r}"
@@ -225,6 +221,10 @@ def _check_fields(where: _Where, table: Mapping, valid, required=(), what="") ->
         if key not in valid:
             hint = _suggest(str(key), valid) or f"valid fields{what}: {', '.join(valid)}"
             where.fail_element(f"unknown field {str(key)!r} ({hint})")
+    _check_required(where, table, required, what)
+
+
+def _check_required(where: _Where, table: Mapping, required, what="") -> None:
     for key in required:
         if key not in table:
             where.fail(key, f"missing (required{what})")
@@ -351,8 +351,7 @@ def _parse_body(where: _Where, table: Mapping) -> Body:
             f"unknown kind {kind!r} (valid kinds: {', '.join(KINDS)}"
             + (f"; {hint})" if hint else ")"),
         )
-    required = {"rigid": RIGID_FIELDS, "virtual": (), "beam": BEAM_FIELDS[:5]}[kind]
-    _check_fields(where, table, valid, required, what)
+    _check_required(where, table, KIND_REQUIRED[kind], what)
     number = _integer(where, "number", table["number"]) if "number" in table else None
     if kind == "virtual":
         return VirtualBody(name=name, number=number)
@@ -396,12 +395,13 @@ def _inertia(where: _Where, value) -> np.ndarray:
     if moments[0] <= DEFINITE_RTOL * moments[-1]:
         where.fail(
             "inertia",
-            f"not positive definite: principal moments {_vec(moments)} [kg m^2] (allowed: all > 0)",
+            f"not positive definite: principal moments {_derived(moments)} [kg m^2] "
+            "(allowed: all > 0)",
         )
     if moments[2] - (moments[0] + moments[1]) > TRIANGLE_RTOL * moments[2]:
         where.fail(
             "inertia",
-            f"principal moments {_vec(moments)} [kg m^2] are not physical: the largest exceeds "
+            f"principal moments {_derived(moments)} [kg m^2] are not physical: the largest exceeds "
             "the sum of the other two (a rigid body needs each <= the sum of the others)",
         )
     return frozen_array(matrix)
@@ -426,7 +426,8 @@ def _beam(where: _Where, name: str, table: Mapping, number: int | None) -> Beam:
         if sine <= PARALLEL_RTOL:
             where.fail(
                 "orientation",
-                f"{_vec(orientation)} is zero or parallel to the beam axis {_vec(axis / length)} "
+                f"{_vec(orientation)} is zero or parallel to the beam axis "
+                f"{_derived(axis / length)} "
                 "(allowed: any vector not parallel to the axis; it fixes local y)",
             )
     return Beam(
@@ -515,7 +516,7 @@ def _parse_hinges(source: str, tables: list[Mapping], bodies: dict[str, Body]) -
 
 
 def _parse_hinge(where: _Where, table: Mapping, bodies: dict[str, Body]) -> Hinge:
-    _check_fields(where, table, HINGE_FIELDS, HINGE_FIELDS[:5])
+    _check_fields(where, table, HINGE_FIELDS, HINGE_REQUIRED)
     name = _string(where, "name", table["name"])
     between = _between(where, table["between"], bodies)
     at = _vector(where, "at", table["at"], "finite", "[m]")
@@ -569,7 +570,7 @@ def _check_at_beam_end(where: _Where, at: np.ndarray, beam: Beam) -> None:
         where.fail(
             "at",
             f"{_vec(at)} is not at an end of beam {beam.name!r} (start {_vec(beam.start)}, "
-            f"end {_vec(beam.end)}; {_num(distance)} m away; allowed: within "
+            f"end {_vec(beam.end)}; {_derived(distance)} m away; allowed: within "
             f"{BEAM_END_RTOL:g} x length {_num(length)} m of an end)",
         )
 
@@ -595,7 +596,7 @@ def _check_virtual_points(source: str, hinges: list[Hinge], bodies: dict[str, Bo
                     "at",
                     f"impossible geometry: virtual body {side!r} is a point, but hinge "
                     f"{ref.name!r} puts it at {_vec(ref.at)} and this hinge at {_vec(hinge.at)} "
-                    f"({_num(distance)} m apart; allowed: all hinges on a virtual body "
+                    f"({_derived(distance)} m apart; allowed: all hinges on a virtual body "
                     "at one point)",
                 )
 

@@ -190,7 +190,7 @@ def beam_local(omega: np.ndarray, beam: Beam, length: float | None = None) -> np
         u[:, th, m] = T_l / ei
         u[:, th, q] = sgn * U_l2 / ei
         u[:, m, d] = sgn * ei * l2U
-        u[:, m, th] = ei * np.sqrt(lam4) * T_l  # λT = λ²·(T/λ)
+        u[:, m, th] = ei * lV
         u[:, m, m] = s
         u[:, m, q] = sgn * T_l
         u[:, q, d] = ei * l3T

@@ -22,6 +22,16 @@ from ufmt.mstmm.topology import Topology, build_topology
 CUT = np.diag(np.r_[np.ones(6), -np.ones(6)])  # C = diag(I3, I3, -I3, -I3)
 
 
+def equilibrate(u: np.ndarray):
+    """Positive row and column scalings making U_all's rows and columns O(1)."""
+    a = np.abs(u)
+    r = a.max(axis=2, keepdims=True)
+    r[r == 0] = 1.0
+    c = (a / r).max(axis=1, keepdims=True)
+    c[c == 0] = 1.0
+    return 1.0 / r, 1.0 / c
+
+
 @dataclass
 class State:
     """A state vector as a linear map of the unknowns: ``Z = arr @ Z_all[cols]``."""

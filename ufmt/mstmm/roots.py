@@ -20,10 +20,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ufmt.mstmm.overall import TransferSystem
+from ufmt.mstmm.overall import TransferSystem, equilibrate
 
 TWO_PI = 2.0 * np.pi
 STEPS = np.array([3e-2, 1e-2, 3e-3, 1e-3, 3e-4, 1e-4, 1e-5, 1e-6, 1e-7])
+OFF_ROOT = 1.0 + 3.7e-3  # a generic point near a root, where the scaling of U_all is taken
 
 
 @dataclass(frozen=True)
@@ -40,19 +41,9 @@ class Roots:
         return self.frequencies_hz.size >= self.expected
 
 
-def _equilibrate(u: np.ndarray):
-    """Positive row and column scalings making U_all's rows and columns O(1)."""
-    a = np.abs(u)
-    r = a.max(axis=2, keepdims=True)
-    r[r == 0] = 1.0
-    c = (a / r).max(axis=1, keepdims=True)
-    c[c == 0] = 1.0
-    return 1.0 / r, 1.0 / c
-
-
 def _sign_det(system: TransferSystem, omega: np.ndarray) -> np.ndarray:
     u = system.evaluate(omega)
-    r, c = _equilibrate(u)
+    r, c = equilibrate(u)
     sign, _ = np.linalg.slogdet(u * r * c)
     return sign
 
@@ -62,7 +53,9 @@ def _illinois(system, lo, hi, s_lo, rtol, max_iter=80):
     n_eval = 0
     mid = 0.5 * (lo + hi)
     u = system.evaluate(mid)
-    r, c = _equilibrate(u)  # fixed scaling per bracket keeps det continuous in ω
+    # fixed scaling per bracket keeps det continuous in ω; taken off the root (OFF_ROOT) so
+    # that rows vanishing at the root are not blown up
+    r, c = equilibrate(system.evaluate(mid * OFF_ROOT))
 
     def f(w):
         s, ld = np.linalg.slogdet(system.evaluate(w) * r * c)
@@ -72,7 +65,12 @@ def _illinois(system, lo, hi, s_lo, rtol, max_iter=80):
     a, b = lo.copy(), hi.copy()
     fa, fb = f(a), f(b)
     n_eval += 3
-    fa = np.where(np.sign(fa) == s_lo, fa, s_lo * np.abs(fa))  # guard noise at the bracket end
+    # A bracket end that sits on the root (det at noise level) may change sign under the
+    # refinement's scaling; that end is then the root itself.
+    lost = np.sign(fa) == np.sign(fb)
+    on_end = np.where(np.abs(fa) < np.abs(fb), a, b)
+    a = np.where(lost, on_end, a)
+    b = np.where(lost, on_end, b)
     for it in range(max_iter):
         width = np.abs(b - a)
         active = width > rtol * np.abs(b)
@@ -98,36 +96,44 @@ def _illinois(system, lo, hi, s_lo, rtol, max_iter=80):
     return 0.5 * (a + b), n_eval
 
 
-def _golden_nullity(system, lo, hi, k, iters=64):
-    """Minimise the k-th smallest singular value of U_all over [lo, hi] (vectorised)."""
-    u = system.evaluate(0.5 * (lo + hi))
-    r, c = _equilibrate(u)
+def _golden_nullity(system, centre, lo, hi, k, iters=48):
+    """Minimise the k-th smallest singular value of U_all near ``centre`` within [lo, hi].
+
+    σ_k is V-shaped only close to a root (elsewhere other singular values set a plateau), so
+    a grid refined geometrically around the estimate picks the valley first; golden section
+    then refines it between the grid neighbours of the best point. Vectorised over windows.
+    """
+    r, c = equilibrate(system.evaluate(centre * OFF_ROOT))
 
     def sigma(w):
-        s = np.linalg.svd(system.evaluate(w) * r * c, compute_uv=False)
-        return s[np.arange(w.size), -k]
+        s = np.linalg.svd(system.evaluate(w.ravel()) * np.repeat(r, w.size // r.shape[0], 0)
+                          * np.repeat(c, w.size // c.shape[0], 0), compute_uv=False)
+        return s[:, -k].reshape(w.shape)
 
+    offsets = np.concatenate([-STEPS, [0.0], STEPS[::-1]])
+    grid = np.clip(centre[:, None] * (1.0 + offsets[None, :]), lo[:, None], hi[:, None])
+    values = sigma(grid)
+    best = np.argmin(values, axis=1)
+    rows = np.arange(centre.size)
+    a = grid[rows, np.maximum(best - 1, 0)]
+    b = grid[rows, np.minimum(best + 1, offsets.size - 1)]
     g = (np.sqrt(5.0) - 1.0) / 2.0
-    a, b = lo.copy(), hi.copy()
     x1, x2 = b - g * (b - a), a + g * (b - a)
-    f1, f2 = sigma(x1), sigma(x2)
+    f1, f2 = sigma(x1[:, None])[:, 0], sigma(x2[:, None])[:, 0]
     for _ in range(iters):
         left = f1 < f2
         b = np.where(left, x2, b)
         a = np.where(left, a, x1)
         x2n = np.where(left, x1, a + g * (b - a))
         x1n = np.where(left, b - g * (b - a), x2)
-        f2n = np.where(left, f1, np.nan)
-        f1n = np.where(left, np.nan, f2)
+        fx = sigma(np.where(left, x1n, x2n)[:, None])[:, 0]
+        f1, f2 = np.where(left, fx, f2), np.where(left, f1, fx)
         x1, x2 = x1n, x2n
-        fx = sigma(np.where(left, x1, x2))
-        f1 = np.where(left, fx, f1n)
-        f2 = np.where(left, f2n, fx)
     w = 0.5 * (a + b)
+    ends = np.stack([grid[:, 0], grid[:, -1]], axis=1)
     s_min = np.linalg.svd(system.evaluate(w) * r * c, compute_uv=False)
-    s_edge = np.linalg.svd(system.evaluate(lo) * r * c, compute_uv=False)
-    s_edge2 = np.linalg.svd(system.evaluate(hi) * r * c, compute_uv=False)
-    return w, s_min, np.minimum(s_edge, s_edge2), iters + 5
+    s_ends = sigma(ends).min(axis=1)
+    return w, s_min, s_ends
 
 
 def natural_frequencies(
@@ -166,7 +172,7 @@ def natural_frequencies(
 def _add_even_roots(system, found, near, fmax_hz, f_lo):
     """Find repeated (even-multiplicity) roots the sign scan cannot see, near the estimates."""
     clusters = _clusters(near)
-    lo_list, hi_list, need = [], [], []
+    lo_list, hi_list, need, centres = [], [], [], []
     for idx in clusters:
         centre = near[idx].mean()
         if centre > fmax_hz:
@@ -178,6 +184,7 @@ def _add_even_roots(system, found, near, fmax_hz, f_lo):
         have = np.sum((found >= lo) & (found <= hi))
         missing = len(idx) - have
         if missing > 0:
+            centres.append(centre)
             lo_list.append(lo)
             hi_list.append(hi)
             need.append(missing)
@@ -186,11 +193,12 @@ def _add_even_roots(system, found, near, fmax_hz, f_lo):
     extra = []
     for k in sorted(set(need)):
         sel = [i for i, m in enumerate(need) if m == k]
+        centre = TWO_PI * np.array([centres[i] for i in sel])
         lo = TWO_PI * np.array([lo_list[i] for i in sel])
         hi = TWO_PI * np.array([hi_list[i] for i in sel])
-        w, s_min, s_edge, _ = _golden_nullity(system, lo, hi, k)
+        w, s_min, s_ends = _golden_nullity(system, centre, lo, hi, k)
         for j in range(w.size):
-            vanished = int(np.sum(s_min[j, -k:] < 1e-7 * s_edge[j, -1]))
+            vanished = int(np.sum(s_min[j, -k:] < 1e-7 * s_ends[j]))
             if vanished and w[j] / TWO_PI <= fmax_hz:
                 extra.extend([w[j] / TWO_PI] * vanished)
     return np.sort(np.concatenate([found, extra]))

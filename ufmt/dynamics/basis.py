@@ -1,0 +1,100 @@
+"""Modal basis: the data the cutting response needs from the eigen-solution.
+
+The MSTMM (or any other) eigen-solver fills a :class:`ModalBasis`; everything downstream (cutting
+force, modal response, machined surface) reads only this object. Mode shapes are rigid motions of
+the named bodies at the nominal configuration (the slide's travel is small next to the machine, so
+the shapes are not updated as the slide moves).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True, eq=False)
+class ModalBasis:
+    """Natural frequencies, modal masses and body motions of the first n modes.
+
+    Attributes
+    ----------
+    omega : (n,) natural angular frequencies [rad/s], ascending, > 0.
+    modal_mass : (n,) modal masses <V^s, M V^s> [kg] (paper eq. 3.11).
+    body_shapes : body name -> (n, 6) rigid motion per mode, [r_C (3) [m]; theta (3) [rad]],
+        global frame, at the body's centre of mass (same normalisation as ``modal_mass``).
+    body_centers : body name -> (3,) centre of mass [m].
+    """
+
+    omega: np.ndarray
+    modal_mass: np.ndarray
+    body_shapes: dict[str, np.ndarray]
+    body_centers: dict[str, np.ndarray]
+
+    def __post_init__(self):
+        omega = np.asarray(self.omega, dtype=float)
+        mass = np.asarray(self.modal_mass, dtype=float)
+        if omega.ndim != 1 or omega.size == 0:
+            raise ValueError(f"omega must be a non-empty 1-D array, got shape {omega.shape}")
+        if not (np.all(np.isfinite(omega)) and np.all(omega > 0) and np.all(np.diff(omega) >= 0)):
+            raise ValueError("omega must be finite, > 0 and ascending")
+        if mass.shape != omega.shape or not np.all(mass > 0):
+            raise ValueError(f"modal_mass must have shape {omega.shape} and be > 0")
+        shapes, centers = {}, {}
+        for name, s in self.body_shapes.items():
+            s = np.asarray(s, dtype=float)
+            if s.shape != (omega.size, 6):
+                raise ValueError(f"body_shapes[{name!r}] has shape {s.shape}, need {(omega.size, 6)}")
+            if name not in self.body_centers:
+                raise ValueError(f"body_centers has no entry for body {name!r}")
+            shapes[name] = _readonly(s)
+            centers[name] = _readonly(np.asarray(self.body_centers[name], dtype=float).reshape(3))
+        object.__setattr__(self, "omega", _readonly(omega))
+        object.__setattr__(self, "modal_mass", _readonly(mass))
+        object.__setattr__(self, "body_shapes", shapes)
+        object.__setattr__(self, "body_centers", centers)
+
+    @property
+    def n_modes(self) -> int:
+        """Number of modes n."""
+        return self.omega.size
+
+    def truncated(self, n: int) -> ModalBasis:
+        """The first ``n`` modes (all of them if ``n`` >= n_modes)."""
+        if n >= self.n_modes:
+            return self
+        if n < 1:
+            raise ValueError(f"n_modes must be >= 1, got {n}")
+        return ModalBasis(
+            omega=self.omega[:n],
+            modal_mass=self.modal_mass[:n],
+            body_shapes={k: v[:n] for k, v in self.body_shapes.items()},
+            body_centers=self.body_centers,
+        )
+
+    def point_shapes(self, body: str, points) -> np.ndarray:
+        """Translation of points on ``body`` in every mode, r_C + theta x (p - C).
+
+        Parameters
+        ----------
+        body : body name (a key of ``body_shapes``).
+        points : (P, 3) or (3,) points [m], global frame.
+
+        Returns
+        -------
+        (n, P, 3) translations [m per unit modal coordinate] ((n, 3) for a single point).
+        """
+        if body not in self.body_shapes:
+            raise KeyError(f"unknown body {body!r}; the basis has {sorted(self.body_shapes)}")
+        p = np.asarray(points, dtype=float)
+        single = p.ndim == 1
+        d = np.atleast_2d(p) - self.body_centers[body]
+        s = self.body_shapes[body]
+        out = s[:, None, :3] + np.cross(s[:, None, 3:], d[None, :, :])
+        return out[:, 0, :] if single else out
+
+
+def _readonly(a: np.ndarray) -> np.ndarray:
+    a = np.array(a, dtype=float)
+    a.setflags(write=False)
+    return a

@@ -1,0 +1,275 @@
+"""Fly-cutting kinematics and cutting force (paper section 2.1, Fig. 3, eq. 4.1).
+
+Frames and conventions
+----------------------
+Global frame of the model: z opposite to the depth of cut, y opposite to the feed. The tool tip
+sits at radius R on the fly-cutting head; the spindle angle is phi = 2 pi f t, with phi = 0 when
+the tip points along +y. Seen from +z, eq. 4.1 (x = R sin phi, y = R cos phi) turns clockwise:
+``rotation = "cw"`` follows eq. 4.1 literally, ``"ccw"`` mirrors x (x = -R sin phi).
+
+The workpiece frame has its origin at the workpiece centre and moves with the slide. ``Y`` is the
+y coordinate of the spindle axis in that frame: Y = Y_start + v t grows with time (the workpiece
+moves along -y), so the tool path on the workpiece is eq. 4.1, x = s_x + sigma R sin phi,
+y = Y + R cos phi, with s_x the spindle axis x relative to the workpiece centre. The cut is
+halfway at Y = 0 (workpiece centre under the spindle).
+
+Cutting only happens on the leading half of the tool circle (cos phi > 0, where the circle
+advances into uncut material) while the tip is over the workpiece; the trailing half passes over
+the surface already cut (its re-cutting is the "tool interference" of section 4.2, handled in
+:mod:`ufmt.surface`; its force is neglected). The uncut chip is the material between two
+successive passes: thickness (in-plane, normal to the path) h = (v / f) cos phi and width a_p,
+area A = a_p h.
+
+Force on the tool (specific-force model, F = K A per component):
+cutting  -K_c A t  (t: unit cutting velocity, tangent to the circle; the feed's v/(R 2 pi f)
+                    ~ 3e-5 share of the relative velocity is neglected),
+feed     -K_f A n  (n: outward normal of the circle; the material ahead pushes the tool back),
+thrust   +K_t A z  (the workpiece pushes the tool up, away from the cut).
+The reaction -F acts on the workpiece body at the same point.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+
+from ufmt.errors import ModelError
+
+
+@dataclass(frozen=True)
+class ForceCoefficients:
+    """Specific cutting forces [N/m^2] (force per unit uncut chip area).
+
+    Defaults are of literature magnitude for single-point diamond cutting of KDP: at the reference
+    process (300 rpm, 15 mm/min, 4 um: chip 4 um x 50 um) they give a peak cutting force of 0.4 N
+    and thrust of 0.6 N, the order of the 0.1-1 N measured in diamond cutting of KDP (e.g.
+    0.15-0.19 N in diamond turning, Wang et al., Key Eng. Mater. 339, doi:10.4028/
+    www.scientific.net/kem.339.78). Thrust exceeds the cutting force, as usual when the chip is
+    only a few micrometres thick and the edge radius ploughs; the feed force is the smallest.
+    The absolute level is uncertain by a factor of a few, hence one fitted scale factor
+    (:func:`ufmt.simulate.fit_force_scale`).
+    """
+
+    cutting: float = 2.0e9
+    thrust: float = 3.0e9
+    feed: float = 0.6e9
+
+
+@dataclass(frozen=True)
+class Machine:
+    """Tool and workpiece geometry, read from the model's ``[machine]`` table.
+
+    Attributes
+    ----------
+    tool_body, workpiece_body : body names carrying the tool and the workpiece.
+    spindle_axis_xy : (x, y) of the vertical spindle axis [m].
+    cutting_plane_z : z of the tool tip = workpiece top surface [m].
+    tool_radius : fly-cutting radius R [m].
+    workpiece_size : (x, y) size of the workpiece [m].
+    workpiece_center_xy : workpiece centre when the cut is halfway (under the spindle) [m].
+    rotation : "cw" (eq. 4.1 as printed, clockwise seen from +z) or "ccw".
+    force_scale : factor on the force coefficients (optional key, default 1; see
+        :func:`ufmt.simulate.fit_force_scale`).
+    """
+
+    tool_body: str
+    workpiece_body: str
+    spindle_axis_xy: tuple[float, float]
+    cutting_plane_z: float
+    tool_radius: float
+    workpiece_size: tuple[float, float]
+    workpiece_center_xy: tuple[float, float]
+    rotation: str
+    force_scale: float = 1.0
+
+    @property
+    def sense(self) -> float:
+        """+1 for "cw" (x = R sin phi, eq. 4.1), -1 for "ccw"."""
+        return 1.0 if self.rotation == "cw" else -1.0
+
+    @property
+    def offset_x(self) -> float:
+        """s_x: spindle axis x relative to the workpiece centre [m]."""
+        return self.spindle_axis_xy[0] - self.workpiece_center_xy[0]
+
+    @property
+    def cut_span(self) -> tuple[float, float]:
+        """Slide positions Y [m] from the first touch of the leading arc to the trailing arc's exit."""
+        half = self.workpiece_size[1] / 2 + self.tool_radius
+        return -half, half
+
+    @property
+    def cutting_span(self) -> tuple[float, float]:
+        """Slide positions Y [m] over which the leading arc cuts (force is zero outside)."""
+        far = self.workpiece_size[0] / 2 + abs(self.offset_x)
+        end = self.workpiece_size[1] / 2 - math.sqrt(self.tool_radius**2 - far**2)
+        return self.cut_span[0], end
+
+
+MACHINE_FIELDS = (
+    "tool_body",
+    "workpiece_body",
+    "spindle_axis_xy",
+    "cutting_plane_z",
+    "tool_radius",
+    "workpiece_size",
+    "workpiece_center_xy",
+    "rotation",
+)
+
+
+def read_machine(machine: Mapping, source: str = "<memory>") -> Machine:
+    """Validate a ``[machine]`` table and return the :class:`Machine`.
+
+    Raises ModelError naming the file and field, e.g.
+    ``ufmt.toml: machine: field 'tool_radius': -0.2 must be > 0``.
+    """
+
+    def fail(field: str, problem: str):
+        raise ModelError(f"{source}: machine: field '{field}': {problem}")
+
+    missing = [f for f in MACHINE_FIELDS if f not in machine]
+    if missing:
+        raise ModelError(f"{source}: machine: missing field '{missing[0]}' (need {MACHINE_FIELDS})")
+
+    def name(field):
+        v = machine[field]
+        if not isinstance(v, str) or not v:
+            fail(field, f"{v!r} must be a body name")
+        return v
+
+    def number(field, positive=False):
+        v = machine[field]
+        if isinstance(v, bool) or not isinstance(v, int | float | np.integer | np.floating):
+            fail(field, f"{v!r} must be a number")
+        v = float(v)
+        if not math.isfinite(v):
+            fail(field, f"{v!r} must be finite")
+        if positive and v <= 0:
+            fail(field, f"{v!r} must be > 0")
+        return v
+
+    def pair(field, positive=False):
+        v = machine[field]
+        try:
+            a = np.asarray(v, dtype=float)
+        except (TypeError, ValueError):
+            fail(field, f"{v!r} must be two numbers")
+        if a.shape != (2,) or not np.all(np.isfinite(a)):
+            fail(field, f"{v!r} must be two finite numbers")
+        if positive and not np.all(a > 0):
+            fail(field, f"{v!r} must be > 0")
+        return float(a[0]), float(a[1])
+
+    rotation = machine["rotation"]
+    if rotation not in ("cw", "ccw"):
+        fail("rotation", f"{rotation!r} must be 'cw' (eq. 4.1, clockwise seen from +z) or 'ccw'")
+    m = Machine(
+        tool_body=name("tool_body"),
+        workpiece_body=name("workpiece_body"),
+        spindle_axis_xy=pair("spindle_axis_xy"),
+        cutting_plane_z=number("cutting_plane_z"),
+        tool_radius=number("tool_radius", positive=True),
+        workpiece_size=pair("workpiece_size", positive=True),
+        workpiece_center_xy=pair("workpiece_center_xy"),
+        rotation=rotation,
+        force_scale=number("force_scale", positive=True) if "force_scale" in machine else 1.0,
+    )
+    if abs(m.workpiece_center_xy[1] - m.spindle_axis_xy[1]) > 1e-9:
+        fail(
+            "workpiece_center_xy",
+            f"y = {m.workpiece_center_xy[1]!r} must equal spindle_axis_xy y = "
+            f"{m.spindle_axis_xy[1]!r} (the workpiece centre is under the spindle halfway)",
+        )
+    far = m.workpiece_size[0] / 2 + abs(m.offset_x)
+    if far >= m.tool_radius:
+        fail(
+            "tool_radius",
+            f"{m.tool_radius!r} must exceed workpiece_size x / 2 + |workpiece centre x - spindle "
+            f"x| = {far!r} (the tool circle must cross the whole workpiece width)",
+        )
+    return m
+
+
+def machine_of(model) -> Machine:
+    """The validated :class:`Machine` of a :class:`ufmt.model.schema.Model`."""
+    return read_machine(model.machine, model.source)
+
+
+def tool_tip(phi, machine: Machine) -> np.ndarray:
+    """Tool-tip position at spindle angle ``phi`` [rad], global frame (eq. 4.1): (..., 3) [m]."""
+    phi = np.asarray(phi, dtype=float)
+    x0, y0 = machine.spindle_axis_xy
+    r = machine.tool_radius
+    return np.stack(
+        [
+            x0 + machine.sense * r * np.sin(phi),
+            y0 + r * np.cos(phi),
+            np.full(phi.shape, machine.cutting_plane_z),
+        ],
+        axis=-1,
+    )
+
+
+def tool_tip_rates(phi, machine: Machine, spindle_hz: float) -> tuple[np.ndarray, np.ndarray]:
+    """Tool-tip velocity [m/s] and acceleration [m/s^2] at ``phi`` for spindle frequency f [Hz]."""
+    phi = np.asarray(phi, dtype=float)
+    w = 2 * np.pi * spindle_hz
+    r = machine.tool_radius
+    zero = np.zeros(phi.shape)
+    vel = np.stack([machine.sense * r * w * np.cos(phi), -r * w * np.sin(phi), zero], axis=-1)
+    acc = np.stack([-machine.sense * r * w**2 * np.sin(phi), -r * w**2 * np.cos(phi), zero], -1)
+    return vel, acc
+
+
+def tool_over_workpiece(phi, slide_y, machine: Machine) -> np.ndarray:
+    """True where the tool tip at angle ``phi`` is over the workpiece at slide position ``slide_y``.
+
+    ``phi`` [rad] and ``slide_y`` [m] broadcast against each other.
+    """
+    phi = np.asarray(phi, dtype=float)
+    x = machine.offset_x + machine.sense * machine.tool_radius * np.sin(phi)
+    y = np.asarray(slide_y, dtype=float) + machine.tool_radius * np.cos(phi)
+    lx, ly = machine.workpiece_size
+    return (np.abs(x) <= lx / 2) & (np.abs(y) <= ly / 2)
+
+
+def chip_factor(phi, slide_y, machine: Machine) -> np.ndarray:
+    """cos(phi) where the leading arc cuts the workpiece, else 0 (chip thickness / feed per rev)."""
+    c = np.cos(np.asarray(phi, dtype=float))
+    return np.where((c > 0) & tool_over_workpiece(phi, slide_y, machine), c, 0.0)
+
+
+def chip_thickness(phi, slide_y, feed_per_rev: float, machine: Machine) -> np.ndarray:
+    """Uncut chip thickness h = (v / f) cos(phi) on the cutting arc, else 0 [m]."""
+    return feed_per_rev * chip_factor(phi, slide_y, machine)
+
+
+def force_per_area(phi, machine: Machine, coefficients: ForceCoefficients) -> np.ndarray:
+    """Force on the tool per unit chip area, -K_c t - K_f n + K_t z: (..., 3) [N/m^2]."""
+    phi = np.asarray(phi, dtype=float)
+    s, c, sense = np.sin(phi), np.cos(phi), machine.sense
+    t = np.stack([sense * c, -s, np.zeros(phi.shape)], axis=-1)
+    n = np.stack([sense * s, c, np.zeros(phi.shape)], axis=-1)
+    z = np.array([0.0, 0.0, 1.0])
+    return -coefficients.cutting * t - coefficients.feed * n + coefficients.thrust * z
+
+
+def cutting_force(
+    phi,
+    slide_y,
+    process,
+    machine: Machine,
+    coefficients: ForceCoefficients = ForceCoefficients(),
+    force_scale: float = 1.0,
+) -> np.ndarray:
+    """Force of the workpiece on the tool [N], (..., 3); the workpiece gets the reaction.
+
+    F = force_scale * a_p * h(phi, Y) * (-K_c t - K_f n + K_t z), with h from
+    :func:`chip_thickness`; ``phi`` [rad] and ``slide_y`` [m] broadcast.
+    """
+    area = process.depth_m * chip_thickness(phi, slide_y, process.feed_per_rev_m, machine)
+    return force_scale * area[..., None] * force_per_area(phi, machine, coefficients)

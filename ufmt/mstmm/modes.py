@@ -1,0 +1,203 @@
+"""Mode shapes from the MSTMM: null vectors of U_all, states everywhere, body motions, modal
+masses and mass-normalised augmented eigenvectors (paper section 2.5, eqs. 3.8-3.11).
+
+For each natural frequency ω_k the boundary unknowns Z_all are the null vector of U_all(ω_k)
+(several for a repeated root); transferring them through the elements gives the state at every
+end of every element. A rigid body's motion is its centre-of-mass translation and rotation
+``[r_C; θ]``; a beam's is its displacement field, sampled at Gauss points for the modal mass.
+Repeated roots are made mass-orthogonal; all shapes are normalised to unit modal mass.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ufmt.model.schema import Beam, RigidBody
+from ufmt.mstmm import elements
+from ufmt.mstmm.overall import TransferSystem, equilibrate
+from ufmt.mstmm.roots import OFF_ROOT
+
+GAUSS_POINTS = 16  # per beam: modal-mass integrals to ~1e-12 up to βL ≈ 15
+
+
+@dataclass(frozen=True, eq=False)
+class ModeShapes:
+    """Mass-normalised modes of a model.
+
+    frequencies_hz (n,); z_all (n, order) boundary unknowns; rigid: body -> (n, 6) motion
+    [r_C (m); θ (rad)] per unit modal mass; points: body -> (n, 6) motion at the body's
+    reference point (virtual bodies: their point); beams: beam -> (positions (g, 3) [m],
+    weights (g,) [m], motion (n, g, 6)). Shapes have unit modal mass; ``modal_mass`` (n,) [kg]
+    is the modal mass of each shape scaled to a largest translation of 1 (eq. 3.11).
+    """
+
+    frequencies_hz: np.ndarray
+    z_all: np.ndarray
+    rigid: dict[str, np.ndarray]
+    virtual: dict[str, np.ndarray]
+    beams: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]
+    modal_mass: np.ndarray
+    centers: dict[str, np.ndarray]
+
+    @property
+    def omega(self) -> np.ndarray:
+        """Natural angular frequencies [rad/s]."""
+        return 2 * np.pi * self.frequencies_hz
+
+    def point_motion(self, body: str, points) -> np.ndarray:
+        """Translation (n, P, 3) of points (P, 3) [m] rigidly attached to a rigid body."""
+        v = self.rigid[body]
+        d = np.atleast_2d(points) - self.centers[body]
+        return v[:, None, :3] + np.cross(v[:, None, 3:], d[None, :, :])
+
+
+def _null_vectors(u: np.ndarray, u_near: np.ndarray, multiplicity: int) -> np.ndarray:
+    """Right null vectors (columns) of U_all at a root, from the SVD of its equilibrated form.
+
+    The scaling comes from ``u_near``, U_all slightly off the root: equilibrating at the root
+    itself would blow up the rows that vanish there and hide the null space.
+    """
+    r, c = equilibrate(u_near[None])
+    _, _, vh = np.linalg.svd(u * r[0] * c[0])
+    return c[0, 0, :, None] * vh[-multiplicity:].conj().T
+
+
+def _apply(state, z: np.ndarray) -> np.ndarray:
+    """States (n, 12) of a State map at each mode's frequency and unknowns z (n, order)."""
+    return np.einsum("nik,nk->ni", state.arr, z[:, state.cols])
+
+
+def _rigid_motion_from_state(s: np.ndarray, point, com) -> np.ndarray:
+    """[r_C; θ] from a state at ``point`` on a rigid body: r_C = r_P + θ × (C - P)."""
+    r = s[:, :3] + np.cross(s[:, 3:6], np.asarray(com) - point)
+    return np.concatenate([r, s[:, 3:6]], axis=1)
+
+
+def mode_shapes(system: TransferSystem, frequencies_hz) -> ModeShapes:
+    """Mass-normalised mode shapes at the given natural frequencies [Hz] (ascending)."""
+    f = np.asarray(frequencies_hz, dtype=float)
+    topo = system.topology
+    model = system.model
+    omega = 2 * np.pi * f
+    u_all, states = system.evaluate(omega, keep_states=True)
+    u_near = system.evaluate(omega * OFF_ROOT)
+    z = np.zeros((f.size, system.order))
+    start = 0
+    while start < f.size:  # groups of repeated roots share a null space
+        stop = start + 1
+        while stop < f.size and abs(f[stop] - f[start]) <= 1e-9 * f[start]:
+            stop += 1
+        vecs = _null_vectors(u_all[start], u_near[start], stop - start)
+        z[start:stop] = np.real(vecs.T)
+        start = stop
+    rigid, virtual, centers, beams = {}, {}, {}, {}
+    for body in model.bodies:
+        if isinstance(body, RigidBody):
+            node = topo.nodes[body.name]
+            point = topo.edges[node.inputs[0][0]].point_at(body.name) if node.inputs else None
+            if point is None:
+                point = node.output_point
+            s = _apply(states[("node_in", body.name, 0)], z)
+            rigid[body.name] = _rigid_motion_from_state(s, point, body.center_of_mass)
+            centers[body.name] = body.center_of_mass
+        elif isinstance(body, Beam):
+            beams[body.name] = _beam_field(system, body, states, z, omega)
+        else:
+            virtual[body.name] = _apply(states[("node_out", body.name)], z)[:, :6]
+    shapes = ModeShapes(f, z, rigid, virtual, beams, np.ones(f.size), centers)
+    _orthonormalise_repeated(model, shapes)
+    peak = np.max(np.abs(np.concatenate([v[:, :3] for v in rigid.values()] + [
+        m[:, :, :3].reshape(f.size, -1) for _, _, m in beams.values()] + [np.zeros((f.size, 1))],
+        axis=1)), axis=1)
+    peak[peak == 0] = 1.0
+    shapes = _scaled(shapes, 1.0 / peak)
+    mass = _modal_mass(model, shapes.rigid, shapes.beams)
+    shapes = _scaled(shapes, 1.0 / np.sqrt(mass))
+    return ModeShapes(*[getattr(shapes, k) for k in (
+        "frequencies_hz", "z_all", "rigid", "virtual", "beams")], mass, centers)
+
+
+def _beam_field(system, beam: Beam, states, z, omega):
+    """Beam motion at Gauss points: transfer from the input end over part of the length."""
+    topo = system.topology
+    index = next(i for i, e in enumerate(topo.edges) if e.kind == "beam" and e.name == beam.name)
+    e = topo.edges[index]
+    p_in, p_out = e.point_at(e.input_node), e.point_at(e.output_node)
+    z_in = _apply(states[("edge_in", index)], z)
+    x, wts = np.polynomial.legendre.leggauss(GAUSS_POINTS)
+    length = beam.length
+    s = 0.5 * (x + 1.0) * length
+    motion = np.empty((omega.size, s.size, 6))
+    for g, sg in enumerate(s):  # a handful of Gauss points, each batched over all modes
+        u = elements.beam(omega, beam, p_in, p_out, length=sg)
+        motion[:, g, :] = np.einsum("nij,nj->ni", u, z_in)[:, :6]
+    positions = p_in + np.outer(s / length, p_out - p_in)
+    return positions, 0.5 * wts * length, motion
+
+
+def _modal_mass(model, rigid, beams) -> np.ndarray:
+    """<V, M V> per mode: rigid bodies (eq. 3.1) plus ∫ρA|u|² + ρJpθ_axial² ds of beams."""
+    total = 0.0
+    for name, v in rigid.items():
+        b = model.body(name)
+        total = total + b.mass * np.sum(v[:, :3] ** 2, axis=1)
+        total = total + np.einsum("ni,ij,nj->n", v[:, 3:], b.inertia, v[:, 3:])
+    for name, (pos, wts, mot) in beams.items():
+        b = model.body(name)
+        axis = (b.end - b.start) / b.length
+        twist = mot[:, :, 3:] @ axis
+        dens = b.density * b.area * np.sum(mot[:, :, :3] ** 2, axis=2)
+        dens = dens + b.density * b.polar_moment * twist**2
+        total = total + dens @ wts
+    return np.asarray(total)
+
+
+def _mass_inner(model, a: ModeShapes, i: int, j: int) -> float:
+    total = 0.0
+    for name, v in a.rigid.items():
+        b = model.body(name)
+        total += b.mass * v[i, :3] @ v[j, :3] + v[i, 3:] @ b.inertia @ v[j, 3:]
+    for name, (_, wts, mot) in a.beams.items():
+        b = model.body(name)
+        axis = (b.end - b.start) / b.length
+        dens = b.density * b.area * np.sum(mot[i, :, :3] * mot[j, :, :3], axis=1)
+        dens += b.density * b.polar_moment * (mot[i, :, 3:] @ axis) * (mot[j, :, 3:] @ axis)
+        total += dens @ wts
+    return float(total)
+
+
+def _orthonormalise_repeated(model, shapes: ModeShapes) -> ModeShapes:
+    """Gram-Schmidt in the mass inner product within each group of repeated roots."""
+    f = shapes.frequencies_hz
+    for i in range(f.size):
+        for j in range(i):
+            if abs(f[i] - f[j]) <= 1e-9 * f[i]:
+                c = _mass_inner(model, shapes, i, j) / _mass_inner(model, shapes, j, j)
+                _combine(shapes, i, j, -c)
+    return shapes
+
+
+def _combine(shapes: ModeShapes, i: int, j: int, c: float) -> None:
+    """Mode i += c * mode j in place (all stored fields)."""
+    shapes.z_all[i] += c * shapes.z_all[j]
+    for d in (shapes.rigid, shapes.virtual):
+        for v in d.values():
+            v[i] += c * v[j]
+    for _, _, mot in shapes.beams.values():
+        mot[i] += c * mot[j]
+
+
+def _scaled(shapes: ModeShapes, scale: np.ndarray) -> ModeShapes:
+    """Every field multiplied by ``scale`` per mode (unit modal mass)."""
+    s2 = scale[:, None]
+    return ModeShapes(
+        shapes.frequencies_hz,
+        shapes.z_all * s2,
+        {k: v * s2 for k, v in shapes.rigid.items()},
+        {k: v * s2 for k, v in shapes.virtual.items()},
+        {k: (p, w, m * scale[:, None, None]) for k, (p, w, m) in shapes.beams.items()},
+        shapes.modal_mass,
+        shapes.centers,
+    )

@@ -1,0 +1,131 @@
+"""Natural frequencies and mode shapes of a model: the MSTMM eigen-solution end to end.
+
+The assembled mass-stiffness model of the same file counts and brackets the roots; the MSTMM
+finds each one from det U_all(ω) = 0 and builds its shape from the null vector of U_all.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from ufmt.assembled import assembled_modes
+from ufmt.errors import UfmtError
+from ufmt.model.schema import Beam, Model, RigidBody
+from ufmt.mstmm.modes import ModeShapes, mode_shapes
+from ufmt.mstmm.overall import TransferSystem
+from ufmt.mstmm.roots import natural_frequencies
+
+DEFAULT_FMAX_HZ = 1000.0
+DIRECTIONS = ("x", "y", "z", "rx", "ry", "rz")
+
+
+@dataclass(frozen=True, eq=False)
+class ModalSolution:
+    """Natural frequencies [Hz], shapes and bookkeeping of one eigen-solution."""
+
+    frequencies_hz: np.ndarray
+    order: int
+    method: str
+    expected: int  # modes the assembled model counts in the same range
+    rigid_body_modes: int
+    shapes: ModeShapes | None
+    seconds: float
+
+    def energy_shares(self, model: Model) -> np.ndarray:
+        """Kinetic-energy share (n_modes, n_bodies, 6) per body and direction."""
+        return energy_shares(model, self.shapes)
+
+
+def _range(fmax_hz, count, estimates) -> float:
+    """Upper frequency of the search [Hz] from --fmax and/or --count."""
+    if count is None:
+        return DEFAULT_FMAX_HZ if fmax_hz is None else float(fmax_hz)
+    if count < 1:
+        raise UfmtError(f"--count: {count} must be >= 1")
+    if estimates.size < count:
+        if fmax_hz is not None:
+            return float(fmax_hz)
+        raise UfmtError(
+            f"--count: the model has only {estimates.size} nonzero modes; ask for fewer"
+        )
+    top = estimates[count - 1]
+    upper = top * (1 + 1e-6) if count == estimates.size else np.sqrt(top * estimates[count])
+    return min(float(fmax_hz), upper) if fmax_hz is not None else float(upper)
+
+
+def solve_modes(
+    model: Model,
+    fmax_hz: float | None = None,
+    count: int | None = None,
+    method: str = "mstmm",
+    shapes: bool = True,
+) -> ModalSolution:
+    """Natural frequencies (and shapes) below ``fmax_hz`` or the first ``count`` modes.
+
+    method "mstmm" (default) roots det U_all; "assembled" is the independent mass-stiffness
+    eigen-solution, for cross-checks.
+    """
+    if fmax_hz is not None and not (np.isfinite(fmax_hz) and fmax_hz > 0):
+        raise UfmtError(f"--fmax: {fmax_hz} must be a positive number of Hz")
+    if method not in ("mstmm", "assembled"):
+        raise UfmtError(f"--method: {method!r} is not one of 'mstmm', 'assembled'")
+    t0 = time.perf_counter()
+    guess_fmax = fmax_hz if count is None else None
+    asm = assembled_modes(model, fmax_hz=_pad(guess_fmax), count=None if count is None else
+                          count + 1)
+    est = np.asarray(asm.frequencies_hz)
+    fmax = _range(fmax_hz, count, est)
+    if method == "assembled":
+        f = est[est <= fmax]
+        return ModalSolution(f, 0, "assembled", f.size, asm.rigid_body_modes, None,
+                             time.perf_counter() - t0)
+    system = TransferSystem(model)
+    roots = natural_frequencies(system, fmax, est)
+    f = roots.frequencies_hz
+    if count is not None:
+        f = f[:count]
+    modes = mode_shapes(system, f) if shapes and f.size else None
+    return ModalSolution(f, system.order, "mstmm", min(roots.expected, count or roots.expected),
+                         asm.rigid_body_modes, modes, time.perf_counter() - t0)
+
+
+def _pad(fmax_hz):
+    """Assembled estimates a little beyond f_max so roots near the limit are bracketed."""
+    return None if fmax_hz is None else 1.05 * fmax_hz
+
+
+def energy_shares(model: Model, shapes: ModeShapes) -> np.ndarray:
+    """Kinetic energy per body and direction [share of the mode's total] (n, bodies, 6)."""
+    n = shapes.frequencies_hz.size
+    out = np.zeros((n, len(model.bodies), 6))
+    for b_i, body in enumerate(model.bodies):
+        if isinstance(body, RigidBody):
+            v = shapes.rigid[body.name]
+            out[:, b_i, :3] = body.mass * v[:, :3] ** 2
+            rot = v[:, 3:]  # θᵀJθ split along the global axes as θ_i (Jθ)_i
+            out[:, b_i, 3:] = rot * (rot @ body.inertia)
+        elif isinstance(body, Beam):
+            _, wts, mot = shapes.beams[body.name]
+            out[:, b_i, :3] = body.density * body.area * (mot[:, :, :3] ** 2 * wts[None, :, None]
+                                                          ).sum(axis=1)
+            axis = (body.end - body.start) / body.length
+            twist = mot[:, :, 3:] @ axis
+            out[:, b_i, 3:] = (body.density * body.polar_moment * twist**2 @ wts)[:, None] * (
+                axis**2)[None, :]
+    total = out.sum(axis=(1, 2), keepdims=True)
+    total[total == 0] = 1.0
+    return out / total
+
+
+def describe(model: Model, shares: np.ndarray, top: int = 2) -> list[str]:
+    """One line per mode: the dominant bodies and directions, e.g. 'bed rz 41%, head z 20%'."""
+    names = [b.name for b in model.bodies]
+    lines = []
+    for s in shares:
+        flat = np.argsort(s.ravel())[::-1][:top]
+        parts = [f"{names[i // 6]} {DIRECTIONS[i % 6]} {100 * s.ravel()[i]:.0f}%" for i in flat]
+        lines.append(", ".join(parts))
+    return lines

@@ -1,0 +1,294 @@
+"""Study outputs on disk: the resumable points table, meta.json and the results index.
+
+Layout of ``results/<study>/``:
+
+* ``points.csv``: one row per evaluated point (tidy; units in the column names: ``pv_nm``,
+  ``feed_mm_min``, ``head_angular_stiffness_Nm_rad``, ...). ``group`` names the sweep axis,
+  grid or optimiser stage a row belongs to and ``index`` its position in that group. Rows are
+  appended and flushed as points finish, so a killed run loses nothing; at the end of a run the
+  file is rewritten sorted by (group, index).
+* kind-specific tables (``optima.csv``, ``pareto.csv``, ``indices.csv``) and PNG plots.
+* ``meta.json``: the study file's text, the model file and its SHA-256, the physics code's
+  SHA-256, package versions, git revision, run timings and the headline finding.
+
+``results/README.md`` is regenerated after every run from the ``meta.json`` files.
+"""
+
+from __future__ import annotations
+
+import csv
+import datetime
+import json
+import os
+import platform
+import subprocess
+from collections.abc import Iterable, Mapping
+from importlib import metadata
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+POINTS = "points.csv"
+META = "meta.json"
+INDEX = "README.md"
+PACKAGES = (
+    "ufmt",
+    "numpy",
+    "scipy",
+    "pandas",
+    "joblib",
+    "cvxpy",
+    "SALib",
+    "dask",
+    "distributed",
+    "matplotlib",
+    "threadpoolctl",
+    "tqdm",
+)
+
+
+class PointLog:
+    """Append-only CSV of evaluated points that survives being killed mid-write.
+
+    A partial last line (a run killed while writing) is cut off on opening. The header grows
+    if a record brings new fields (the file is then rewritten once).
+    """
+
+    def __init__(self, path: Path, columns: Iterable[str]):
+        self.path = Path(path)
+        self.columns = list(columns)
+        self._file = None
+
+    def read(self) -> list[dict]:
+        """Rows already on disk (after cutting a partial last line); [] if none."""
+        if not self.path.exists():
+            return []
+        data = self.path.read_bytes()
+        if data and not data.endswith(b"\n"):
+            data = data[: data.rfind(b"\n") + 1]
+            self.path.write_bytes(data)
+        if data.count(b"\n") < 1:
+            self.path.unlink()
+            return []
+        table = read_table(self.path)
+        self.columns = list(dict.fromkeys([*self.columns, *table.columns]))
+        return table.to_dict("records")
+
+    def append(self, row: Mapping) -> None:
+        """Write one row and flush it to the operating system."""
+        new = [k for k in row if k not in self.columns]
+        self.columns += new
+        if self._file is None or new:
+            self._open()
+        csv.writer(self._file).writerow([_cell(row.get(c)) for c in self.columns])
+        self._file.flush()
+
+    def close(self) -> None:
+        """Close the file (appending reopens it)."""
+        if self._file is not None:
+            self._file.close()
+            self._file = None
+
+    def _open(self) -> None:
+        """Open for appending; rewrite the file first if its header differs from ``columns``."""
+        self.close()
+        if self.path.exists() and self.path.stat().st_size > 0:
+            with self.path.open(newline="", encoding="utf-8") as f:
+                header = next(csv.reader(f))
+            if header != self.columns:
+                write_table(read_table(self.path).reindex(columns=self.columns), self.path)
+            self._file = self.path.open("a", newline="", encoding="utf-8")
+        else:
+            self._file = self.path.open("w", newline="", encoding="utf-8")
+            csv.writer(self._file).writerow(self.columns)
+
+
+def _cell(value) -> str:
+    if value is None:
+        return ""
+    if isinstance(value, float):
+        return repr(value)
+    return " ".join(str(value).split())
+
+
+def read_table(path: Path) -> pd.DataFrame:
+    """A results CSV with text columns as strings ("" for empty) and numbers as floats."""
+    table = pd.read_csv(path, keep_default_na=False, na_values={"nan", "NaN", ""})
+    for column in table.columns:
+        if table[column].dtype == object or pd.api.types.is_string_dtype(table[column]):
+            table[column] = table[column].fillna("").astype(str)
+    return table
+
+
+def write_table(table: pd.DataFrame, path: Path) -> None:
+    """Write ``table`` atomically (temporary file, then rename), floats at full precision."""
+    path = Path(path)
+    tmp = path.with_suffix(path.suffix + ".tmp")
+    table.to_csv(tmp, index=False)
+    os.replace(tmp, path)
+
+
+def write_json(data: Mapping, path: Path) -> None:
+    """Write ``data`` as indented JSON atomically."""
+    path = Path(path)
+    tmp = path.with_suffix(path.suffix + ".tmp")
+    tmp.write_text(json.dumps(data, indent=2, default=_json_default) + "\n", encoding="utf-8")
+    os.replace(tmp, path)
+
+
+def _json_default(value):
+    if hasattr(value, "item"):
+        return value.item()
+    return str(value)
+
+
+def read_meta(out_dir: Path) -> dict:
+    """The ``meta.json`` of a study's results directory ({} if absent or unreadable)."""
+    try:
+        return json.loads((Path(out_dir) / META).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return {}
+
+
+def package_versions() -> dict[str, str]:
+    """Installed versions of the packages results depend on, and Python's."""
+    versions = {"python": platform.python_version()}
+    for name in PACKAGES:
+        try:
+            versions[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            versions[name] = "not installed"
+    return versions
+
+
+def git_revision(where: Path) -> dict[str, str | bool]:
+    """Git commit of the repository holding ``where`` and whether the tree has changes."""
+
+    def git(*args):
+        return subprocess.run(
+            ["git", "-C", str(where), *args], capture_output=True, text=True, timeout=10
+        )
+
+    try:
+        head = git("rev-parse", "HEAD")
+        status = git("status", "--porcelain")
+    except (OSError, subprocess.TimeoutExpired):
+        return {"revision": "unknown", "dirty": False}
+    revision = head.stdout.strip() if head.returncode == 0 else "unknown"
+    return {"revision": revision, "dirty": bool(status.stdout.strip())}
+
+
+def now() -> str:
+    """Current UTC time, ISO 8601 to the second."""
+    return datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds")
+
+
+def write_index(results_root: Path) -> Path:
+    """Regenerate ``results/README.md``: every study with its kind, finding and files."""
+    results_root = Path(results_root)
+    lines = [
+        "# Results",
+        "",
+        "Generated by `ufmt run` after every study run (`ufmt.studies.outputs.write_index`);",
+        "do not edit by hand. Each study directory holds `points.csv` (one row per evaluated",
+        "point, units in the column names), `meta.json` (inputs, model and code hashes,",
+        "package versions, git revision, timings) and its plots.",
+        "",
+    ]
+    others = []
+    for out_dir in sorted(p for p in results_root.iterdir() if p.is_dir()):
+        meta = read_meta(out_dir)
+        if meta.get("kind") is None:
+            others.append(out_dir.name)
+            continue
+        run = meta.get("run", {})
+        lines += [f"## [{out_dir.name}]({out_dir.name}/) ({meta['kind']})", ""]
+        if meta.get("description"):
+            lines += [meta["description"], ""]
+        lines += [f"**Finding:** {meta.get('headline') or '(run incomplete)'}", ""]
+        lines += [
+            f"Study file `{meta.get('study_file', '?')}`; {run.get('points_total', '?')} points,"
+            f" {run.get('wall_s', '?')} s wall time with {run.get('jobs', '?')} job(s)"
+            f" ({run.get('backend', '?')}); model SHA-256 `{str(meta.get('model_sha256'))[:12]}`,"
+            f" git `{str(meta.get('git', {}).get('revision'))[:12]}`.",
+            "",
+        ]
+        files = sorted(p.name for p in out_dir.iterdir() if p.suffix in (".csv", ".png"))
+        lines += [f"- [{name}]({out_dir.name}/{name})" for name in files] + [""]
+    if others:
+        lines += ["## Other outputs", ""]
+        lines += [f"- [{name}/]({name}/)" for name in others] + [""]
+    path = results_root / INDEX
+    path.write_text("\n".join(lines), encoding="utf-8")
+    return path
+
+
+# ---------------------------------------------------------------------------------------------
+# labels and findings
+
+_UNITS = (
+    ("_Nm_rad", "N m/rad"),
+    ("_N_m", "N/m"),
+    ("_mm_min", "mm/min"),
+    ("_um", "µm"),
+    ("_nm", "nm"),
+    ("_hz", "Hz"),
+    ("_mm", "mm"),
+    ("_min", "min"),
+)
+
+
+def parameter_label(name: str) -> str:
+    """Axis label of a column: ``head_angular_stiffness_Nm_rad`` -> "head angular stiffness
+    [N m/rad]", ``rpm`` -> "spindle speed [rpm]"."""
+    if name == "rpm":
+        return "spindle speed [rpm]"
+    for suffix, unit in _UNITS:
+        if name.endswith(suffix):
+            return f"{name[: -len(suffix)].replace('_', ' ')} [{unit}]"
+    return name.replace("_", " ")
+
+
+def short(value: float) -> str:
+    """A number in 3 significant digits."""
+    return f"{value:.3g}"
+
+
+def trend(x, y) -> str:
+    """How ``y`` changes as ``x`` rises: "falls", "rises" (monotonic) or "is not monotonic"."""
+    order = np.argsort(x)
+    steps = np.diff(np.asarray(y, dtype=float)[order])
+    if np.all(steps <= 0):
+        return "falls"
+    if np.all(steps >= 0):
+        return "rises"
+    return "is not monotonic"
+
+
+def sweep_headline(table: pd.DataFrame, study, baseline: Mapping[str, float]) -> str:
+    """One sentence per sweep axis or grid: how PV responds, with its range [nm]."""
+    ok = table[table["status"] == "ok"] if "status" in table else table
+    parts = []
+    for group in study.groups:
+        rows = ok[ok["group"] == group.name]
+        if rows.empty or "pv_nm" not in rows:
+            parts.append(f"{group.name}: no successful points")
+            continue
+        pv = rows["pv_nm"].to_numpy(float)
+        if len(group.axes) == 1:
+            name = group.axes[0].parameter
+            x = rows[name].to_numpy(float)
+            lo, hi = x.min(), x.max()
+            parts.append(
+                f"PV {trend(x, pv)} as {name} rises from {short(lo)} to {short(hi)}"
+                f" (PV {short(pv[np.argmin(x)])} -> {short(pv[np.argmax(x)])} nm,"
+                f" range {short(pv.min())}-{short(pv.max())} nm)"
+            )
+        else:
+            best = rows.iloc[int(np.argmin(pv))]
+            at = ", ".join(f"{a.parameter} = {short(best[a.parameter])}" for a in group.axes)
+            parts.append(
+                f"grid {group.name}: PV {short(pv.min())}-{short(pv.max())} nm, lowest at {at}"
+            )
+    return "; ".join(parts) + "."

@@ -1,0 +1,497 @@
+"""Study files (TOML): parsing and validation into an immutable :class:`Study`.
+
+A study file names its kind and what to vary. Common top-level fields::
+
+    kind = "sweep"                       # sweep | grid | optimise-process | optimise-design
+                                         #   | sensitivity
+    name = "sweep-stiffness"             # optional; default: the file's stem; -> results/<name>/
+    description = "..."                  # optional
+    function = "ufmt.evaluate:evaluate"  # optional: "module:attribute" or "file.py:attribute"
+                                         #   (relative to the study file); called as
+                                         #   f(design, process, model) -> dict with "pv_nm"
+    model = "../my-machine.toml"         # optional model file (relative to the study file);
+                                         #   default: the packaged UFMT
+
+    [base]                               # fixed values for every point (others: calibrated
+    rpm = 300.0                          #   design, reference process)
+
+Parameters are named as in :mod:`ufmt.evaluate` (``head_angular_stiffness_Nm_rad``, ``rpm``,
+``hinge.h17.stiffness[2]``, ...). Values along an axis or a bound are given by exactly one of::
+
+    values = [1e6, 2e6, 5e6]             # explicit values
+    range = [200.0, 400.0]               # absolute low, high (with n and spacing for an axis)
+    scale = [0.1, 10.0]                  # low, high as multiples of the calibrated value
+    n = 9                                # number of values (axes only; default 9)
+    spacing = "log"                      # linear | log (default linear)
+
+Kinds:
+
+* ``sweep``: every ``[[axis]]`` is varied alone about the base (one-at-a-time); each
+  ``[[grid]]`` (``name`` plus its own ``[[grid.axis]]`` list) adds a full-factorial grid.
+* ``grid``: the ``[[axis]]`` entries are crossed into one full-factorial grid.
+* ``optimise-process``: ``[[bound]]`` over rpm, feed and depth (default: Table 1's ranges),
+  ``target_pv_nm`` (default 100), ``workpiece_length_mm`` and ``tool_radius_mm`` (cutting time,
+  see :mod:`ufmt.studies.optimise`), ``pareto_levels``, ``[optimiser]``.
+* ``optimise-design``: ``[[bound]]`` over design parameters, ``[cost]`` (parameter -> weight
+  [nm per multiple of the calibrated stiffness]), ``[optimiser]``.
+* ``sensitivity``: ``[[bound]]`` over any parameters, ``method`` (morris | sobol),
+  ``samples`` (Morris trajectories or Sobol base samples), ``levels`` (Morris), ``seed``.
+
+Every problem raises :class:`~ufmt.errors.StudyError` with one line naming the file and field.
+"""
+
+from __future__ import annotations
+
+import difflib
+import itertools
+import math
+import numbers
+import re
+import tomllib
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, NoReturn
+
+import numpy as np
+
+from ufmt.errors import StudyError
+from ufmt.evaluate import (
+    PROCESS_PARAMETERS,
+    is_design_parameter,
+    is_parameter,
+    parameter_names,
+)
+
+KINDS = ("sweep", "grid", "optimise-process", "optimise-design", "sensitivity")
+DEFAULT_FUNCTION = "ufmt.evaluate:evaluate"
+DEFAULT_POINTS = 9
+TABLE1_BOUNDS = {"rpm": (200.0, 400.0), "feed_mm_min": (4.0, 16.0), "depth_um": (2.0, 8.0)}
+SPACINGS = ("linear", "log")
+OPTIMISER_DEFAULTS = {"seed": 1, "popsize": 8, "maxiter": 20, "tol": 1e-3, "refine_steps": 4}
+
+_COMMON = ("kind", "name", "description", "function", "model", "base")
+_KIND_FIELDS = {
+    "sweep": ("axis", "grid"),
+    "grid": ("axis",),
+    "optimise-process": (
+        "bound",
+        "target_pv_nm",
+        "workpiece_length_mm",
+        "tool_radius_mm",
+        "pareto_levels",
+        "optimiser",
+    ),
+    "optimise-design": ("bound", "cost", "optimiser"),
+    "sensitivity": ("bound", "method", "samples", "levels", "seed"),
+}
+_AXIS_FIELDS = ("parameter", "values", "range", "scale", "n", "spacing")
+_BOUND_FIELDS = ("parameter", "range", "scale", "spacing")
+_GRID_FIELDS = ("name", "axis")
+_SOURCES = ("values", "range", "scale")
+_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]*")
+
+
+@dataclass(frozen=True)
+class Axis:
+    """Values of one parameter: absolute, or multiples of its calibrated value (``relative``)."""
+
+    parameter: str
+    values: tuple[float, ...]
+    log: bool = False
+    relative: bool = False
+
+    def resolved(self, baseline: Mapping[str, float]) -> tuple[float, ...]:
+        """Absolute values, scaling relative ones by ``baseline[parameter]``."""
+        if not self.relative:
+            return self.values
+        return tuple(v * baseline[self.parameter] for v in self.values)
+
+
+@dataclass(frozen=True)
+class Bound:
+    """Search or sampling interval of one parameter; ``log`` searches in log10 of it."""
+
+    parameter: str
+    low: float
+    high: float
+    log: bool = False
+    relative: bool = False
+
+    def resolved(self, baseline: Mapping[str, float]) -> tuple[float, float]:
+        """Absolute (low, high), scaling relative ones by ``baseline[parameter]``."""
+        factor = baseline[self.parameter] if self.relative else 1.0
+        return self.low * factor, self.high * factor
+
+
+@dataclass(frozen=True)
+class Group:
+    """Points varied together: one axis (a one-at-a-time sweep) or several (a grid)."""
+
+    name: str
+    axes: tuple[Axis, ...]
+
+    def points(self, baseline: Mapping[str, float]) -> list[dict[str, float]]:
+        """Full-factorial points over the axes (first axis slowest)."""
+        names = [a.parameter for a in self.axes]
+        values = [a.resolved(baseline) for a in self.axes]
+        return [dict(zip(names, combo, strict=True)) for combo in itertools.product(*values)]
+
+
+@dataclass(frozen=True)
+class Study:
+    """A validated study file; ``options`` holds the kind's own fields with defaults filled."""
+
+    path: Path
+    name: str
+    kind: str
+    description: str
+    function: str
+    model: Path | None
+    base: dict[str, float]
+    groups: tuple[Group, ...] = ()
+    bounds: tuple[Bound, ...] = ()
+    options: dict[str, Any] = field(default_factory=dict)
+    text: str = ""
+
+    @property
+    def parameters(self) -> tuple[str, ...]:
+        """Every parameter the study sets: base keys, then axes and bounds, in file order."""
+        names = list(self.base)
+        names += [a.parameter for g in self.groups for a in g.axes]
+        names += [b.parameter for b in self.bounds]
+        return tuple(dict.fromkeys(names))
+
+    @property
+    def relative_parameters(self) -> tuple[str, ...]:
+        """Parameters given as multiples of their calibrated value (need a baseline)."""
+        items = [a for g in self.groups for a in g.axes] + list(self.bounds)
+        return tuple(dict.fromkeys(i.parameter for i in items if i.relative))
+
+
+def load_study(path: str | Path) -> Study:
+    """Read and validate the study file at ``path``.
+
+    Raises
+    ------
+    StudyError
+        One line naming the file and the field.
+    """
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise StudyError(f"{path}: file not found") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise StudyError(f"{path}: cannot read: {exc}") from None
+    return parse_study(text, path)
+
+
+def parse_study(text: str, path: str | Path = "<string>") -> Study:
+    """Parse and validate study TOML ``text``; ``path`` names it and anchors relative paths."""
+    path = Path(path)
+    where = _Where(str(path))
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        where.fail("", f"malformed TOML: {' '.join(str(exc).split())}")
+    kind = data.get("kind")
+    if kind is None:
+        where.fail("kind", f"missing (one of {', '.join(KINDS)})")
+    if kind not in KINDS:
+        where.fail("kind", f"unknown study kind {kind!r} ({_hint(str(kind), KINDS, 'kinds')})")
+    _check_keys(where, "", data, _COMMON + _KIND_FIELDS[kind])
+
+    name = _string(where, "name", data.get("name", path.stem))
+    if not _NAME.fullmatch(name):
+        where.fail("name", f"{name!r} is not a valid study name (letters, digits, _ . -)")
+    model = data.get("model")
+    base = _base(where, data.get("base", {}))
+    study = dict(
+        path=path,
+        name=name,
+        kind=kind,
+        description=_string(where, "description", data.get("description", ""), empty=True),
+        function=_function(where, data.get("function", DEFAULT_FUNCTION)),
+        model=None if model is None else path.parent / _string(where, "model", model),
+        base=base,
+        text=text,
+    )
+    if kind == "sweep":
+        axes = _axes(where, "axis", data.get("axis", []), required=False)
+        groups = [Group(a.parameter, (a,)) for a in axes]
+        groups += _grids(where, data.get("grid", []))
+        if not groups:
+            where.fail("axis", "a sweep needs at least one [[axis]] or [[grid]]")
+        _unique(where, "axis", [g.name for g in groups])
+        return Study(**study, groups=tuple(groups))
+    if kind == "grid":
+        axes = _axes(where, "axis", data.get("axis", []), required=True)
+        return Study(**study, groups=(Group("grid", tuple(axes)),))
+    return Study(**study, **_KIND_PARSERS[kind](where, data, base))
+
+
+# ---------------------------------------------------------------------------------------------
+# kinds with bounds
+
+
+def _optimise_process(where, data, base) -> dict:
+    given = _bounds(where, data.get("bound", []), required=False)
+    for b in given:
+        if b.parameter not in PROCESS_PARAMETERS:
+            where.fail(
+                f"bound.{b.parameter}",
+                f"optimise-process searches process parameters only ({', '.join(TABLE1_BOUNDS)})",
+            )
+    by_name = {b.parameter: b for b in given}
+    bounds = tuple(by_name.get(p, Bound(p, *TABLE1_BOUNDS[p])) for p in TABLE1_BOUNDS)
+    for b in bounds:
+        if b.parameter in base:
+            where.fail(f"base.{b.parameter}", "is searched by optimise-process; remove it")
+    options = {
+        "target_pv_nm": _positive(where, "target_pv_nm", data.get("target_pv_nm", 100.0)),
+        "workpiece_length_mm": _positive(
+            where, "workpiece_length_mm", data.get("workpiece_length_mm")
+        ),
+        "tool_radius_mm": _positive(where, "tool_radius_mm", data.get("tool_radius_mm")),
+        "pareto_levels": _count(where, "pareto_levels", data.get("pareto_levels", 7), 2),
+        "optimiser": _optimiser(where, data.get("optimiser", {})),
+    }
+    return {"bounds": bounds, "options": options}
+
+
+def _optimise_design(where, data, base) -> dict:
+    bounds = _bounds(where, data.get("bound", []), required=True)
+    for b in bounds:
+        if not is_design_parameter(b.parameter):
+            where.fail(f"bound.{b.parameter}", "optimise-design searches design parameters only")
+        if b.parameter in base:
+            where.fail(f"base.{b.parameter}", "is searched by optimise-design; remove it")
+    cost = data.get("cost", {})
+    if not isinstance(cost, Mapping):
+        where.fail("cost", "expected a table of parameter = weight [nm per calibrated multiple]")
+    searched = [b.parameter for b in bounds]
+    weights = {}
+    for key, value in cost.items():
+        if key not in searched:
+            where.fail(f"cost.{key}", f"not a searched parameter ({_hint(key, searched, 'bounds')})")
+        weights[key] = _real(where, f"cost.{key}", value, minimum=0.0)
+    options = {"cost": weights, "optimiser": _optimiser(where, data.get("optimiser", {}))}
+    return {"bounds": bounds, "options": options}
+
+
+def _sensitivity(where, data, base) -> dict:
+    bounds = _bounds(where, data.get("bound", []), required=True)
+    if len(bounds) < 2:
+        where.fail("bound", "sensitivity needs at least two [[bound]] parameters")
+    for b in bounds:
+        if b.parameter in base:
+            where.fail(f"base.{b.parameter}", "is sampled by the sensitivity study; remove it")
+    method = data.get("method", "morris")
+    if method not in ("morris", "sobol"):
+        where.fail("method", f"unknown method {method!r} (morris or sobol)")
+    options = {
+        "method": method,
+        "samples": _count(where, "samples", data.get("samples", 16), 2),
+        "levels": _count(where, "levels", data.get("levels", 4), 2),
+        "seed": _count(where, "seed", data.get("seed", 1), 0),
+    }
+    if method == "sobol" and options["samples"] & (options["samples"] - 1):
+        where.fail("samples", f"{options['samples']} is not a power of two (Sobol sampling)")
+    return {"bounds": bounds, "options": options}
+
+
+_KIND_PARSERS = {
+    "optimise-process": _optimise_process,
+    "optimise-design": _optimise_design,
+    "sensitivity": _sensitivity,
+}
+
+
+# ---------------------------------------------------------------------------------------------
+# fields
+
+
+class _Where:
+    def __init__(self, source: str):
+        self.source = source
+
+    def fail(self, field: str, problem: str) -> NoReturn:
+        prefix = f"{self.source}: field '{field}': " if field else f"{self.source}: "
+        raise StudyError(" ".join(f"{prefix}{problem}".split()))
+
+
+def _hint(word: str, choices, what: str) -> str:
+    close = difflib.get_close_matches(word, list(choices), n=1, cutoff=0.5)
+    return f"did you mean {close[0]!r}?" if close else f"{what}: {', '.join(choices)}"
+
+
+def _check_keys(where: _Where, prefix: str, table: Mapping, valid) -> None:
+    for key in table:
+        if key not in valid:
+            where.fail(f"{prefix}{key}", f"unknown field ({_hint(str(key), valid, 'valid fields')})")
+
+
+def _string(where: _Where, field: str, value, empty: bool = False) -> str:
+    if not isinstance(value, str) or (not empty and not value.strip()):
+        where.fail(field, f"expected a non-empty string, got {value!r}")
+    return value
+
+
+def _real(where: _Where, field: str, value, minimum: float | None = None) -> float:
+    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value):
+        where.fail(field, f"expected a finite number, got {value!r}")
+    if minimum is not None and value < minimum:
+        where.fail(field, f"{value!r} is below {minimum!r}")
+    return float(value)
+
+
+def _positive(where: _Where, field: str, value) -> float | None:
+    if value is None:
+        return None
+    value = _real(where, field, value)
+    if value <= 0:
+        where.fail(field, f"{value!r} must be > 0")
+    return value
+
+
+def _count(where: _Where, field: str, value, minimum: int) -> int:
+    if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
+        where.fail(field, f"expected an integer >= {minimum}, got {value!r}")
+    return value
+
+
+def _parameter(where: _Where, field: str, name) -> str:
+    name = _string(where, field, name)
+    if not is_parameter(name):
+        hint = _hint(name, parameter_names(), "parameters")
+        where.fail(field, f"unknown parameter {name!r} ({hint}; or hinge.<name>.stiffness[i])")
+    return name
+
+
+def _function(where: _Where, ref) -> str:
+    ref = _string(where, "function", ref)
+    module, _, attribute = ref.partition(":")
+    if not module or not attribute.isidentifier():
+        where.fail("function", f"{ref!r} is not 'module:function' or 'file.py:function'")
+    if module.endswith(".py") and not Path(module).is_absolute():
+        ref = f"{(Path(where.source).parent / module).resolve()}:{attribute}"
+    return ref
+
+
+def _base(where: _Where, table) -> dict[str, float]:
+    if not isinstance(table, Mapping):
+        where.fail("base", "expected a table of parameter = value")
+    base = {}
+    for key, value in table.items():
+        base[_parameter(where, f"base.{key}", key)] = _real(where, f"base.{key}", value)
+    return base
+
+
+def _tables(where: _Where, field: str, value, required: bool) -> list[Mapping]:
+    if not isinstance(value, list) or not all(isinstance(t, Mapping) for t in value):
+        where.fail(field, f"expected an array of tables [[{field}]]")
+    if required and not value:
+        where.fail(field, f"at least one [[{field}]] is required")
+    return value
+
+
+def _interval(where: _Where, label: str, table: Mapping) -> tuple[str, list[float], bool]:
+    """Which of values/range/scale the table gives, its numbers, and its spacing."""
+    sources = [s for s in _SOURCES if s in table]
+    if len(sources) != 1:
+        where.fail(label, "give exactly one of values, range, scale")
+    source = sources[0]
+    raw = table[source]
+    if not isinstance(raw, list):
+        where.fail(f"{label}.{source}", f"expected an array, got {raw!r}")
+    numbers_ = [_real(where, f"{label}.{source}", v) for v in raw]
+    spacing = table.get("spacing", "linear")
+    if spacing not in SPACINGS:
+        where.fail(f"{label}.spacing", f"unknown spacing {spacing!r} (linear or log)")
+    log = spacing == "log"
+    if source != "values":
+        if len(numbers_) != 2:
+            where.fail(f"{label}.{source}", f"expected [low, high], got {raw!r}")
+        low, high = numbers_
+        if low > high:
+            where.fail(f"{label}.{source}", f"reversed bounds [{low!r}, {high!r}] (need low < high)")
+        if low == high:
+            where.fail(f"{label}.{source}", f"empty range [{low!r}, {high!r}] (need low < high)")
+    if not numbers_:
+        where.fail(f"{label}.values", "empty range: no values")
+    if (log or source == "scale") and min(numbers_) <= 0:
+        where.fail(f"{label}.{source}", f"{raw!r} must be > 0 for log spacing or a scale")
+    return source, numbers_, log
+
+
+def _axis(where: _Where, label: str, table: Mapping) -> Axis:
+    _check_keys(where, f"{label}.", table, _AXIS_FIELDS)
+    if "parameter" not in table:
+        where.fail(f"{label}.parameter", "missing")
+    parameter = _parameter(where, f"{label}.parameter", table["parameter"])
+    label = f"{label}[{parameter}]"
+    source, values, log = _interval(where, label, table)
+    if source == "values":
+        if "n" in table:
+            where.fail(f"{label}.n", "n goes with range or scale, not with values")
+        return Axis(parameter, tuple(values), log)
+    n = _count(where, f"{label}.n", table.get("n", DEFAULT_POINTS), 1)
+    low, high = values
+    grid = np.geomspace(low, high, n) if log else np.linspace(low, high, n)
+    return Axis(parameter, tuple(float(v) for v in grid), log, relative=source == "scale")
+
+
+def _axes(where: _Where, label: str, value, required: bool) -> list[Axis]:
+    tables = _tables(where, label, value, required)
+    axes = [_axis(where, f"{label}[{i}]", t) for i, t in enumerate(tables)]
+    _unique(where, label, [a.parameter for a in axes])
+    return axes
+
+
+def _grids(where: _Where, value) -> list[Group]:
+    groups = []
+    for i, table in enumerate(_tables(where, "grid", value, required=False)):
+        _check_keys(where, f"grid[{i}].", table, _GRID_FIELDS)
+        name = _string(where, f"grid[{i}].name", table.get("name", ""))
+        axes = _axes(where, f"grid[{i}].axis", table.get("axis", []), required=True)
+        if len(axes) < 2:
+            where.fail(f"grid[{i}].axis", "a grid needs at least two axes")
+        groups.append(Group(name, tuple(axes)))
+    return groups
+
+
+def _bounds(where: _Where, value, required: bool) -> tuple[Bound, ...]:
+    bounds = []
+    for i, table in enumerate(_tables(where, "bound", value, required)):
+        _check_keys(where, f"bound[{i}].", table, _BOUND_FIELDS)
+        if "parameter" not in table:
+            where.fail(f"bound[{i}].parameter", "missing")
+        parameter = _parameter(where, f"bound[{i}].parameter", table["parameter"])
+        label = f"bound[{parameter}]"
+        if "values" in table:
+            where.fail(f"{label}.values", "a bound takes range or scale, not values")
+        source, (low, high), log = _interval(where, label, table)
+        bounds.append(Bound(parameter, low, high, log, relative=source == "scale"))
+    _unique(where, "bound", [b.parameter for b in bounds])
+    return tuple(bounds)
+
+
+def _unique(where: _Where, field: str, names: list[str]) -> None:
+    for name in names:
+        if names.count(name) > 1:
+            where.fail(field, f"{name!r} appears more than once")
+
+
+def _optimiser(where: _Where, table) -> dict[str, Any]:
+    if not isinstance(table, Mapping):
+        where.fail("optimiser", "expected a table")
+    _check_keys(where, "optimiser.", table, tuple(OPTIMISER_DEFAULTS))
+    options = dict(OPTIMISER_DEFAULTS)
+    for key in ("seed", "refine_steps"):
+        options[key] = _count(where, f"optimiser.{key}", table.get(key, options[key]), 0)
+    for key in ("popsize", "maxiter"):
+        options[key] = _count(where, f"optimiser.{key}", table.get(key, options[key]), 1)
+    tol = _real(where, "optimiser.tol", table.get("tol", options["tol"]), minimum=0.0)
+    options["tol"] = tol
+    return options
