@@ -18,8 +18,17 @@ AREA, I2 = np.pi * D**2 / 4, np.pi * D**4 / 64
 
 
 def beam_body(name="shaft", start=(0, 0, 0), end=(L, 0, 0), **extra):
-    return {"name": name, "kind": "beam", "start": list(start), "end": list(end),
-            "density": RHO, "youngs_modulus": E, "shear_modulus": G, "diameter": D, **extra}
+    return {
+        "name": name,
+        "kind": "beam",
+        "start": list(start),
+        "end": list(end),
+        "density": RHO,
+        "youngs_modulus": E,
+        "shear_modulus": G,
+        "diameter": D,
+        **extra,
+    }
 
 
 def hinge(name, a, b, at, stiff):
@@ -57,14 +66,24 @@ def test_characteristic_roots_match_published_values():
 def cantilever(iz_factor=1.0, axis=(L, 0, 0)):
     extra = {}
     if iz_factor != 1.0:
-        extra = {"area": AREA, "second_moment_y": I2, "second_moment_z": iz_factor * I2,
-                 "polar_moment": 2 * I2, "orientation": [0.0, 0.0, 1.0]}
+        extra = {
+            "area": AREA,
+            "second_moment_y": I2,
+            "second_moment_z": iz_factor * I2,
+            "polar_moment": 2 * I2,
+            "orientation": [0.0, 0.0, 1.0],
+        }
         body = beam_body(end=axis, **extra)
         del body["diameter"]
     else:
         body = beam_body(end=axis)
-    return model_from_dict({"name": "cantilever", "body": [body],
-                            "hinge": [hinge("clamp", "ground", "shaft", (0, 0, 0), RIGID)]})
+    return model_from_dict(
+        {
+            "name": "cantilever",
+            "body": [body],
+            "hinge": [hinge("clamp", "ground", "shaft", (0, 0, 0), RIGID)],
+        }
+    )
 
 
 def analytic_cantilever(iz_factor=1.0):
@@ -96,11 +115,17 @@ def test_cantilever_close_planes():
 
 def test_free_free_beam_on_released_hinge():
     """A beam hung on a hinge with every direction released is free-free."""
-    model = model_from_dict({"name": "free", "body": [beam_body()],
-                             "hinge": [hinge("h", "ground", "shaft", (0, 0, 0), RELEASED)]})
+    model = model_from_dict(
+        {
+            "name": "free",
+            "body": [beam_body()],
+            "hinge": [hinge("h", "ground", "shaft", (0, 0, 0), RELEASED)],
+        }
+    )
     exact = np.repeat([bending_hz(b) for b in FREE_FREE_BL[:3]], 2)
-    exact = np.sort(np.concatenate([exact, [np.sqrt(E / RHO) / (2 * L), np.sqrt(G / RHO) /
-                                            (2 * L)]]))
+    exact = np.sort(
+        np.concatenate([exact, [np.sqrt(E / RHO) / (2 * L), np.sqrt(G / RHO) / (2 * L)]])
+    )
     exact = exact[exact < 2000.0]
     _, r = solve(model, 2000.0, exact * (1 - 1e-5))
     assert np.allclose(r.frequencies_hz, exact, rtol=1e-8, atol=0)
@@ -109,15 +134,31 @@ def test_free_free_beam_on_released_hinge():
 def two_mass_chain(k1, k2, m1, m2):
     inertia = [[1.0, 0, 0], [0, 1.0, 0], [0, 0, 1.0]]
     springs = lambda k: {"stiffness": [k, 0.0, 0.0], "rotational_stiffness": [INF] * 3}  # noqa: E731
-    return model_from_dict({
-        "name": "chain",
-        "body": [{"name": "m1", "kind": "rigid", "mass": m1, "center_of_mass": [0, 0, 0],
-                  "inertia": inertia},
-                 {"name": "m2", "kind": "rigid", "mass": m2, "center_of_mass": [0, 0, 0],
-                  "inertia": inertia}],
-        "hinge": [hinge("k1", "ground", "m1", (0, 0, 0), springs(k1)),
-                  hinge("k2", "m1", "m2", (0, 0, 0), springs(k2))],
-    })
+    return model_from_dict(
+        {
+            "name": "chain",
+            "body": [
+                {
+                    "name": "m1",
+                    "kind": "rigid",
+                    "mass": m1,
+                    "center_of_mass": [0, 0, 0],
+                    "inertia": inertia,
+                },
+                {
+                    "name": "m2",
+                    "kind": "rigid",
+                    "mass": m2,
+                    "center_of_mass": [0, 0, 0],
+                    "inertia": inertia,
+                },
+            ],
+            "hinge": [
+                hinge("k1", "ground", "m1", (0, 0, 0), springs(k1)),
+                hinge("k2", "m1", "m2", (0, 0, 0), springs(k2)),
+            ],
+        }
+    )
 
 
 def test_two_mass_chain_closed_form_and_released_directions():
@@ -138,13 +179,29 @@ def test_rigid_body_on_springs_uncoupled():
     """Body on a hinge at its centre of mass: ω = √(k/m), √(k'/J) (triple root when equal)."""
     k, kr, m = 4.0e6, 2.0e5, 100.0
     inertia = np.diag([2.0, 3.0, 2.0])
-    model = model_from_dict({
-        "name": "block",
-        "body": [{"name": "b", "kind": "rigid", "mass": m, "center_of_mass": [0.1, 0.2, 0.3],
-                  "inertia": inertia.tolist()}],
-        "hinge": [hinge("h", "ground", "b", (0.1, 0.2, 0.3),
-                        {"stiffness": [k] * 3, "rotational_stiffness": [kr] * 3})],
-    })
+    model = model_from_dict(
+        {
+            "name": "block",
+            "body": [
+                {
+                    "name": "b",
+                    "kind": "rigid",
+                    "mass": m,
+                    "center_of_mass": [0.1, 0.2, 0.3],
+                    "inertia": inertia.tolist(),
+                }
+            ],
+            "hinge": [
+                hinge(
+                    "h",
+                    "ground",
+                    "b",
+                    (0.1, 0.2, 0.3),
+                    {"stiffness": [k] * 3, "rotational_stiffness": [kr] * 3},
+                )
+            ],
+        }
+    )
     exact = np.sort(np.r_[[np.sqrt(k / m)] * 3, np.sqrt(kr / np.diag(inertia))]) / (2 * np.pi)
     _, r = solve(model, 200.0, exact)
     assert np.allclose(r.frequencies_hz, exact, rtol=1e-10)

@@ -1,26 +1,30 @@
 """Assembled mass-stiffness model: the "ordinary method" cross-check of the MSTMM.
 
-An independent finite-element model of the same :class:`~ufmt.model.schema.Model` (it shares
-no code with :mod:`ufmt.mstmm`):
+An independent finite-element model of the same :class:`~ufmt.model.schema.Model`; it shares
+no code with :mod:`ufmt.mstmm`.
 
 * 6 dofs per rigid body (translation of its centre of mass and small rotation, global frame),
-  6 per virtual body (at its point), 6 per node of each beam's mesh;
-* beams meshed with 3-D Euler-Bernoulli frame elements: 12x12 stiffness and consistent mass
-  (axial and torsion linear, bending cubic Hermite in the local x-y and x-z planes, torsional
-  rotary inertia rho*J_p; no shear deformation, no bending rotary inertia: the beam of paper
-  eq. 3.3);
-* hinges as springs on the relative motion ``d = u_A(P) - u_B(P)`` of the two bodies at the
-  hinge point P (paper eqs. 2.13, 2.14), with ``u(P) = [r_C + theta x (P - C); theta]`` for a
-  rigid body: stiffness 0 adds nothing (released), ``inf`` imposes ``d_j = 0`` exactly by
-  eliminating dependent dofs, a finite value adds ``k_j d_j^2 / 2`` to the strain energy;
-* massless dofs (virtual bodies) condensed exactly; rigid-body and mechanism modes counted.
+  6 per virtual body (at its point), 6 per node of each beam's mesh.
+* Beams: 3-D Euler-Bernoulli frame elements, 12x12 stiffness and consistent mass (axial and
+  torsion linear, bending cubic Hermite in the local x-y and x-z planes, torsional rotary
+  inertia rho*J_p, no shear deformation and no bending rotary inertia: the beam of paper
+  eq. 3.3).
+* Hinges (paper eqs. 2.13, 2.14): springs on the relative motion ``d = u_A(P) - u_B(P)`` of the
+  two bodies at the hinge point P, where ``u(P) = [r_C + theta x (P - C); theta]`` for a rigid
+  body and a virtual body or beam end moves with its own 6 dofs; ground does not move.
+  Stiffness 0 adds nothing (released), ``inf`` imposes ``d_j = 0`` exactly (dependent dofs
+  eliminated), a finite k adds ``k d_j^2 / 2`` to the strain energy.
+* Massless dofs (virtual bodies) are condensed exactly; zero-frequency (rigid-body and
+  mechanism) modes are counted and left out of the frequency list.
 
-Numerics. The stiffness is kept in the factored form ``K = F^T F`` (``F``: square-root-weighted
-deformations of every spring direction and every element) and the frequencies are the singular
-values of ``F_red L^-T`` (``M_red = L L^T``), not eigenvalues of ``(K, M)``: with a fine beam
-mesh ``K`` has ``lambda_max / lambda_1 ~ 1e12`` and ``eigh`` loses ``eps * lambda_max`` in every
-eigenvalue, while the singular values lose ``eps * sqrt(lambda_max)``. Zero-frequency modes
-are counted from the rank of the unweighted deformations (geometry only, no stiffness scale).
+Numerics. The stiffness is kept factored, ``K = F^T F`` (F: square-root-weighted deformation
+of every spring direction and every beam element), and the natural frequencies are the singular
+values of ``F_red L^-T`` (``L L^T`` the reduced mass matrix) instead of eigenvalues of
+``(K_red, M_red)``: with a fine beam mesh ``lambda_max / lambda_1`` reaches 1e12 and ``eigh``
+loses ``eps * lambda_max`` in every eigenvalue (relative errors 1e-8 to 1e-6 on a 64- to
+256-element cantilever), the singular values only ``eps * sqrt(lambda_max)``. The number of
+zero-frequency modes comes from geometry alone (which motions strain nothing), never from a
+threshold on small frequencies.
 """
 
 from __future__ import annotations
@@ -38,14 +42,15 @@ COMPONENTS = ("x", "y", "z", "rx", "ry", "rz")
 
 DEFAULT_ELEMENTS_PER_BEAM = 8  # mesh when neither elements_per_beam nor a frequency is given
 MIN_ELEMENTS_PER_BEAM = 2
+MAX_ELEMENTS_PER_BEAM = 64  # cap of the automatic mesh (cost); see AssembledModel.mesh_error
 DEFAULT_RTOL = 1e-8  # target relative frequency error of the automatic mesh below fmax
-# Consistent-mass discretisation error per element of length h at wavenumber k (measured on a
-# free-free beam and a fixed-free rod, see tests/test_assembled.py):
-#   bending (cubic Hermite): df/f ~= (beta h)^4 / BENDING_ERROR_DIVISOR
-#   axial, torsion (linear): df/f ~= (k h)^2 / 24
-BENDING_ERROR_DIVISOR = 2880.0
+# Consistent-mass discretisation error of a mode at wavenumber k, element length h (checked in
+# tests/test_assembled.py on a cantilever and a fixed-free rod):
+#   bending, cubic Hermite:  df/f ~= (beta h)^4 / BENDING_ERROR_DIVISOR
+#   axial and torsion, linear:  df/f ~= (k h)^2 / LINEAR_ERROR_DIVISOR
+BENDING_ERROR_DIVISOR = 1440.0
 LINEAR_ERROR_DIVISOR = 24.0
-PARALLEL_SINE = 1e-9  # beam axis treated as parallel to global z below this |sin angle|
+PARALLEL_SINE = 1e-9  # beam axis taken as parallel to global z below this |sin angle|
 RANK_RTOL = 1e-9  # rank of geometric (unweighted) matrices, relative to the largest value
 PIVOT_PREFERENCE = 1e3  # column weight that makes massless dofs the dependent ones
 
@@ -70,16 +75,17 @@ def point_motion(offset: np.ndarray) -> np.ndarray:
 
 
 def beam_frame(beam: Beam) -> np.ndarray:
-    """Rows e1, e2, e3 of the beam's local frame (local = frame @ global).
+    """Rows e1, e2, e3 of the beam's local frame (``local = frame @ global``).
 
-    e1 along start -> end; e2 the orientation vector (default global z, global x when the axis
-    is vertical) projected off e1; e3 = e1 x e2.
+    e1 along start -> end; e2 the orientation vector (default global z, or global x when the
+    axis is vertical) made orthogonal to e1; e3 = e1 x e2.
     """
     e1 = (beam.end - beam.start) / beam.length
     ref = beam.orientation
     if ref is None:
         z = np.array([0.0, 0.0, 1.0])
-        ref = z if np.linalg.norm(np.cross(e1, z)) > PARALLEL_SINE else np.array([1.0, 0, 0])
+        vertical = np.linalg.norm(np.cross(e1, z)) <= PARALLEL_SINE
+        ref = np.array([1.0, 0.0, 0.0]) if vertical else z
     e2 = ref - (ref @ e1) * e1
     e2 = e2 / np.linalg.norm(e2)
     return np.array([e1, e2, np.cross(e1, e2)])
@@ -88,29 +94,33 @@ def beam_frame(beam: Beam) -> np.ndarray:
 def frame_element(beam: Beam, h: float) -> tuple[np.ndarray, np.ndarray]:
     """Local 12x12 stiffness and consistent mass of a frame element of length h [m].
 
-    Dofs ``[u v w theta_x theta_y theta_z]`` at node 1 then node 2, local axes; theta_z = dv/dx,
-    theta_y = -dw/dx. Returns (k [N/m, N, N m], m [kg, kg m, kg m^2]).
+    Dofs ``[u v w theta_x theta_y theta_z]`` of node 1 then node 2 in the beam's local axes,
+    with ``theta_z = dv/dx`` and ``theta_y = -dw/dx``; second_moment_z acts in the x-y plane.
+    Returns (k [N/m, N, N m], m [kg, kg m, kg m^2]).
     """
     e, g, rho, a = beam.youngs_modulus, beam.shear_modulus, beam.density, beam.area
     k = np.zeros((12, 12))
     m = np.zeros((12, 12))
     rod_k = np.array([[1.0, -1.0], [-1.0, 1.0]])
     rod_m = np.array([[2.0, 1.0], [1.0, 2.0]]) * h / 6.0
-    for idx, stiff, inertia in (
+    for idx, stiffness, inertia in (
         ([0, 6], e * a / h, rho * a),  # axial
         ([3, 9], g * beam.torsion_constant / h, rho * beam.polar_moment),  # torsion
     ):
-        k[np.ix_(idx, idx)] += stiff * rod_k
+        k[np.ix_(idx, idx)] += stiffness * rod_k
         m[np.ix_(idx, idx)] += inertia * rod_m
-    hb_k = np.array(
-        [
-            [12.0, 6 * h, -12.0, 6 * h],
-            [6 * h, 4 * h * h, -6 * h, 2 * h * h],
-            [-12.0, -6 * h, 12.0, -6 * h],
-            [6 * h, 2 * h * h, -6 * h, 4 * h * h],
-        ]
+    bend_k = (
+        np.array(
+            [
+                [12.0, 6 * h, -12.0, 6 * h],
+                [6 * h, 4 * h * h, -6 * h, 2 * h * h],
+                [-12.0, -6 * h, 12.0, -6 * h],
+                [6 * h, 2 * h * h, -6 * h, 4 * h * h],
+            ]
+        )
+        / h**3
     )
-    hb_m = np.array(
+    bend_m = np.array(
         [
             [156.0, 22 * h, 54.0, -13 * h],
             [22 * h, 4 * h * h, 13 * h, -3 * h * h],
@@ -123,27 +133,425 @@ def frame_element(beam: Beam, h: float) -> tuple[np.ndarray, np.ndarray]:
         ([1, 5, 7, 11], beam.second_moment_z, np.eye(4)),  # x-y plane: v, theta_z
         ([2, 4, 8, 10], beam.second_moment_y, flip),  # x-z plane: w, theta_y
     ):
-        k[np.ix_(idx, idx)] += (e * second / h**3) * (sign @ hb_k @ sign)
-        m[np.ix_(idx, idx)] += sign @ hb_m @ sign
+        k[np.ix_(idx, idx)] += e * second * (sign @ bend_k @ sign)
+        m[np.ix_(idx, idx)] += sign @ bend_m @ sign
     return k, m
 
 
-def elements_for(beam: Beam, fmax_hz: float, rtol: float = DEFAULT_RTOL) -> int:
-    """Number of frame elements that keeps modes below fmax within ~rtol relative error.
-
-    With omega = 2 pi fmax, the bending wavenumber beta = (omega^2 rho A / (E I_min))^(1/4) and
-    the axial and torsional wavenumbers k = omega sqrt(rho/E), omega sqrt(rho J_p/(G J_t)),
-    the element length h satisfies (beta h)^4 / BENDING_ERROR_DIVISOR <= rtol and
-    (k h)^2 / LINEAR_ERROR_DIVISOR <= rtol; at least MIN_ELEMENTS_PER_BEAM elements.
-    Consistent mass makes every frequency converge from above (Rayleigh-Ritz).
-    """
+def _wavenumbers(beam: Beam, fmax_hz: float) -> tuple[float, float]:
+    """Bending and largest of axial/torsional wavenumber [1/m] at fmax_hz."""
     omega = 2.0 * math.pi * fmax_hz
     rho, e = beam.density, beam.youngs_modulus
-    beta = (omega**2 * rho * beam.area / (e * min(beam.second_moment_y, beam.second_moment_z))) ** 0.25
-    k_axial = omega * math.sqrt(rho / e)
-    k_torsion = omega * math.sqrt(rho * beam.polar_moment / (beam.shear_modulus * beam.torsion_constant))
-    h_bending = (BENDING_ERROR_DIVISOR * rtol) ** 0.25 / beta if beta > 0 else math.inf
-    h_linear = math.sqrt(LINEAR_ERROR_DIVISOR * rtol) / max(k_axial, k_torsion, 1e-300)
-    return max(MIN_ELEMENTS_PER_BEAM, math.ceil(beam.length / min(h_bending, h_linear)))
+    weakest = min(beam.second_moment_y, beam.second_moment_z)
+    bending = (omega**2 * rho * beam.area / (e * weakest)) ** 0.25
+    axial = omega * math.sqrt(rho / e)
+    torsion = omega * math.sqrt(
+        rho * beam.polar_moment / (beam.shear_modulus * beam.torsion_constant)
+    )
+    return bending, max(axial, torsion)
 
 
+def mesh_error(beam: Beam, elements: int, fmax_hz: float) -> float:
+    """Estimated worst relative frequency error of modes below fmax_hz [Hz] for this mesh.
+
+    ``max((beta h)^4 / BENDING_ERROR_DIVISOR, (k h)^2 / LINEAR_ERROR_DIVISOR)`` with beta the
+    bending and k the larger of the axial and torsional wavenumbers at fmax_hz; it bounds a mode
+    whose energy is all in this beam (others are proportionally better). Errors are positive:
+    consistent mass makes every frequency an upper bound (Rayleigh-Ritz).
+    """
+    h = beam.length / elements
+    bending, linear = _wavenumbers(beam, fmax_hz)
+    return max((bending * h) ** 4 / BENDING_ERROR_DIVISOR, (linear * h) ** 2 / LINEAR_ERROR_DIVISOR)
+
+
+def elements_for(beam: Beam, fmax_hz: float, rtol: float = DEFAULT_RTOL) -> int:
+    """Fewest frame elements with :func:`mesh_error` <= rtol at fmax_hz (uncapped, >= 2).
+
+    The element length h satisfies ``beta h <= (BENDING_ERROR_DIVISOR rtol)^(1/4)`` and
+    ``k h <= (LINEAR_ERROR_DIVISOR rtol)^(1/2)``.
+    """
+    bending, linear = _wavenumbers(beam, fmax_hz)
+    h = min(
+        (BENDING_ERROR_DIVISOR * rtol) ** 0.25 / bending if bending > 0 else math.inf,
+        math.sqrt(LINEAR_ERROR_DIVISOR * rtol) / linear if linear > 0 else math.inf,
+    )
+    return max(MIN_ELEMENTS_PER_BEAM, math.ceil(beam.length / h) if h < math.inf else 0)
+
+
+# ---------------------------------------------------------------------------------------------
+# assembly
+
+
+@dataclass(frozen=True, eq=False)
+class AssembledModel:
+    """Mass-stiffness model of a :class:`Model` on all dofs, before constraints.
+
+    Attributes
+    ----------
+    K, M : (n, n) stiffness [N/m, N/rad, N m/rad] and mass [kg, kg m, kg m^2].
+    deformation : (r, n) F with ``K = F^T F``: ``sqrt(k) d_j`` per finite spring direction,
+        ``R^T D`` per beam element (D: motion of node 2 relative to node 1 carried rigidly,
+        ``R^T R`` the element stiffness with node 1 clamped).
+    spring_directions : (s, n) the finite spring rows ``d_j`` scaled to unit norm.
+    constraints : (c, n) the rows ``d_j`` of the rigid (inf) hinge directions: ``C u = 0``.
+    massless : (n,) True for the dofs of virtual bodies.
+    dof_labels : (body name, node, component) per dof; node 0 for a rigid body (centre of
+        mass) or virtual body (its point), 0..n_elements from start to end of a beam.
+    body_dofs : body name -> (n_nodes, 6) dof indices.
+    node_positions : body name -> (n_nodes, 3) [m].
+    elements_per_beam : beam name -> number of frame elements.
+    mesh_error : beam name -> :func:`mesh_error` at the mesh frequency (empty without one).
+    source : the model's file, for messages.
+    """
+
+    K: np.ndarray
+    M: np.ndarray
+    deformation: np.ndarray
+    spring_directions: np.ndarray
+    constraints: np.ndarray
+    massless: np.ndarray
+    dof_labels: tuple[tuple[str, int, str], ...]
+    body_dofs: dict[str, np.ndarray]
+    node_positions: dict[str, np.ndarray]
+    elements_per_beam: dict[str, int]
+    mesh_error: dict[str, float]
+    source: str = "<memory>"
+
+
+def assemble(
+    model: Model,
+    elements_per_beam: int | None = None,
+    fmax_hz: float | None = None,
+    rtol: float = DEFAULT_RTOL,
+    max_elements_per_beam: int = MAX_ELEMENTS_PER_BEAM,
+) -> AssembledModel:
+    """Assemble the mass-stiffness model of ``model``.
+
+    Parameters
+    ----------
+    elements_per_beam : frame elements per beam. Default: :func:`elements_for` at ``fmax_hz``
+        [Hz] and ``rtol`` (at most ``max_elements_per_beam``), or DEFAULT_ELEMENTS_PER_BEAM
+        without ``fmax_hz``.
+    """
+    if elements_per_beam is not None and elements_per_beam < 1:
+        raise ValueError(f"elements_per_beam must be >= 1, got {elements_per_beam}")
+    positions, counts = _mesh(model, elements_per_beam, fmax_hz, rtol, max_elements_per_beam)
+    body_dofs: dict[str, np.ndarray] = {}
+    labels: list[tuple[str, int, str]] = []
+    for body in model.bodies:
+        n_nodes = len(positions[body.name])
+        body_dofs[body.name] = len(labels) + np.arange(6 * n_nodes).reshape(n_nodes, 6)
+        labels += [(body.name, i, c) for i in range(n_nodes) for c in COMPONENTS]
+    n = len(labels)
+    K = np.zeros((n, n))
+    M = np.zeros((n, n))
+    massless = np.zeros(n, dtype=bool)
+    deformation: list[np.ndarray] = []
+    for body in model.bodies:
+        dofs = body_dofs[body.name]
+        if isinstance(body, RigidBody):
+            M[np.ix_(dofs[0], dofs[0])] = sla.block_diag(body.mass * np.eye(3), body.inertia)
+        elif isinstance(body, VirtualBody):
+            massless[dofs[0]] = True
+        else:
+            deformation.append(_add_beam(body, dofs, positions[body.name], K, M))
+    springs, constraints = [], []
+    for hinge in model.hinges:
+        d = _relative_motion(model, hinge, body_dofs, positions, n)
+        for j, k in enumerate(hinge.stiffness6):
+            if np.isinf(k):
+                constraints.append(d[j])
+            elif k > 0.0:
+                idx = np.flatnonzero(d[j])
+                K[np.ix_(idx, idx)] += k * np.outer(d[j, idx], d[j, idx])
+                springs.append(d[j])
+                deformation.append(math.sqrt(k) * d[j][None, :])
+    springs = np.array(springs).reshape(-1, n)
+    return AssembledModel(
+        K=K,
+        M=M,
+        deformation=np.vstack(deformation) if deformation else np.zeros((0, n)),
+        spring_directions=springs / np.linalg.norm(springs, axis=1, keepdims=True),
+        constraints=np.array(constraints).reshape(-1, n),
+        massless=massless,
+        dof_labels=tuple(labels),
+        body_dofs=body_dofs,
+        node_positions=positions,
+        elements_per_beam=counts,
+        mesh_error={}
+        if fmax_hz is None
+        else {name: mesh_error(model.body(name), c, fmax_hz) for name, c in counts.items()},
+        source=model.source,
+    )
+
+
+def _mesh(model, elements_per_beam, fmax_hz, rtol, max_elements) -> tuple[dict, dict]:
+    """Node positions [m] per body and element counts per beam."""
+    points: dict[str, np.ndarray] = {}  # a virtual body sits at its (first) hinge's point
+    for hinge in model.hinges:
+        for side in hinge.between:
+            if side != GROUND and isinstance(model.body(side), VirtualBody):
+                points.setdefault(side, np.asarray(hinge.at, dtype=float))
+    positions: dict[str, np.ndarray] = {}
+    counts: dict[str, int] = {}
+    for body in model.bodies:
+        if isinstance(body, RigidBody):
+            positions[body.name] = np.asarray(body.center_of_mass, dtype=float)[None, :]
+        elif isinstance(body, VirtualBody):
+            if body.name not in points:
+                raise ModelError(f"{model.source}: body {body.name!r}: no hinge names it")
+            positions[body.name] = points[body.name][None, :]
+        else:
+            if elements_per_beam is not None:
+                n = int(elements_per_beam)
+            elif fmax_hz is not None:
+                n = min(elements_for(body, fmax_hz, rtol), max_elements)
+            else:
+                n = DEFAULT_ELEMENTS_PER_BEAM
+            counts[body.name] = n
+            s = np.linspace(0.0, 1.0, n + 1)[:, None]
+            positions[body.name] = body.start + s * (body.end - body.start)
+    return positions, counts
+
+
+def _add_beam(beam: Beam, dofs, nodes, K, M) -> np.ndarray:
+    """Add a meshed beam's elements to K and M in place; return its deformation rows.
+
+    An element's stiffness is ``D^T K22 D`` with ``D = [-point_motion(x2 - x1), I]`` the motion
+    of node 2 relative to node 1 carried rigidly and K22 the stiffness with node 1 clamped;
+    the rows returned are ``R D`` per element, ``K22 = R^T R``.
+    """
+    n, n_el = K.shape[0], len(nodes) - 1
+    k_local, m_local = frame_element(beam, beam.length / n_el)
+    rot = sla.block_diag(*[beam_frame(beam)] * 4)  # local = rot @ global
+    k_global = rot.T @ k_local @ rot
+    m_global = rot.T @ m_local @ rot
+    relative = np.hstack([-point_motion(nodes[1] - nodes[0]), np.eye(6)])
+    rows = np.linalg.cholesky(k_global[6:, 6:]).T @ relative
+    out = np.zeros((6 * n_el, n))
+    for e in range(n_el):
+        idx = np.concatenate([dofs[e], dofs[e + 1]])
+        K[np.ix_(idx, idx)] += k_global
+        M[np.ix_(idx, idx)] += m_global
+        out[6 * e : 6 * e + 6, idx] = rows
+    return out
+
+
+def _relative_motion(model: Model, hinge, body_dofs, positions, n: int) -> np.ndarray:
+    """(6, n) map from all dofs to ``d = u_A(P) - u_B(P)`` at the hinge point P."""
+    d = np.zeros((6, n))
+    at = np.asarray(hinge.at, dtype=float)
+    for side, sign in zip(hinge.between, (1.0, -1.0), strict=True):
+        if side == GROUND:
+            continue
+        nodes = positions[side]
+        node = int(np.argmin(np.linalg.norm(nodes - at, axis=1)))
+        if isinstance(model.body(side), Beam) and node not in (0, len(nodes) - 1):
+            raise ModelError(
+                f"{model.source}: hinge {hinge.name!r}: field 'at': {at.tolist()} is not at an "
+                f"end of beam {side!r}"
+            )
+        d[:, body_dofs[side][node]] += sign * point_motion(at - nodes[node])
+    return d
+
+
+# ---------------------------------------------------------------------------------------------
+# constraints, condensation, eigen-solution
+
+
+def _constraint_basis(constraints: np.ndarray, massless: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Basis N of the motions the rigid directions allow (``u = N v``, ``C N = 0``).
+
+    Dependent dofs are picked by column-pivoted QR of the row-normalised C, massless dofs
+    first; the independent dofs are the coordinates v themselves, so N stays local (a dof no
+    constraint touches keeps a unit column) and independent coordinates keep their own mass.
+    Returns (N, indices of the independent dofs).
+    """
+    n = constraints.shape[1]
+    if len(constraints) == 0:
+        return np.eye(n), np.arange(n)
+    rows = constraints / np.linalg.norm(constraints, axis=1, keepdims=True)
+    weight = np.where(massless, PIVOT_PREFERENCE, 1.0)
+    _, r, perm = sla.qr(rows * weight, mode="economic", pivoting=True)
+    pivots = np.abs(np.diag(r))
+    rank = int(np.count_nonzero(pivots > RANK_RTOL * pivots[0]))
+    dependent, independent = perm[:rank], perm[rank:]
+    basis = np.zeros((n, len(independent)))
+    basis[independent, np.arange(len(independent))] = 1.0
+    coupling = sla.solve_triangular(r[:rank, :rank], r[:rank, rank:])
+    basis[dependent] = -weight[dependent, None] * coupling / weight[None, independent]
+    return basis, independent
+
+
+def _null_space(a: np.ndarray, columns: int) -> np.ndarray:
+    """Orthonormal basis (as columns) of the null space of an (r, columns) geometric matrix."""
+    if columns == 0 or a.shape[0] == 0:
+        return np.eye(columns)
+    return sla.null_space(a, rcond=RANK_RTOL)
+
+
+def _rank(a: np.ndarray, floor: float = 0.0) -> int:
+    """Numerical rank of a geometric matrix: singular values above RANK_RTOL * max(s1, floor)."""
+    if a.size == 0:
+        return 0
+    s = sla.svdvals(a)
+    return int(np.count_nonzero(s > RANK_RTOL * max(s[0], floor)))
+
+
+def _split_massless(am: AssembledModel, basis, independent) -> tuple[np.ndarray, np.ndarray]:
+    """Bases T_a (directions with mass) and T_b (massless) of the motions ``u = N v``.
+
+    Every massive independent coordinate moves its own massive dof, so a massless direction
+    lies in the span of the massless independent coordinates: T_b is the part of that span
+    that drives no massive dependent dof; T_a holds the rest and every massive coordinate.
+    """
+    light = am.massless[independent]
+    cols = np.flatnonzero(light)
+    free = _null_space(basis[~am.massless][:, cols], len(cols))
+    driving = _null_space(free.T, len(cols))
+    return np.hstack([basis[:, ~light], basis[:, cols] @ driving]), basis[:, cols] @ free
+
+
+def _check_no_massless_mechanism(am: AssembledModel, t_b: np.ndarray) -> None:
+    """Raise ModelError if a massless motion strains no spring (K_bb singular)."""
+    strain = am.spring_directions @ t_b
+    if t_b.shape[1] == 0 or _rank(strain, floor=1.0) == t_b.shape[1]:
+        return
+    z = _null_space(strain, t_b.shape[1])[:, 0]
+    body, _, component = am.dof_labels[int(np.argmax(np.abs(t_b @ z)))]
+    raise ModelError(
+        f"{am.source}: body {body!r}: massless mechanism: it moves ({component}) without "
+        "straining any hinge; give the hinges on it a nonzero stiffness in that direction"
+    )
+
+
+def _zero_mode_count(am: AssembledModel) -> int:
+    """Number of independent motions that strain nothing (rigid-body and mechanism modes).
+
+    Such a motion moves every beam rigidly, so it is ``E q`` with q the 6 rigid-motion dofs of
+    each body (E carries a beam's first node to its other nodes) and ``[C; S] E q = 0``.
+    """
+    n_bodies = len(am.body_dofs)
+    carry = np.zeros((len(am.dof_labels), 6 * n_bodies))
+    for b, (name, dofs) in enumerate(am.body_dofs.items()):
+        nodes = am.node_positions[name]
+        for node, idx in enumerate(dofs):
+            carry[idx, 6 * b : 6 * b + 6] = point_motion(nodes[node] - nodes[0])
+    constraints = am.constraints / np.linalg.norm(am.constraints, axis=1, keepdims=True)
+    return 6 * n_bodies - _rank(np.vstack([constraints, am.spring_directions]) @ carry)
+
+
+def _svd(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Singular values (descending) and right singular vectors (rows) of a."""
+    try:
+        _, s, vh = sla.svd(a, full_matrices=False, lapack_driver="gesdd")
+    except np.linalg.LinAlgError:
+        _, s, vh = sla.svd(a, full_matrices=False, lapack_driver="gesvd")
+    return s, vh
+
+
+def _solve(am: AssembledModel) -> tuple[np.ndarray, np.ndarray, int]:
+    """Nonzero angular frequencies [rad/s] ascending, mass-normalised shapes, zero-mode count.
+
+    With ``u = T_a a + T_b b`` (b massless), ``F_a = F T_a``, ``F_b = F T_b`` and P_b the
+    projector on the range of F_b, the exact static condensation is
+    ``K_aa - K_ab K_bb^-1 K_ba = F_red^T F_red``, ``F_red = (I - P_b) F_a``, and
+    ``b = -F_b^+ F_a a``. With S the Jacobi scaling of ``M_a = T_a^T M T_a`` and
+    ``S M_a S = L L^T``, omega are the singular values of ``F_red S L^-T`` and the right
+    singular vectors v give ``a = S L^-T v`` (``a^T M_a a = 1``).
+    """
+    basis, independent = _constraint_basis(am.constraints, am.massless)
+    t_a, t_b = _split_massless(am, basis, independent)
+    _check_no_massless_mechanism(am, t_b)
+    zero_modes = _zero_mode_count(am)
+    n_modes = t_a.shape[1] - zero_modes
+    f_a = am.deformation @ t_a
+    f_b = am.deformation @ t_b
+    scale_b = np.linalg.norm(f_b, axis=0)
+    q_b, r_b = np.linalg.qr(f_b / scale_b)
+    f_red = f_a - q_b @ (q_b.T @ f_a)
+    m_a = t_a.T @ am.M @ t_a
+    scale = 1.0 / np.sqrt(np.diag(m_a))
+    chol = np.linalg.cholesky(scale[:, None] * m_a * scale[None, :])
+    sigma, vh = _svd(sla.solve_triangular(chol, (f_red * scale).T, lower=True).T)
+    omega = sigma[:n_modes][::-1]
+    coords = scale[:, None] * sla.solve_triangular(chol.T, vh[:n_modes][::-1].T, lower=False)
+    condensed = sla.solve_triangular(r_b, q_b.T @ (f_a @ coords)) / scale_b[:, None]
+    shapes = (t_a @ coords - t_b @ condensed).T
+    sign = np.sign(shapes[np.arange(n_modes), np.argmax(np.abs(shapes), axis=1)])
+    return omega, shapes * sign[:, None], zero_modes
+
+
+@dataclass(frozen=True, eq=False)
+class AssembledModes:
+    """Natural frequencies and mode shapes of the assembled model.
+
+    Attributes
+    ----------
+    frequencies_hz : (n_modes,) nonzero natural frequencies [Hz], ascending.
+    rigid_body_modes : number of zero-frequency (rigid-body and mechanism) modes (not listed).
+    shapes : (n_modes, n_dofs) mass-normalised shapes on all dofs of ``assembled``,
+        ``shapes @ M @ shapes.T = I`` [m/sqrt(kg), rad/sqrt(kg)]; largest entry positive.
+    assembled : the model they belong to (dofs, mesh, K, M).
+    """
+
+    frequencies_hz: np.ndarray
+    rigid_body_modes: int
+    shapes: np.ndarray
+    assembled: AssembledModel
+
+    @property
+    def dof_labels(self) -> tuple[tuple[str, int, str], ...]:
+        """(body name, node, component) of each column of ``shapes``."""
+        return self.assembled.dof_labels
+
+    def body_motion(self, body_name: str) -> np.ndarray:
+        """Motion ``[r; theta]`` of a body in each mode.
+
+        (n_modes, 6) at the centre of mass of a rigid body or the point of a virtual body;
+        (n_modes, n_nodes, 6) at the mesh nodes of a beam (``assembled.node_positions``).
+        """
+        dofs = self.assembled.body_dofs[body_name]
+        motion = self.shapes[:, dofs]
+        return motion if len(dofs) > 1 else motion[:, 0]
+
+
+def assembled_modes(
+    model: Model,
+    fmax_hz: float | None = None,
+    count: int | None = None,
+    elements_per_beam: int | None = None,
+    rtol: float = DEFAULT_RTOL,
+    max_elements_per_beam: int = MAX_ELEMENTS_PER_BEAM,
+) -> AssembledModes:
+    """Natural frequencies and mode shapes by the assembled model ("ordinary method").
+
+    Parameters
+    ----------
+    fmax_hz : keep the modes at or below this frequency [Hz]; also sets the automatic mesh.
+    count : keep at most this many (the lowest). Without ``fmax_hz`` and ``elements_per_beam``
+        the mesh is set by the ``count``-th frequency of a first solution on the default mesh.
+    elements_per_beam : a fixed mesh instead of the automatic one (:func:`elements_for`).
+    rtol, max_elements_per_beam : target error and cap of the automatic mesh.
+
+    Every frequency converges from above as the mesh is refined (consistent mass,
+    Rayleigh-Ritz), so the number of modes found below ``fmax_hz`` never exceeds the exact one.
+    """
+    mesh_hz = fmax_hz
+    has_beams = any(isinstance(b, Beam) for b in model.bodies)
+    if mesh_hz is None and count is not None and elements_per_beam is None and has_beams:
+        first = assembled_modes(model, count=count, elements_per_beam=DEFAULT_ELEMENTS_PER_BEAM)
+        if len(first.frequencies_hz):
+            mesh_hz = float(first.frequencies_hz[-1])
+    am = assemble(model, elements_per_beam, mesh_hz, rtol, max_elements_per_beam)
+    omega, shapes, zero_modes = _solve(am)
+    freq = omega / (2.0 * math.pi)
+    keep = np.ones(len(freq), dtype=bool) if fmax_hz is None else freq <= fmax_hz
+    if count is not None:
+        keep &= np.arange(len(freq)) < count
+    return AssembledModes(
+        frequencies_hz=freq[keep],
+        rigid_body_modes=zero_modes,
+        shapes=shapes[keep],
+        assembled=am,
+    )

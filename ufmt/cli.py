@@ -71,8 +71,10 @@ def cmd_modes(args) -> int:
         desc = lines[i] if lines else ""
         print(f"{i + 1:>5} {f:>14.6f}  {desc}")
     if sol.expected != sol.frequencies_hz.size:
-        print(f"warning: the assembled model counts {sol.expected} modes in this range",
-              file=sys.stderr)
+        print(
+            f"warning: the assembled model counts {sol.expected} modes in this range",
+            file=sys.stderr,
+        )
     return 0
 
 

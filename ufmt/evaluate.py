@@ -153,6 +153,16 @@ def model_file(model: str | os.PathLike | None) -> Path:
     return packaged_model_path() if model is None else Path(model)
 
 
+def cutting_travel_mm(model: str | os.PathLike | None = None) -> float:
+    """Slide travel of one finishing pass [mm]: workpiece length along y + 2 R, from the first
+    touch of the tool circle to its exit (``Machine.cut_span`` of the model's ``[machine]``)."""
+    from ufmt.dynamics.cutting import machine_of
+    from ufmt.model.load import load_model
+
+    low, high = machine_of(load_model(model_file(model))).cut_span
+    return (high - low) * 1e3
+
+
 def file_sha256(path: str | os.PathLike) -> str:
     """SHA-256 hex digest of a file's bytes."""
     return hashlib.sha256(Path(path).read_bytes()).hexdigest()
@@ -262,7 +272,7 @@ def _physics(design_items, process_items, model_sha, code_sha, path) -> dict:
         basis = _modal_basis(path, model_sha, design_items)
         result = simulate(model, Process(**dict(process_items)), basis=basis)
     outputs = {name: float(getattr(result, name)) for name in METRICS}
-    frequencies = list(basis.frequencies_hz[:N_FREQUENCIES])
+    frequencies = list(basis.omega[:N_FREQUENCIES] / (2.0 * math.pi))
     frequencies += [math.nan] * (N_FREQUENCIES - len(frequencies))
     outputs.update(zip(FREQUENCIES, map(float, frequencies), strict=True))
     outputs["message"] = _one_line("; ".join(dict.fromkeys(str(w.message) for w in caught)))

@@ -44,7 +44,9 @@ class ModalBasis:
         for name, s in self.body_shapes.items():
             s = np.asarray(s, dtype=float)
             if s.shape != (omega.size, 6):
-                raise ValueError(f"body_shapes[{name!r}] has shape {s.shape}, need {(omega.size, 6)}")
+                raise ValueError(
+                    f"body_shapes[{name!r}] has shape {s.shape}, need {(omega.size, 6)}"
+                )
             if name not in self.body_centers:
                 raise ValueError(f"body_centers has no entry for body {name!r}")
             shapes[name] = _readonly(s)

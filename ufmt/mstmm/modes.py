@@ -83,7 +83,7 @@ def mode_shapes(system: TransferSystem, frequencies_hz) -> ModeShapes:
     omega = 2 * np.pi * f
     u_all, states = system.evaluate(omega, keep_states=True)
     u_near = system.evaluate(omega * OFF_ROOT)
-    z = np.zeros((f.size, system.order))
+    z = np.zeros((f.size, system.size))
     start = 0
     while start < f.size:  # groups of repeated roots share a null space
         stop = start + 1
@@ -108,15 +108,26 @@ def mode_shapes(system: TransferSystem, frequencies_hz) -> ModeShapes:
             virtual[body.name] = _apply(states[("node_out", body.name)], z)[:, :6]
     shapes = ModeShapes(f, z, rigid, virtual, beams, np.ones(f.size), centers)
     _orthonormalise_repeated(model, shapes)
-    peak = np.max(np.abs(np.concatenate([v[:, :3] for v in rigid.values()] + [
-        m[:, :, :3].reshape(f.size, -1) for _, _, m in beams.values()] + [np.zeros((f.size, 1))],
-        axis=1)), axis=1)
+    peak = np.max(
+        np.abs(
+            np.concatenate(
+                [v[:, :3] for v in rigid.values()]
+                + [m[:, :, :3].reshape(f.size, -1) for _, _, m in beams.values()]
+                + [np.zeros((f.size, 1))],
+                axis=1,
+            )
+        ),
+        axis=1,
+    )
     peak[peak == 0] = 1.0
     shapes = _scaled(shapes, 1.0 / peak)
-    mass = _modal_mass(model, shapes.rigid, shapes.beams)
+    mass = modal_mass(model, shapes.rigid, shapes.beams)
     shapes = _scaled(shapes, 1.0 / np.sqrt(mass))
-    return ModeShapes(*[getattr(shapes, k) for k in (
-        "frequencies_hz", "z_all", "rigid", "virtual", "beams")], mass, centers)
+    return ModeShapes(
+        *[getattr(shapes, k) for k in ("frequencies_hz", "z_all", "rigid", "virtual", "beams")],
+        mass,
+        centers,
+    )
 
 
 def _beam_field(system, beam: Beam, states, z, omega):
@@ -137,7 +148,7 @@ def _beam_field(system, beam: Beam, states, z, omega):
     return positions, 0.5 * wts * length, motion
 
 
-def _modal_mass(model, rigid, beams) -> np.ndarray:
+def modal_mass(model, rigid, beams) -> np.ndarray:
     """<V, M V> per mode: rigid bodies (eq. 3.1) plus ∫ρA|u|² + ρJpθ_axial² ds of beams."""
     total = 0.0
     for name, v in rigid.items():

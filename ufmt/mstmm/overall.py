@@ -20,6 +20,21 @@ from ufmt.mstmm import elements
 from ufmt.mstmm.topology import Topology, build_topology
 
 CUT = np.diag(np.r_[np.ones(6), -np.ones(6)])  # C = diag(I3, I3, -I3, -I3)
+GROWTH_LIMIT = 1e6  # condition growth allowed along a transfer path before segmenting
+
+
+def _physical_scaling(model: Model) -> np.ndarray:
+    """State scaling [1/m, 1/rad·ℓ, 1/(k ℓ), 1/k] making a stage's condition number physical.
+
+    k is the geometric mean of the model's finite translational hinge stiffnesses [N/m] and
+    ℓ the spread of its hinge points [m].
+    """
+    k = np.concatenate([h.stiffness for h in model.hinges])
+    k = k[(k > 0) & np.isfinite(k)]
+    k_ref = float(np.exp(np.mean(np.log(k)))) if k.size else 1.0
+    pts = np.array([h.at for h in model.hinges])
+    ell = float(np.sqrt(((pts - pts.mean(axis=0)) ** 2).sum(axis=1).mean())) or 1.0
+    return np.r_[np.ones(3), np.full(3, ell), np.full(3, 1 / (k_ref * ell)), np.full(3, 1 / k_ref)]
 
 
 def equilibrate(u: np.ndarray):
@@ -68,14 +83,66 @@ def _unknown_state(n_omega: int, columns: np.ndarray) -> State:
 class TransferSystem:
     """The MSTMM of one model: topology plus element data, evaluated at any ω array."""
 
-    def __init__(self, model: Model):
+    def __init__(self, model: Model, fmax_hz: float | None = None):
         self.model = model
         self.topology: Topology = build_topology(model)
+        self.segments: tuple[str, ...] = ()
+        if fmax_hz is not None:
+            self.segment_for(fmax_hz)
+
+    def segment_for(self, fmax_hz: float) -> tuple[str, ...]:
+        """Choose the nodes after which the transfer is segmented for ω up to 2π·fmax_hz.
+
+        Long transfer products lose the small solution components next to the growing ones
+        (mω²/k per stage at high frequency). Following each path from the tips, the condition
+        number of every stage (body then parent element, physically scaled) is multiplied up;
+        where it passes GROWTH_LIMIT the node's output state becomes 12 new unknowns S with 12
+        equations Z_out - S = 0. The matrix grows, but its determinant is exactly det U_all
+        (Schur complement with an identity block), so roots and null vectors are unchanged.
+        """
+        topo = self.topology
+        w = np.array([2 * np.pi * fmax_hz])
+        scale = _physical_scaling(self.model)
+        growth: dict[str, float] = {}
+        chosen = []
+        for name in topo.order:
+            node = topo.nodes[name]
+            stage = self._edge_matrix(node.parent_edge, w)[0]
+            if node.kind == "rigid":
+                p1 = (
+                    topo.edges[node.inputs[0][0]].point_at(name)
+                    if node.inputs
+                    else (node.output_point)
+                )
+                b = node.body
+                stage = (
+                    stage
+                    @ elements.rigid_body_first_input(
+                        w, b.mass, b.inertia, b.center_of_mass, p1, node.output_point
+                    )[0]
+                )
+            g = np.linalg.cond(scale[:, None] * stage / scale[None, :])
+            upstream = [
+                growth[topo.edges[i].input_node]
+                for i, role in node.inputs
+                if role == "edge" and topo.edges[i].tree
+            ]
+            growth[name] = g * max(upstream, default=1.0)
+            if growth[name] > GROWTH_LIMIT:
+                chosen.append(name)
+                growth[name] = 1.0
+        self.segments = tuple(chosen)
+        return self.segments
 
     @property
     def order(self) -> int:
-        """Order of U_all."""
+        """Order of U_all (boundary unknowns; segment states not counted)."""
         return self.topology.order_size
+
+    @property
+    def size(self) -> int:
+        """Size of the evaluated matrix: U_all's order plus 12 per segment."""
+        return self.topology.order_size + 12 * len(self.segments)
 
     def _edge_matrix(self, index: int, omega: np.ndarray) -> np.ndarray:
         e = self.topology.edges[index]
@@ -112,7 +179,11 @@ class TransferSystem:
         omega = np.atleast_1d(np.asarray(omega, dtype=float))
         nw = omega.size
         topo = self.topology
-        n = topo.order_size
+        n_base = topo.order_size
+        n = n_base + 12 * len(self.segments)
+        segment_cols = {
+            name: n_base + 12 * j + np.arange(12) for j, name in enumerate(self.segments)
+        }
         rows: list[np.ndarray] = []
         states: dict = {}
         edge_out: dict[int, State] = {}
@@ -156,6 +227,15 @@ class TransferSystem:
             for direction in topo.released_columns.get(i, {}):
                 force_row = 9 + direction if direction < 3 else 6 + direction - 3
                 rows.append(out.dense([force_row], n))
+            if name in segment_cols:  # Z_out - S = 0, transfer continues from S
+                cols = segment_cols[name]
+                z = out.dense(range(12), n)
+                z[:, :, cols] -= np.eye(12)
+                rows.append(z)
+                ident = np.broadcast_to(np.eye(12), (nw, 12, 12)).copy()
+                out = State(cols, ident)
+                if keep_states:
+                    states[("segment", name)] = out
             edge_out[i] = self._edge_output(i, out, omega)
             if keep_states:
                 states[("edge_in", i)] = out

@@ -24,6 +24,7 @@ from ufmt.mstmm.overall import TransferSystem, equilibrate
 
 TWO_PI = 2.0 * np.pi
 STEPS = np.array([3e-2, 1e-2, 3e-3, 1e-3, 3e-4, 1e-4, 1e-5, 1e-6, 1e-7])
+NOISE_RTOL = 1e-5  # sign flips of det closer than this (relative) are rounding noise
 OFF_ROOT = 1.0 + 3.7e-3  # a generic point near a root, where the scaling of U_all is taken
 
 
@@ -106,8 +107,12 @@ def _golden_nullity(system, centre, lo, hi, k, iters=48):
     r, c = equilibrate(system.evaluate(centre * OFF_ROOT))
 
     def sigma(w):
-        s = np.linalg.svd(system.evaluate(w.ravel()) * np.repeat(r, w.size // r.shape[0], 0)
-                          * np.repeat(c, w.size // c.shape[0], 0), compute_uv=False)
+        s = np.linalg.svd(
+            system.evaluate(w.ravel())
+            * np.repeat(r, w.size // r.shape[0], 0)
+            * np.repeat(c, w.size // c.shape[0], 0),
+            compute_uv=False,
+        )
         return s[:, -k].reshape(w.shape)
 
     offsets = np.concatenate([-STEPS, [0.0], STEPS[::-1]])
@@ -144,6 +149,7 @@ def natural_frequencies(
     ``estimates_hz`` are the assembled model's nonzero frequencies (ascending, repeated roots
     repeated); they bracket and count the roots, the MSTMM values are computed independently.
     """
+    system.segment_for(fmax_hz)
     est = np.sort(np.asarray(estimates_hz, dtype=float))
     est = est[est > 0]
     expected = int(np.sum(est <= fmax_hz))
@@ -165,22 +171,17 @@ def natural_frequencies(
         roots_w, cost = _illinois(system, w[change], w[change + 1], sign[change], rtol)
     n_eval += cost
     found = np.sort(np.concatenate([roots_w, exact])) / TWO_PI
+    found = _merge_noise_roots(found, near)
     found = _add_even_roots(system, found, near, fmax_hz, f_lo)
     return Roots(found, expected, n_eval)
 
 
 def _add_even_roots(system, found, near, fmax_hz, f_lo):
     """Find repeated (even-multiplicity) roots the sign scan cannot see, near the estimates."""
-    clusters = _clusters(near)
     lo_list, hi_list, need, centres = [], [], [], []
-    for idx in clusters:
-        centre = near[idx].mean()
+    for idx, centre, lo, hi in _windows(near, f_lo, fmax_hz):
         if centre > fmax_hz:
             continue
-        prev_e = near[idx[0] - 1] if idx[0] > 0 else f_lo
-        next_e = near[idx[-1] + 1] if idx[-1] + 1 < near.size else fmax_hz * 1.05
-        lo = max(np.sqrt(prev_e * near[idx[0]]), centre * (1 - 3e-2))
-        hi = min(np.sqrt(next_e * near[idx[-1]]), centre * (1 + 3e-2))
         have = np.sum((found >= lo) & (found <= hi))
         missing = len(idx) - have
         if missing > 0:
@@ -202,6 +203,41 @@ def _add_even_roots(system, found, near, fmax_hz, f_lo):
             if vanished and w[j] / TWO_PI <= fmax_hz:
                 extra.extend([w[j] / TWO_PI] * vanished)
     return np.sort(np.concatenate([found, extra]))
+
+
+def _windows(near: np.ndarray, f_lo: float, fmax_hz: float):
+    """(cluster indices, lo, hi) [Hz]: the search window of each cluster of estimates."""
+    out = []
+    for idx in _clusters(near):
+        centre = near[idx].mean()
+        prev_e = near[idx[0] - 1] if idx[0] > 0 else f_lo
+        next_e = near[idx[-1] + 1] if idx[-1] + 1 < near.size else fmax_hz * 1.05
+        lo = max(np.sqrt(prev_e * near[idx[0]]), centre * (1 - 3e-2))
+        hi = min(np.sqrt(next_e * near[idx[-1]]), centre * (1 + 3e-2))
+        out.append((idx, centre, lo, hi))
+    return out
+
+
+def _merge_noise_roots(found: np.ndarray, near: np.ndarray) -> np.ndarray:
+    """Undo sign flips of det U_all caused by rounding noise near a root.
+
+    At noise level det flips sign an odd number of times within ~NOISE_RTOL of one root.
+    Within each cluster window that holds more roots than the assembled model counts there,
+    three consecutive roots a < b < c spanning less than NOISE_RTOL are replaced by b.
+    """
+    out = np.sort(found)
+    for idx, _, lo, hi in _windows(near, 0.0, np.inf):
+        while True:
+            inside = np.flatnonzero((out >= lo) & (out <= hi))
+            if inside.size <= idx.size or inside.size < 3:
+                break
+            f = out[inside]
+            span = (f[2:] - f[:-2]) / f[2:]
+            k = int(np.argmin(span))
+            if span[k] > NOISE_RTOL:
+                break
+            out = np.delete(out, [inside[k], inside[k + 2]])
+    return out
 
 
 def _clusters(est: np.ndarray, rel: float = 1e-6) -> list[np.ndarray]:

@@ -74,22 +74,31 @@ def solve_modes(
         raise UfmtError(f"--method: {method!r} is not one of 'mstmm', 'assembled'")
     t0 = time.perf_counter()
     guess_fmax = fmax_hz if count is None else None
-    asm = assembled_modes(model, fmax_hz=_pad(guess_fmax), count=None if count is None else
-                          count + 1)
+    asm = assembled_modes(
+        model, fmax_hz=_pad(guess_fmax), count=None if count is None else count + 1
+    )
     est = np.asarray(asm.frequencies_hz)
     fmax = _range(fmax_hz, count, est)
     if method == "assembled":
         f = est[est <= fmax]
-        return ModalSolution(f, 0, "assembled", f.size, asm.rigid_body_modes, None,
-                             time.perf_counter() - t0)
+        return ModalSolution(
+            f, 0, "assembled", f.size, asm.rigid_body_modes, None, time.perf_counter() - t0
+        )
     system = TransferSystem(model)
     roots = natural_frequencies(system, fmax, est)
     f = roots.frequencies_hz
     if count is not None:
         f = f[:count]
     modes = mode_shapes(system, f) if shapes and f.size else None
-    return ModalSolution(f, system.order, "mstmm", min(roots.expected, count or roots.expected),
-                         asm.rigid_body_modes, modes, time.perf_counter() - t0)
+    return ModalSolution(
+        f,
+        system.order,
+        "mstmm",
+        min(roots.expected, count or roots.expected),
+        asm.rigid_body_modes,
+        modes,
+        time.perf_counter() - t0,
+    )
 
 
 def _pad(fmax_hz):
@@ -109,12 +118,14 @@ def energy_shares(model: Model, shapes: ModeShapes) -> np.ndarray:
             out[:, b_i, 3:] = rot * (rot @ body.inertia)
         elif isinstance(body, Beam):
             _, wts, mot = shapes.beams[body.name]
-            out[:, b_i, :3] = body.density * body.area * (mot[:, :, :3] ** 2 * wts[None, :, None]
-                                                          ).sum(axis=1)
+            out[:, b_i, :3] = (
+                body.density * body.area * (mot[:, :, :3] ** 2 * wts[None, :, None]).sum(axis=1)
+            )
             axis = (body.end - body.start) / body.length
             twist = mot[:, :, 3:] @ axis
             out[:, b_i, 3:] = (body.density * body.polar_moment * twist**2 @ wts)[:, None] * (
-                axis**2)[None, :]
+                axis**2
+            )[None, :]
     total = out.sum(axis=(1, 2), keepdims=True)
     total[total == 0] = 1.0
     return out / total

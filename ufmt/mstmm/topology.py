@@ -112,8 +112,15 @@ def build_topology(model: Model) -> Topology:
             for end, p in (("start", body.start), ("end", body.end)):
                 nodes[f"{body.name}@{end}"] = Node(f"{body.name}@{end}", "virtual", point=p)
             edges.append(
-                Edge(body.name, "beam", body, f"{body.name}@start", f"{body.name}@end",
-                     body.start, body.end)
+                Edge(
+                    body.name,
+                    "beam",
+                    body,
+                    f"{body.name}@start",
+                    f"{body.name}@end",
+                    body.start,
+                    body.end,
+                )
             )
         else:
             nodes[body.name] = Node(body.name, "virtual", point=_virtual_point(model, body.name))
@@ -230,6 +237,13 @@ def _layout_unknowns(nodes, edges, order) -> Topology:
                 [new(f"{name}:free tip {s}") for s in DISPLACEMENT_NAMES]
             )
     return Topology(
-        nodes, edges, order, labels, cut_columns, ground_columns, released_columns,
-        free_tip_columns, root_columns,
+        nodes,
+        edges,
+        order,
+        labels,
+        cut_columns,
+        ground_columns,
+        released_columns,
+        free_tip_columns,
+        root_columns,
     )

@@ -220,7 +220,7 @@ def write_index(results_root: Path) -> Path:
         lines += ["## Other outputs", ""]
         lines += [f"- [{name}/]({name}/)" for name in others] + [""]
     path = results_root / INDEX
-    path.write_text("\n".join(lines), encoding="utf-8")
+    path.write_text("\n".join(lines).rstrip("\n") + "\n", encoding="utf-8")
     return path
 
 

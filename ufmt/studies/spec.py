@@ -55,6 +55,7 @@ from typing import Any, NoReturn
 
 import numpy as np
 
+from ufmt.dynamics.process import TABLE1_RANGE
 from ufmt.errors import StudyError
 from ufmt.evaluate import (
     PROCESS_PARAMETERS,
@@ -66,7 +67,7 @@ from ufmt.evaluate import (
 KINDS = ("sweep", "grid", "optimise-process", "optimise-design", "sensitivity")
 DEFAULT_FUNCTION = "ufmt.evaluate:evaluate"
 DEFAULT_POINTS = 9
-TABLE1_BOUNDS = {"rpm": (200.0, 400.0), "feed_mm_min": (4.0, 16.0), "depth_um": (2.0, 8.0)}
+TABLE1_BOUNDS = {name: (low, high) for name, (low, high, _) in TABLE1_RANGE.items()}
 SPACINGS = ("linear", "log")
 OPTIMISER_DEFAULTS = {"seed": 1, "popsize": 8, "maxiter": 20, "tol": 1e-3, "refine_steps": 4}
 
@@ -187,7 +188,7 @@ def load_study(path: str | Path) -> Study:
     return parse_study(text, path)
 
 
-def parse_study(text: str, path: str | Path = "<string>") -> Study:
+def parse_study(text: str, path: str | Path = "study.toml") -> Study:
     """Parse and validate study TOML ``text``; ``path`` names it and anchors relative paths."""
     path = Path(path)
     where = _Where(str(path))
@@ -257,6 +258,8 @@ def _optimise_process(where, data, base) -> dict:
         "pareto_levels": _count(where, "pareto_levels", data.get("pareto_levels", 7), 2),
         "optimiser": _optimiser(where, data.get("optimiser", {})),
     }
+    if (options["workpiece_length_mm"] is None) != (options["tool_radius_mm"] is None):
+        where.fail("tool_radius_mm", "give both workpiece_length_mm and tool_radius_mm, or neither")
     return {"bounds": bounds, "options": options}
 
 
@@ -274,7 +277,9 @@ def _optimise_design(where, data, base) -> dict:
     weights = {}
     for key, value in cost.items():
         if key not in searched:
-            where.fail(f"cost.{key}", f"not a searched parameter ({_hint(key, searched, 'bounds')})")
+            where.fail(
+                f"cost.{key}", f"not a searched parameter ({_hint(key, searched, 'bounds')})"
+            )
         weights[key] = _real(where, f"cost.{key}", value, minimum=0.0)
     options = {"cost": weights, "optimiser": _optimiser(where, data.get("optimiser", {}))}
     return {"bounds": bounds, "options": options}
@@ -329,7 +334,9 @@ def _hint(word: str, choices, what: str) -> str:
 def _check_keys(where: _Where, prefix: str, table: Mapping, valid) -> None:
     for key in table:
         if key not in valid:
-            where.fail(f"{prefix}{key}", f"unknown field ({_hint(str(key), valid, 'valid fields')})")
+            where.fail(
+                f"{prefix}{key}", f"unknown field ({_hint(str(key), valid, 'valid fields')})"
+            )
 
 
 def _string(where: _Where, field: str, value, empty: bool = False) -> str:
@@ -415,7 +422,9 @@ def _interval(where: _Where, label: str, table: Mapping) -> tuple[str, list[floa
             where.fail(f"{label}.{source}", f"expected [low, high], got {raw!r}")
         low, high = numbers_
         if low > high:
-            where.fail(f"{label}.{source}", f"reversed bounds [{low!r}, {high!r}] (need low < high)")
+            where.fail(
+                f"{label}.{source}", f"reversed bounds [{low!r}, {high!r}] (need low < high)"
+            )
         if low == high:
             where.fail(f"{label}.{source}", f"empty range [{low!r}, {high!r}] (need low < high)")
     if not numbers_:

@@ -1,0 +1,1 @@
+"""Plots: figures drawn from results on disk (matplotlib, Agg canvas)."""

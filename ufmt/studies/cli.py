@@ -1,0 +1,113 @@
+"""``ufmt run STUDY.toml``: the command that runs a study file.
+
+Arguments of ``ufmt run`` (built by :func:`add_run_parser`):
+
+``study``
+    Path of the study file (``studies/*.toml``).
+``--jobs N``
+    Worker processes (default: every core).
+``--backend {loky,dask}``
+    joblib backend: ``loky`` (local processes, default) or ``dask`` (dask.distributed).
+``--scheduler ADDRESS``
+    dask scheduler address, e.g. ``tcp://10.0.0.5:8786`` (with ``--backend dask``; without it a
+    local cluster of ``--jobs`` workers is started).
+``--results DIR``
+    Root of the results tree (default ``results``); outputs go to ``DIR/<study name>/``.
+``--fresh``
+    Discard rows of an earlier, interrupted run instead of resuming it.
+``--no-progress``
+    No progress bar.
+``--no-plots``
+    Skip the PNG plots.
+
+``python -m ufmt.studies.cli run STUDY.toml ...`` is the same command without the rest of
+the ``ufmt`` CLI.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from ufmt.errors import UfmtError
+
+
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"{value} must be >= 1")
+    return value
+
+
+def add_run_parser(subparsers) -> argparse.ArgumentParser:
+    """Add the ``run`` sub-command to an argparse ``subparsers`` object and return it."""
+    parser = subparsers.add_parser(
+        "run",
+        help="run a study file (sweep, grid, optimiser, sensitivity)",
+        description="Run or resume a study; results go to RESULTS/<study name>/.",
+    )
+    parser.add_argument(
+        "study", type=Path, help="study file (TOML), e.g. studies/sweep-stiffness.toml"
+    )
+    parser.add_argument("--jobs", type=_positive_int, help="worker processes (default: all cores)")
+    parser.add_argument(
+        "--backend", choices=("loky", "dask"), default="loky", help="joblib backend"
+    )
+    parser.add_argument(
+        "--scheduler", metavar="ADDRESS", help="dask scheduler, e.g. tcp://host:8786"
+    )
+    parser.add_argument("--results", type=Path, default=Path("results"), help="results root")
+    parser.add_argument("--fresh", action="store_true", help="ignore rows of an earlier run")
+    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+    parser.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
+    parser.set_defaults(func=run_study_cli)
+    return parser
+
+
+def run_study_cli(args: argparse.Namespace) -> int:
+    """Run the study of parsed ``ufmt run`` arguments; prints the headline; returns 0.
+
+    Raises
+    ------
+    StudyError
+        A bad study file or argument (the caller prints its one-line message).
+    """
+    from ufmt.studies.outputs import read_meta
+    from ufmt.studies.runner import Execution, run_study
+
+    out_dir = run_study(
+        args.study,
+        Execution(jobs=args.jobs, backend=args.backend, scheduler=args.scheduler),
+        results=args.results,
+        progress=not args.no_progress,
+        fresh=args.fresh,
+        plots=not args.no_plots,
+    )
+    meta = read_meta(out_dir)
+    run = meta["run"]
+    print(f"{meta['study']}: {meta['headline']}")
+    print(
+        f"{run['points_total']} points ({run['points_new']} new, {run['points_reused']} reused,"
+        f" {run['points_failed']} failed) in {run['wall_s']} s -> {out_dir}"
+    )
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Stand-alone entry point: ``python -m ufmt.studies.cli run STUDY.toml [...]``."""
+    parser = argparse.ArgumentParser(prog="ufmt")
+    add_run_parser(parser.add_subparsers(dest="command", required=True))
+    args = parser.parse_args(argv)
+    try:
+        return args.func(args)
+    except UfmtError as exc:
+        print(f"ufmt run: error: {exc}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())
