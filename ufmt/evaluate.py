@@ -40,6 +40,7 @@ import importlib.resources
 import math
 import os
 import re
+import threading
 import warnings
 from collections.abc import Mapping
 from pathlib import Path
@@ -50,6 +51,7 @@ HEAD_HINGE = "h31"
 SPINDLE_HINGE = "h25"
 N_MODES = 30  # modes in the modal basis (paper section 3.2 uses the first 30)
 N_FREQUENCIES = 6  # natural frequencies reported in each record
+BASIS_CACHE = 32  # modal bases kept in memory per process
 
 # name -> (hinge, field, components set to the value)
 DESIGN_PARAMETERS: dict[str, tuple[str, str, tuple[int, ...]]] = {
@@ -230,7 +232,8 @@ def evaluate(
         outputs = _cached_physics()(
             design_items, tuple(process_full.items()), file_sha256(path), code_sha256(), str(path)
         )
-        record.update(outputs, status="ok")
+        message = outputs.pop("message")
+        record.update(outputs, status="ok", message=message)
     except Exception as exc:  # noqa: BLE001 - any physics failure becomes a recorded error
         record.update(dict.fromkeys(METRICS + FREQUENCIES, math.nan))
         record.update(status="error", message=_one_line(f"{type(exc).__name__}: {exc}"))
@@ -268,10 +271,11 @@ def _physics(design_items, process_items, model_sha, code_sha, path) -> dict:
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        model = _design_model(path, model_sha, design_items)
-        basis = _modal_basis(path, model_sha, design_items)
+        base = _base_model(path, model_sha)
+        model = apply_design(base, dict(design_items))
+        basis = _modal_basis(model, (model_sha, _hinge_changes(base, model)))
         result = simulate(model, Process(**dict(process_items)), basis=basis)
-    outputs = {name: float(getattr(result, name)) for name in METRICS}
+    outputs = {name: float(result.metrics[name]) for name in METRICS}
     frequencies = list(basis.omega[:N_FREQUENCIES] / (2.0 * math.pi))
     frequencies += [math.nan] * (N_FREQUENCIES - len(frequencies))
     outputs.update(zip(FREQUENCIES, map(float, frequencies), strict=True))
@@ -279,17 +283,39 @@ def _physics(design_items, process_items, model_sha, code_sha, path) -> dict:
     return outputs
 
 
-@functools.lru_cache(maxsize=32)
-def _design_model(path: str, model_sha: str, design_items: tuple):
-    """The model file at ``path`` (content ``model_sha``) with ``design_items`` applied."""
+@functools.lru_cache(maxsize=4)
+def _base_model(path: str, model_sha: str):
+    """The model file at ``path`` (content ``model_sha``, which keys the cache)."""
     from ufmt.model.load import load_model
 
-    return apply_design(load_model(path), dict(design_items))
+    return load_model(path)
 
 
-@functools.lru_cache(maxsize=32)
-def _modal_basis(path: str, model_sha: str, design_items: tuple):
-    """Modal basis (first N_MODES modes) of one design, kept across process changes."""
+def _hinge_changes(base, model) -> tuple:
+    """The hinges whose stiffness ``model`` changed from ``base``: a design's identity (a
+    design that restates calibrated values is the calibrated design)."""
+    return tuple(
+        (new.name, tuple(new.stiffness6))
+        for new, old in zip(model.hinges, base.hinges, strict=True)
+        if tuple(new.stiffness6) != tuple(old.stiffness6)
+    )
+
+
+_BASES: dict = {}  # (model_sha, hinge changes) -> ModalBasis, least recently used first
+_BASES_LOCK = threading.Lock()  # dask workers may evaluate in threads
+
+
+def _modal_basis(model, key):
+    """Modal basis (first N_MODES modes) of ``model``, kept for the last BASIS_CACHE designs so
+    that process changes on a known design reuse it."""
     from ufmt.dynamics.modal import modal_basis
 
-    return modal_basis(_design_model(path, model_sha, design_items), N_MODES)
+    with _BASES_LOCK:
+        basis = _BASES.pop(key, None)
+    if basis is None:
+        basis = modal_basis(model, N_MODES)
+    with _BASES_LOCK:
+        _BASES[key] = basis
+        while len(_BASES) > BASIS_CACHE:
+            del _BASES[next(iter(_BASES))]
+    return basis

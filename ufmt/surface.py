@@ -6,7 +6,7 @@ at spindle angle phi_f = asin((x - s_x) / (sigma R)) and by the trailing arc at 
 the spindle axis then at Y = y - R cos(phi). The surface keeps the lowest z_re of all passes
 over the point ("tool interference", section 4.2):
 z(x, y) = min over passes of z_re(phi, Y), with z_re read from the response's
-:class:`~ufmt.dynamics.response.ZreTable` (linear in phi and in Y).
+:class:`~ufmt.dynamics.response.ZreTable` (cubic in phi, linear in Y).
 The tool is a point in eq. 4.1 (no kinematic marks), so the passes over a point are the one
 leading and the one trailing pass through it. With ``nose_radius`` (off by default) the tool
 nose adds the kinematic marks: the two revolutions bracketing the point on each arc are taken,
@@ -80,6 +80,8 @@ def machined_surface(
 
     ``feed_per_rev`` [m] spaces the revolutions; ``nose_radius`` [m] turns on the kinematic
     marks; ``trailing_arc`` adds the trailing-arc passes to the minimum (back-cutting).
+    A periodic (quasi-static, drift 0) table without marks is read at the point's own slide
+    position: the revolutions bracketing it share that steady state.
     """
     if not feed_per_rev > 0:
         raise ValueError(f"feed_per_rev must be > 0 [m], got {feed_per_rev!r}")
@@ -88,22 +90,19 @@ def machined_surface(
     x, y, phi, cos = _grid(machine, spacing)
     arcs = 2 if trailing_arc else 1
     phi, cos = phi[:arcs], cos[:arcs]
-    values = table.values
-    rows, n1 = values.shape
-    n = n1 - 1
-    u = phi * (n / (2 * np.pi))
-    j0 = np.minimum(u.astype(int), n - 1)
-    wu = u - j0
-    cols = (values[:, j0] * (1 - wu) + values[:, j0 + 1] * wu).reshape(rows, -1)
+    cols = _columns(table.values, phi)
+    if table.drift == 0 and nose_radius is None:
+        key = table.row_y.tobytes()
+        return Surface(x, y, _gather(cols, *_static_rows(machine, spacing, arcs, key)).min(1))
     turn = phi / (2 * np.pi)
     y_start = machine.cut_span[0]
     # revolutions since Y_start when the arc passes the point; the two bracketing revolutions
     rho = (y[:, None, None] - machine.tool_radius * cos - y_start) / feed_per_rev - turn
     k = np.floor(rho)
     frac = rho - k
-    lo = (y_start + feed_per_rev * (k + turn) - table.y0) / table.dy - table.drift * turn
-    z_lo = _rows(cols, lo)
-    z_hi = _rows(cols, lo + feed_per_rev / table.dy)
+    y_lo = y_start + feed_per_rev * (k + turn) - table.drift * turn
+    z_lo = _gather(cols, *_locate(table.row_y, y_lo))
+    z_hi = _gather(cols, *_locate(table.row_y, y_lo + feed_per_rev))
     if nose_radius is not None:
         d2 = (feed_per_rev * cos) ** 2 / (2 * nose_radius)
         z_lo += frac**2 * d2
@@ -111,17 +110,58 @@ def machined_surface(
     return Surface(x, y, np.minimum(z_lo, z_hi).min(axis=1))
 
 
-def _rows(cols: np.ndarray, rr: np.ndarray) -> np.ndarray:
-    """Linear interpolation of ``cols`` (rows, 2 Nx) at fractional rows rr (Ny, 2, Nx), clipped."""
-    rows = cols.shape[0]
-    rr = np.clip(rr, 0.0, rows - 1.0)
+def _columns(values: np.ndarray, phi: np.ndarray) -> np.ndarray:
+    """Table columns at angles phi (arcs, Nx), 4-point Lagrange in phi: (rows, arcs * Nx)."""
+    rows, n3 = values.shape
+    u = phi * ((n3 - 3) / (2 * np.pi))
+    j0 = np.minimum(u.astype(int), n3 - 4)
+    t = u - j0
+    w = (
+        -t * (t - 1) * (t - 2) / 6,
+        (t + 1) * (t - 1) * (t - 2) / 2,
+        -(t + 1) * t * (t - 2) / 2,
+        (t + 1) * t * (t - 1) / 6,
+    )
+    cols = sum(values[:, j0 + i] * w[i] for i in range(4))
+    return cols.reshape(rows, -1)
+
+
+@lru_cache(maxsize=16)
+def _static_rows(machine: Machine, spacing: float, arcs: int, row_y: bytes):
+    """:func:`_locate` of every pass at its own slide position (cached per table layout)."""
+    _, y, _, cos = _grid(machine, spacing)
+    slide = y[:, None, None] - machine.tool_radius * cos[:arcs]
+    return _locate(np.frombuffer(row_y), slide)
+
+
+def _locate(row_y: np.ndarray, slide: np.ndarray):
+    """Flat indices into ``cols`` (rows, A) of the row below ``slide`` (Ny, arcs, Nx), weights."""
+    rows = row_y.size
+    rr = np.interp(slide, row_y, np.arange(rows, dtype=float))
     i0 = np.minimum(rr.astype(int), rows - 2)
-    wr = rr - i0
-    flat = cols.ravel()
-    k = i0.reshape(rr.shape[0], -1) * cols.shape[1] + np.arange(cols.shape[1])
-    lo = flat[k].reshape(rr.shape)
-    hi = flat[k + cols.shape[1]].reshape(rr.shape)
-    return lo + wr * (hi - lo)
+    width = slide.shape[1] * slide.shape[2]
+    flat = i0.reshape(slide.shape[0], width) * width + np.arange(width)
+    return flat.reshape(slide.shape), rr - i0
+
+
+def _gather(cols: np.ndarray, flat: np.ndarray, weight: np.ndarray) -> np.ndarray:
+    """Linear interpolation between the located row and the next one: (Ny, arcs, Nx) [m]."""
+    c = cols.ravel()
+    lo = c[flat]
+    return lo + weight * (c[flat + cols.shape[1]] - lo)
+
+
+def steady_region(surface: Surface, machine: Machine, settle: float = 0.0) -> np.ndarray:
+    """Points whose leading-arc pass has a constant chip pattern behind it: (Ny, Nx) bool.
+
+    True where the pass happens while the leading arc crosses the whole workpiece width
+    (:attr:`Machine.steady_span`), at least ``settle`` [m] of slide travel after that began.
+    There the time-domain response has reached the periodic steady state.
+    """
+    y_a, y_b = machine.steady_span
+    s = machine.sense * (surface.x - machine.offset_x) / machine.tool_radius
+    slide = surface.y[:, None] - machine.tool_radius * np.sqrt(1 - s**2)[None, :]
+    return (slide >= y_a + settle) & (slide <= y_b)
 
 
 @lru_cache(maxsize=16)

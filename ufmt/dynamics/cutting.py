@@ -97,7 +97,7 @@ class Machine:
 
     @property
     def cut_span(self) -> tuple[float, float]:
-        """Slide positions Y [m] from the first touch of the leading arc to the trailing arc's exit."""
+        """Slide positions Y [m]: first touch of the leading arc, exit of the trailing arc."""
         half = self.workpiece_size[1] / 2 + self.tool_radius
         return -half, half
 
@@ -107,6 +107,25 @@ class Machine:
         far = self.workpiece_size[0] / 2 + abs(self.offset_x)
         end = self.workpiece_size[1] / 2 - math.sqrt(self.tool_radius**2 - far**2)
         return self.cut_span[0], end
+
+    @property
+    def cutting_angles(self) -> tuple[float, float]:
+        """Angles (lo, hi) [rad], |.| < pi/2, where the leading arc is over the plate's x range."""
+        ends = np.array([-1.0, 1.0]) * self.workpiece_size[0] / 2 - self.offset_x
+        lo, hi = np.sort(np.arcsin(ends / (self.sense * self.tool_radius)))
+        return float(lo), float(hi)
+
+    @property
+    def steady_span(self) -> tuple[float, float]:
+        """Slide positions Y [m] over which the leading arc crosses the whole workpiece width.
+
+        The chip pattern of every revolution is then the same (empty if the plate is too short).
+        """
+        lo, hi = self.cutting_angles
+        cos_max = 1.0 if lo <= 0.0 <= hi else max(np.cos(lo), np.cos(hi))
+        cos_min = min(np.cos(lo), np.cos(hi))
+        ly = self.workpiece_size[1]
+        return -ly / 2 - self.tool_radius * cos_min, ly / 2 - self.tool_radius * cos_max
 
 
 MACHINE_FIELDS = (
@@ -195,8 +214,19 @@ def read_machine(machine: Mapping, source: str = "<memory>") -> Machine:
 
 
 def machine_of(model) -> Machine:
-    """The validated :class:`Machine` of a :class:`ufmt.model.schema.Model`."""
-    return read_machine(model.machine, model.source)
+    """The validated :class:`Machine` of a :class:`ufmt.model.schema.Model`.
+
+    The tool and workpiece bodies must be bodies of the model (checked when it has bodies).
+    """
+    m = read_machine(model.machine, model.source)
+    names = [b.name for b in model.bodies]
+    for field in ("tool_body", "workpiece_body"):
+        if names and getattr(m, field) not in names:
+            raise ModelError(
+                f"{model.source}: machine: field '{field}': {getattr(m, field)!r} is not a body "
+                f"of the model (bodies: {', '.join(names)})"
+            )
+    return m
 
 
 def tool_tip(phi, machine: Machine) -> np.ndarray:
@@ -241,6 +271,43 @@ def chip_factor(phi, slide_y, machine: Machine) -> np.ndarray:
     """cos(phi) where the leading arc cuts the workpiece, else 0 (chip thickness / feed per rev)."""
     c = np.cos(np.asarray(phi, dtype=float))
     return np.where((c > 0) & tool_over_workpiece(phi, slide_y, machine), c, 0.0)
+
+
+def arc_y_bounds(slide_y, machine: Machine) -> tuple[np.ndarray, np.ndarray]:
+    """|phi| range [p1, p2] [rad] where the leading arc is within the plate's y extent at Y.
+
+    -ly/2 <= Y + R cos(phi) <= ly/2 with cos(phi) >= 0; empty where p1 > p2.
+    """
+    slide_y = np.asarray(slide_y, dtype=float)
+    r, ly = machine.tool_radius, machine.workpiece_size[1]
+    p1 = np.arccos(np.clip((ly / 2 - slide_y) / r, -1.0, 1.0))
+    p2 = np.arccos(np.clip((-ly / 2 - slide_y) / r, 0.0, 1.0))
+    return p1, p2
+
+
+def chip_factor_cells(phi, slide_y, machine: Machine, width: float) -> np.ndarray:
+    """Mean of :func:`chip_factor` over the cell [phi - width/2, phi + width/2] of each sample.
+
+    The force is sampled at n_phi angles and taken linear between samples; sampling the cell
+    means instead of point values keeps the mean force exact and lets the edges of the cut
+    (where the tip crosses a workpiece edge) move continuously with the slide instead of
+    jumping from sample to sample. ``phi`` [rad] and ``slide_y`` [m] broadcast; ``width``
+    [rad] is the sample spacing 2 pi / n_phi.
+    """
+    phi = np.asarray(phi, dtype=float)
+    slide_y = np.asarray(slide_y, dtype=float)
+    centred = np.mod(phi + np.pi, 2 * np.pi) - np.pi
+    lo_cell, hi_cell = centred - width / 2, centred + width / 2
+    lo_x, hi_x = machine.cutting_angles  # leading arc over the workpiece's x range
+    p1, p2 = arc_y_bounds(slide_y, machine)
+    total = 0.0
+    for a, b in (
+        (np.maximum(p1, lo_x), np.minimum(p2, hi_x)),
+        (np.maximum(-p2, lo_x), np.minimum(-p1, hi_x)),
+    ):
+        lo, hi = np.maximum(lo_cell, a), np.minimum(hi_cell, b)
+        total = total + np.where(hi > lo, np.sin(hi) - np.sin(lo), 0.0)
+    return total / width
 
 
 def chip_thickness(phi, slide_y, feed_per_rev: float, machine: Machine) -> np.ndarray:

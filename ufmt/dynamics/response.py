@@ -5,21 +5,29 @@ with zero initial conditions (eqs. 3.12-3.13). For the point force F at the tool
 tool body and its reaction on the workpiece body at the same point, f_s = (V_tool,s(p) -
 V_work,s(p)) . F / M_s, where V_b,s(p) is the translation of point p of body b in mode s.
 
-The force is sampled at ``n_phi`` equally spaced spindle angles per revolution and taken as
-piecewise linear between samples (first-order hold). Both paths solve that forced problem
-exactly, so they differ only by the start-up transient and by the quasi-static assumption below:
+The force is sampled at ``n_phi`` equally spaced spindle angles per revolution (each sample
+the mean of the chip factor over its cell, :func:`~ufmt.dynamics.cutting.chip_factor_cells`)
+and taken as piecewise linear between samples (first-order hold). Both paths solve that forced
+problem exactly, so they differ only by the start-up transient and by the quasi-static
+assumption of (b):
 
 (a) time domain, :func:`time_response`: every revolution of the whole cut, each modal equation
-    discretised exactly (complex-pole recurrence of the first-order-hold solution, run by
-    ``scipy.signal.lfilter``), from zero initial conditions.
-(b) periodic, :func:`periodic_response`: the force is periodic in the spindle period for a fixed
-    slide position Y; its periodic steady state is obtained per harmonic with the receptance of
-    the same exact recurrence (FFT, receptance, inverse FFT). The slide moves only v/f = 10-80 um
-    per revolution while the slowest mode settles in a few revolutions, so the steady state at
-    each Y is used as the response while the slide passes Y (quasi-static in Y), tabulated on a
-    grid of slide positions.
+    advanced by the exact recurrence of its first-order-hold solution (:func:`discretise`,
+    :func:`real_recurrence`, run by ``scipy.signal.lfilter``), from zero initial conditions.
+(b) periodic, :func:`periodic_response`: for a fixed slide position Y the force is periodic in
+    the spindle period; its periodic steady state is obtained per harmonic with the receptance
+    of the same exact recurrence (FFT, receptance, inverse FFT). The slide moves only
+    v/f = 10-80 um per revolution while the slowest mode settles in a few revolutions, so the
+    steady state at each Y is taken as the response while the slide passes Y (quasi-static in
+    Y), tabulated at ``table_rows`` slide positions. Where the leading arc crosses the whole
+    plate width the chip pattern is the same every revolution and (a) converges to (b)
+    exactly; where the arc enters or leaves the plate the two differ by the transient
+    (measured: PV within 0.2 %, tests/test_response.py).
 
-Mode shapes are those of the nominal configuration (see :mod:`ufmt.dynamics.basis`).
+Mode shapes are those of the nominal configuration, taken as the halfway point of the cut (see
+:mod:`ufmt.dynamics.basis`). The workpiece is loaded at the material point under the tool: its
+arm from the workpiece body's centre of mass is p - C + Y y_hat, so the workpiece terms of the
+modal force and of z_re are linear in the slide position Y (``*_y`` in :class:`CutGeometry`).
 
 Modal damping (not part of the basis): ``DEFAULT_ZETA`` = 0.03 for every mode. Modal damping
 ratios measured on precision machine structures with bolted and aerostatic joints lie around
@@ -39,16 +47,19 @@ from ufmt.dynamics.basis import ModalBasis
 from ufmt.dynamics.cutting import (
     ForceCoefficients,
     Machine,
-    chip_factor,
+    arc_y_bounds,
+    chip_factor_cells,
     force_per_area,
     tool_tip,
 )
 
 DEFAULT_ZETA = 0.03
-#: Force samples per spindle revolution (both paths). See docs of :func:`cut_geometry`.
-DEFAULT_N_PHI = 1024
-#: Largest slide-position step [m] of the periodic path's table.
-DEFAULT_TABLE_STEP = 5e-3
+#: Force samples per spindle revolution (both paths): the PV converges as 1/n_phi^2 and is
+#: within 0.1 % of its limit at 512 (tests/test_response.py).
+DEFAULT_N_PHI = 512
+#: Slide positions of the periodic path's table (see :func:`cut_geometry`).
+DEFAULT_TABLE_ROWS = 96
+DEFAULT_COEFFICIENTS = ForceCoefficients()
 #: Spindle periods recorded around the halfway point (time path; paper Figs. 6-7 show 2 s).
 DEFAULT_RECORD_PERIODS = 10
 
@@ -132,12 +143,15 @@ class CutGeometry:
     phases (N,) [rad]; tip (N, 3) tool-tip position [m] and dtip, ddtip (N, 3) its first and
     second derivatives in phi [m]; w (n, N) modal force per unit chip area,
     (V_tool - V_work)(p) . k / M_s with k from :func:`force_per_area` [N/(kg m^2)];
-    c (n, N) relative z translation (V_tool - V_work)_z(p) [m]. Both are trigonometric
-    polynomials in phi (degree 2 and 1): w_hat (n, 5) and c_hat (n, 3) hold their complex
-    Fourier coefficients (harmonics -2..2, -1..1), w_trig (n, 5) and c_trig (3, n) the real ones
-    on ``trig`` (5, N) = [1, cos, sin, cos 2phi, sin 2phi]. table_y (M,) slide positions [m] of
-    the periodic table; table_a (M, N/2 + 7) the half spectrum of the chip factor at each,
-    extended by 3 bins on both sides.
+    c (n, N) relative z translation (V_tool - V_work)_z(p) [m], both at slide position Y = 0;
+    w_y (n, N) [N/(kg m^3)] and c_y (n,) [m/m] their rates of change with Y (the workpiece's
+    rotation times the moving arm). w, w_y and c are trigonometric polynomials in phi (degree
+    2, 1 and 1): w_hat, w_y_hat (n, 5) and c_hat (n, 3) hold their complex Fourier coefficients
+    (harmonics -2..2, -1..1), w_trig, w_y_trig (n, 5) and c_trig (3, n) the real ones on
+    ``trig`` (5, N) = [1, cos, sin, cos 2phi, sin 2phi]. table_y (M,) slide positions [m] of
+    the periodic table; table_a (3, M, N/2 + 7) the half spectrum of the chip factor at each,
+    extended by 3 bins on both sides, times Y^0, Y^1, Y^2; active (N,) the angles that cut at
+    some slide position.
     """
 
     basis: ModalBasis
@@ -149,14 +163,19 @@ class CutGeometry:
     dtip: np.ndarray
     ddtip: np.ndarray
     w: np.ndarray
+    w_y: np.ndarray
     c: np.ndarray
+    c_y: np.ndarray
     w_hat: np.ndarray
+    w_y_hat: np.ndarray
     c_hat: np.ndarray
     w_trig: np.ndarray
+    w_y_trig: np.ndarray
     c_trig: np.ndarray
     trig: np.ndarray
     table_y: np.ndarray
     table_a: np.ndarray
+    active: np.ndarray
 
 
 @lru_cache(maxsize=16)
@@ -172,7 +191,8 @@ def cut_geometry(
     ``n_phi`` force samples per revolution (even, >= 8). ``table_rows`` slide positions of the
     periodic table over the cutting span: half of them evenly spaced, half where the chip
     pattern changes fastest (where the leading arc's top enters and leaves the workpiece edges
-    the engaged arc grows like the square root of the slide travel).
+    the engaged arc grows like the square root of the slide travel), plus the two ends of the
+    steady span.
     """
     for body in (machine.tool_body, machine.workpiece_body):
         if body not in basis.body_shapes:
@@ -183,28 +203,43 @@ def cut_geometry(
         raise ValueError(f"table_rows must be >= 3, got {table_rows}")
     phases = 2 * np.pi * np.arange(n_phi) / n_phi
 
+    mass = basis.modal_mass[:, None]
+    # workpiece arm grows by Y y_hat: rel(Y) = rel(0) - Y theta_work x y_hat
+    lever = -np.cross(basis.body_shapes[machine.workpiece_body][:, 3:], [0.0, 1.0, 0.0])
+
     def shapes(ph):
         tip = tool_tip(ph, machine)
         rel = basis.point_shapes(machine.tool_body, tip)
         rel = rel - basis.point_shapes(machine.workpiece_body, tip)
-        w = np.einsum("sjc,jc->sj", rel, force_per_area(ph, machine, coefficients))
-        return tip, w / basis.modal_mass[:, None], rel[:, :, 2]
+        k = force_per_area(ph, machine, coefficients)
+        return tip, np.einsum("sjc,jc->sj", rel, k) / mass, lever @ k.T / mass, rel[:, :, 2]
 
-    tip, w, c = shapes(phases)
-    _, w8, c8 = shapes(2 * np.pi * np.arange(8) / 8)  # 8 samples resolve degree 2 exactly
-    w_hat = np.fft.fft(w8, axis=1)[:, _HARM_W % 8] / 8
-    c_hat = np.fft.fft(c8, axis=1)[:, _HARM_C % 8] / 8
-    w_trig = np.stack(
-        [w_hat[:, 2].real, 2 * w_hat[:, 3].real, -2 * w_hat[:, 3].imag]
-        + [2 * w_hat[:, 4].real, -2 * w_hat[:, 4].imag],
-        axis=1,
-    )
+    def harmonics(values, orders):  # complex Fourier coefficients from 8 exact samples
+        return np.fft.fft(values, axis=1)[:, orders % 8] / 8
+
+    def real_form(hat):  # coefficients of [1, cos, sin, cos 2phi, sin 2phi]
+        return np.stack(
+            [hat[:, 2].real, 2 * hat[:, 3].real, -2 * hat[:, 3].imag]
+            + [2 * hat[:, 4].real, -2 * hat[:, 4].imag],
+            axis=1,
+        )
+
+    tip, w, w_y, c = shapes(phases)
+    _, w8, w_y8, c8 = shapes(2 * np.pi * np.arange(8) / 8)  # 8 samples resolve degree 2
+    w_hat, w_y_hat = harmonics(w8, _HARM_W), harmonics(w_y8, _HARM_W)
+    c_hat = harmonics(c8, _HARM_C)
     c_trig = np.stack([c_hat[:, 1].real, 2 * c_hat[:, 2].real, -2 * c_hat[:, 2].imag])
     trig = np.stack(
         [np.ones(n_phi), np.cos(phases), np.sin(phases), np.cos(2 * phases), np.sin(2 * phases)]
     )
-    table_y = _table_rows(machine, phases[:: max(1, n_phi // 256)], table_rows)
-    table_a = _extend(np.fft.rfft(chip_factor(phases, table_y[:, None], machine), axis=1))
+    cell = 2 * np.pi / n_phi
+    table_y = _table_rows(machine, table_rows)
+    centred = np.mod(phases + np.pi, 2 * np.pi) - np.pi
+    lo, hi = machine.cutting_angles
+    active = (centred + cell / 2 > lo) & (centred - cell / 2 < hi) & (np.abs(centred) < np.pi / 2)
+    pattern = chip_factor_cells(phases, table_y[:, None], machine, cell)
+    spectra = _extend(np.fft.rfft(pattern, axis=1))
+    table_a = np.stack([spectra, table_y[:, None] * spectra, table_y[:, None] ** 2 * spectra])
     r, s = machine.tool_radius, machine.sense
     dtip = np.stack([s * r * np.cos(phases), -r * np.sin(phases), 0 * phases], axis=1)
     ddtip = np.stack([-s * r * np.sin(phases), -r * np.cos(phases), 0 * phases], axis=1)
@@ -218,25 +253,40 @@ def cut_geometry(
         dtip=dtip,
         ddtip=ddtip,
         w=w,
+        w_y=w_y,
         c=c,
+        c_y=lever[:, 2],
         w_hat=w_hat,
+        w_y_hat=w_y_hat,
         c_hat=c_hat,
-        w_trig=w_trig,
+        w_trig=real_form(w_hat),
+        w_y_trig=real_form(w_y_hat),
         c_trig=c_trig,
         trig=trig,
         table_y=table_y,
         table_a=table_a,
+        active=active,
     )
 
 
-def _table_rows(machine: Machine, phases: np.ndarray, rows: int) -> np.ndarray:
-    """Slide positions [m] at equal steps of (uniform measure + chip-pattern change) / 2."""
+def _table_rows(machine: Machine, rows: int) -> np.ndarray:
+    """Slide positions [m] of the periodic table.
+
+    Equal steps of (uniform measure + chip-pattern change) / 2, the change measured as the
+    travel of sin(phi) at the edges of the cut (the chip area between them is their
+    difference), plus the ends of the steady span (kinks of the pattern), so that no
+    interpolation straddles them.
+    """
     y0, y1 = machine.cutting_span
-    fine = np.linspace(y0, y1, 40 * rows)
-    change = np.abs(np.diff(chip_factor(phases, fine[:, None], machine), axis=0)).sum(axis=1)
-    moved = np.concatenate([[0.0], np.cumsum(change)])
+    fine = np.linspace(y0, y1, 64 * rows)
+    lo, hi = machine.cutting_angles
+    p1, p2 = arc_y_bounds(fine, machine)
+    edges = np.sin(np.clip(np.stack([p1, p2, -p1, -p2]), lo, hi))
+    moved = np.concatenate([[0.0], np.cumsum(np.abs(np.diff(edges, axis=1)).sum(axis=0))])
     measure = np.linspace(0.0, 0.5, fine.size) + 0.5 * moved / max(moved[-1], 1e-300)
-    return np.interp(np.linspace(0.0, 1.0, rows), measure, fine)
+    ys = np.interp(np.linspace(0.0, 1.0, rows), measure, fine)
+    kinks = [y for y in machine.steady_span if y0 < y < y1]
+    return np.unique(np.concatenate([ys, kinks]))
 
 
 def _extend(half: np.ndarray, pad: int = 3) -> np.ndarray:
@@ -250,12 +300,14 @@ def _extend(half: np.ndarray, pad: int = 3) -> np.ndarray:
 class ZreTable:
     """Relative tool-workpiece z displacement over the cut, read by the surface (eq. 4.1).
 
-    values (rows, N + 1) [m]: column j is spindle angle 2 pi j / N (column N closes the period);
+    values (rows, N + 3) [m]: column c is spindle angle 2 pi (c - 1) / N, i.e. one revolution
+    padded with the sample before and the two after (for cubic interpolation in phi);
     row_y (rows,) [m] the slide position of each row at phi = 0, ascending; drift [m] the slide
-    travel during one row's revolution. Time path: one row per revolution, drift = v / f.
-    Periodic path: one row per tabulated slide position, drift = 0 (steady state at fixed Y).
-    The slide position of (row, phi) is row_y + drift phi / (2 pi); beyond the first and last
-    rows their values apply (they carry no cutting force).
+    travel during one row's revolution. Time path: one row per revolution, drift = v / f, the
+    padding taken from the neighbouring revolutions. Periodic path: one row per tabulated slide
+    position, drift = 0 (steady state at fixed Y), padded periodically. The slide position of
+    (row, phi) is row_y + drift phi / (2 pi); beyond the first and last rows their values apply
+    (they carry no cutting force).
     """
 
     values: np.ndarray
@@ -287,17 +339,19 @@ class Response:
     table: ZreTable
 
 
-def _outputs(geo: CutGeometry, j, q, qd, qdd, spindle_hz: float):
+def _outputs(geo: CutGeometry, j, slide, q, qd, qdd, spindle_hz: float):
     """Tool-tip displacement and acceleration, workpiece displacement, from modal coordinates.
 
-    j (T,) phase indices; q, qd, qdd (n, T). The tip is a material point of the spinning tool
-    body, so its acceleration is d^2/dt^2 sum_s [r_s + theta_s x (p(t) - C)] q_s(t), including
-    the terms from the motion of p.
+    j (T,) phase indices; slide (T,) slide positions Y [m]; q, qd, qdd (n, T). The tip is a
+    material point of the spinning tool body, so its acceleration is
+    d^2/dt^2 sum_s [r_s + theta_s x (p(t) - C)] q_s(t), including the terms from the motion of
+    p. The workpiece point under the tool sits at p - C + Y y_hat from its centre of mass.
     """
     b, m = geo.basis, geo.machine
     disp = []
-    for body in (m.tool_body, m.workpiece_body):
+    for body, shift in ((m.tool_body, 0.0), (m.workpiece_body, 1.0)):
         s, arm = b.body_shapes[body], geo.tip[j] - b.body_centers[body]
+        arm[:, 1] += shift * slide
         disp.append(q.T @ s[:, :3] + np.cross(q.T @ s[:, 3:], arm))
     s = b.body_shapes[m.tool_body]
     om = 2 * np.pi * spindle_hz
@@ -318,7 +372,8 @@ def periodic_response(
 
     Per harmonic k: z_re[k] = sum_s sum_l c_hat[s,l] H_s[k-l] sum_m w_hat[s,m] A[k-l-m]
     = sum_d K_d[k] A[k-d], with A the spectrum of the chip factor (cached in ``geo``) and H_s
-    the receptance of :func:`discrete_receptance`. The record window is one spindle period at
+    the receptance of :func:`discrete_receptance`; with the workpiece arm's Y terms the kernels
+    are a quadratic in Y, sum_p Y^p K_pd. The record window is one spindle period at
     the halfway slide position Y = 0.
     """
     b = geo.basis
@@ -330,18 +385,26 @@ def periodic_response(
     amp = force_scale * process.depth_m * process.feed_per_rev_m
     k = np.arange(-1, half + 2)
     hq, hv = discrete_receptance(b.omega, zeta, dt, 2 * np.pi * k / n)
-    kern = np.zeros((7, half + 1), dtype=complex)
-    for li, l in enumerate(_HARM_C):
-        kern[li : li + 5] += (geo.c_hat[:, li : li + 1] * geo.w_hat).T @ hq[:, 1 - l : half + 2 - l]
+    # kernels of Y^0, Y^1, Y^2: c = c_hat + Y c_y (l = 0 only), w_s = w_hat + Y w_y_hat
+    c_y = np.zeros_like(geo.c_hat)
+    c_y[:, 1] = geo.c_y
+    kern = np.zeros((3, 7, half + 1), dtype=complex)
+    for pc, ch in enumerate((geo.c_hat, c_y)):
+        for pw, wh in enumerate((geo.w_hat, geo.w_y_hat)):
+            for li, l in enumerate(_HARM_C):
+                g = (ch[:, li : li + 1] * wh).T @ hq[:, 1 - l : half + 2 - l]
+                kern[pc + pw, li : li + 5] += g
     a = geo.table_a
-    zk = kern[0] * a[:, 6 : 6 + half + 1]
-    for d in range(1, 7):
-        zk += kern[d] * a[:, 6 - d : 6 - d + half + 1]
+    zk = kern[0, 0] * a[0, :, 6 : 6 + half + 1]
+    for p in range(3):
+        for d in range(7):
+            if p or d:
+                zk += kern[p, d] * a[p, :, 6 - d : 6 - d + half + 1]
     rows = np.fft.irfft(zk, n=n, axis=1)
     rows *= amp
-    table = ZreTable(np.concatenate([rows, rows[:, :1]], axis=1), geo.table_y, 0.0)
+    table = ZreTable(np.concatenate([rows[:, -1:], rows, rows[:, :2]], axis=1), geo.table_y, 0.0)
 
-    a0 = chip_factor(geo.phases, 0.0, geo.machine) * amp
+    a0 = chip_factor_cells(geo.phases, 0.0, geo.machine, 2 * np.pi / n) * amp
     a0_ext = _extend(np.fft.rfft(a0))
     fk = geo.w_hat[:, :1] * a0_ext[None, 5 : 5 + half + 1]
     for mi in range(1, 5):
@@ -350,7 +413,7 @@ def periodic_response(
     qd = np.fft.irfft(hv[:, 1 : half + 2] * fk, n=n, axis=1)
     qdd = geo.w * a0 - (2 * zeta * b.omega)[:, None] * qd - (b.omega**2)[:, None] * q
     j = np.arange(n)
-    tip, acc, work = _outputs(geo, j, q, qd, qdd, f)
+    tip, acc, work = _outputs(geo, j, np.zeros(n), q, qd, qdd, f)
     return Response(
         method="periodic",
         t=(j - geo.machine.cut_span[0] / process.feed_per_rev_m * n) * dt,
@@ -372,7 +435,7 @@ def time_response(
     zeta=DEFAULT_ZETA,
     force_scale: float = 1.0,
     record_periods: int = DEFAULT_RECORD_PERIODS,
-    block_samples: int = 1 << 18,
+    block_samples: int = 1 << 15,
 ) -> Response:
     """Whole-workpiece response from zero initial conditions (path a; eqs. 3.11-3.13).
 
@@ -399,26 +462,37 @@ def time_response(
     rec1 = rec0 + record_periods
     num, den = real_recurrence(b.omega, zeta, dt)
     state = np.zeros((nm, 2))
-    rows = np.empty((n_rev + 1, n))
-    rec_q = np.empty((nm, record_periods * n + 1))  # one sample before the window first
+    rows = np.empty((n_rev + 1, n + 3))  # padded as ZreTable wants: sample -1 and N, N + 1
+    rec_q = np.zeros((nm, record_periods * n + 1))  # one sample before the window first
     step = max(1, block_samples // n)
-    frac = np.arange(n) / n
-    trig_c = geo.trig[:3]
+    # the force is zero outside the angles that can cut: work on those runs of columns only
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], geo.active.astype(int), [0]])))
+    runs = [slice(lo, hi) for lo, hi in zip(edges[::2], edges[1::2], strict=True)]
+    forces = np.zeros((nm, step, n))
+    w_both = np.concatenate([geo.w_trig, geo.w_y_trig], axis=1)
     for r0 in range(0, n_rev + 1, step):
         r1 = min(r0 + step, n_rev + 1)
-        y = y_start + delta * (np.arange(r0, r1)[:, None] + frac)
-        a = chip_factor(geo.phases, y, mach) * amp
-        forces = geo.w_trig @ (geo.trig[:, None, :] * a).reshape(5, -1)
-        q = np.empty_like(forces)
+        c = r1 - r0
+        for run in runs:
+            y = y_start + delta * (np.arange(r0, r1)[:, None] + np.arange(n)[run] / n)
+            a = chip_factor_cells(geo.phases[run], y, mach, 2 * np.pi / n) * amp
+            basis_a = geo.trig[:, None, run] * a
+            inputs = np.concatenate([basis_a, basis_a * y]).reshape(10, -1)
+            forces[:, :c, run] = (w_both @ inputs).reshape(nm, c, -1)
+        q = np.empty((nm, c * n))
         for s in range(nm):
-            q[s], state[s] = lfilter(num[s], den[s], forces[s], zi=state[s])
-        zc = (geo.c_trig @ q).reshape(3, r1 - r0, n)
-        rows[r0:r1] = np.einsum("irj,ij->rj", zc, trig_c)
+            q[s], state[s] = lfilter(num[s], den[s], forces[s, :c].ravel(), zi=state[s])
+        zc = (np.vstack([geo.c_trig, geo.c_y]) @ q).reshape(4, c, n)
+        y = y_start + delta * (np.arange(r0, r1)[:, None] + np.arange(n) / n)
+        rows[r0:r1, 1 : n + 1] = np.einsum("irj,ij->rj", zc[:3], geo.trig[:3]) + y * zc[3]
         lo, hi = max(r0 * n, rec0 * n - 1), min(r1 * n, rec1 * n)
         if lo < hi:
             rec_q[:, lo - (rec0 * n - 1) : hi - (rec0 * n - 1)] = q[:, lo - r0 * n : hi - r0 * n]
+    rows[0, 0] = 0.0  # zero before the cut (eq. 3.13)
+    rows[1:, 0] = rows[:-1, n]
+    rows[:-1, n + 1 :] = rows[1:, 1:3]
     table = ZreTable(
-        np.concatenate([rows[:-1], rows[1:, :1]], axis=1),
+        rows[:-1],
         y_start + delta * np.arange(n_rev),
         delta,
     )
@@ -426,8 +500,8 @@ def time_response(
     idx = np.arange(rec0 * n - 1, rec1 * n)  # global sample numbers, one before the window
     j = idx % n
     y = y_start + delta * idx / n
-    a = chip_factor(geo.phases[j], y, mach) * amp
-    fs = geo.w[:, j] * a
+    a = chip_factor_cells(geo.phases[j], y, mach, 2 * np.pi / n) * amp
+    fs = (geo.w[:, j] + y * geo.w_y[:, j]) * a
     lam, e, b0, b1 = (v[:, None] for v in discretise(b.omega, zeta, dt))
     # z_{k-1} = u + i v from q_{k-1} = 2 Re z_{k-1} and q_k = 2 Re(E z_{k-1} + g_k)
     g = b0 * fs[:, 1:] + b1 * fs[:, :-1]
@@ -437,7 +511,7 @@ def time_response(
     q = rec_q[:, 1:]
     qd = 2 * (lam * z).real
     qdd = fs[:, 1:] - (2 * zeta * b.omega)[:, None] * qd - (b.omega**2)[:, None] * q
-    tip, acc, work = _outputs(geo, j[1:], q, qd, qdd, f)
+    tip, acc, work = _outputs(geo, j[1:], y[1:], q, qd, qdd, f)
     return Response(
         method="time",
         t=idx[1:] * dt,

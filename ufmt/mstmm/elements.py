@@ -13,6 +13,7 @@ import numpy as np
 from ufmt.model.schema import Beam
 
 I3 = np.eye(3)
+VERTICAL_SINE = 1e-9  # a beam axis this close to global z counts as vertical (schema default)
 
 
 def tilde(v) -> np.ndarray:
@@ -91,7 +92,7 @@ def beam_frame(beam: Beam, p_in, p_out) -> np.ndarray:
     """Columns e1, e2, e3 of the beam's local frame for transfer from p_in to p_out.
 
     e1 runs along the transfer direction; e2 is ``orientation`` (default global z, or global
-    x for a vertical beam) projected off e1; e3 = e1 x e2. Flipping e1 flips e3 only, which
+    x for a vertical beam, |e1 x z| <= VERTICAL_SINE) projected off e1; e3 = e1 x e2. Flipping e1 flips e3 only, which
     leaves the section's second moments about e2 and e3 unchanged.
     """
     e1 = np.asarray(p_out, dtype=float) - p_in
@@ -99,7 +100,7 @@ def beam_frame(beam: Beam, p_in, p_out) -> np.ndarray:
     ref = beam.orientation
     if ref is None:
         ref = np.array([0.0, 0.0, 1.0])
-        if abs(e1 @ ref) > 0.9:
+        if np.linalg.norm(np.cross(e1, ref)) <= VERTICAL_SINE:
             ref = np.array([1.0, 0.0, 0.0])
     e2 = ref - (ref @ e1) * e1
     e2 /= np.linalg.norm(e2)

@@ -19,6 +19,7 @@ from ufmt.mstmm.overall import TransferSystem
 from ufmt.mstmm.roots import natural_frequencies
 
 DEFAULT_FMAX_HZ = 1000.0
+BRACKETING_ELEMENTS = 8  # beam elements of the assembled model that only counts and brackets
 DIRECTIONS = ("x", "y", "z", "rx", "ry", "rz")
 
 

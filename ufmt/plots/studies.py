@@ -21,7 +21,16 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.colors import LogNorm
 from matplotlib.figure import Figure
 
-from ufmt.studies.outputs import META, POINTS, parameter_label, read_table
+from ufmt.studies.outputs import (
+    CONVERGENCE,
+    INDICES,
+    META,
+    OPTIMA,
+    PARETO,
+    POINTS,
+    parameter_label,
+    read_table,
+)
 
 DPI = 120
 PANEL = (4.2, 3.2)  # inches per panel
@@ -37,16 +46,14 @@ def plot_study(out_dir: str | Path) -> list[Path]:
     if kind in ("sweep", "grid"):
         return plot_sweeps(points, meta, out_dir)
     if kind == "sensitivity":
-        return [plot_sensitivity(read_table(out_dir / "indices.csv"), out_dir / "sensitivity.png")]
-    written = [
-        plot_convergence(read_table(out_dir / "convergence.csv"), out_dir / "convergence.png")
-    ]
+        return [plot_sensitivity(read_table(out_dir / INDICES), out_dir / "sensitivity.png")]
+    written = [plot_convergence(read_table(out_dir / CONVERGENCE), out_dir / "convergence.png")]
     if kind == "optimise-process":
         written.append(
             plot_pareto(
                 points,
-                read_table(out_dir / "pareto.csv"),
-                read_table(out_dir / "optima.csv"),
+                read_table(out_dir / PARETO),
+                read_table(out_dir / OPTIMA),
                 out_dir / "pareto.png",
             )
         )
@@ -121,19 +128,27 @@ def plot_pv_map(points: pd.DataFrame, group: dict, path: Path) -> Path:
     fig.colorbar(mesh, ax=ax, label="surface PV [nm]")
     if pv.size <= MAX_LABELLED_CELLS:
         for (i, j), value in np.ndenumerate(pv):
-            ax.text(x[j], y[i], f"{value:.3g}", ha="center", va="center", fontsize="x-small")
+            colour = "w" if mesh.norm(value) < 0.5 else "k"  # viridis is dark at the low end
+            ax.text(
+                x[j],
+                y[i],
+                f"{value:.3g}",
+                ha="center",
+                va="center",
+                fontsize="x-small",
+                color=colour,
+            )
     ok = _ok(data)
     if not ok.empty:
         best = ok.iloc[int(np.argmin(ok["pv_nm"].to_numpy(float)))]
-        ax.plot(best[x_name], best[y_name], "w*", ms=12, mec="k", label="lowest PV")
-        ax.legend(fontsize="small", loc="upper right")
+        ax.plot(best[x_name], best[y_name], "o", ms=22, mfc="none", mec="r", mew=1.5)
     if x_axis["log"]:
         ax.set_xscale("log")
     if y_axis["log"]:
         ax.set_yscale("log")
     ax.set_xlabel(parameter_label(x_name))
     ax.set_ylabel(parameter_label(y_name))
-    ax.set_title(f"PV over grid {group['name']}")
+    ax.set_title(f"Surface PV [nm] over grid {group['name']} (red ring: lowest)")
     return _save(fig, path)
 
 

@@ -57,9 +57,6 @@ FAILED = 1e12  # objective of a failed point during global search
 TRUST_RADIUS = 0.1  # initial trust box half-width in unit coordinates
 MIN_RADIUS = 1e-3  # refinement stops below this half-width
 BISECTION_STEPS = 4  # feed bisection steps for the fastest recipe
-CONVERGENCE = "convergence.csv"
-OPTIMA = "optima.csv"
-PARETO = "pareto.csv"
 
 BatchObjective = Callable[[np.ndarray], np.ndarray]  # (n, dim) unit coordinates -> (n,)
 
@@ -93,21 +90,21 @@ class Space:
         """Number of searched parameters."""
         return len(self.names)
 
+    def _search(self, values) -> np.ndarray:
+        """Search coordinates: the value, or its log10 for log bounds."""
+        v = np.asarray(values, dtype=float)
+        return np.log10(v, out=v.copy(), where=self.log)
+
     def values(self, u: np.ndarray) -> np.ndarray:
         """Parameter values [SI] of unit coordinates ``u`` (..., dim)."""
-        u = np.clip(np.asarray(u, dtype=float), 0.0, 1.0)
-        lo = np.where(self.log, np.log10(self.low), self.low)
-        hi = np.where(self.log, np.log10(self.high), self.high)
-        t = lo + u * (hi - lo)
+        lo, hi = self._search(self.low), self._search(self.high)
+        t = lo + np.clip(np.asarray(u, dtype=float), 0.0, 1.0) * (hi - lo)
         return np.power(10.0, t, out=t.copy(), where=self.log)
 
-    def unit(self, values: np.ndarray) -> np.ndarray:
+    def unit(self, values) -> np.ndarray:
         """Unit coordinates of parameter ``values`` (..., dim)."""
-        v = np.asarray(values, dtype=float)
-        lo = np.where(self.log, np.log10(self.low), self.low)
-        hi = np.where(self.log, np.log10(self.high), self.high)
-        t = np.where(self.log, np.log10(v), v)
-        return (t - lo) / (hi - lo)
+        lo, hi = self._search(self.low), self._search(self.high)
+        return (self._search(values) - lo) / (hi - lo)
 
     def without(self, name: str) -> Space:
         """The box without parameter ``name``."""
@@ -154,10 +151,14 @@ class _Recorder:
         return values
 
 
-def global_search(objective: BatchObjective, dim: int, options: Mapping) -> SearchResult:
+def global_search(
+    objective: BatchObjective, dim: int, options: Mapping, x0: np.ndarray | None = None
+) -> SearchResult:
     """Differential evolution over the unit box, one batch per generation.
 
-    ``options``: seed, popsize (population = popsize * dim), maxiter, tol (scipy's).
+    ``options``: seed, popsize (population = popsize * dim), maxiter, tol (scipy's); ``x0``
+    (optional) joins the initial population (the current design or recipe, so the result is
+    never worse than it).
     """
     from scipy.optimize import differential_evolution
 
@@ -177,6 +178,7 @@ def global_search(objective: BatchObjective, dim: int, options: Mapping) -> Sear
         polish=False,
         updating="deferred",
         vectorized=True,
+        x0=x0,
     )
     if recorder.best_u is None:
         raise StudyError("global search: every evaluated point failed")
@@ -270,9 +272,11 @@ def trust_region_refine(
     return SearchResult(u0, f0, recorder.history)
 
 
-def minimise(objective: BatchObjective, dim: int, options: Mapping) -> SearchResult:
-    """Global search, then convex trust-region refinement (module docstring)."""
-    found = global_search(objective, dim, options)
+def minimise(
+    objective: BatchObjective, dim: int, options: Mapping, x0: np.ndarray | None = None
+) -> SearchResult:
+    """Global search (from ``x0`` if given), then convex trust-region refinement."""
+    found = global_search(objective, dim, options, x0)
     refined = trust_region_refine(
         objective, found.u, found.value, options["refine_steps"], options["seed"]
     )
@@ -344,60 +348,66 @@ def _travel_mm(study, evaluator) -> float:
         raise StudyError(f"{study.path}: cutting time needs the workpiece: {exc}") from None
 
 
+def _start(space: Space, baseline: Mapping) -> np.ndarray | None:
+    """Unit coordinates of the baseline (calibrated design, reference process) if inside."""
+    u = space.unit([baseline.get(name, math.nan) for name in space.names])
+    return u if np.all((u >= 0.0) & (u <= 1.0)) else None
+
+
 def run_optimise_process(study, evaluator, baseline: Mapping, out_dir: Path) -> str:
-    """Minimum-PV recipe, fastest recipe under the PV target, Pareto front; returns headline."""
+    """Minimum-PV recipe, fastest recipe under the PV target, Pareto front; returns headline.
+
+    The searches (module docstring) propose recipes; the reported ones are the best of every
+    evaluated recipe: the lowest PV, and the shortest time with PV <= target.
+    """
     options = study.options["optimiser"]
     target = study.options["target_pv_nm"]
     travel = _travel_mm(study, evaluator)
     space = Space.from_bounds(study.bounds, baseline)
-    min_pv = minimise(_objective(evaluator, "min-pv", space, {}), space.dim, options)
-    stages = [("min-pv", min_pv)]
+    objective = _objective(evaluator, "min-pv", space, {})
+    stages = [("min-pv", minimise(objective, space.dim, options, _start(space, baseline)))]
 
     feed_i = space.names.index("feed_mm_min")
     others = space.without("feed_mm_min")
     level_feeds = np.linspace(space.low[feed_i], space.high[feed_i], study.options["pareto_levels"])
 
-    def best_at(feed: float, stage: str) -> tuple[float, dict]:
+    def feasible_at(feed: float, stage: str) -> bool:
+        """Whether min over (rpm, depth) of PV at this feed is <= target."""
         fixed = {"feed_mm_min": float(feed)}
         result = minimise(_objective(evaluator, stage, others, fixed), others.dim, options)
         stages.append((stage, result))
-        return result.value, {**fixed, **others.points(result.u[None])[0]}
+        return result.value <= target
 
-    levels = [best_at(f, f"feed-{f:.4g}") for f in level_feeds]
-    feasible = [i for i, (pv, _) in enumerate(levels) if pv <= target]
-    fastest = None
-    if feasible:
-        k = feasible[-1]
-        fastest = levels[k][1]
-        if k + 1 < len(levels):
+    feasible = [feasible_at(f, f"feed-{f:.4g}") for f in level_feeds]
+    if any(feasible):
+        k = len(feasible) - 1 - feasible[::-1].index(True)
+        if k + 1 < len(level_feeds):
             lo, hi = level_feeds[k], level_feeds[k + 1]
             for step in range(BISECTION_STEPS):
                 mid = 0.5 * (lo + hi)
-                pv, point = best_at(mid, f"bisect-{step + 1}")
-                if pv <= target:
-                    lo, fastest = mid, point
-                else:
-                    hi = mid
+                lo, hi = (mid, hi) if feasible_at(mid, f"bisect-{step + 1}") else (lo, mid)
 
-    recipes = {"min-pv": space.points(min_pv.u[None])[0]}
-    if fastest is not None:
-        recipes["fastest-under-target"] = fastest
-    rows = evaluator.evaluate([("optimum", p) for p in recipes.values()])
+    table = evaluator.table()
+    ok = table[table["status"] == "ok"].copy()
+    ok["cutting_time_min"] = cutting_time_min(ok["feed_mm_min"], travel)
+    recipes = {"min-pv": ok.loc[ok["pv_nm"].idxmin()]}
+    under = ok[ok["pv_nm"] <= target].sort_values(["cutting_time_min", "pv_nm"], kind="stable")
+    if not under.empty:
+        recipes["fastest-under-target"] = under.iloc[0]
+    points = [{n: float(r[n]) for n in space.names} for r in recipes.values()]
+    rows = evaluator.evaluate([("optimum", p) for p in points])
     optima = pd.DataFrame(
         [{"optimum": name, **row} for name, row in zip(recipes, rows, strict=True)]
     ).drop(columns=["group", "index"])
     optima["travel_mm"] = travel
     optima["cutting_time_min"] = cutting_time_min(optima["feed_mm_min"], travel)
     optima["target_pv_nm"] = target
-    outputs.write_table(optima, out_dir / OPTIMA)
+    outputs.write_table(optima, out_dir / outputs.OPTIMA)
 
-    table = evaluator.table()
-    ok = table[table["status"] == "ok"].copy()
-    ok["cutting_time_min"] = cutting_time_min(ok["feed_mm_min"], travel)
     front = ok[pareto_mask(ok["cutting_time_min"], ok["pv_nm"])]
     front = front.sort_values("cutting_time_min").drop_duplicates(["cutting_time_min", "pv_nm"])
-    outputs.write_table(front.reset_index(drop=True), out_dir / PARETO)
-    outputs.write_table(_convergence(stages), out_dir / CONVERGENCE)
+    outputs.write_table(front.reset_index(drop=True), out_dir / outputs.PARETO)
+    outputs.write_table(_convergence(stages), out_dir / outputs.CONVERGENCE)
 
     best = optima.iloc[0]
     text = (
@@ -405,7 +415,7 @@ def run_optimise_process(study, evaluator, baseline: Mapping, out_dir: Path) -> 
         f" {short(best['feed_mm_min'])} mm/min, {short(best['depth_um'])} um"
         f" ({short(best['cutting_time_min'])} min per pass)"
     )
-    if fastest is None:
+    if under.empty:
         return text + f"; no recipe within the bounds keeps PV under {short(target)} nm."
     fast = optima.iloc[1]
     return text + (
@@ -434,7 +444,8 @@ def run_optimise_design(study, evaluator, baseline: Mapping, out_dir: Path) -> s
     def cost(values: np.ndarray) -> np.ndarray:
         return (weights * values / safe_reference).sum(axis=-1)
 
-    found = minimise(_objective(evaluator, "search", space, {}, cost), space.dim, options)
+    objective = _objective(evaluator, "search", space, {}, cost)
+    found = minimise(objective, space.dim, options, _start(space, baseline))
     candidates = {"optimum": space.points(found.u[None])[0]}
     if np.all(np.isfinite(reference)):
         candidates = {"calibrated": dict(zip(space.names, reference, strict=True)), **candidates}
@@ -444,8 +455,8 @@ def run_optimise_design(study, evaluator, baseline: Mapping, out_dir: Path) -> s
     ).drop(columns=["group", "index"])
     optima["cost_nm"] = cost(optima[list(space.names)].to_numpy(float))
     optima["objective_nm"] = optima["pv_nm"] + optima["cost_nm"]
-    outputs.write_table(optima, out_dir / OPTIMA)
-    outputs.write_table(_convergence([("search", found)]), out_dir / CONVERGENCE)
+    outputs.write_table(optima, out_dir / outputs.OPTIMA)
+    outputs.write_table(_convergence([("search", found)]), out_dir / outputs.CONVERGENCE)
 
     best = optima[optima["design"] == "optimum"].iloc[0]
     parts = []

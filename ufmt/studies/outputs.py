@@ -30,6 +30,11 @@ import numpy as np
 import pandas as pd
 
 POINTS = "points.csv"
+OPTIMA = "optima.csv"
+PARETO = "pareto.csv"
+CONVERGENCE = "convergence.csv"
+INDICES = "indices.csv"
+TABLES = (POINTS, OPTIMA, PARETO, CONVERGENCE, INDICES)
 META = "meta.json"
 INDEX = "README.md"
 PACKAGES = (
@@ -256,14 +261,15 @@ def short(value: float) -> str:
 
 
 def trend(x, y) -> str:
-    """How ``y`` changes as ``x`` rises: "falls", "rises" (monotonic) or "is not monotonic"."""
-    order = np.argsort(x)
-    steps = np.diff(np.asarray(y, dtype=float)[order])
+    """How ``y`` changes as ``x`` rises: "falls" or "rises" (monotonically), else "falls
+    overall (not monotonically)" or "rises overall (not monotonically)" by the end points."""
+    y = np.asarray(y, dtype=float)[np.argsort(x)]
+    steps = np.diff(y)
     if np.all(steps <= 0):
         return "falls"
     if np.all(steps >= 0):
         return "rises"
-    return "is not monotonic"
+    return f"{'falls' if y[-1] < y[0] else 'rises'} overall (not monotonically)"
 
 
 def sweep_headline(table: pd.DataFrame, study, baseline: Mapping[str, float]) -> str:

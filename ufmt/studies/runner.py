@@ -32,6 +32,7 @@ from pathlib import Path
 import joblib
 import numpy as np
 import pandas as pd
+from joblib.externals.loky.process_executor import TerminatedWorkerError
 from threadpoolctl import threadpool_limits
 from tqdm import tqdm
 
@@ -163,7 +164,7 @@ def parallel_pool(execution: Execution) -> Iterator[tuple[joblib.Parallel, int]]
             cluster = LocalCluster(
                 n_workers=execution.n_jobs, threads_per_worker=1, dashboard_address=None
             )
-        client = Client(execution.scheduler or cluster, timeout=30)
+        client = Client(execution.scheduler or cluster, timeout=10)
     except OSError as exc:
         raise StudyError(f"--scheduler {execution.scheduler}: cannot connect: {exc}") from None
     try:
@@ -266,15 +267,11 @@ class Evaluator:
                 self.points_new += 1
                 self.evaluation_s += seconds
                 self._bar.update(1)
-        except Exception as exc:
-            from joblib.externals.loky.process_executor import TerminatedWorkerError
-
-            if isinstance(exc, TerminatedWorkerError):
-                raise StudyError(
-                    f"{self.study.name}: a worker died ({' '.join(str(exc).split())[:200]});"
-                    f" {len(self._rows)} finished points are saved; rerun to resume"
-                ) from None
-            raise
+        except TerminatedWorkerError as exc:
+            raise StudyError(
+                f"{self.study.name}: a worker died ({' '.join(str(exc).split())[:200]});"
+                f" {len(self._rows)} finished points are saved; rerun to resume"
+            ) from None
 
     def values(self, group: str, points: Sequence[Mapping[str, float]], output="pv_nm"):
         """``output`` of each point as a float array (NaN where the point failed)."""
@@ -282,14 +279,9 @@ class Evaluator:
         return np.array([_number(r.get(output)) for r in rows])
 
     def table(self) -> pd.DataFrame:
-        """Every row requested in this run, sorted by (group in request order, index)."""
-        order = {group: i for i, group in enumerate(self._requested)}
-        keys = [k for g in self._requested for k in self._requested[g]]
-        table = pd.DataFrame([self._rows[k] for k in keys], columns=self._log.columns)
-        table = table.sort_values(
-            ["group", "index"], key=lambda c: c.map(order) if c.name == "group" else c
-        )
-        return table.reset_index(drop=True)
+        """Every row requested in this run, by group (in request order), then index."""
+        keys = [k for requested in self._requested.values() for k in requested]
+        return pd.DataFrame([self._rows[k] for k in keys], columns=self._log.columns)
 
     def close(self) -> None:
         """Close the progress bar and the log."""
@@ -418,9 +410,8 @@ def run_study(
     out_dir.mkdir(parents=True, exist_ok=True)
     previous = outputs.read_meta(out_dir)
     if fresh or previous.get("fingerprint") != identity["fingerprint"]:
-        for stale in out_dir.glob("*"):
-            if stale.is_file() and stale.suffix in (".csv", ".png", ".json", ".tmp"):
-                stale.unlink()
+        for name in (*outputs.TABLES, outputs.META, *previous.get("plots", [])):
+            (out_dir / name).unlink(missing_ok=True)
     meta = {
         "study": study.name,
         "kind": study.kind,

@@ -28,8 +28,6 @@ from ufmt.studies import outputs
 from ufmt.studies.optimise import Space
 from ufmt.studies.outputs import short
 
-INDICES = "indices.csv"
-
 
 def sensitivity_problem(space: Space) -> dict:
     """SALib problem over the unit coordinates of ``space`` (linear, or log10 for log bounds)."""
@@ -101,7 +99,7 @@ def run_sensitivity(study, evaluator, baseline: Mapping, out_dir: Path) -> str:
     else:
         table = sobol_indices(problem, Y, options["seed"])
         key, unit = "ST", ""
-    outputs.write_table(table.reset_index(drop=True), out_dir / INDICES)
+    outputs.write_table(table.reset_index(drop=True), out_dir / outputs.INDICES)
     ranked = ", ".join(
         f"{r.parameter} ({short(getattr(r, key))}{unit})" for r in table.itertuples()
     )

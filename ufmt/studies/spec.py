@@ -214,7 +214,7 @@ def parse_study(text: str, path: str | Path = "study.toml") -> Study:
         kind=kind,
         description=_string(where, "description", data.get("description", ""), empty=True),
         function=_function(where, data.get("function", DEFAULT_FUNCTION)),
-        model=None if model is None else path.parent / _string(where, "model", model),
+        model=None if model is None else (path.parent / _string(where, "model", model)).resolve(),
         base=base,
         text=text,
     )
@@ -463,6 +463,8 @@ def _grids(where: _Where, value) -> list[Group]:
     for i, table in enumerate(_tables(where, "grid", value, required=False)):
         _check_keys(where, f"grid[{i}].", table, _GRID_FIELDS)
         name = _string(where, f"grid[{i}].name", table.get("name", ""))
+        if not _NAME.fullmatch(name):
+            where.fail(f"grid[{i}].name", f"{name!r} is not a valid name (letters, digits, _ . -)")
         axes = _axes(where, f"grid[{i}].axis", table.get("axis", []), required=True)
         if len(axes) < 2:
             where.fail(f"grid[{i}].axis", "a grid needs at least two axes")

@@ -1,0 +1,221 @@
+"""Process validation, machine geometry, fly-cutting kinematics and force (issue 4, item 2)."""
+
+import math
+import warnings
+
+import numpy as np
+import pytest
+
+from ufmt.dynamics.basis import ModalBasis
+from ufmt.dynamics.cutting import (
+    ForceCoefficients,
+    chip_thickness,
+    cutting_force,
+    machine_of,
+    read_machine,
+    tool_over_workpiece,
+    tool_tip,
+    tool_tip_rates,
+)
+from ufmt.dynamics.process import Process, ProcessRangeWarning
+from ufmt.dynamics.response import cut_geometry
+from ufmt.errors import ModelError, ProcessError
+from ufmt.model.schema import Model
+
+MACHINE = {
+    "tool_body": "head",
+    "workpiece_body": "slider",
+    "spindle_axis_xy": [0.0, 0.0],
+    "cutting_plane_z": 0.0,
+    "tool_radius": 0.25,
+    "workpiece_size": [0.41, 0.41],
+    "workpiece_center_xy": [0.0, 0.0],
+    "rotation": "cw",
+}
+
+
+# --- process ------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("field", ["rpm", "feed_mm_min", "depth_um"])
+@pytest.mark.parametrize("bad", [0.0, -3.0, float("nan"), float("inf")])
+def test_process_rejects_non_physical_values_naming_the_field(field, bad):
+    values = {"rpm": 300.0, "feed_mm_min": 15.0, "depth_um": 4.0, field: bad}
+    with pytest.raises(ProcessError, match=f"field '{field}'"):
+        Process(**values)
+
+
+def test_process_rejects_non_numbers():
+    with pytest.raises(ProcessError, match="field 'rpm': 'fast' is not a number"):
+        Process("fast", 15, 4)
+
+
+@pytest.mark.parametrize(
+    "values, field",
+    [((500, 15, 4), "rpm"), ((300, 2, 4), "feed_mm_min"), ((300, 15, 10), "depth_um")],
+)
+def test_process_outside_table1_warns(values, field):
+    with pytest.warns(ProcessRangeWarning, match=f"field '{field}'.*outside the validated range"):
+        Process(*values)
+
+
+def test_process_inside_table1_is_silent_and_converts_units():
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        p = Process(300, 15, 4)
+    assert p.spindle_hz == 5.0
+    assert p.feed_m_s == pytest.approx(15e-3 / 60)
+    assert p.depth_m == pytest.approx(4e-6)
+    assert p.feed_per_rev_m == pytest.approx(15e-3 / 300)  # v / n: 0.05 mm per revolution
+
+
+# --- machine table ------------------------------------------------------------------------
+
+
+def test_read_machine_accepts_the_documented_table():
+    m = read_machine(MACHINE, "ufmt.toml")
+    assert (m.tool_radius, m.workpiece_size, m.sense, m.force_scale) == (
+        0.25,
+        (0.41, 0.41),
+        1.0,
+        1.0,
+    )
+    # leading arc first touches at Y = -(Ly/2 + R); trailing arc leaves at +(Ly/2 + R)
+    assert m.cut_span == pytest.approx((-0.455, 0.455))
+    # cutting stops when the arc's ends at the plate's x edges pass the far y edge
+    assert m.cutting_span[1] == pytest.approx(0.205 - math.sqrt(0.25**2 - 0.205**2))
+
+
+@pytest.mark.parametrize(
+    "change, message",
+    [
+        ({"tool_radius": -0.2}, "ufmt.toml: machine: field 'tool_radius': -0.2 must be > 0"),
+        ({"tool_radius": 0.2}, "field 'tool_radius': 0.2 must exceed"),
+        ({"rotation": "left"}, "field 'rotation': 'left' must be 'cw'"),
+        ({"workpiece_size": [0.4]}, "field 'workpiece_size'"),
+        ({"workpiece_size": [0.4, -1]}, "field 'workpiece_size'.*must be > 0"),
+        ({"cutting_plane_z": "top"}, "field 'cutting_plane_z': 'top' must be a number"),
+        ({"workpiece_center_xy": [0.0, 0.1]}, "field 'workpiece_center_xy'"),
+        ({"tool_body": ""}, "field 'tool_body'"),
+        ({"force_scale": 0.0}, "field 'force_scale': 0.0 must be > 0"),
+    ],
+)
+def test_read_machine_errors_name_file_and_field(change, message):
+    with pytest.raises(ModelError, match=message):
+        read_machine({**MACHINE, **change}, "ufmt.toml")
+
+
+def test_read_machine_missing_field():
+    table = {k: v for k, v in MACHINE.items() if k != "tool_radius"}
+    with pytest.raises(ModelError, match="ufmt.toml: machine: missing field 'tool_radius'"):
+        read_machine(table, "ufmt.toml")
+
+
+def test_machine_bodies_must_exist_in_the_model():
+    from ufmt.model.schema import RigidBody, frozen_array
+
+    body = RigidBody("head", 1.0, frozen_array([0, 0, 0]), frozen_array(np.eye(3)))
+    model = Model("m", (body,), (), machine=dict(MACHINE), source="m.toml")
+    with pytest.raises(ModelError, match="m.toml: machine: field 'workpiece_body': 'slider'"):
+        machine_of(model)
+
+
+# --- kinematics (eq. 4.1) ---------------------------------------------------------------------
+
+
+def test_tool_tip_follows_eq_4_1_and_its_derivatives():
+    axis = {"spindle_axis_xy": [0.01, -0.02], "workpiece_center_xy": [0.0, -0.02]}
+    m = read_machine({**MACHINE, **axis, "cutting_plane_z": 0.3})
+    phi = np.linspace(0, 2 * np.pi, 7)
+    p = tool_tip(phi, m)
+    np.testing.assert_allclose(p[:, 0], 0.01 + 0.25 * np.sin(phi))
+    np.testing.assert_allclose(p[:, 1], -0.02 + 0.25 * np.cos(phi))
+    np.testing.assert_allclose(p[:, 2], 0.3)
+    # velocity and acceleration against central differences in time (f = 5 Hz)
+    f, dt = 5.0, 1e-6
+    vel, acc = tool_tip_rates(phi, m, f)
+    w = 2 * np.pi * f
+    num_v = (tool_tip(phi + w * dt, m) - tool_tip(phi - w * dt, m)) / (2 * dt)
+    num_a = (tool_tip(phi + w * dt, m) - 2 * p + tool_tip(phi - w * dt, m)) / dt**2
+    np.testing.assert_allclose(vel, num_v, atol=1e-6)
+    np.testing.assert_allclose(acc, num_a, atol=1e-2)
+    # eq. 4.1 turns clockwise seen from +z: angular momentum (p x v)_z < 0
+    assert np.all(np.cross(p - [0.01, -0.02, 0.3], vel)[:, 2] < 0)
+
+
+def test_ccw_mirrors_x():
+    cw, ccw = read_machine(MACHINE), read_machine({**MACHINE, "rotation": "ccw"})
+    phi = np.linspace(0, 6, 5)
+    np.testing.assert_allclose(tool_tip(phi, ccw)[:, 0], -tool_tip(phi, cw)[:, 0])
+    np.testing.assert_allclose(tool_tip(phi, ccw)[:, 1:], tool_tip(phi, cw)[:, 1:])
+
+
+def test_tool_cuts_only_on_the_leading_arc_over_the_workpiece():
+    m = read_machine(MACHINE)
+    delta = 5e-5
+    # workpiece centred under the spindle (Y = 0): the plate edge y = 0.205 cuts the arc
+    # at cos(phi) = 0.82, its x edges at sin(phi) = 0.82
+    phi = np.radians([0, 30, 40, 50, 60, 140, 180, 220, 320])
+    h = chip_thickness(phi, 0.0, delta, m)
+    over = tool_over_workpiece(phi, 0.0, m)
+    expect_over = [False, False, True, True, False, True, False, True, True]
+    np.testing.assert_array_equal(over, expect_over)
+    cutting = over & (np.cos(phi) > 0)
+    np.testing.assert_allclose(h, np.where(cutting, delta * np.cos(phi), 0.0))
+
+
+def test_cutting_force_components_and_scaling():
+    m = read_machine(MACHINE)
+    k = ForceCoefficients(cutting=2e9, thrust=3e9, feed=0.5e9)
+    p = Process(300, 15, 4)
+    phi = np.radians([-40.0, 0.0, 25.0])
+    slide = -0.25  # arc fully over the plate
+    f = cutting_force(phi, slide, p, m, k, force_scale=1.5)
+    area = 1.5 * p.depth_m * p.feed_per_rev_m * np.cos(phi)
+    vel, _ = tool_tip_rates(phi, m, p.spindle_hz)
+    t = vel / np.linalg.norm(vel, axis=1, keepdims=True)
+    n = (tool_tip(phi, m) - [0, 0, 0]) * [1, 1, 0] / 0.25
+    np.testing.assert_allclose(np.einsum("ij,ij->i", f, t), -k.cutting * area)  # opposes v
+    np.testing.assert_allclose(np.einsum("ij,ij->i", f, n), -k.feed * area)  # pushed back
+    np.testing.assert_allclose(f[:, 2], k.thrust * area)  # tool pushed up, away from the cut
+    # linear in depth and in feed per revolution
+    f2 = cutting_force(phi, slide, Process(300, 15, 8), m, k, force_scale=1.5)
+    np.testing.assert_allclose(f2, 2 * f)
+    f3 = cutting_force(phi, slide, Process(400, 16, 4), m, k)
+    f4 = cutting_force(phi, slide, Process(200, 16, 4), m, k)
+    np.testing.assert_allclose(f4, 2 * f3)
+
+
+def test_reaction_on_the_workpiece_cancels_when_both_bodies_move_together():
+    """Action on the tool and reaction on the workpiece: no net modal force in a common motion."""
+    rng = np.random.default_rng(0)
+    common = rng.normal(size=(3, 6))
+    centre = np.array([0.0, 0.0, 0.1])
+    # same rigid motion of one frame: shapes of both bodies at their own centres
+    shifted = common.copy()
+    shifted[:, :3] += np.cross(common[:, 3:], [0.0, 0.0, -0.3] - centre)
+    basis = ModalBasis(
+        omega=np.array([10.0, 20.0, 30.0]),
+        modal_mass=np.ones(3),
+        body_shapes={"head": common, "slider": shifted},
+        body_centers={"head": centre, "slider": [0.0, 0.0, -0.3]},
+    )
+    geo = cut_geometry(basis, read_machine(MACHINE), n_phi=16, table_rows=4)
+    # zero up to rounding of terms of size |shape| * K_t / M
+    scale = np.abs(common).max() * ForceCoefficients().thrust
+    assert np.abs(geo.w).max() < 1e-14 * scale
+    assert np.abs(geo.c).max() < 1e-14 * np.abs(common).max()
+
+
+def test_point_shapes_are_rigid_motions():
+    basis = ModalBasis(
+        omega=np.array([1.0]),
+        modal_mass=np.array([1.0]),
+        body_shapes={"b": np.array([[1e-3, 0, 0, 0, 0, 2e-3]])},
+        body_centers={"b": [1.0, 0.0, 0.0]},
+    )
+    # rotation about z by 2e-3 rad: a point 0.5 m along +x from the centre moves +1e-3 in y
+    np.testing.assert_allclose(basis.point_shapes("b", [1.5, 0.0, 0.0]), [[1e-3, 1e-3, 0.0]])
+    assert basis.point_shapes("b", np.zeros((4, 3))).shape == (1, 4, 3)
+    with pytest.raises(KeyError, match="unknown body"):
+        basis.point_shapes("x", [0, 0, 0])

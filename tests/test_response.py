@@ -1,0 +1,305 @@
+"""Modal response to the cutting force: closed forms, the two paths, linearity (issue 4)."""
+
+import numpy as np
+import pytest
+from scipy.signal import lfilter
+
+from ufmt.dynamics.basis import ModalBasis
+from ufmt.dynamics.cutting import ForceCoefficients, read_machine
+from ufmt.dynamics.frf import tool_workpiece_receptance
+from ufmt.dynamics.process import Process
+from ufmt.dynamics.response import (
+    _outputs,
+    cut_geometry,
+    discrete_receptance,
+    discretise,
+    periodic_response,
+    real_recurrence,
+    time_response,
+)
+from ufmt.model.schema import Model
+from ufmt.simulate import fit_force_scale, simulate
+from ufmt.surface import machined_surface, steady_region
+
+MACHINE = {
+    "tool_body": "head",
+    "workpiece_body": "slider",
+    "spindle_axis_xy": [0.0, 0.0],
+    "cutting_plane_z": 0.0,
+    "tool_radius": 0.25,
+    "workpiece_size": [0.41, 0.41],
+    "workpiece_center_xy": [0.0, 0.0],
+    "rotation": "cw",
+}
+# a small plate so that the whole-workpiece time path takes a fraction of a second; long enough
+# in y that the halfway point (Y = 0) lies in the steady span (the arc crosses the whole width)
+SMALL = {**MACHINE, "tool_radius": 0.06, "workpiece_size": [0.1, 0.2]}
+
+
+def synthetic_basis(n=6, seed=3, f_lo=8.0, f_hi=400.0, slider_turns=True):
+    """n modes with random rigid motions of the head and the slider (and an idle bed)."""
+    rng = np.random.default_rng(seed)
+    shapes = {}
+    for body in ("head", "slider", "bed"):
+        s = rng.normal(size=(n, 6))
+        s[:, 3:] *= 2.0
+        shapes[body] = s
+    if not slider_turns:
+        shapes["slider"][:, 3:] = 0.0
+    return ModalBasis(
+        omega=2 * np.pi * np.geomspace(f_lo, f_hi, n),
+        modal_mass=np.full(n, 2000.0),
+        body_shapes=shapes,
+        body_centers={"head": [0, 0, 0.15], "slider": [0, 0, -0.15], "bed": [0, 0, -1.0]},
+    )
+
+
+def heave_basis(f_hz=50.0, mass=100.0):
+    """One mode: the head heaves in z (unit shape), the workpiece stands still."""
+    return ModalBasis(
+        omega=np.array([2 * np.pi * f_hz]),
+        modal_mass=np.array([mass]),
+        body_shapes={"head": np.array([[0, 0, 1.0, 0, 0, 0]]), "slider": np.zeros((1, 6))},
+        body_centers={"head": [0, 0, 0.1], "slider": [0, 0, -0.1]},
+    )
+
+
+# --- single degree of freedom against closed forms -----------------------------------------
+
+
+def ramp_hold_response(t, w, zeta, t_ramp):
+    """Closed form q(t) of q'' + 2 zeta w q' + w^2 q = min(t / t_ramp, 1), q(0) = q'(0) = 0."""
+    wd = w * np.sqrt(1 - zeta**2)
+
+    def ramp(t):  # response to f = t (particular t/w^2 - 2 zeta/w^3 plus the free solution)
+        t = np.maximum(t, 0.0)
+        free = np.exp(-zeta * w * t) * (
+            2 * zeta / w**3 * np.cos(wd * t) + (2 * zeta**2 - 1) / (w**2 * wd) * np.sin(wd * t)
+        )
+        return t / w**2 - 2 * zeta / w**3 + free
+
+    return (ramp(t) - ramp(t - t_ramp)) / t_ramp
+
+
+@pytest.mark.parametrize("zeta", [0.01, 0.05, 0.3])
+def test_sdof_ramp_and_hold_matches_closed_form(zeta):
+    """The exact recurrence reproduces the closed form for a force linear between samples."""
+    w, dt = 2 * np.pi * 37.0, 1.3e-4
+    t = np.arange(4000) * dt
+    t_ramp = 25 * dt
+    f = np.minimum(t / t_ramp, 1.0)
+    exact = ramp_hold_response(t, w, zeta, t_ramp)
+    num, den = real_recurrence([w], [zeta], dt)
+    q = lfilter(num[0], den[0], f)
+    np.testing.assert_allclose(q, exact, rtol=0, atol=1e-9 / w**2)
+    # complex-pole form: q = 2 Re z, q' = 2 Re(lambda z)
+    lam, e, b0, b1 = discretise([w], [zeta], dt)
+    z = lfilter([b0[0], b1[0]], [1.0, -e[0]], f)
+    np.testing.assert_allclose(2 * z.real, exact, rtol=0, atol=1e-9 / w**2)
+    velocity = np.gradient(exact, dt)
+    np.testing.assert_allclose(
+        (2 * lam[0] * z).real[50:-1], velocity[50:-1], rtol=0, atol=1e-3 * np.abs(velocity).max()
+    )
+
+
+def test_sdof_harmonic_steady_state_converges_to_the_receptance():
+    """Discrete receptance -> 1/(w^2 - W^2 + 2 i zeta w W), second order in the time step."""
+    w, zeta, big_w = 2 * np.pi * 40.0, 0.03, 2 * np.pi * 35.0
+    exact = 1 / (w**2 - big_w**2 + 2j * zeta * w * big_w)
+    errors = []
+    for per_cycle in (16, 32, 64, 128):
+        dt = 2 * np.pi / big_w / per_cycle
+        hq, hv = discrete_receptance([w], [zeta], dt, [big_w * dt])
+        errors.append(abs(hq[0, 0] - exact) / abs(exact))
+        # the velocity receptance is i W times the displacement one, to the same order
+        assert abs(hv[0, 0] - 1j * big_w * hq[0, 0]) < 2 * errors[-1] * abs(big_w * exact)
+    rates = np.log2(np.array(errors[:-1]) / errors[1:])
+    assert np.all(rates > 1.9), rates
+    # at zero frequency the recurrence is exact: the static compliance 1/w^2
+    hq0, _ = discrete_receptance([w], [zeta], 1e-3, [0.0])
+    assert hq0[0, 0] == pytest.approx(1 / w**2, rel=1e-12)
+
+
+def test_periodic_receptance_is_the_steady_state_of_the_recurrence():
+    """FFT x discrete receptance = long-run output of the time recurrence for a periodic force."""
+    rng = np.random.default_rng(1)
+    n, w, zeta, dt = 64, 2 * np.pi * 30.0, 0.05, 1e-3
+    period = rng.normal(size=n)
+    num, den = real_recurrence([w], [zeta], dt)
+    q = lfilter(num[0], den[0], np.tile(period, 60))[-n:]
+    hq, _ = discrete_receptance([w], [zeta], dt, 2 * np.pi * np.fft.rfftfreq(n))
+    steady = np.fft.irfft(hq[0] * np.fft.rfft(period), n)
+    np.testing.assert_allclose(q, steady, rtol=0, atol=1e-12 * np.abs(steady).max())
+
+
+# --- the cutting response ----------------------------------------------------------------------
+
+
+def test_mean_relative_displacement_is_the_static_deflection_under_the_mean_force():
+    """DC of the periodic z_re = K_t a_p (v/f) <chip factor> / (M w^2), <.> analytic."""
+    m = read_machine(MACHINE)
+    basis = heave_basis()
+    p = Process(300, 15, 4)
+    k = ForceCoefficients()
+    r = periodic_response(cut_geometry(basis, m), p, zeta=0.02)
+    # at Y = 0 the tip cuts for |phi| between acos(0.205/0.25) (y edge) and asin(0.205/0.25)
+    lo, hi = np.arccos(0.82), np.arcsin(0.82)
+    mean_chip = 2 * (np.sin(hi) - np.sin(lo)) / (2 * np.pi)
+    static = k.thrust * p.depth_m * p.feed_per_rev_m * mean_chip / (100.0 * (2 * np.pi * 50) ** 2)
+    assert r.z_re.mean() == pytest.approx(static, rel=1e-10)
+    np.testing.assert_allclose(r.z_re, r.tip_disp[:, 2], rtol=1e-12)  # the workpiece is still
+    assert np.abs(r.tip_disp[:, :2]).max() < 1e-12 * np.abs(r.z_re).max()
+
+
+def test_spinning_tip_acceleration_is_the_second_derivative_of_its_displacement():
+    """Tool-tip acceleration includes the terms from the motion of the tip on a tilted head."""
+    basis = synthetic_basis(n=3)
+    geo = cut_geometry(basis, read_machine(MACHINE), n_phi=4096)
+    spindle_hz = 5.0
+    dt = 1 / (spindle_hz * 4096)
+    t = (np.arange(1000, 1003) - 1) * dt  # three samples around j = 1000
+    nu = np.array([20.0, 50.0, 90.0])[:, None]
+    q, qd, qdd = np.cos(nu * t), -nu * np.sin(nu * t), -(nu**2) * np.cos(nu * t)
+    tip, acc, _ = _outputs(geo, np.arange(999, 1002), np.zeros(3), q, qd, qdd, spindle_hz)
+    second = (tip[0] - 2 * tip[1] + tip[2]) / dt**2
+    np.testing.assert_allclose(acc[1], second, rtol=1e-4, atol=1e-6 * np.abs(acc[1]).max())
+
+
+def small_case(slider_turns):
+    basis = synthetic_basis(slider_turns=slider_turns)
+    m = read_machine(SMALL)
+    p = Process(400, 16, 4)
+    geo = cut_geometry(basis, m)
+    return basis, m, p, periodic_response(geo, p), time_response(geo, p)
+
+
+@pytest.fixture(scope="module")
+def turning():
+    """The slider rotates in its modes: its contact arm, hence the chip pattern, varies with Y."""
+    return small_case(slider_turns=True)
+
+
+@pytest.fixture(scope="module")
+def still():
+    """The slider only translates: the chip pattern is exactly periodic in the steady span."""
+    return small_case(slider_turns=False)
+
+
+def surfaces(case):
+    _, m, p, per, tim = case
+    return [machined_surface(r.table, m, p.feed_per_rev_m, spacing=1e-3) for r in (per, tim)]
+
+
+def settle(case):
+    """20 time constants 1/(zeta w) of the slowest mode, as slide travel [m]."""
+    basis, _, p, _, _ = case
+    return 20 / (0.03 * basis.omega[0]) * p.feed_m_s
+
+
+def test_periodic_and_time_paths_agree_over_the_steady_part(turning, still):
+    """Issue 4: PV of the two paths within 1 % over the steady part of the workpiece."""
+    for case in (turning, still):
+        s_per, s_tim = surfaces(case)
+        steady = steady_region(s_tim, case[1], settle=settle(case))
+        assert steady.sum() > 0.2 * steady.size
+        assert np.ptp(s_tim.z[steady]) == pytest.approx(np.ptp(s_per.z[steady]), rel=0.01)
+    # with a periodic chip pattern the two solve the same problem: pointwise agreement
+    s_per, s_tim = surfaces(still)
+    steady = steady_region(s_tim, still[1], settle=settle(still))
+    assert np.abs(s_per.z - s_tim.z)[steady].max() < 1e-6 * np.ptp(s_per.z[steady])
+
+
+def test_periodic_and_time_paths_agree_over_the_whole_workpiece(turning):
+    """With the quasi-static table the whole-workpiece PV stays within 1 % of the time path."""
+    s_per, s_tim = surfaces(turning)
+    assert np.ptp(s_tim.z) == pytest.approx(np.ptp(s_per.z), rel=0.01)
+
+
+def test_record_windows_of_both_paths_agree(still):
+    """Tool-tip motion at the halfway point: the time path is in its periodic steady state."""
+    _, m, p, per, tim = still
+    n = per.t.size
+    assert tim.t.size == tim.periods * n
+    # the window's middle revolution starts at Y = 0 (to within one feed per revolution)
+    mid = tim.periods // 2
+    one = slice(mid * n, (mid + 1) * n)
+    assert tim.slide_y[one][0] == pytest.approx(0.0, abs=p.feed_per_rev_m)
+    assert tim.t[one][0] == pytest.approx(per.t[0], abs=per.period)
+    assert m.steady_span[0] < 0 < m.steady_span[1]  # a constant chip pattern around Y = 0
+    assert np.abs(per.force).max() > 0
+    for a, b in (
+        (tim.tip_acc[one], per.tip_acc),
+        (tim.tip_disp[one], per.tip_disp),
+        (tim.work_disp[one], per.work_disp),
+        (tim.force[one], per.force),
+    ):
+        np.testing.assert_allclose(a, b, rtol=0, atol=1e-7 * np.abs(b).max())
+
+
+def test_pv_is_linear_in_depth_and_force_scale():
+    """Doubling the depth doubles the chip area, every force, z_re and the PV (marks off)."""
+    model = Model("syn", (), (), machine=dict(MACHINE))
+    basis = synthetic_basis(n=8)
+    base = simulate(model, Process(300, 15, 3), basis=basis).metrics
+    deep = simulate(model, Process(300, 15, 6), basis=basis).metrics
+    scaled = simulate(model, Process(300, 15, 3), basis=basis, force_scale=2.0).metrics
+    for key in ("pv_nm", "pv_tilt_removed_nm", "rms_nm", "zre_peak_nm", "tip_acc_peak_mm_s2"):
+        assert deep[key] == pytest.approx(2 * base[key], rel=1e-9)
+        assert scaled[key] == pytest.approx(2 * base[key], rel=1e-9)
+
+
+def test_fit_force_scale_is_the_pv_ratio():
+    model = Model("syn", (), (), machine=dict(MACHINE))
+    basis = synthetic_basis(n=8)
+    p = Process(300, 15, 4)
+    scale = fit_force_scale(model, p, 142.91, basis=basis)
+    assert simulate(model, p, basis=basis, force_scale=scale).metrics["pv_nm"] == pytest.approx(
+        142.91, rel=1e-9
+    )
+    same = fit_force_scale(basis, p, 142.91, machine=MACHINE)
+    assert same == pytest.approx(scale, rel=1e-12)
+    # the model's [machine] force_scale is the default
+    fitted = Model("syn", (), (), machine={**MACHINE, "force_scale": scale})
+    assert simulate(fitted, p, basis=basis).metrics["pv_nm"] == pytest.approx(142.91, rel=1e-9)
+
+
+def test_simulate_options_are_checked():
+    model = Model("syn", (), (), machine=dict(MACHINE))
+    basis = synthetic_basis(n=4)
+    p = Process(300, 15, 4)
+    with pytest.raises(ValueError, match="method must be one of"):
+        simulate(model, p, basis=basis, method="euler")
+    with pytest.raises(ValueError, match="damping ratios must lie in"):
+        simulate(model, p, basis=basis, zeta=[0.02, 0.02, 1.5, 0.02])
+    with pytest.raises(ValueError, match="kinematic marks off"):
+        fit_force_scale(model, p, 100.0, basis=basis, nose_radius=1e-3)
+    per_mode = simulate(model, p, basis=basis, zeta=np.full(4, 0.05)).metrics["pv_nm"]
+    assert per_mode == pytest.approx(simulate(model, p, basis=basis, zeta=0.05).metrics["pv_nm"])
+
+
+def test_frf_is_the_modal_sum_at_the_tip():
+    """Tool-workpiece receptance: static value and resonance peak of an isolated heave mode."""
+    m = read_machine(MACHINE)
+    basis = heave_basis(f_hz=50.0, mass=100.0)
+    k = 100.0 * (2 * np.pi * 50) ** 2
+    h = tool_workpiece_receptance(basis, m, [0.0, 50.0], zeta=0.02)
+    assert h[0] == pytest.approx(1 / k, rel=1e-12)
+    assert h[1] == pytest.approx(1 / (2j * 0.02 * k), rel=1e-12)
+    # it is the same receptance that drives z_re: compare with the periodic path's DC
+    syn = synthetic_basis(n=5)
+    h0 = tool_workpiece_receptance(syn, m, [0.0], tool_angle=0.3)[0]
+    rel = syn.point_shapes("head", [0.25 * np.sin(0.3), 0.25 * np.cos(0.3), 0.0])
+    rel = rel - syn.point_shapes("slider", [0.25 * np.sin(0.3), 0.25 * np.cos(0.3), 0.0])
+    assert h0.real == pytest.approx(np.sum(rel[:, 2] ** 2 / (2000.0 * syn.omega**2)), rel=1e-12)
+
+
+@pytest.mark.slow
+def test_full_size_paths_agree():
+    """The packaged geometry (R = 0.25 m, 0.41 m plate), 30 modes, reference process."""
+    basis = synthetic_basis(n=30, f_lo=7.0, f_hi=700.0)
+    m = read_machine(MACHINE)
+    p = Process(300, 15, 4)
+    geo = cut_geometry(basis, m)
+    s_per = machined_surface(periodic_response(geo, p).table, m, p.feed_per_rev_m)
+    s_tim = machined_surface(time_response(geo, p).table, m, p.feed_per_rev_m)
+    assert np.ptp(s_tim.z) == pytest.approx(np.ptp(s_per.z), rel=0.01)

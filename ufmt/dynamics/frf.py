@@ -1,0 +1,44 @@
+"""Tool-workpiece receptance in z: the frequency response behind z_re (paper eqs. 3.9-3.11)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ufmt.dynamics.basis import ModalBasis
+from ufmt.dynamics.cutting import Machine, tool_tip
+from ufmt.dynamics.response import DEFAULT_ZETA, modal_damping
+
+
+def tool_workpiece_receptance(
+    basis: ModalBasis,
+    machine: Machine,
+    freq_hz,
+    zeta=DEFAULT_ZETA,
+    tool_angle: float = 0.0,
+) -> np.ndarray:
+    """Relative z displacement per unit force pair in z at the tool tip [m/N].
+
+    A force +F z on the tool tip and -F z on the workpiece at the same point give
+    z_re(W) = H(W) F with H(W) = sum_s c_s^2 / (M_s (w_s^2 - W^2 + 2 i zeta_s w_s W)),
+    c_s = (V_tool,s - V_work,s)_z at the tip (modal superposition, eqs. 3.9-3.11).
+
+    Parameters
+    ----------
+    freq_hz : (F,) frequencies [Hz].
+    zeta : modal damping, scalar or (n,).
+    tool_angle : spindle angle phi of the tool tip [rad] (0: tip along +y, over the middle of
+        the workpiece).
+
+    Returns
+    -------
+    (F,) complex receptance [m/N].
+    """
+    tip = tool_tip(np.array([tool_angle]), machine)
+    c = (
+        basis.point_shapes(machine.tool_body, tip) - basis.point_shapes(machine.workpiece_body, tip)
+    )[:, 0, 2]
+    zeta = modal_damping(zeta, basis.n_modes)
+    w = 2 * np.pi * np.asarray(freq_hz, dtype=float)[None, :]
+    om = basis.omega[:, None]
+    den = basis.modal_mass[:, None] * (om**2 - w**2 + 2j * zeta[:, None] * om * w)
+    return np.sum(c[:, None] ** 2 / den, axis=0)
