@@ -39,8 +39,9 @@ rotational_stiffness = [1e5, 1e5, 1e5]
 
 
 def run(*args):
-    return subprocess.run([sys.executable, "-m", "ufmt.cli", *args], capture_output=True,
-                          text=True, timeout=300)
+    return subprocess.run(
+        [sys.executable, "-m", "ufmt.cli", *args], capture_output=True, text=True, timeout=300
+    )
 
 
 @pytest.fixture
@@ -74,8 +75,10 @@ def test_modes_count_and_fmax(model_file, capsys):
     [
         ("name = 'x'\n[[body]\n", "line"),
         (TWO_MASS.replace('kind = "rigid"', 'kind = "rigd"', 1), "kind"),
-        (TWO_MASS.replace("stiffness = [1e6, 1e6, 1e6]", "stiffness = [1e6, nan, 1e6]", 1),
-         "stiffness"),
+        (
+            TWO_MASS.replace("stiffness = [1e6, 1e6, 1e6]", "stiffness = [1e6, nan, 1e6]", 1),
+            "stiffness",
+        ),
         (TWO_MASS.replace('between = ["a", "b"]', 'between = ["a", "c"]'), "between"),
     ],
 )

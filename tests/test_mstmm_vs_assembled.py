@@ -46,11 +46,26 @@ def beam_loop_model(seed: int) -> dict:
     p0, p1, p2 = rng.uniform(-0.5, 0.5, (3, 3))
     common = {"density": 7850.0, "youngs_modulus": 2.1e11, "shear_modulus": 8.1e10}
     data["body"] += [
-        {"name": "shaft", "kind": "beam", "start": p0.tolist(), "end": p1.tolist(),
-         "diameter": 0.08, **common},
-        {"name": "plate", "kind": "beam", "start": p1.tolist(), "end": p2.tolist(),
-         "area": 4e-3, "second_moment_y": 2e-6, "second_moment_z": 5e-6,
-         "polar_moment": 7e-6, "torsion_constant": 4e-6, **common},
+        {
+            "name": "shaft",
+            "kind": "beam",
+            "start": p0.tolist(),
+            "end": p1.tolist(),
+            "diameter": 0.08,
+            **common,
+        },
+        {
+            "name": "plate",
+            "kind": "beam",
+            "start": p1.tolist(),
+            "end": p2.tolist(),
+            "area": 4e-3,
+            "second_moment_y": 2e-6,
+            "second_moment_z": 5e-6,
+            "polar_moment": 7e-6,
+            "torsion_constant": 4e-6,
+            **common,
+        },
         {"name": "hub", "kind": "virtual"},
     ]
     k = {"stiffness": [5e7, 6e7, 7e7], "rotational_stiffness": [2e6, 3e6, 4e6]}

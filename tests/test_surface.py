@@ -43,7 +43,8 @@ ROWS = np.linspace(-0.46, 0.46, 93)
 def table_of(function, row_y=ROWS, drift=0.0):
     """A ZreTable holding function(phi, Y) on N_PHI angles (padded as the response pads)."""
     phi = 2 * np.pi * (np.arange(-1, N_PHI + 2)) / N_PHI
-    return ZreTable(function(phi[None, :], row_y[:, None]), row_y, drift)
+    knots = (row_y, np.arange(row_y.size, dtype=float))
+    return ZreTable(function(phi[None, :], row_y[:, None]), row_y, drift, knots)
 
 
 def lead_angle(x, machine):

@@ -1,19 +1,26 @@
 """Machined surface from the relative tool-workpiece motion (paper eq. 4.1) and its metrics.
 
-Every grid point (x, y) of the workpiece (workpiece frame, see :mod:`ufmt.dynamics.cutting`) is
-passed twice by the tool circle in the neighbourhood of each slide position: by the leading arc
-at spindle angle phi_f = asin((x - s_x) / (sigma R)) and by the trailing arc at pi - phi_f, with
-the spindle axis then at Y = y - R cos(phi). The surface keeps the lowest z_re of all passes
-over the point ("tool interference", section 4.2):
-z(x, y) = min over passes of z_re(phi, Y), with z_re read from the response's
+Tool path on the workpiece (eq. 4.1; workpiece frame, see :mod:`ufmt.dynamics.cutting`):
+x = s_x + sigma R sin(phi), y = Y + R cos(phi), the slide position Y advancing by v/f per
+revolution. A grid point (x, y) is met by the leading arc at phi_f = asin((x - s_x)/(sigma R))
+when Y = y - R cos(phi_f), once per revolution in the neighbourhood of that slide position, and
+keeps the lowest z_re of the passes over it ("tool interference", section 4.2):
+z(x, y) = min over passes of z_re(phi, Y), z_re read from the response's
 :class:`~ufmt.dynamics.response.ZreTable` (cubic in phi, linear in Y).
-The tool is a point in eq. 4.1 (no kinematic marks), so the passes over a point are the one
-leading and the one trailing pass through it. With ``nose_radius`` (off by default) the tool
-nose adds the kinematic marks: the two revolutions bracketing the point on each arc are taken,
-each raised by d^2 / (2 r_n) at normal distance d from its path.
 
-Grid: cell centres at ``spacing`` (default ``DEFAULT_SPACING`` = 2 mm, 205 x 205 points on the
-0.41 m plate); the PV is converged to better than 0.5 % there (tests/test_surface.py).
+The tool of eq. 4.1 is a point (no kinematic marks): the passes over a point are the two
+revolutions whose paths bracket it, each read at its own slide position (a time table holds
+every revolution; a periodic table the steady state at that slide position). With
+``nose_radius`` (off by default) the nose adds the kinematic marks, d^2 / (2 r_n) at normal
+distance d from each bracketing path. The trailing arc (phi = pi - phi_f, at Y = y + R cos)
+passes over the finished surface without cutting force; by default it does not re-cut: in
+eq. 4.1's picture the middle of the plate, cut under the largest force, ends up highest (the
+paper's Fig. 14), which a re-cutting trailing arc with the tool unloaded would erase.
+``trailing_arc=True`` adds its passes to the minimum (back-cutting).
+
+Grid: cell centres at most ``spacing`` apart (default ``DEFAULT_SPACING`` = 2 mm: 216 x 216
+points, 1.9 mm, on the 0.41 m plate; counts are rounded up to fast FFT lengths); the PV is then
+converged to better than 0.5 % (tests/test_surface.py).
 
 Metrics (nm): PV = max - min over all points (as in the paper); PV and RMS with the best-fit
 plane removed; band RMS = RMS of the plane-removed, Hann-windowed surface band-passed to spatial
@@ -29,6 +36,7 @@ from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
+from scipy.fft import next_fast_len
 
 from ufmt.dynamics.cutting import Machine
 from ufmt.dynamics.response import ZreTable
@@ -58,7 +66,8 @@ def _grid(machine: Machine, spacing: float):
     if not spacing > 0:
         raise ValueError(f"grid spacing must be > 0, got {spacing!r}")
     lx, ly = machine.workpiece_size
-    nx, ny = (max(int(round(v / spacing)), 4) for v in (lx, ly))
+    # at most ``spacing`` apart; point counts rounded up to fast FFT lengths (for the PSD bands)
+    nx, ny = (next_fast_len(max(int(np.ceil(v / spacing - 1e-9)), 4), real=True) for v in (lx, ly))
     x = (np.arange(nx) + 0.5) * (lx / nx) - lx / 2
     y = (np.arange(ny) + 0.5) * (ly / ny) - ly / 2
     s = machine.sense * (x - machine.offset_x) / machine.tool_radius
@@ -80,8 +89,8 @@ def machined_surface(
 
     ``feed_per_rev`` [m] spaces the revolutions; ``nose_radius`` [m] turns on the kinematic
     marks; ``trailing_arc`` adds the trailing-arc passes to the minimum (back-cutting).
-    A periodic (quasi-static, drift 0) table without marks is read at the point's own slide
-    position: the revolutions bracketing it share that steady state.
+    Each point takes the lower of the two revolutions whose paths bracket it; a periodic
+    (quasi-static) table gives each of them the steady state at its own slide position.
     """
     if not feed_per_rev > 0:
         raise ValueError(f"feed_per_rev must be > 0 [m], got {feed_per_rev!r}")
@@ -91,9 +100,6 @@ def machined_surface(
     arcs = 2 if trailing_arc else 1
     phi, cos = phi[:arcs], cos[:arcs]
     cols = _columns(table.values, phi)
-    if table.drift == 0 and nose_radius is None:
-        key = table.row_y.tobytes()
-        return Surface(x, y, _gather(cols, *_static_rows(machine, spacing, arcs, key)).min(1))
     turn = phi / (2 * np.pi)
     y_start = machine.cut_span[0]
     # revolutions since Y_start when the arc passes the point; the two bracketing revolutions
@@ -101,8 +107,8 @@ def machined_surface(
     k = np.floor(rho)
     frac = rho - k
     y_lo = y_start + feed_per_rev * (k + turn) - table.drift * turn
-    z_lo = _gather(cols, *_locate(table.row_y, y_lo))
-    z_hi = _gather(cols, *_locate(table.row_y, y_lo + feed_per_rev))
+    z_lo = _gather(cols, *_locate(table.row_knots, cols.shape[0], y_lo))
+    z_hi = _gather(cols, *_locate(table.row_knots, cols.shape[0], y_lo + feed_per_rev))
     if nose_radius is not None:
         d2 = (feed_per_rev * cos) ** 2 / (2 * nose_radius)
         z_lo += frac**2 * d2
@@ -126,18 +132,9 @@ def _columns(values: np.ndarray, phi: np.ndarray) -> np.ndarray:
     return cols.reshape(rows, -1)
 
 
-@lru_cache(maxsize=16)
-def _static_rows(machine: Machine, spacing: float, arcs: int, row_y: bytes):
-    """:func:`_locate` of every pass at its own slide position (cached per table layout)."""
-    _, y, _, cos = _grid(machine, spacing)
-    slide = y[:, None, None] - machine.tool_radius * cos[:arcs]
-    return _locate(np.frombuffer(row_y), slide)
-
-
-def _locate(row_y: np.ndarray, slide: np.ndarray):
+def _locate(row_knots, rows: int, slide: np.ndarray):
     """Flat indices into ``cols`` (rows, A) of the row below ``slide`` (Ny, arcs, Nx), weights."""
-    rows = row_y.size
-    rr = np.interp(slide, row_y, np.arange(rows, dtype=float))
+    rr = np.interp(slide, *row_knots)
     i0 = np.minimum(rr.astype(int), rows - 2)
     width = slide.shape[1] * slide.shape[2]
     flat = i0.reshape(slide.shape[0], width) * width + np.arange(width)

@@ -1,9 +1,14 @@
 """Modal basis: the data the cutting response needs from the eigen-solution.
 
 The MSTMM (or any other) eigen-solver fills a :class:`ModalBasis`; everything downstream (cutting
-force, modal response, machined surface) reads only this object. Mode shapes are rigid motions of
-the named bodies at the nominal configuration (the slide's travel is small next to the machine, so
-the shapes are not updated as the slide moves).
+force, modal response, machined surface) reads only this object.
+
+Assumption: the mode shapes are those of the nominal configuration, with the slide at the
+halfway point of the cut (workpiece centre under the spindle). They are not recomputed as the
+slide travels (frequencies and shapes change little while the slider moves on its long
+guideways); the response does follow the contact point, the material point of the workpiece
+under the tool, whose arm from the workpiece body's centre of mass changes with the slide
+(see :mod:`ufmt.dynamics.response`).
 """
 
 from __future__ import annotations

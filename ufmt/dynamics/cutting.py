@@ -15,10 +15,9 @@ halfway at Y = 0 (workpiece centre under the spindle).
 
 Cutting only happens on the leading half of the tool circle (cos phi > 0, where the circle
 advances into uncut material) while the tip is over the workpiece; the trailing half passes over
-the surface already cut (its re-cutting is the "tool interference" of section 4.2, handled in
-:mod:`ufmt.surface`; its force is neglected). The uncut chip is the material between two
-successive passes: thickness (in-plane, normal to the path) h = (v / f) cos phi and width a_p,
-area A = a_p h.
+the surface already cut and carries no force (whether it re-cuts is a surface option, see
+:mod:`ufmt.surface`). The uncut chip is the material between two successive passes: thickness
+(in-plane, normal to the path) h = (v / f) cos phi and width a_p, area A = a_p h.
 
 Force on the tool (specific-force model, F = K A per component):
 cutting  -K_c A t  (t: unit cutting velocity, tangent to the circle; the feed's v/(R 2 pi f)

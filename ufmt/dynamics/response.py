@@ -42,6 +42,7 @@ from functools import lru_cache
 
 import numpy as np
 from scipy.signal import lfilter
+from threadpoolctl import threadpool_limits
 
 from ufmt.dynamics.basis import ModalBasis
 from ufmt.dynamics.cutting import (
@@ -59,6 +60,8 @@ DEFAULT_ZETA = 0.03
 DEFAULT_N_PHI = 512
 #: Slide positions of the periodic path's table (see :func:`cut_geometry`).
 DEFAULT_TABLE_ROWS = 96
+#: Share of the table rows spread evenly in slide travel; the rest follow the chip pattern.
+UNIFORM_SHARE = 0.1
 DEFAULT_COEFFICIENTS = ForceCoefficients()
 #: Spindle periods recorded around the halfway point (time path; paper Figs. 6-7 show 2 s).
 DEFAULT_RECORD_PERIODS = 10
@@ -149,9 +152,10 @@ class CutGeometry:
     2, 1 and 1): w_hat, w_y_hat (n, 5) and c_hat (n, 3) hold their complex Fourier coefficients
     (harmonics -2..2, -1..1), w_trig, w_y_trig (n, 5) and c_trig (3, n) the real ones on
     ``trig`` (5, N) = [1, cos, sin, cos 2phi, sin 2phi]. table_y (M,) slide positions [m] of
-    the periodic table; table_a (3, M, N/2 + 7) the half spectrum of the chip factor at each,
-    extended by 3 bins on both sides, times Y^0, Y^1, Y^2; active (N,) the angles that cut at
-    some slide position.
+    the periodic table and row_knots their row coordinate (see :class:`ZreTable`); table_a
+    (N/2 + 1, M, 21): for harmonic k, row i and (p, d), the half
+    spectrum of the chip factor at harmonic k - d (d = -3..3) times Y_i^p (p = 0, 1, 2);
+    active (N,) the angles that cut at some slide position.
     """
 
     basis: ModalBasis
@@ -174,11 +178,12 @@ class CutGeometry:
     c_trig: np.ndarray
     trig: np.ndarray
     table_y: np.ndarray
+    row_knots: tuple[np.ndarray, np.ndarray]
     table_a: np.ndarray
     active: np.ndarray
 
 
-@lru_cache(maxsize=16)
+@lru_cache(maxsize=8)
 def cut_geometry(
     basis: ModalBasis,
     machine: Machine,
@@ -233,13 +238,18 @@ def cut_geometry(
         [np.ones(n_phi), np.cos(phases), np.sin(phases), np.cos(2 * phases), np.sin(2 * phases)]
     )
     cell = 2 * np.pi / n_phi
-    table_y = _table_rows(machine, table_rows)
+    table_y, row_knots = _table_rows(machine, table_rows)
     centred = np.mod(phases + np.pi, 2 * np.pi) - np.pi
     lo, hi = machine.cutting_angles
     active = (centred + cell / 2 > lo) & (centred - cell / 2 < hi) & (np.abs(centred) < np.pi / 2)
-    pattern = chip_factor_cells(phases, table_y[:, None], machine, cell)
-    spectra = _extend(np.fft.rfft(pattern, axis=1))
-    table_a = np.stack([spectra, table_y[:, None] * spectra, table_y[:, None] ** 2 * spectra])
+    pattern = np.zeros((table_y.size, n_phi))
+    pattern[:, active] = chip_factor_cells(phases[active], table_y[:, None], machine, cell)
+    spectra = _extend(np.fft.rfft(pattern, axis=1)).T  # (N/2 + 7, M)
+    half = n_phi // 2 + 1
+    # A[k - d] Y^p for the 3 x 7 kernels of periodic_response, as (N/2 + 1, M, 21)
+    shifted = spectra[np.arange(half)[:, None] + np.arange(6, -1, -1)[None, :]].transpose(0, 2, 1)
+    powers = table_y[:, None] ** np.arange(3)[None, :]
+    table_a = (powers[None, :, :, None] * shifted[:, :, None, :]).reshape(half, -1, 21)
     r, s = machine.tool_radius, machine.sense
     dtip = np.stack([s * r * np.cos(phases), -r * np.sin(phases), 0 * phases], axis=1)
     ddtip = np.stack([-s * r * np.sin(phases), -r * np.cos(phases), 0 * phases], axis=1)
@@ -264,18 +274,21 @@ def cut_geometry(
         c_trig=c_trig,
         trig=trig,
         table_y=table_y,
+        row_knots=row_knots,
         table_a=table_a,
         active=active,
     )
 
 
-def _table_rows(machine: Machine, rows: int) -> np.ndarray:
-    """Slide positions [m] of the periodic table.
+def _table_rows(machine: Machine, rows: int, uniform: float = UNIFORM_SHARE):
+    """Slide positions [m] of the periodic table and the knots of its row coordinate.
 
-    Equal steps of (uniform measure + chip-pattern change) / 2, the change measured as the
-    travel of sin(phi) at the edges of the cut (the chip area between them is their
-    difference), plus the ends of the steady span (kinks of the pattern), so that no
-    interpolation straddles them.
+    Rows sit at equal steps of a measure that is ``uniform`` slide travel and 1 - ``uniform``
+    chip-pattern change (the travel of sin(phi) at the edges of the cut: the chip area between
+    them is their difference), plus the ends of the steady span (kinks of the pattern). A slide
+    position between two rows is placed by that measure too (knots (Y, fractional row)): where
+    an edge of the cut moves like the square root of the travel, the table then interpolates
+    in the pattern's change rather than in Y.
     """
     y0, y1 = machine.cutting_span
     fine = np.linspace(y0, y1, 64 * rows)
@@ -283,10 +296,12 @@ def _table_rows(machine: Machine, rows: int) -> np.ndarray:
     p1, p2 = arc_y_bounds(fine, machine)
     edges = np.sin(np.clip(np.stack([p1, p2, -p1, -p2]), lo, hi))
     moved = np.concatenate([[0.0], np.cumsum(np.abs(np.diff(edges, axis=1)).sum(axis=0))])
-    measure = np.linspace(0.0, 0.5, fine.size) + 0.5 * moved / max(moved[-1], 1e-300)
+    measure = np.linspace(0.0, uniform, fine.size) + (1 - uniform) * moved / max(moved[-1], 1e-300)
     ys = np.interp(np.linspace(0.0, 1.0, rows), measure, fine)
     kinks = [y for y in machine.steady_span if y0 < y < y1]
-    return np.unique(np.concatenate([ys, kinks]))
+    table_y = np.unique(np.concatenate([ys, kinks]))
+    at_rows = np.interp(table_y, fine, measure)
+    return table_y, (fine, np.interp(measure, at_rows, np.arange(table_y.size, dtype=float)))
 
 
 def _extend(half: np.ndarray, pad: int = 3) -> np.ndarray:
@@ -306,13 +321,15 @@ class ZreTable:
     travel during one row's revolution. Time path: one row per revolution, drift = v / f, the
     padding taken from the neighbouring revolutions. Periodic path: one row per tabulated slide
     position, drift = 0 (steady state at fixed Y), padded periodically. The slide position of
-    (row, phi) is row_y + drift phi / (2 pi); beyond the first and last rows their values apply
-    (they carry no cutting force).
+    (row, phi) is row_y + drift phi / (2 pi). row_knots (Y (K,), u (K,)): the fractional row
+    of a slide position Y is np.interp(Y, *row_knots) (rows and knots agree at the rows);
+    beyond the first and last rows their values apply (they carry no cutting force).
     """
 
     values: np.ndarray
     row_y: np.ndarray
     drift: float
+    row_knots: tuple[np.ndarray, np.ndarray]
 
 
 @dataclass(frozen=True, eq=False)
@@ -394,15 +411,13 @@ def periodic_response(
             for li, l in enumerate(_HARM_C):
                 g = (ch[:, li : li + 1] * wh).T @ hq[:, 1 - l : half + 2 - l]
                 kern[pc + pw, li : li + 5] += g
-    a = geo.table_a
-    zk = kern[0, 0] * a[0, :, 6 : 6 + half + 1]
-    for p in range(3):
-        for d in range(7):
-            if p or d:
-                zk += kern[p, d] * a[p, :, 6 - d : 6 - d + half + 1]
-    rows = np.fft.irfft(zk, n=n, axis=1)
-    rows *= amp
-    table = ZreTable(np.concatenate([rows[:, -1:], rows, rows[:, :2]], axis=1), geo.table_y, 0.0)
+    kern = np.ascontiguousarray(kern.reshape(21, half + 1).T)[:, :, None]
+    zk = np.matmul(geo.table_a, kern)[:, :, 0]
+    rows = np.fft.irfft(zk, n=n, axis=0).T * amp
+    values = np.empty((rows.shape[0], n + 3))
+    values[:, 1 : n + 1] = rows
+    values[:, 0], values[:, n + 1 :] = rows[:, -1], rows[:, :2]
+    table = ZreTable(values, geo.table_y, 0.0, geo.row_knots)
 
     a0 = chip_factor_cells(geo.phases, 0.0, geo.machine, 2 * np.pi / n) * amp
     a0_ext = _extend(np.fft.rfft(a0))
@@ -470,32 +485,33 @@ def time_response(
     runs = [slice(lo, hi) for lo, hi in zip(edges[::2], edges[1::2], strict=True)]
     forces = np.zeros((nm, step, n))
     w_both = np.concatenate([geo.w_trig, geo.w_y_trig], axis=1)
-    for r0 in range(0, n_rev + 1, step):
-        r1 = min(r0 + step, n_rev + 1)
-        c = r1 - r0
-        for run in runs:
-            y = y_start + delta * (np.arange(r0, r1)[:, None] + np.arange(n)[run] / n)
-            a = chip_factor_cells(geo.phases[run], y, mach, 2 * np.pi / n) * amp
-            basis_a = geo.trig[:, None, run] * a
-            inputs = np.concatenate([basis_a, basis_a * y]).reshape(10, -1)
-            forces[:, :c, run] = (w_both @ inputs).reshape(nm, c, -1)
-        q = np.empty((nm, c * n))
-        for s in range(nm):
-            q[s], state[s] = lfilter(num[s], den[s], forces[s, :c].ravel(), zi=state[s])
-        zc = (np.vstack([geo.c_trig, geo.c_y]) @ q).reshape(4, c, n)
-        y = y_start + delta * (np.arange(r0, r1)[:, None] + np.arange(n) / n)
-        rows[r0:r1, 1 : n + 1] = np.einsum("irj,ij->rj", zc[:3], geo.trig[:3]) + y * zc[3]
-        lo, hi = max(r0 * n, rec0 * n - 1), min(r1 * n, rec1 * n)
-        if lo < hi:
-            rec_q[:, lo - (rec0 * n - 1) : hi - (rec0 * n - 1)] = q[:, lo - r0 * n : hi - r0 * n]
+    # skinny products over the modes: BLAS threads only add synchronisation here
+    with threadpool_limits(limits=1, user_api="blas"):
+        for r0 in range(0, n_rev + 1, step):
+            r1 = min(r0 + step, n_rev + 1)
+            c = r1 - r0
+            for run in runs:
+                y = y_start + delta * (np.arange(r0, r1)[:, None] + np.arange(n)[run] / n)
+                a = chip_factor_cells(geo.phases[run], y, mach, 2 * np.pi / n) * amp
+                basis_a = geo.trig[:, None, run] * a
+                inputs = np.concatenate([basis_a, basis_a * y]).reshape(10, -1)
+                forces[:, :c, run] = (w_both @ inputs).reshape(nm, c, -1)
+            q = np.empty((nm, c * n))
+            for s in range(nm):
+                q[s], state[s] = lfilter(num[s], den[s], forces[s, :c].ravel(), zi=state[s])
+            zc = (np.vstack([geo.c_trig, geo.c_y]) @ q).reshape(4, c, n)
+            y = y_start + delta * (np.arange(r0, r1)[:, None] + np.arange(n) / n)
+            rows[r0:r1, 1 : n + 1] = np.einsum("irj,ij->rj", zc[:3], geo.trig[:3]) + y * zc[3]
+            lo, hi = max(r0 * n, rec0 * n - 1), min(r1 * n, rec1 * n)
+            if lo < hi:
+                rec_q[:, lo - (rec0 * n - 1) : hi - (rec0 * n - 1)] = q[
+                    :, lo - r0 * n : hi - r0 * n
+                ]
     rows[0, 0] = 0.0  # zero before the cut (eq. 3.13)
     rows[1:, 0] = rows[:-1, n]
     rows[:-1, n + 1 :] = rows[1:, 1:3]
-    table = ZreTable(
-        rows[:-1],
-        y_start + delta * np.arange(n_rev),
-        delta,
-    )
+    row_y = y_start + delta * np.arange(n_rev)
+    table = ZreTable(rows[:-1], row_y, delta, (row_y, np.arange(n_rev, dtype=float)))
 
     idx = np.arange(rec0 * n - 1, rec1 * n)  # global sample numbers, one before the window
     j = idx % n

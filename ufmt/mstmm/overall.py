@@ -20,7 +20,7 @@ from ufmt.mstmm import elements
 from ufmt.mstmm.topology import Topology, build_topology
 
 CUT = np.diag(np.r_[np.ones(6), -np.ones(6)])  # C = diag(I3, I3, -I3, -I3)
-GROWTH_LIMIT = 1e6  # condition growth allowed along a transfer path before segmenting
+GROWTH_LIMIT = 1e12  # condition growth allowed along a transfer path before segmenting
 
 
 def _physical_scaling(model: Model) -> np.ndarray:
@@ -59,17 +59,41 @@ class State:
         return State(self.cols, u @ self.arr)
 
     def __add__(self, other: State) -> State:
-        cols = np.union1d(self.cols, other.cols)
-        arr = np.zeros(self.arr.shape[:2] + (cols.size,), dtype=np.result_type(self.arr, other.arr))
-        arr[:, :, np.searchsorted(cols, self.cols)] += self.arr
-        arr[:, :, np.searchsorted(cols, other.cols)] += other.arr
-        return State(cols, arr)
+        """Sum of two maps; columns need not be sorted, shared ones are added."""
+        pos = {int(c): i for i, c in enumerate(self.cols)}
+        shared = [j for j, c in enumerate(other.cols) if int(c) in pos]
+        if not shared:  # disjoint subtrees: just stack the columns
+            return State(
+                np.concatenate([self.cols, other.cols]),
+                np.concatenate([self.arr, other.arr], axis=2),
+            )
+        arr = self.arr.astype(np.result_type(self.arr, other.arr), copy=True)
+        arr[:, :, [pos[int(other.cols[j])] for j in shared]] += other.arr[:, :, shared]
+        rest = [j for j in range(other.cols.size) if int(other.cols[j]) not in pos]
+        return State(
+            np.concatenate([self.cols, other.cols[rest]]),
+            np.concatenate([arr, other.arr[:, :, rest]], axis=2),
+        )
 
-    def dense(self, rows, n: int) -> np.ndarray:
-        """Rows ``rows`` of the map as a dense (n_omega, len(rows), n) array."""
-        out = np.zeros(self.arr.shape[:1] + (len(rows), n), dtype=self.arr.dtype)
-        out[:, :, self.cols] = self.arr[:, rows, :]
-        return out
+    def rows(self, rows) -> State:
+        """The map restricted to some of its rows (an equation block of U_all)."""
+        return State(self.cols, self.arr[:, rows, :])
+
+
+def _assemble(blocks: list[State], n_omega: int, n: int) -> np.ndarray:
+    """Stack equation blocks into the dense (n_omega, n, n) matrix with one scatter."""
+    flat, values, r0 = [], [], 0
+    for b in blocks:
+        r = b.arr.shape[1]
+        flat.append(((r0 + np.arange(r))[:, None] * n + b.cols[None, :]).ravel())
+        values.append(b.arr.reshape(n_omega, -1))
+        r0 += r
+    if r0 != n:  # pragma: no cover - guarded by the counting argument
+        raise AssertionError(f"U_all has {r0} rows for {n} unknowns")
+    vals = np.concatenate(values, axis=1)
+    u = np.zeros((n_omega, n * n), dtype=vals.dtype)
+    u[:, np.concatenate(flat)] = vals
+    return u.reshape(n_omega, n, n)
 
 
 def _unknown_state(n_omega: int, columns: np.ndarray) -> State:
@@ -87,6 +111,8 @@ class TransferSystem:
         self.model = model
         self.topology: Topology = build_topology(model)
         self.segments: tuple[str, ...] = ()
+        self._hinge_cache: dict[int, np.ndarray] = {}
+        self._body_cache: dict[str, tuple[np.ndarray, np.ndarray]] = {}
         if fmax_hz is not None:
             self.segment_for(fmax_hz)
 
@@ -107,7 +133,7 @@ class TransferSystem:
         chosen = []
         for name in topo.order:
             node = topo.nodes[name]
-            stage = self._edge_matrix(node.parent_edge, w)[0]
+            stage = np.broadcast_to(self._edge_matrix(node.parent_edge, w), (1, 12, 12))[0]
             if node.kind == "rigid":
                 p1 = (
                     topo.edges[node.inputs[0][0]].point_at(name)
@@ -145,14 +171,31 @@ class TransferSystem:
         return self.topology.order_size + 12 * len(self.segments)
 
     def _edge_matrix(self, index: int, omega: np.ndarray) -> np.ndarray:
+        """Transfer matrix of edge ``index``: (12, 12) if constant in ω, else (n, 12, 12)."""
         e = self.topology.edges[index]
+        if e.kind == "hinge":
+            if index not in self._hinge_cache:
+                self._hinge_cache[index] = elements.hinge(np.zeros(1), e.element.stiffness6)[0]
+            return self._hinge_cache[index]
         if e.kind == "beam":
             p_in = e.point_at(e.input_node)
             p_out = e.point_at(e.output_node) if e.output_node != "" else None
             if e.output_node == e.input_node:  # pragma: no cover - impossible by construction
                 raise AssertionError
             return elements.beam(omega, e.element, p_in, p_out)
-        return elements.hinge(omega, e.element.stiffness6, None)
+        raise AssertionError(e.kind)  # pragma: no cover
+
+    def _rigid_first_input(self, node, p1, omega: np.ndarray) -> np.ndarray:
+        """U_{i,I1} (eq. 2.8) from cached constant and ω² parts."""
+        key = node.name
+        if key not in self._body_cache:
+            b = node.body
+            both = elements.rigid_body_first_input(
+                np.array([0.0, 1.0]), b.mass, b.inertia, b.center_of_mass, p1, node.output_point
+            )
+            self._body_cache[key] = (both[0], both[1] - both[0])
+        base, inertial = self._body_cache[key]
+        return base[None] + (omega**2)[:, None, None] * inertial[None]
 
     def _edge_input(self, index: int, n_omega: int) -> State | None:
         topo = self.topology
@@ -184,7 +227,7 @@ class TransferSystem:
         segment_cols = {
             name: n_base + 12 * j + np.arange(12) for j, name in enumerate(self.segments)
         }
-        rows: list[np.ndarray] = []
+        rows: list[State] = []
         states: dict = {}
         edge_out: dict[int, State] = {}
         for i in list(topo.cut_columns) + list(topo.ground_columns):
@@ -218,7 +261,7 @@ class TransferSystem:
                 h_k[3:6, 3:6] = np.eye(3)
                 zk_h = State(zk.cols, h_k[None] @ zk.arr)
                 z1_h = State(z1.cols, -z1.arr[:, 0:6, :])
-                rows.append((zk_h + z1_h).dense(range(6), n))
+                rows.append(zk_h + z1_h)
             if keep_states:
                 for k, (z, _) in enumerate(inputs):
                     states[("node_in", name, k)] = z
@@ -226,13 +269,11 @@ class TransferSystem:
             i = node.parent_edge
             for direction in topo.released_columns.get(i, {}):
                 force_row = 9 + direction if direction < 3 else 6 + direction - 3
-                rows.append(out.dense([force_row], n))
+                rows.append(out.rows([force_row]))
             if name in segment_cols:  # Z_out - S = 0, transfer continues from S
                 cols = segment_cols[name]
-                z = out.dense(range(12), n)
-                z[:, :, cols] -= np.eye(12)
-                rows.append(z)
-                ident = np.broadcast_to(np.eye(12), (nw, 12, 12)).copy()
+                ident = np.broadcast_to(np.eye(12), (nw, 12, 12))
+                rows.append(out + State(cols, -ident))
                 out = State(cols, ident)
                 if keep_states:
                     states[("segment", name)] = out
@@ -241,12 +282,10 @@ class TransferSystem:
                 states[("edge_in", i)] = out
                 states[("edge_out", i)] = edge_out[i]
             if topo.edges[i].output_node == GROUND:  # root: zero displacement, reactions
-                z = edge_out[i].dense(range(12), n)
-                z[:, 6:12, topo.root_columns[i]] -= np.eye(6)
-                rows.append(z)
-        u_all = np.concatenate(rows, axis=1)
-        if u_all.shape[1] != n:  # pragma: no cover - guarded by the counting argument
-            raise AssertionError(f"U_all is {u_all.shape[1]}x{n}")
+                reaction = np.zeros((nw, 12, 6))
+                reaction[:, 6 + np.arange(6), np.arange(6)] = -1.0
+                rows.append(edge_out[i] + State(topo.root_columns[i], reaction))
+        u_all = _assemble(rows, nw, n)
         return (u_all, states) if keep_states else u_all
 
     def _node_output(self, node, inputs, omega) -> State:
@@ -255,11 +294,7 @@ class TransferSystem:
         (z1, p1) = inputs[0]
         p_out = node.output_point
         if node.kind == "rigid":
-            b = node.body
-            u1 = elements.rigid_body_first_input(
-                omega, b.mass, b.inertia, b.center_of_mass, p1, p_out
-            )
-            out = z1.transfer(u1)
+            out = z1.transfer(self._rigid_first_input(node, p1, omega))
         else:
             out = z1
         for zk, pk in inputs[1:]:

@@ -48,52 +48,55 @@ def _sign_det(system: TransferSystem, omega: np.ndarray) -> np.ndarray:
     return sign
 
 
-def _illinois(system, lo, hi, s_lo, rtol, max_iter=80):
-    """Vectorised Illinois iteration on brackets [lo, hi] of det sign changes [rad/s]."""
-    n_eval = 0
+def _illinois(system, lo, hi, rtol, max_iter=100):
+    """Vectorised Illinois iteration on brackets [lo, hi] of det sign changes [rad/s].
+
+    det is evaluated with a fixed positive scaling per bracket, taken off the root (OFF_ROOT)
+    so that rows vanishing at the root are not blown up; the scaling keeps det continuous in
+    ω. Each iteration evaluates only the brackets still wider than ``rtol``; a bisection step
+    is forced when an Illinois step failed to halve a bracket.
+    """
+    n = lo.size
     mid = 0.5 * (lo + hi)
-    u = system.evaluate(mid)
-    # fixed scaling per bracket keeps det continuous in ω; taken off the root (OFF_ROOT) so
-    # that rows vanishing at the root are not blown up
-    r, c = equilibrate(system.evaluate(mid * OFF_ROOT))
-
-    def f(w):
-        s, ld = np.linalg.slogdet(system.evaluate(w) * r * c)
-        return s * np.exp(ld - ref)
-
-    _, ref = np.linalg.slogdet(u * r * c)
+    u = system.evaluate(np.concatenate([mid * OFF_ROOT, mid, lo, hi]))
+    r, c = equilibrate(u[:n])
+    rr, cc = np.tile(r, (3, 1, 1)), np.tile(c, (3, 1, 1))
+    sign, logdet = np.linalg.slogdet(u[n:] * rr * cc)
+    ref = logdet[:n]
+    fa = sign[n : 2 * n] * np.exp(logdet[n : 2 * n] - ref)
+    fb = sign[2 * n :] * np.exp(logdet[2 * n :] - ref)
     a, b = lo.copy(), hi.copy()
-    fa, fb = f(a), f(b)
-    n_eval += 3
     # A bracket end that sits on the root (det at noise level) may change sign under the
     # refinement's scaling; that end is then the root itself.
     lost = np.sign(fa) == np.sign(fb)
     on_end = np.where(np.abs(fa) < np.abs(fb), a, b)
-    a = np.where(lost, on_end, a)
-    b = np.where(lost, on_end, b)
-    for it in range(max_iter):
-        width = np.abs(b - a)
-        active = width > rtol * np.abs(b)
-        if not active.any():
+    a, b = np.where(lost, on_end, a), np.where(lost, on_end, b)
+    n_eval = 4 * n
+    previous = np.abs(b - a)
+    step = np.abs(b - a)
+    for _ in range(max_iter):
+        # converged: the bracket, or the last secant step, is below rtol
+        active = np.flatnonzero(np.minimum(np.abs(b - a), step) > rtol * np.abs(b))
+        if active.size == 0:
             break
+        aa, bb, fa_, fb_ = a[active], b[active], fa[active], fb[active]
         with np.errstate(divide="ignore", invalid="ignore"):
-            cpt = b - fb * (b - a) / (fb - fa)
-        lo_, hi_ = np.minimum(a, b), np.maximum(a, b)
-        bad = ~np.isfinite(cpt) | (cpt <= lo_) | (cpt >= hi_) | (it % 4 == 3)
-        cpt = np.where(bad, 0.5 * (a + b), cpt)
-        cpt = np.where(active, cpt, b)
-        fc = f(cpt)
-        n_eval += 1
-        flip = np.sign(fc) != np.sign(fb)
-        a_new = np.where(flip, b, a)
-        fa_new = np.where(flip, fb, 0.5 * fa)
-        a = np.where(active, a_new, a)
-        fa = np.where(active, fa_new, fa)
-        b = np.where(active, cpt, b)
-        fb = np.where(active, fc, fb)
-        zero = fc == 0
-        a = np.where(active & zero, cpt, a)
-    return 0.5 * (a + b), n_eval
+            cpt = bb - fb_ * (bb - aa) / (fb_ - fa_)
+        slow = np.abs(bb - aa) > 0.5 * previous[active]
+        bad = ~np.isfinite(cpt) | (cpt <= np.minimum(aa, bb)) | (cpt >= np.maximum(aa, bb))
+        cpt = np.where(bad | slow, 0.5 * (aa + bb), cpt)
+        s, ld = np.linalg.slogdet(system.evaluate(cpt) * r[active] * c[active])
+        fc = s * np.exp(ld - ref[active])
+        n_eval += active.size
+        previous[active] = np.abs(bb - aa)
+        step[active] = np.abs(cpt - bb)
+        flip = np.sign(fc) != np.sign(fb_)
+        a[active] = np.where(flip, bb, aa)
+        fa[active] = np.where(flip, fb_, 0.5 * fa_)
+        b[active] = cpt
+        fb[active] = fc
+        a[active] = np.where(fc == 0, cpt, a[active])
+    return b, n_eval
 
 
 def _golden_nullity(system, centre, lo, hi, k, iters=48):
@@ -167,7 +170,7 @@ def natural_frequencies(
     exact = w[1:-1][(sign[1:-1] == 0)]
     roots_w, cost = (np.zeros(0), 0)
     if change.size:
-        roots_w, cost = _illinois(system, w[change], w[change + 1], sign[change], rtol)
+        roots_w, cost = _illinois(system, w[change], w[change + 1], rtol)
     n_eval += cost
     found = np.sort(np.concatenate([roots_w, exact])) / TWO_PI
     found = _merge_noise_roots(found, near)

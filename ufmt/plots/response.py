@@ -67,7 +67,7 @@ def plot_frf(freq_hz, receptance, path) -> Path:
     fig = Figure(figsize=(8, 6), layout="constrained")
     mag, phase = fig.subplots(2, 1, sharex=True)
     mag.loglog(freq_hz, np.abs(receptance), lw=0.9)
-    mag.set_ylabel("|H_zz| [m/N]")
+    mag.set_ylabel("$|H_{zz}|$ [m/N]")
     mag.grid(alpha=0.3, which="both")
     phase.semilogx(freq_hz, np.degrees(np.angle(receptance)), lw=0.9)
     phase.set_ylabel("phase [deg]")

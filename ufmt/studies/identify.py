@@ -1,0 +1,794 @@
+"""Identification of hinge stiffnesses against the modal test (paper section 2.5, "MSTMM&GA").
+
+Sensitivity-based model updating in log-stiffness. Each parameter p scales listed components of
+listed hinges by one factor, ``k = s_p k_prior``, and is identified as ``u_p = ln s_p`` within
+``ln band_p``. With the paired model modes f_m(u) and the test frequencies f_t,m the cost is
+
+    J(u) = sum_m (ln f_m(u) - ln f_t,m)^2 + rho^2 sum_p u_p^2 + penalty * (shape mismatches)
+
+where a shape mismatch is a tested mode whose computed shape contradicts its Table 3 tag (wrong
+symmetry class or a named body that does not move; :func:`ufmt.validation.check_tag`), a mode
+that is not paired by order, or a tool-tip z mode of section 4.1 whose tool tip moves less in z
+than its neighbours' (:func:`ufmt.validation.tool_tip_neighbours`).
+
+Local iteration: at u_i, with the residual r and the exact sensitivities S = d ln f / d u,
+cvxpy solves the bounded, regularised least-squares step
+
+    min_d |r + S d|^2 + rho^2 |u_i + d|^2   s.t.  |d_p| <= t,  ln band_p[0] <= u_i,p + d_p <= ln band_p[1]
+
+and the step is taken if J decreases, else t is halved (a trust region). It stops when no
+paired frequency changes by more than ``tolerance_percent`` in a step, t falls below
+``min_trust_region``, or after ``max_iterations``. It stalls when it stops with the
+acceptance levels unmet; then scipy's differential evolution searches all of ln band for the
+lowest J (deterministic seed, the local result in its initial population), and the local
+iteration restarts from its best point. The lower J of the two runs is kept.
+
+Pairing inside the loop is by symmetry class and rank (:func:`ufmt.validation.pair_by_class`):
+for a model whose class sequence is Table 3's it is the pairing by order, and it keeps J smooth
+when modes of different classes (e.g. Table 3 modes 12 and 13, 0.4 % apart) change places.
+Pairing by order is enforced through the penalty and checked again on the final MSTMM solution.
+
+Cheap model. Hinge stiffness enters the assembled model linearly, so its stiffness matrix is
+``K(s) = K_fixed + sum_p s_p K_p`` exactly (:class:`ReducedModel`): K_p are assembled once, the
+rigid (inf) directions are removed by a null-space basis and the massless dofs condensed, and
+each evaluation is one dense symmetric eigenproblem (about 10 ms for the UFMT). With
+mass-normalised shapes phi the sensitivity is exact (Rayleigh quotient stationarity; distinct
+roots): ``d ln f_m / d u_p = s_p phi_m^T K_p phi_m / (2 omega_m^2)``.
+"""
+
+from __future__ import annotations
+
+import difflib
+import hashlib
+import math
+import time
+import tomllib
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+import cvxpy as cp
+import numpy as np
+import pandas as pd
+import scipy.linalg as sla
+from scipy.optimize import differential_evolution
+from threadpoolctl import threadpool_limits
+
+from ufmt.assembled import AssembledModel, assemble, assembled_modes
+from ufmt.errors import StudyError
+from ufmt.model.load import load_model, model_to_toml
+from ufmt.model.schema import Model
+from ufmt.validation import (
+    ModeSet,
+    Reference,
+    check_tag,
+    modeset_from_dofs,
+    pair_by_class,
+    read_reference,
+    tool_tip_neighbours,
+)
+
+FIELDS = ("stiffness", "rotational_stiffness")
+COLUMNS = ("modal_test_hz", "mstmm_hz", "fem_hz")
+TOP_KEYS = ("prior", "reference", "output", "output_name", "targets", "settings", "parameter")
+TARGET_KEYS = ("modes", "column", "source")
+PARAMETER_KEYS = ("name", "hinges", "field", "components", "band", "reason")
+MASS_RTOL = 1e-10  # massless directions: eigenvalues of the reduced mass below this * largest
+UNPAIRED_RESIDUAL = 1.0  # ln-frequency residual of a Table 3 mode with no model partner
+
+
+# ---------------------------------------------------------------------------------------------
+# settings
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """One identified factor s: ``k = s k_prior`` on ``components`` of ``field`` of ``hinges``.
+
+    band : (lower, upper) bounds of s [-], lower <= 1 <= upper (the prior is inside).
+    """
+
+    name: str
+    hinges: tuple[str, ...]
+    field: str
+    components: tuple[int, ...]
+    band: tuple[float, float]
+    reason: str = ""
+
+
+@dataclass(frozen=True)
+class Settings:
+    """Numerical settings of the identification (``[settings]`` of calibration.toml).
+
+    regularisation : rho, weight of |u| [-]; trust_region : initial t, largest |d_p| per step;
+    min_trust_region : stop when t falls below; max_iterations : local steps per run;
+    tolerance_percent : stop when no paired frequency changes by more than this [%] in a step;
+    elements_per_beam : beam mesh of the cheap assembled model; n_modes : modes solved;
+    accept_max_percent, accept_mean_percent : the local run has stalled when it ends above
+    these or with shape mismatches; shape_penalty : cost of one shape mismatch in J;
+    seed, population, generations : differential evolution (scipy ``rng``, ``popsize``,
+    ``maxiter``) of the global start; global_start : allow it at all.
+    """
+
+    regularisation: float = 0.05
+    trust_region: float = 0.3
+    min_trust_region: float = 1e-3
+    max_iterations: int = 60
+    tolerance_percent: float = 0.05
+    elements_per_beam: int = 8
+    n_modes: int = 30
+    accept_max_percent: float = 3.0
+    accept_mean_percent: float = 1.0
+    shape_penalty: float = 0.01
+    global_start: bool = True
+    seed: int = 1
+    population: int = 10
+    generations: int = 60
+
+
+_SETTING_RULES = {  # name -> (type, lower bound, strict)
+    "regularisation": (float, 0.0, False),
+    "trust_region": (float, 0.0, True),
+    "min_trust_region": (float, 0.0, True),
+    "max_iterations": (int, 1, False),
+    "tolerance_percent": (float, 0.0, True),
+    "elements_per_beam": (int, 1, False),
+    "n_modes": (int, 1, False),
+    "accept_max_percent": (float, 0.0, True),
+    "accept_mean_percent": (float, 0.0, True),
+    "shape_penalty": (float, 0.0, False),
+    "global_start": (bool, None, False),
+    "seed": (int, 0, False),
+    "population": (int, 1, False),
+    "generations": (int, 1, False),
+}
+
+
+@dataclass(frozen=True)
+class Targets:
+    """Table 3 modes to match: numbers (model mode N is paired with Table 3 mode N) and [Hz]."""
+
+    modes: tuple[int, ...]
+    frequencies_hz: np.ndarray
+    column: str = "modal_test_hz"
+    source: str = ""
+
+
+@dataclass(frozen=True)
+class Calibration:
+    """A validated calibration file: inputs, parameters, targets and settings."""
+
+    source: str
+    prior: Path
+    reference: Path
+    output: Path
+    output_name: str
+    parameters: tuple[Parameter, ...]
+    targets: Targets
+    settings: Settings
+
+
+def _fail(where: str, problem: str):
+    raise StudyError(f"{where}: {problem}")
+
+
+def _suggest(word, choices) -> str:
+    close = difflib.get_close_matches(str(word), [str(c) for c in choices], n=1)
+    return f" (did you mean {close[0]!r}?)" if close else ""
+
+
+def _check_keys(where: str, table: dict, allowed) -> None:
+    for key in table:
+        if key not in allowed:
+            _fail(where, f"unknown field {key!r}{_suggest(key, allowed)}; fields: {list(allowed)}")
+
+
+def load_calibration(
+    path: str | Path, prior: str | Path | None = None, output: str | Path | None = None
+) -> tuple[Calibration, Model, Reference]:
+    """Read and check a calibration file, its prior model and its reference table.
+
+    ``prior`` and ``output`` override the file's entries; the file's own paths are relative to
+    its directory. Raises :class:`~ufmt.errors.StudyError` (or ModelError for the prior) with
+    one line naming the file, the table and the field.
+    """
+    where = str(path)
+    try:
+        with open(path, "rb") as fh:
+            data = tomllib.load(fh)
+    except FileNotFoundError:
+        raise StudyError(f"{where}: file not found") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise StudyError(f"{where}: malformed TOML: {exc}") from None
+    _check_keys(where, data, TOP_KEYS)
+    base = Path(path).parent
+    for key in ("prior", "reference", "output"):
+        if not isinstance(data.get(key), str):
+            _fail(where, f"field {key!r}: {data.get(key)!r} must be a file path (string)")
+    prior_path = Path(prior) if prior is not None else base / data["prior"]
+    out_path = Path(output) if output is not None else base / data["output"]
+    reference_path = base / data["reference"]
+    model = load_model(prior_path)
+    reference = read_reference(reference_path)
+    settings = _settings(where, data.get("settings", {}))
+    parameters = _parameters(where, data.get("parameter", []), model)
+    targets = _targets(where, data.get("targets"), reference, settings, reference_path)
+    name = data.get("output_name", "UFMT")
+    if not isinstance(name, str) or not name:
+        _fail(where, f"field 'output_name': {name!r} must be a non-empty string")
+    calibration = Calibration(
+        where, prior_path, reference_path, out_path, name, parameters, targets, settings
+    )
+    return calibration, model, reference
+
+
+def _settings(where: str, table) -> Settings:
+    if not isinstance(table, dict):
+        _fail(where, "[settings] must be a table")
+    _check_keys(f"{where}: [settings]", table, _SETTING_RULES)
+    values = {}
+    for key, value in table.items():
+        kind, low, strict = _SETTING_RULES[key]
+        ok = isinstance(value, bool) if kind is bool else (
+            isinstance(value, int | float) and not isinstance(value, bool)
+        )
+        if ok and kind is int:
+            ok = isinstance(value, int)
+        if ok and low is not None:
+            ok = math.isfinite(value) and (value > low if strict else value >= low)
+        if not ok:
+            need = "true or false" if kind is bool else f"a {kind.__name__} {'>' if strict else '>='} {low}"
+            _fail(f"{where}: [settings]", f"field {key!r}: {value!r} must be {need}")
+        values[key] = kind(value)
+    return Settings(**values)
+
+
+def _parameters(where: str, tables, model: Model) -> tuple[Parameter, ...]:
+    if not isinstance(tables, list) or not tables:
+        _fail(where, "[[parameter]]: none given; list at least one parameter to identify")
+    hinge_names = [h.name for h in model.hinges]
+    seen_names, seen_entries = set(), {}
+    out = []
+    for i, t in enumerate(tables):
+        label = f"{where}: parameter[{i}]"
+        if not isinstance(t, dict):
+            _fail(label, "must be a table")
+        name = t.get("name")
+        if not isinstance(name, str) or not name:
+            _fail(label, f"field 'name': {name!r} must be a non-empty string")
+        label = f"{where}: parameter {name!r}"
+        _check_keys(label, t, PARAMETER_KEYS)
+        if name in seen_names:
+            _fail(label, "field 'name': used by another parameter")
+        seen_names.add(name)
+        hinges = t.get("hinges")
+        if not isinstance(hinges, list) or not hinges:
+            _fail(label, f"field 'hinges': {hinges!r} must list hinge names")
+        for h in hinges:
+            if h not in hinge_names:
+                _fail(
+                    label,
+                    f"field 'hinges': {h!r} is not a hinge of {model.source}"
+                    f"{_suggest(h, hinge_names)}; hinges: {', '.join(hinge_names)}",
+                )
+        fld = t.get("field")
+        if fld not in FIELDS:
+            _fail(label, f"field 'field': {fld!r} is not one of {', '.join(FIELDS)}")
+        comps = t.get("components")
+        if (
+            not isinstance(comps, list)
+            or not comps
+            or not all(isinstance(c, int) and not isinstance(c, bool) and 0 <= c <= 2 for c in comps)
+            or len(set(comps)) != len(comps)
+        ):
+            _fail(label, f"field 'components': {comps!r} must list distinct 0, 1, 2 (x, y, z)")
+        band = t.get("band")
+        if (
+            not isinstance(band, list)
+            or len(band) != 2
+            or not all(isinstance(b, int | float) and math.isfinite(b) for b in band)
+            or not 0 < band[0] <= 1 <= band[1]
+        ):
+            _fail(label, f"field 'band': {band!r} must be [lower, upper] with 0 < lower <= 1 <= upper")
+        for h in hinges:
+            values = getattr(model.hinge(h), fld)
+            for c in comps:
+                if not (0 < values[c] < math.inf):
+                    _fail(
+                        label,
+                        f"field 'components': {h} {fld}[{c}] is {values[c]!r} in {model.source}; "
+                        "only finite, nonzero stiffness can be scaled",
+                    )
+                if (h, fld, c) in seen_entries:
+                    _fail(
+                        label,
+                        f"field 'hinges': {h} {fld}[{c}] is also scaled by parameter "
+                        f"{seen_entries[(h, fld, c)]!r}",
+                    )
+                seen_entries[(h, fld, c)] = name
+        reason = t.get("reason", "")
+        out.append(Parameter(name, tuple(hinges), fld, tuple(comps), tuple(map(float, band)), reason))
+    return tuple(out)
+
+
+def _targets(where: str, table, reference: Reference, settings: Settings, ref_path) -> Targets:
+    label = f"{where}: [targets]"
+    if not isinstance(table, dict):
+        _fail(where, "[targets]: missing; give the Table 3 modes to match")
+    _check_keys(label, table, TARGET_KEYS)
+    column = table.get("column", "modal_test_hz")
+    if column not in COLUMNS:
+        _fail(label, f"field 'column': {column!r} is not one of {', '.join(COLUMNS)}")
+    modes = table.get("modes")
+    if not isinstance(modes, list) or not modes:
+        _fail(label, f"field 'modes': {modes!r} is empty; list at least one Table 3 mode number")
+    values = reference.column(column)
+    for k in modes:
+        if not isinstance(k, int) or isinstance(k, bool) or k not in values:
+            _fail(
+                label,
+                f"field 'modes': {k!r} has no {column!r} in {ref_path}; modes with one: "
+                f"{', '.join(map(str, values))}",
+            )
+        if k > settings.n_modes:
+            _fail(label, f"field 'modes': {k} exceeds [settings] n_modes = {settings.n_modes}")
+    if len(set(modes)) != len(modes):
+        _fail(label, f"field 'modes': {modes!r} lists a mode twice")
+    modes = sorted(modes)
+    hz = np.array([values[k] for k in modes])
+    return Targets(tuple(modes), hz, column, str(table.get("source", "")))
+
+
+# ---------------------------------------------------------------------------------------------
+# parameters applied to a model
+
+
+def apply_parameters(model: Model, parameters, u) -> Model:
+    """A copy of ``model`` with each parameter's components scaled by ``exp(u_p)``."""
+    for p, up in zip(parameters, np.asarray(u, dtype=float), strict=True):
+        for h in p.hinges:
+            values = np.array(getattr(model.hinge(h), p.field), dtype=float)
+            values[list(p.components)] *= math.exp(up)
+            model = model.with_hinge(h, **{p.field: values})
+    return model
+
+
+def _zeroed(model: Model, parameters) -> Model:
+    """``model`` with every parameter's components released (stiffness 0)."""
+    for p in parameters:
+        for h in p.hinges:
+            values = np.array(getattr(model.hinge(h), p.field), dtype=float)
+            values[list(p.components)] = 0.0
+            model = model.with_hinge(h, **{p.field: values})
+    return model
+
+
+@dataclass(frozen=True, eq=False)
+class ReducedModel:
+    """Assembled model of ``model`` whose stiffness is affine in the parameters' factors.
+
+    ``K(s) = K_fixed + sum_p s_p K_p`` on all dofs (K_p: parameter p's springs at their prior
+    value). The basis ``[T_a T_b]`` spans the motions the rigid (inf) directions allow; T_a is
+    mass-orthonormal (``T_a^T M T_a = I``) and T_b massless, condensed statically in
+    :meth:`solve`.
+    """
+
+    model: Model
+    parameters: tuple[Parameter, ...]
+    assembled: AssembledModel  # of the prior: dofs and M
+    k_fixed: np.ndarray  # [T_a T_b]^T K_fixed [T_a T_b]
+    k_parts: np.ndarray  # (P, r, r) likewise
+    k_parts_full: np.ndarray  # (P, n, n) on all dofs
+    t_a: np.ndarray
+    t_b: np.ndarray
+    zero_modes: int
+
+    @classmethod
+    def build(cls, model: Model, parameters, elements_per_beam: int = 8) -> ReducedModel:
+        """Assemble K_fixed and each K_p (stiffness is linear in each hinge component)."""
+        parameters = tuple(parameters)
+        fixed = assemble(_zeroed(model, parameters), elements_per_beam=elements_per_beam)
+        parts = np.array(
+            [
+                assemble(
+                    _zeroed(model, parameters[:i] + parameters[i + 1 :]),
+                    elements_per_beam=elements_per_beam,
+                ).K
+                - fixed.K
+                for i in range(len(parameters))
+            ]
+        ).reshape(len(parameters), *fixed.K.shape)
+        n = fixed.K.shape[0]
+        null = sla.null_space(fixed.constraints) if len(fixed.constraints) else np.eye(n)
+        w, v = np.linalg.eigh(null.T @ fixed.M @ null)
+        massive = w > MASS_RTOL * w.max()
+        t_a = null @ (v[:, massive] / np.sqrt(w[massive]))
+        t_b = null @ v[:, ~massive]
+        t = np.hstack([t_a, t_b])
+        zero = assembled_modes(model, count=1, elements_per_beam=elements_per_beam)
+        return cls(
+            model=model,
+            parameters=parameters,
+            assembled=fixed,
+            k_fixed=t.T @ fixed.K @ t,
+            k_parts=t.T @ parts @ t,
+            k_parts_full=parts,
+            t_a=t_a,
+            t_b=t_b,
+            zero_modes=zero.rigid_body_modes,
+        )
+
+    def solve(self, u, n_modes: int) -> tuple[np.ndarray, np.ndarray]:
+        """Lowest ``n_modes`` nonzero frequencies [Hz] and mass-normalised shapes (n, dofs)."""
+        k = self.k_fixed + np.tensordot(np.exp(np.asarray(u, dtype=float)), self.k_parts, 1)
+        na = self.t_a.shape[1]
+        k_ab, k_bb = k[:na, na:], k[na:, na:]
+        condense = np.linalg.solve(k_bb, k_ab.T) if k_bb.size else np.zeros((0, na))
+        first = self.zero_modes
+        lam, y = sla.eigh(
+            k[:na, :na] - k_ab @ condense, subset_by_index=[first, first + n_modes - 1]
+        )
+        shapes = (self.t_a @ y - self.t_b @ (condense @ y)).T
+        return np.sqrt(np.clip(lam, 0.0, None)) / (2.0 * math.pi), shapes
+
+    def sensitivities(self, u, frequencies_hz, shapes) -> np.ndarray:
+        """d ln f_m / d u_p (n, P) = s_p phi_m^T K_p phi_m / (2 omega_m^2)."""
+        s = np.exp(np.asarray(u, dtype=float))
+        energy = np.sum((shapes @ self.k_parts_full) * shapes[None], axis=2).T
+        omega2 = (2.0 * math.pi * np.asarray(frequencies_hz)) ** 2
+        return energy * s[None, :] / (2.0 * omega2[:, None])
+
+    def modeset(self, frequencies_hz, shapes) -> ModeSet:
+        """The modes as a :class:`~ufmt.validation.ModeSet` (for pairing and tag checks)."""
+        return modeset_from_dofs(self.model, self.assembled, frequencies_hz, shapes)
+
+
+# ---------------------------------------------------------------------------------------------
+# the objective
+
+
+@dataclass(frozen=True, eq=False)
+class Evaluation:
+    """The model at one point u: frequencies, pairing, residuals, mismatches and J."""
+
+    u: np.ndarray
+    frequencies_hz: np.ndarray
+    shapes: np.ndarray
+    modes: ModeSet
+    paired: np.ndarray  # model mode index per target (-1: none)
+    residual: np.ndarray  # ln f_model - ln f_target per target
+    mismatches: dict[int, str]  # target mode -> reason
+    cost: float
+
+    @property
+    def errors_percent(self) -> np.ndarray:
+        """Frequency error of each paired target [%]."""
+        return 100.0 * np.expm1(self.residual)
+
+
+@dataclass(frozen=True, eq=False)
+class Problem:
+    """Targets, reference tags and the cheap model: evaluates J (module docstring)."""
+
+    reduced: ReducedModel
+    targets: Targets
+    reference: Reference | None
+    settings: Settings
+    lower: np.ndarray = field(init=False)
+    upper: np.ndarray = field(init=False)
+
+    def __post_init__(self):
+        bands = np.log(np.array([p.band for p in self.reduced.parameters]))
+        object.__setattr__(self, "lower", bands[:, 0])
+        object.__setattr__(self, "upper", bands[:, 1])
+
+    def evaluate(self, u) -> Evaluation:
+        u = np.asarray(u, dtype=float)
+        f, shapes = self.reduced.solve(u, self.settings.n_modes)
+        modes = self.reduced.modeset(f, shapes)
+        numbers = self.targets.modes
+        if self.reference is None:
+            paired = np.array([k - 1 for k in numbers])
+        else:
+            paired = pair_by_class(self.reference, numbers, modes)
+        ok = paired >= 0
+        residual = np.full(len(numbers), UNPAIRED_RESIDUAL)
+        residual[ok] = np.log(f[paired[ok]] / self.targets.frequencies_hz[ok])
+        mismatches = self._mismatches(modes, paired)
+        cost = (
+            float(residual @ residual)
+            + self.settings.regularisation**2 * float(u @ u)
+            + self.settings.shape_penalty * len(mismatches)
+        )
+        return Evaluation(u, f, shapes, modes, paired, residual, mismatches, cost)
+
+    def _mismatches(self, modes: ModeSet, paired: np.ndarray) -> dict[int, str]:
+        out = {}
+        for k, j in zip(self.targets.modes, paired, strict=True):
+            if j < 0:
+                out[k] = "no model mode of its class"
+            elif j != k - 1:
+                out[k] = f"paired with model mode {j + 1}, not by order"
+            elif self.reference is not None and self.reference.modes[k].tag is not None:
+                status, detail = check_tag(modes, j, self.reference.modes[k].tag)
+                if status in ("class", "bodies"):
+                    out[k] = f"{status}: {detail}"
+        if self.reference is not None and self.reference.tool_tip_z_modes:
+            tip = [k for k in self.reference.tool_tip_z_modes if k <= modes.frequencies_hz.size]
+            for k, above in tool_tip_neighbours(modes, tip).items():
+                if not above and k not in out:
+                    out[k] = "tool tip moves less in z than in a neighbouring mode"
+        return out
+
+    def cost(self, u) -> float:
+        """J(u) (for the global search)."""
+        return self.evaluate(u).cost
+
+
+# ---------------------------------------------------------------------------------------------
+# local iteration and global start
+
+
+class _StepProblem:
+    """The cvxpy bounded, regularised least-squares step (built once, re-solved per step)."""
+
+    def __init__(self, n_targets: int, n_params: int, rho: float):
+        self.d = cp.Variable(n_params)
+        self.sens = cp.Parameter((n_targets, n_params))
+        self.res = cp.Parameter(n_targets)
+        self.u = cp.Parameter(n_params)
+        self.low = cp.Parameter(n_params)
+        self.high = cp.Parameter(n_params)
+        self.trust = cp.Parameter(nonneg=True)
+        objective = cp.sum_squares(self.res + self.sens @ self.d) + rho**2 * cp.sum_squares(
+            self.u + self.d
+        )
+        constraints = [
+            cp.abs(self.d) <= self.trust,
+            self.u + self.d >= self.low,
+            self.u + self.d <= self.high,
+        ]
+        self.problem = cp.Problem(cp.Minimize(objective), constraints)
+
+    def step(self, sens, res, u, low, high, trust) -> np.ndarray:
+        self.sens.value, self.res.value, self.u.value = sens, res, u
+        self.low.value, self.high.value, self.trust.value = low, high, trust
+        self.problem.solve(solver=cp.CLARABEL)
+        if self.d.value is None:
+            raise RuntimeError(f"least-squares step failed: {self.problem.status}")
+        return np.clip(u + self.d.value, low, high) - u
+
+
+def local_iteration(problem: Problem, u0, stage: str, log: list) -> Evaluation:
+    """Trust-region iteration of bounded least-squares steps from u0 (module docstring)."""
+    s = problem.settings
+    current = problem.evaluate(u0)
+    stepper = _StepProblem(len(problem.targets.modes), len(u0), s.regularisation)
+    trust = s.trust_region
+    _log(log, stage, 0, current, 0.0, trust)
+    for it in range(1, s.max_iterations + 1):
+        ok = current.paired >= 0
+        sens = np.zeros((len(ok), len(u0)))
+        sens[ok] = problem.reduced.sensitivities(
+            current.u, current.frequencies_hz, current.shapes
+        )[current.paired[ok]]
+        while True:
+            d = stepper.step(sens, current.residual, current.u, problem.lower, problem.upper, trust)
+            trial = problem.evaluate(current.u + d)
+            if trial.cost < current.cost or trust < s.min_trust_region:
+                break
+            trust /= 2.0
+        if trial.cost >= current.cost:
+            _log(log, stage, it, current, 0.0, trust)
+            break
+        change = 100.0 * np.max(np.abs(trial.residual - current.residual))
+        current = trial
+        _log(log, stage, it, current, change, trust)
+        trust = min(2.0 * trust, s.trust_region) if np.max(np.abs(d)) >= 0.99 * trust else trust
+        if change < s.tolerance_percent:
+            break
+    return current
+
+
+def global_start(problem: Problem, x0, log: list) -> np.ndarray:
+    """Differential evolution over ln band for the lowest J; its best point (deterministic)."""
+    s = problem.settings
+    generation = [0]
+
+    def record(intermediate_result):
+        generation[0] += 1
+        _log(log, "global", generation[0], problem.evaluate(intermediate_result.x), math.nan, math.nan)
+
+    result = differential_evolution(
+        problem.cost,
+        list(zip(problem.lower, problem.upper, strict=True)),
+        maxiter=s.generations,
+        popsize=s.population,
+        rng=s.seed,
+        x0=np.clip(x0, problem.lower, problem.upper),
+        polish=False,
+        init="sobol",
+        callback=record,
+    )
+    return result.x
+
+
+def _meets(e: Evaluation, s: Settings) -> bool:
+    err = np.abs(e.errors_percent)
+    return (
+        not e.mismatches
+        and err.max() <= s.accept_max_percent
+        and err.mean() <= s.accept_mean_percent
+    )
+
+
+def _log(log: list, stage: str, it: int, e: Evaluation, change: float, trust: float) -> None:
+    err = np.abs(e.errors_percent)
+    row = {
+        "stage": stage,
+        "iteration": it,
+        "cost": e.cost,
+        "max_abs_error_percent": err.max(),
+        "mean_abs_error_percent": err.mean(),
+        "max_change_percent": change,
+        "trust_region": trust,
+        "shape_mismatches": len(e.mismatches),
+        "mismatched_modes": " ".join(str(k) for k in sorted(e.mismatches)),
+    }
+    log.append((row, e.u.copy()))
+
+
+def _log_frame(log: list, parameters) -> pd.DataFrame:
+    """The iteration log as a table: one row per iteration, then the factor s of each parameter."""
+    rows = []
+    for row, u in log:
+        rows.append(row | {f"s[{p.name}]": math.exp(v) for p, v in zip(parameters, u, strict=True)})
+    return pd.DataFrame(rows)
+
+
+@dataclass(frozen=True, eq=False)
+class Identification:
+    """Result: the factors, the final evaluation, the iteration log and the run time."""
+
+    parameters: tuple[Parameter, ...]
+    u: np.ndarray
+    evaluation: Evaluation
+    log: pd.DataFrame
+    used_global_start: bool
+    seconds: float
+
+    @property
+    def scales(self) -> np.ndarray:
+        """Identified factors s = exp(u) [-]."""
+        return np.exp(self.u)
+
+
+def identify(
+    prior: Model,
+    parameters,
+    targets: Targets,
+    settings: Settings,
+    reference: Reference | None = None,
+    u0=None,
+) -> Identification:
+    """Identify the parameters' factors so the model's modes match ``targets``.
+
+    Runs the local iteration from ``u0`` (default the prior, u = 0); if it stalls and
+    ``settings.global_start``, differential evolution and a second local iteration (module
+    docstring). ``reference`` supplies the tags and tool-tip modes (None: order pairing only,
+    no shape checks).
+    """
+    with threadpool_limits(limits=1):  # small dense matrices: one BLAS thread is fastest
+        return _identify(prior, tuple(parameters), targets, settings, reference, u0)
+
+
+def _identify(prior, parameters, targets, settings, reference, u0) -> Identification:
+    t0 = time.perf_counter()
+    problem = Problem(
+        ReducedModel.build(prior, parameters, settings.elements_per_beam),
+        targets,
+        reference,
+        settings,
+    )
+    log: list = []
+    start = np.zeros(len(parameters)) if u0 is None else np.asarray(u0, dtype=float)
+    best = local_iteration(problem, start, "local", log)
+    used = False
+    if settings.global_start and not _meets(best, settings):
+        used = True
+        x = global_start(problem, best.u, log)
+        second = local_iteration(problem, x, "local after global start", log)
+        if second.cost < best.cost:
+            best = second
+    return Identification(
+        parameters, best.u, best, _log_frame(log, parameters), used, time.perf_counter() - t0
+    )
+
+
+# ---------------------------------------------------------------------------------------------
+# the command
+
+
+def _sha256(path: Path) -> str:
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()[:16]
+
+
+def provenance_header(
+    calibration: Calibration, result: Identification, mstmm_errors: np.ndarray
+) -> str:
+    """Comment block on top of the generated model file: how it was made and how to remake it."""
+    err = np.abs(mstmm_errors)
+    lines = [
+        "# GENERATED FILE - do not edit by hand.",
+        "# Written by `ufmt calibrate` (make calibrate); regenerate with:",
+        "#     python -m ufmt.cli calibrate [--prior PATH] [--settings PATH] [--output PATH]",
+        f"# Prior: {calibration.prior.name} (sha256 {_sha256(calibration.prior)}); settings: "
+        f"{Path(calibration.source).name} (sha256 {_sha256(Path(calibration.source))}).",
+        f"# Targets: Table 3 modes {', '.join(map(str, calibration.targets.modes))}, column "
+        f"{calibration.targets.column!r} of {calibration.reference.name}.",
+        f"# MSTMM result: max |error| {err.max():.3f} %, mean |error| {err.mean():.3f} %; "
+        f"global start used: {'yes' if result.used_global_start else 'no'}.",
+        "# Identified factors (k = s * k_prior; band in brackets):",
+    ]
+    width = max(len(p.name) for p in result.parameters)
+    for p, s in zip(result.parameters, result.scales, strict=True):
+        lines.append(f"#   {p.name:<{width}}  s = {s:.6g}  [{p.band[0]:g}, {p.band[1]:g}]")
+    return "\n".join(lines) + "\n"
+
+
+def calibrate(
+    settings_path: str | Path,
+    prior: str | Path | None = None,
+    output: str | Path | None = None,
+    log_path: str | Path | None = None,
+) -> tuple[Identification, Model, dict]:
+    """Run the identification of a calibration file and write the model and the log.
+
+    Returns (identification, identified model, MSTMM check: frequencies, errors, pairing).
+    """
+    from ufmt.mstmm.solve import solve_modes
+    from ufmt.validation import modeset_from_mstmm
+
+    calibration, model, reference = load_calibration(settings_path, prior, output)
+    result = identify(
+        model, calibration.parameters, calibration.targets, calibration.settings, reference
+    )
+    identified = replace(
+        apply_parameters(model, calibration.parameters, result.u), name=calibration.output_name
+    )
+    n = calibration.settings.n_modes
+    solution = solve_modes(identified, count=n, method="mstmm", shapes=True)
+    modes = modeset_from_mstmm(identified, solution.shapes)
+    idx = np.array(calibration.targets.modes) - 1
+    errors = 100.0 * (modes.frequencies_hz[idx] / calibration.targets.frequencies_hz - 1.0)
+    tags = {
+        k: check_tag(modes, k - 1, reference.modes[k].tag)
+        for k in calibration.targets.modes
+        if reference.modes[k].tag is not None
+    }
+    check = {
+        "frequencies_hz": modes.frequencies_hz,
+        "errors_percent": errors,
+        "tags": tags,
+        "loop_vs_mstmm": float(
+            np.max(np.abs(result.evaluation.frequencies_hz / modes.frequencies_hz - 1.0))
+        ),
+    }
+    log = result.log.copy()
+    final = {
+        "stage": "mstmm check",
+        "iteration": 0,
+        "max_abs_error_percent": float(np.abs(errors).max()),
+        "mean_abs_error_percent": float(np.abs(errors).mean()),
+        "shape_mismatches": sum(s not in ("ok", "phase") for s, _ in tags.values()),
+        "mismatched_modes": " ".join(str(k) for k, (s, _) in tags.items() if s != "ok"),
+    }
+    final.update({f"s[{p.name}]": s for p, s in zip(calibration.parameters, result.scales)})
+    log = pd.concat([log, pd.DataFrame([final])], ignore_index=True)
+    calibration.output.parent.mkdir(parents=True, exist_ok=True)
+    calibration.output.write_text(
+        provenance_header(calibration, result, errors) + model_to_toml(identified)
+    )
+    if log_path is not None:
+        Path(log_path).parent.mkdir(parents=True, exist_ok=True)
+        log.to_csv(log_path, index=False, float_format="%.8g")
+    return replace(result, log=log), identified, check
