@@ -92,8 +92,8 @@ def beam_frame(beam: Beam, p_in, p_out) -> np.ndarray:
     """Columns e1, e2, e3 of the beam's local frame for transfer from p_in to p_out.
 
     e1 runs along the transfer direction; e2 is ``orientation`` (default global z, or global
-    x for a vertical beam, |e1 x z| <= VERTICAL_SINE) projected off e1; e3 = e1 x e2. Flipping e1 flips e3 only, which
-    leaves the section's second moments about e2 and e3 unchanged.
+    x for a vertical beam, |e1 x z| <= VERTICAL_SINE) projected off e1; e3 = e1 x e2.
+    Flipping e1 flips e3 only, which leaves the second moments about e2 and e3 unchanged.
     """
     e1 = np.asarray(p_out, dtype=float) - p_in
     e1 /= np.linalg.norm(e1)

@@ -155,7 +155,7 @@ def modal_mass(model, rigid, beams) -> np.ndarray:
         b = model.body(name)
         total = total + b.mass * np.sum(v[:, :3] ** 2, axis=1)
         total = total + np.einsum("ni,ij,nj->n", v[:, 3:], b.inertia, v[:, 3:])
-    for name, (pos, wts, mot) in beams.items():
+    for name, (_, wts, mot) in beams.items():
         b = model.body(name)
         axis = (b.end - b.start) / b.length
         twist = mot[:, :, 3:] @ axis
