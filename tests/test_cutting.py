@@ -9,7 +9,8 @@ import pytest
 from ufmt.dynamics.basis import ModalBasis
 from ufmt.dynamics.cutting import (
     ForceCoefficients,
-    chip_thickness,
+    chip_factor,
+    chip_factor_cells,
     cutting_force,
     machine_of,
     read_machine,
@@ -156,12 +157,30 @@ def test_tool_cuts_only_on_the_leading_arc_over_the_workpiece():
     # workpiece centred under the spindle (Y = 0): the plate edge y = 0.205 cuts the arc
     # at cos(phi) = 0.82, its x edges at sin(phi) = 0.82
     phi = np.radians([0, 30, 40, 50, 60, 140, 180, 220, 320])
-    h = chip_thickness(phi, 0.0, delta, m)
+    h = delta * chip_factor(phi, 0.0, m)
     over = tool_over_workpiece(phi, 0.0, m)
     expect_over = [False, False, True, True, False, True, False, True, True]
     np.testing.assert_array_equal(over, expect_over)
     cutting = over & (np.cos(phi) > 0)
     np.testing.assert_allclose(h, np.where(cutting, delta * np.cos(phi), 0.0))
+
+
+@pytest.mark.parametrize("slide", [-0.44, -0.25, -0.03, 0.05])
+def test_cell_means_of_the_chip_factor(slide):
+    """Cell means = fine average of the point chip factor; their sum keeps the exact integral."""
+    m = read_machine(MACHINE)
+    n = 256
+    width = 2 * np.pi / n
+    phi = width * np.arange(n)
+    cells = chip_factor_cells(phi, slide, m, width)
+    fine = phi[:, None] + width * ((np.arange(4000) + 0.5) / 4000 - 0.5)[None, :]
+    np.testing.assert_allclose(cells, chip_factor(fine, slide, m).mean(axis=1), atol=2e-3)
+    # integral of cos over the cut: |phi| within asin(0.82) (x edges) and the y-edge bounds
+    p1 = np.arccos(np.clip((0.205 - slide) / 0.25, -1, 1))
+    p2 = np.arccos(np.clip((-0.205 - slide) / 0.25, 0, 1))
+    lo, hi = p1, min(p2, np.arcsin(0.82))
+    exact = 2 * max(np.sin(hi) - np.sin(lo), 0.0)
+    assert cells.sum() * width == pytest.approx(exact, rel=1e-12, abs=1e-15)
 
 
 def test_cutting_force_components_and_scaling():

@@ -240,3 +240,22 @@ def test_krylov_functions_continuous_at_series_switch():
     x4 = np.array([16.0 * (1 - 1e-12), 16.0 * (1 + 1e-12)])
     s = np.array(elements._krylov_scaled(x4))
     assert np.allclose(s[:, 0], s[:, 1], rtol=1e-12)
+
+
+def test_beam_shape_along_cantilever_matches_closed_form():
+    """First bending mode of the round cantilever: v(x) ∝ cosh βx − cos βx − σ(sinh βx − sin βx)."""
+    from ufmt.mstmm.modes import beam_shape
+
+    exact = analytic_cantilever()
+    system, r = solve(cantilever(), 100.0, exact[exact <= 100.0])
+    shapes = mode_shapes(system, r.frequencies_hz)
+    x = np.linspace(0.0, 1.0, 11)
+    _, motion = beam_shape(system, shapes, "shaft", x)
+    bl = CANTILEVER_BL[0]
+    sigma = (np.cosh(bl) + np.cos(bl)) / (np.sinh(bl) + np.sin(bl))
+    phi = np.cosh(bl * x) - np.cos(bl * x) - sigma * (np.sinh(bl * x) - np.sin(bl * x))
+    for mode in range(2):  # the two planes of the double root
+        lateral = motion[mode, :, 1:3]
+        amplitude = np.linalg.norm(lateral, axis=1)
+        assert np.allclose(amplitude / amplitude[-1], np.abs(phi) / abs(phi[-1]), atol=1e-9)
+        assert np.allclose(motion[mode, :, 0], 0.0, atol=1e-12 * amplitude.max())

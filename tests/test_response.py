@@ -15,6 +15,7 @@ from ufmt.dynamics.response import (
     discretise,
     periodic_response,
     real_recurrence,
+    record_slide,
     time_response,
 )
 from ufmt.model.schema import Model
@@ -31,8 +32,7 @@ MACHINE = {
     "workpiece_center_xy": [0.0, 0.0],
     "rotation": "cw",
 }
-# a small plate so that the whole-workpiece time path takes a fraction of a second; long enough
-# in y that the halfway point (Y = 0) lies in the steady span (the arc crosses the whole width)
+# a small plate so that the whole-workpiece time path takes a fraction of a second
 SMALL = {**MACHINE, "tool_radius": 0.06, "workpiece_size": [0.1, 0.2]}
 
 
@@ -140,15 +140,22 @@ def test_mean_relative_displacement_is_the_static_deflection_under_the_mean_forc
     m = read_machine(MACHINE)
     basis = heave_basis()
     p = Process(300, 15, 4)
-    k = ForceCoefficients()
+    per_chip = ForceCoefficients().thrust * p.depth_m * p.feed_per_rev_m
+    static = per_chip / (100.0 * (2 * np.pi * 50) ** 2)  # per unit mean chip factor
     r = periodic_response(cut_geometry(basis, m), p, zeta=0.02)
-    # at Y = 0 the tip cuts for |phi| between acos(0.205/0.25) (y edge) and asin(0.205/0.25)
-    lo, hi = np.arccos(0.82), np.arcsin(0.82)
-    mean_chip = 2 * (np.sin(hi) - np.sin(lo)) / (2 * np.pi)
-    static = k.thrust * p.depth_m * p.feed_per_rev_m * mean_chip / (100.0 * (2 * np.pi * 50) ** 2)
-    assert r.z_re.mean() == pytest.approx(static, rel=1e-10)
+    # record window: the leading arc crosses the plate, |phi| < asin(0.205 / 0.25)
+    assert m.steady_span[0] < record_slide(m) < m.steady_span[1]
+    full = 2 * 0.82 / (2 * np.pi)
+    assert r.z_re.mean() == pytest.approx(static * full, rel=1e-10)
     np.testing.assert_allclose(r.z_re, r.tip_disp[:, 2], rtol=1e-12)  # the workpiece is still
     assert np.abs(r.tip_disp[:, :2]).max() < 1e-12 * np.abs(r.z_re).max()
+    # table rows after the arc's top has left the plate: the tip cuts for |phi| between
+    # acos((0.205 - Y) / 0.25) (far y edge) and asin(0.82) (x edges)
+    rows = (r.table.row_y > m.steady_span[1]) & (r.table.row_y < m.cutting_span[1])
+    assert rows.sum() > 5
+    edge = np.arccos((0.205 - r.table.row_y[rows]) / 0.25)
+    chip = 2 * (0.82 - np.sin(edge)) / (2 * np.pi)
+    np.testing.assert_allclose(r.table.values[rows, 1:-2].mean(axis=1), static * chip, rtol=1e-10)
 
 
 def test_spinning_tip_acceleration_is_the_second_derivative_of_its_displacement():
@@ -210,22 +217,27 @@ def test_periodic_and_time_paths_agree_over_the_steady_part(turning, still):
 
 
 def test_periodic_and_time_paths_agree_over_the_whole_workpiece(turning):
-    """With the quasi-static table the whole-workpiece PV stays within 1 % of the time path."""
+    """Whole plate, edges included: within 1 % on this plate and basis.
+
+    (The edge transients can be larger: on the UFMT prior model the default table is 1-7 %
+    low, see ufmt.dynamics.response; this checks the table and surface machinery end to end.)
+    """
     s_per, s_tim = surfaces(turning)
     assert np.ptp(s_tim.z) == pytest.approx(np.ptp(s_per.z), rel=0.01)
 
 
 def test_record_windows_of_both_paths_agree(still):
-    """Tool-tip motion at the halfway point: the time path is in its periodic steady state."""
+    """Tool-tip motion mid-cut: the time path is in its periodic steady state there."""
     _, m, p, per, tim = still
     n = per.t.size
     assert tim.t.size == tim.periods * n
-    # the window's middle revolution starts at Y = 0 (to within one feed per revolution)
+    # the middle revolution of the window starts where the periodic record is taken
+    y_rec = record_slide(m)
+    assert m.steady_span[0] < y_rec < m.steady_span[1]
     mid = tim.periods // 2
     one = slice(mid * n, (mid + 1) * n)
-    assert tim.slide_y[one][0] == pytest.approx(0.0, abs=p.feed_per_rev_m)
+    assert tim.slide_y[one][0] == pytest.approx(y_rec, abs=p.feed_per_rev_m)
     assert tim.t[one][0] == pytest.approx(per.t[0], abs=per.period)
-    assert m.steady_span[0] < 0 < m.steady_span[1]  # a constant chip pattern around Y = 0
     assert np.abs(per.force).max() > 0
     for a, b in (
         (tim.tip_acc[one], per.tip_acc),
@@ -295,7 +307,7 @@ def test_frf_is_the_modal_sum_at_the_tip():
 
 @pytest.mark.slow
 def test_full_size_paths_agree():
-    """The packaged geometry (R = 0.25 m, 0.41 m plate), 30 modes, reference process."""
+    """The [machine] geometry of the brief (R = 0.25 m, 0.41 m plate), 30 synthetic modes."""
     basis = synthetic_basis(n=30, f_lo=7.0, f_hi=700.0)
     m = read_machine(MACHINE)
     p = Process(300, 15, 4)

@@ -64,8 +64,8 @@ def slow_pv(design, process, model=None):
 
 
 def failing_pv(design, process, model=None):
-    """analytic_pv, but raises above 350 rpm."""
-    if process["rpm"] > 350.0:
+    """analytic_pv, but raises above 350 rpm unless $UFMT_TEST_FAST_SPINDLE is "ok"."""
+    if process["rpm"] > 350.0 and os.environ.get("UFMT_TEST_FAST_SPINDLE") != "ok":
         raise RuntimeError("spindle too fast for this test")
     return analytic_pv(design, process, model)
 
@@ -293,19 +293,26 @@ def test_tiny_sweep_end_to_end(tmp_path):
     assert "[tiny-sweep](tiny-sweep/)" in index and meta["headline"] in index
 
 
-def test_failing_points_are_recorded_not_fatal(tmp_path):
+def test_failing_points_are_recorded_not_fatal_and_retried_on_rerun(tmp_path, monkeypatch):
     body = (
         'kind = "grid"\n'
         + BASE.replace("rpm = 300.0\n", "")
         + ('[[axis]]\nparameter = "rpm"\nvalues = [300.0, 400.0]\n')
     )
-    out = run(write_study(tmp_path, "fails", body, "failing_pv"), tmp_path / "results")
+    study = write_study(tmp_path, "fails", body, "failing_pv")
+    out = run(study, tmp_path / "results")
     table = read_table(out / "points.csv").set_index("rpm")
     assert table.loc[300.0, "status"] == "ok" and table.loc[300.0, "pv_nm"] > 0
     assert table.loc[400.0, "status"] == "error"
     assert "RuntimeError: spindle too fast" in table.loc[400.0, "message"]
     assert math.isnan(table.loc[400.0, "pv_nm"])
     assert read_meta(out)["run"]["points_failed"] == 1
+
+    monkeypatch.setenv("UFMT_TEST_FAST_SPINDLE", "ok")  # the failure was transient
+    out = run(study, tmp_path / "results")
+    table = read_table(out / "points.csv").set_index("rpm")
+    assert (table["status"] == "ok").all() and len(table) == 2
+    assert read_meta(out)["run"]["points_new"] == 1  # only the failed point ran again
 
 
 def test_killed_run_resumes_to_the_same_table(tmp_path):
@@ -570,7 +577,7 @@ def test_sobol_indices_of_a_linear_function_are_variance_shares(tmp_path):
 # evaluate
 
 
-def test_design_parameters_set_the_documented_hinge_components(tmp_path):
+def test_design_parameters_set_the_documented_hinge_components():
     from ufmt.model.load import load_model_text
 
     model = load_model_text(TINY_MODEL)
@@ -578,15 +585,20 @@ def test_design_parameters_set_the_documented_hinge_components(tmp_path):
         "head_radial_stiffness_N_m": 7e8,
         "head_angular_stiffness_Nm_rad": 4e6,
         "spindle_axial_stiffness_N_m": 9e8,
+        "spindle_radial_stiffness_N_m": 2.1e8,  # calibrated x, y = 1e8, 1.1e8: mean 1.05e8
         "hinge.h25.rotational_stiffness[1]": 5e6,
     }
     changed = apply_design(model, design)
     assert list(changed.hinge("h31").stiffness) == [7e8, 7e8, 5e8]
     assert list(changed.hinge("h31").rotational_stiffness) == [4e6, 4e6, 0.0]
-    assert list(changed.hinge("h25").stiffness) == [1e8, 1.1e8, 9e8]
+    # a mean over unequal components scales them in proportion (anisotropy kept)
+    assert list(changed.hinge("h25").stiffness) == pytest.approx([2e8, 2.2e8, 9e8], rel=1e-15)
     assert list(changed.hinge("h25").rotational_stiffness) == [2e6, 5e6, 0.0]
     assert list(model.hinge("h31").stiffness) == [2e8, 2e8, 5e8]  # the original is untouched
-    assert design_value(model, "spindle_radial_stiffness_N_m") == 1e8
+    assert design_value(model, "spindle_radial_stiffness_N_m") == pytest.approx(1.05e8, rel=1e-15)
+    # restating the calibrated value gives back the calibrated hinge exactly
+    same = apply_design(model, {"spindle_radial_stiffness_N_m": 1.05e8})
+    assert list(same.hinge("h25").stiffness) == list(model.hinge("h25").stiffness)
 
 
 def test_evaluate_rejects_unknown_names_and_records_physics_failures(tmp_path, monkeypatch):
@@ -667,10 +679,11 @@ def test_optimise_process_on_the_model_with_a_small_budget(tmp_path, monkeypatch
     optima = read_table(out / "optima.csv").set_index("optimum")
     points = read_table(out / "points.csv")
     best = optima.loc["min-pv"]
-    # the reported optimum is the true model's value there and the best of every evaluation
+    # the reported optimum is the true model's value there (to the last digits, which depend
+    # on the BLAS thread count: workers run one thread) and the best of every evaluation
     again = evaluate({}, {p: best[p] for p in ("rpm", "feed_mm_min", "depth_um")})
-    assert best["pv_nm"] == pytest.approx(again["pv_nm"], rel=1e-12)
-    assert best["pv_nm"] == pytest.approx(points["pv_nm"].min(), rel=1e-12)
+    assert best["pv_nm"] == pytest.approx(again["pv_nm"], rel=1e-9)
+    assert best["pv_nm"] == points["pv_nm"].min()
     assert (
         200 <= best["rpm"] <= 400 and 4 <= best["feed_mm_min"] <= 16 and 2 <= best["depth_um"] <= 8
     )
@@ -710,6 +723,40 @@ def test_optimise_design_on_the_model_with_a_small_budget(tmp_path, monkeypatch)
     again = evaluate(
         {n: best[n] for n in names}, {"rpm": 300.0, "feed_mm_min": 15.0, "depth_um": 4.0}
     )
-    assert best["pv_nm"] == pytest.approx(again["pv_nm"], rel=1e-12)
+    assert best["pv_nm"] == pytest.approx(again["pv_nm"], rel=1e-9)  # BLAS threads: see above
     assert best["objective_nm"] <= calibrated["objective_nm"] + 1e-9
     assert calibrated["cost_nm"] == pytest.approx(10.0)  # 5 nm per calibrated multiple, twice
+
+
+def test_evaluate_reuses_the_basis_and_caches_on_the_model_content(tmp_path, monkeypatch):
+    import ufmt.dynamics.modal
+    import ufmt.evaluate
+
+    monkeypatch.setenv("UFMT_CACHE_DIR", str(tmp_path / "cache"))
+    monkeypatch.setattr(ufmt.evaluate, "_BASES", {})
+    model = tmp_path / "ufmt.toml"
+    model.write_bytes(ufmt.evaluate.packaged_model_path().read_bytes())
+    computed = []
+    real = ufmt.dynamics.modal.modal_basis
+
+    def counting(*args):
+        computed.append(args)
+        return real(*args)
+
+    monkeypatch.setattr(ufmt.dynamics.modal, "modal_basis", counting)
+    first = evaluate({}, {}, model)
+    slower = evaluate({}, {"rpm": 250.0}, model)
+    assert first["status"] == slower["status"] == "ok"
+    assert slower["pv_nm"] != first["pv_nm"]
+    assert len(computed) == 1  # the process change reused the design's modal basis
+
+    def broken(*args):
+        raise RuntimeError("modal basis must not be recomputed")
+
+    monkeypatch.setattr(ufmt.dynamics.modal, "modal_basis", broken)
+    monkeypatch.setattr(ufmt.evaluate, "_BASES", {})
+    assert evaluate({}, {}, model) == first  # served from the disk cache
+    with model.open("a", encoding="utf-8") as f:
+        f.write("\n# a comment changes the file's content, hence the cache key\n")
+    changed = evaluate({}, {}, model)
+    assert changed["status"] == "error" and "must not be recomputed" in changed["message"]

@@ -8,18 +8,14 @@ the returned record with ``status = "error"`` and a one-line ``message``.
 Design parameters (units in the names) map onto hinges of the packaged UFMT model
 (``h31`` = fly-cutting-head air bearing, ``h25`` = spindle air bearing; spindle axis = global z):
 
-=================================== ===== ====================================================
-name                                hinge field and components
-=================================== ===== ====================================================
-``head_radial_stiffness_N_m``       h31   ``stiffness[0]`` and ``stiffness[1]`` (x, y)
-``head_axial_stiffness_N_m``        h31   ``stiffness[2]`` (z)
-``head_angular_stiffness_Nm_rad``   h31   ``rotational_stiffness[0]``, ``[1]`` (z stays free)
-``spindle_radial_stiffness_N_m``    h25   as the head
-``spindle_axial_stiffness_N_m``     h25   as the head
-``spindle_angular_stiffness_Nm_rad`` h25  as the head
-``hinge.<name>.stiffness[i]``       any   one component, i = 0, 1, 2 (x, y, z)
-``hinge.<name>.rotational_stiffness[i]`` any one rotational component
-=================================== ===== ====================================================
+* ``head_radial_stiffness_N_m``: h31 ``stiffness[0]`` and ``[1]`` (x and y) [N/m];
+* ``head_axial_stiffness_N_m``: h31 ``stiffness[2]`` (z) [N/m];
+* ``head_angular_stiffness_Nm_rad``: h31 ``rotational_stiffness[0]`` and ``[1]`` [N m/rad]
+  (about z the bearing stays released);
+* ``spindle_radial_stiffness_N_m``, ``spindle_axial_stiffness_N_m``,
+  ``spindle_angular_stiffness_Nm_rad``: the same components of h25;
+* ``hinge.<name>.stiffness[i]`` and ``hinge.<name>.rotational_stiffness[i]``: one component
+  (i = 0, 1, 2 for x, y, z) of any hinge.
 
 Process parameters: ``rpm`` [rev/min], ``feed_mm_min`` [mm/min], ``depth_um`` [um]; a missing
 one takes the paper's reference case (300 rpm, 15 mm/min, 4 um; Table 4).
@@ -44,6 +40,8 @@ import threading
 import warnings
 from collections.abc import Mapping
 from pathlib import Path
+
+import numpy as np
 
 from ufmt.errors import StudyError
 
@@ -117,28 +115,34 @@ def is_parameter(name: str) -> bool:
 def apply_design(model, design: Mapping[str, float]):
     """A copy of ``model`` with the hinge stiffnesses of ``design`` [N/m, N m/rad] set.
 
+    A parameter over several components (radial: x and y; angular: about x and y) is their
+    arithmetic mean: setting it scales the components in proportion, so the calibrated
+    anisotropy is kept and the calibrated value gives back the calibrated model. Components
+    whose mean is 0 or infinite are all set to the value.
+
     Raises
     ------
     KeyError
         An unknown parameter or hinge name.
     """
-    changes: dict[str, dict[str, list[float]]] = {}
+    changes: dict[str, dict[str, np.ndarray]] = {}
     for name, value in design.items():
         hinge, field, components = design_target(name)
-        current = changes.setdefault(hinge, {})
-        if field not in current:
-            current[field] = list(getattr(model.hinge(hinge), field))
-        for i in components:
-            current[field][i] = float(value)
+        fields = changes.setdefault(hinge, {})
+        current = fields.setdefault(field, np.array(getattr(model.hinge(hinge), field)))
+        old = current[list(components)]
+        mean = old.mean()
+        scaled = old * (float(value) / mean) if np.isfinite(mean) and mean > 0 else float(value)
+        current[list(components)] = scaled
     for hinge, fields in changes.items():
         model = model.with_hinge(hinge, **fields)
     return model
 
 
 def design_value(model, name: str) -> float:
-    """The value of design parameter ``name`` in ``model`` (its first component) [SI]."""
+    """The value of design parameter ``name`` in ``model``: the mean of its components [SI]."""
     hinge, field, components = design_target(name)
-    return float(getattr(model.hinge(hinge), field)[components[0]])
+    return float(np.mean(getattr(model.hinge(hinge), field)[list(components)]))
 
 
 # ---------------------------------------------------------------------------------------------

@@ -42,8 +42,9 @@ class SimulationResult:
 
     metrics [nm, mm/s^2]: pv_nm, pv_tilt_removed_nm, rms_nm, psd1_rms_nm, psd2_rms_nm,
     grid_spacing_mm (see :func:`ufmt.surface.surface_metrics`), zre_peak_nm (mean over the
-    record window's spindle periods of the largest |z_re| in each) and tip_acc_peak_mm_s2 (the
-    same for the tool-tip z acceleration, in mm/s^2), force_scale.
+    record window's spindle periods of the largest |z_re| in each; the window sits mid-cut, at
+    :func:`ufmt.dynamics.response.record_slide`) and tip_acc_peak_mm_s2 (the same for the
+    tool-tip z acceleration, in mm/s^2), force_scale.
     """
 
     process: Process
@@ -88,7 +89,10 @@ def simulate(
     n_modes : modes kept (paper: 30).
     zeta : modal damping ratio, scalar or (n_modes,) array (default 0.03, see
         :mod:`ufmt.dynamics.response`).
-    method : "periodic" (frequency domain, fast) or "time" (whole workpiece, exact recurrence).
+    method : "periodic" (frequency domain, milliseconds; quasi-static in the slide position,
+        so a few per cent low where transients at the plate's entry and exit edges set the PV)
+        or "time" (every revolution of the whole workpiece, exact recurrence, seconds; use it
+        for reference values). See :mod:`ufmt.dynamics.response`.
     basis : modal basis to use instead of ``ufmt.dynamics.modal.modal_basis(model, n_modes)``.
     force_scale : factor on the force coefficients; default the model's ``machine.force_scale``
         (1 when absent).
@@ -129,7 +133,8 @@ def fit_force_scale(
     z_re values, so PV(s) = s PV(1) for s > 0: the fit is the ratio target / PV(1).
     ``model_or_basis``: a Model (its basis from ``modal_basis``) or a :class:`ModalBasis`
     together with ``machine`` (a :class:`Machine` or a ``[machine]`` mapping). ``options`` go
-    to :func:`simulate` (``nose_radius`` must stay off).
+    to :func:`simulate` (``nose_radius`` must stay off); fit the reference value with
+    ``method="time"``.
     """
     if options.get("nose_radius") is not None:
         raise ValueError("fit_force_scale needs the kinematic marks off (PV is then linear)")

@@ -18,16 +18,21 @@ eq. 4.1's picture the middle of the plate, cut under the largest force, ends up 
 paper's Fig. 14), which a re-cutting trailing arc with the tool unloaded would erase.
 ``trailing_arc=True`` adds its passes to the minimum (back-cutting).
 
-Grid: cell centres at most ``spacing`` apart (default ``DEFAULT_SPACING`` = 2 mm: 216 x 216
-points, 1.9 mm, on the 0.41 m plate; counts are rounded up to fast FFT lengths); the PV is then
-converged to better than 0.5 % (tests/test_surface.py).
+Grid: nodes on the plate's edges, at most ``spacing`` apart (default 1 mm in x, 2 mm in y:
+432 x 216 nodes on the 0.41 m plate; counts rounded up to fast FFT lengths), plus rows 8 times
+denser within 6 mm of the entry and exit edges (y = -+ly/2), where the first and last
+revolutions of the cut leave mm-wide features that can set the PV. On the UFMT prior model the
+PV is then within ~1 % of a grid four times finer (tests/test_surface.py checks 1 % on a
+synthetic basis).
 
-Metrics (nm): PV = max - min over all points (as in the paper); PV and RMS with the best-fit
-plane removed; band RMS = RMS of the plane-removed, Hann-windowed surface band-passed to spatial
-wavelengths in the PSD1 (2.5-33 mm) and PSD2 (0.12-2.5 mm) bands of KDP optics (isotropic
-spatial frequency). A grid of spacing h resolves wavelengths down to 2h only: a band reaching
-below that is evaluated over its resolved part (PSD2 needs h <= 0.06 mm to be complete; with
-the point tool of eq. 4.1 and 30 modes the surface has almost no content there).
+Metrics (nm): PV = max - min over all points (as in the paper); PV with the best-fit plane
+removed; RMS with that plane removed; band RMS = RMS of the plane-removed, Hann-windowed
+surface band-passed to spatial wavelengths in the PSD1 (2.5-33 mm) and PSD2 (0.12-2.5 mm)
+bands of KDP optics (isotropic spatial frequency). The plane, the RMS and the bands use the
+evenly spaced rows. A grid resolves wavelengths down to twice its coarser step only: a band
+reaching below that is evaluated over its resolved part (4-33 mm for PSD1 at the default;
+PSD2 is unresolved and reads 0: it needs steps <= 0.06 mm, and with the point tool of eq. 4.1
+and 30 modes the surface has almost no content there).
 """
 
 from __future__ import annotations
@@ -41,51 +46,81 @@ from scipy.fft import next_fast_len
 from ufmt.dynamics.cutting import Machine
 from ufmt.dynamics.response import ZreTable
 
-DEFAULT_SPACING = 2e-3
+#: Grid spacing (x, y) [m]: x finer, as the x-profile of a pass carries the vibration of the
+#: highest modes (down to ~6 mm wavelength at 200 rpm and 700 Hz); y coarser, as the surface
+#: changes slowly with the slide away from the entry and exit edges (refined separately).
+DEFAULT_SPACING = (1e-3, 2e-3)
+#: Width [m] of the bands along the entry and exit edges (y = -+ly/2) refined for the PV, and
+#: the refinement of their rows: the cut's first and last revolutions leave mm-wide features.
+EDGE_BAND = 6e-3
+EDGE_REFINE = 8
 #: Spatial wavelength bands [m] of the KDP specifications.
 BANDS = {"psd1": (2.5e-3, 33e-3), "psd2": (0.12e-3, 2.5e-3)}
 
 
 @dataclass(frozen=True, eq=False)
 class Surface:
-    """Machined surface: x (Nx,), y (Ny,) cell centres [m] (workpiece frame), z (Ny, Nx) [m]."""
+    """Machined surface: x (Nx,), y (Ny,) grid [m] (workpiece frame), z (Ny, Nx) [m].
+
+    core (Ny,) marks the rows of the evenly spaced grid (all rows if None); the others are the
+    refined rows along the entry and exit edges, used by the PV only.
+    """
 
     x: np.ndarray
     y: np.ndarray
     z: np.ndarray
+    core: np.ndarray | None = None
+
+    @property
+    def core_rows(self) -> np.ndarray:
+        """Boolean mask (Ny,) of the evenly spaced rows."""
+        return np.ones(self.y.size, bool) if self.core is None else self.core
 
     @property
     def spacing(self) -> tuple[float, float]:
-        """Grid spacing (hx, hy) [m]."""
-        return float(self.x[1] - self.x[0]), float(self.y[1] - self.y[0])
+        """Spacing (hx, hy) [m] of the evenly spaced grid."""
+        y = self.y[self.core_rows]
+        return float(self.x[1] - self.x[0]), float(y[1] - y[0])
 
 
 @lru_cache(maxsize=16)
-def _grid(machine: Machine, spacing: float):
-    """Cell centres and the two pass angles of every column (cached per machine and spacing)."""
-    if not spacing > 0:
+def _grid(machine: Machine, spacing):
+    """Grid, core rows and the two pass angles of every column (cached per machine, spacing)."""
+    hx, hy = np.broadcast_to(np.asarray(spacing, dtype=float), (2,))
+    if not (hx > 0 and hy > 0):
         raise ValueError(f"grid spacing must be > 0, got {spacing!r}")
     lx, ly = machine.workpiece_size
-    # at most ``spacing`` apart; point counts rounded up to fast FFT lengths (for the PSD bands)
-    nx, ny = (next_fast_len(max(int(np.ceil(v / spacing - 1e-9)), 4), real=True) for v in (lx, ly))
-    x = (np.arange(nx) + 0.5) * (lx / nx) - lx / 2
-    y = (np.arange(ny) + 0.5) * (ly / ny) - ly / 2
+    # nodes on the plate edges, at most ``spacing`` apart; counts rounded up to fast FFT lengths
+    nx, ny = (
+        next_fast_len(int(np.ceil(v / h - 1e-9)) + 1, real=True) for v, h in ((lx, hx), (ly, hy))
+    )
+    x = np.linspace(-lx / 2, lx / 2, nx)
+    core_y = np.linspace(-ly / 2, ly / 2, ny)
+    fine = (core_y[1] - core_y[0]) / EDGE_REFINE
+    offsets = np.arange(1, int(min(EDGE_BAND, ly / 4) / fine) + 1) * fine
+    band = np.concatenate([-ly / 2 + offsets, ly / 2 - offsets])
+    gap = np.abs(band[:, None] - core_y[None, :]).min(axis=1)
+    y = np.concatenate([core_y, band[gap > fine / 2]])
+    order = np.argsort(y)
+    y, core = y[order], (np.arange(y.size) < ny)[order]
     s = machine.sense * (x - machine.offset_x) / machine.tool_radius
-    lead = np.arcsin(s)
+    lead = np.arcsin(np.clip(s, -1.0, 1.0))
     phi = np.mod(np.stack([lead, np.pi - lead]), 2 * np.pi)  # (2, Nx): leading, trailing arc
     cos = np.cos(phi)
-    return x, y, phi, cos
+    return x, y, core, phi, cos
 
 
 def machined_surface(
     table: ZreTable,
     machine: Machine,
     feed_per_rev: float,
-    spacing: float = DEFAULT_SPACING,
+    spacing=DEFAULT_SPACING,
     nose_radius: float | None = None,
     trailing_arc: bool = False,
 ) -> Surface:
     """The machined surface (eq. 4.1 with tool interference) on a grid of ``spacing`` [m].
+
+    ``spacing``: one step or (x, y) steps [m], the largest allowed.
 
     ``feed_per_rev`` [m] spaces the revolutions; ``nose_radius`` [m] turns on the kinematic
     marks; ``trailing_arc`` adds the trailing-arc passes to the minimum (back-cutting).
@@ -96,7 +131,8 @@ def machined_surface(
         raise ValueError(f"feed_per_rev must be > 0 [m], got {feed_per_rev!r}")
     if nose_radius is not None and not nose_radius > 0:
         raise ValueError(f"nose_radius must be > 0 [m], got {nose_radius!r}")
-    x, y, phi, cos = _grid(machine, spacing)
+    spacing = tuple(np.broadcast_to(np.asarray(spacing, dtype=float), (2,)).tolist())
+    x, y, core, phi, cos = _grid(machine, spacing)
     arcs = 2 if trailing_arc else 1
     phi, cos = phi[:arcs], cos[:arcs]
     cols = _columns(table.values, phi)
@@ -105,15 +141,16 @@ def machined_surface(
     # revolutions since Y_start when the arc passes the point; the two bracketing revolutions
     rho = (y[:, None, None] - machine.tool_radius * cos - y_start) / feed_per_rev - turn
     k = np.floor(rho)
-    frac = rho - k
     y_lo = y_start + feed_per_rev * (k + turn) - table.drift * turn
-    z_lo = _gather(cols, *_locate(table.row_knots, cols.shape[0], y_lo))
-    z_hi = _gather(cols, *_locate(table.row_knots, cols.shape[0], y_lo + feed_per_rev))
+    z_lo = _lookup(cols, table.row_knots, y_lo)
+    z_hi = _lookup(cols, table.row_knots, y_lo + feed_per_rev)
     if nose_radius is not None:
+        frac = rho - k
         d2 = (feed_per_rev * cos) ** 2 / (2 * nose_radius)
         z_lo += frac**2 * d2
         z_hi += (1 - frac) ** 2 * d2
-    return Surface(x, y, np.minimum(z_lo, z_hi).min(axis=1))
+    z = np.minimum(z_lo, z_hi)
+    return Surface(x, y, z.min(axis=1) if arcs > 1 else z[:, 0], core)
 
 
 def _columns(values: np.ndarray, phi: np.ndarray) -> np.ndarray:
@@ -132,20 +169,37 @@ def _columns(values: np.ndarray, phi: np.ndarray) -> np.ndarray:
     return cols.reshape(rows, -1)
 
 
-def _locate(row_knots, rows: int, slide: np.ndarray):
-    """Flat indices into ``cols`` (rows, A) of the row below ``slide`` (Ny, arcs, Nx), weights."""
-    rr = np.interp(slide, *row_knots)
-    i0 = np.minimum(rr.astype(int), rows - 2)
-    width = slide.shape[1] * slide.shape[2]
-    flat = i0.reshape(slide.shape[0], width) * width + np.arange(width)
-    return flat.reshape(slide.shape), rr - i0
+def _lookup(cols: np.ndarray, row_knots, slide: np.ndarray) -> np.ndarray:
+    """``cols`` (rows, arcs * Nx) linearly interpolated at slide positions (Ny, arcs, Nx) [m].
 
-
-def _gather(cols: np.ndarray, flat: np.ndarray, weight: np.ndarray) -> np.ndarray:
-    """Linear interpolation between the located row and the next one: (Ny, arcs, Nx) [m]."""
+    The fractional row of a slide position comes from the table's knots (see ZreTable).
+    """
+    start, step, u = row_knots
+    rows, width = cols.shape
+    t = slide - start
+    t *= 1.0 / step
+    np.clip(t, 0.0, u.size - 1.0, out=t)
+    k = t.astype(np.intp)
+    np.minimum(k, u.size - 2, out=k)
+    t -= k
+    below = u[k]
+    rr = u[k + 1]
+    rr -= below
+    rr *= t
+    rr += below
+    i0 = rr.astype(np.intp)
+    np.minimum(i0, rows - 2, out=i0)
+    rr -= i0  # weight of the next row
+    i0 *= width
+    i0 += np.arange(width).reshape(slide.shape[1:])
     c = cols.ravel()
-    lo = c[flat]
-    return lo + weight * (c[flat + cols.shape[1]] - lo)
+    lo = c[i0]
+    i0 += width
+    hi = c[i0]
+    hi -= lo
+    hi *= rr
+    hi += lo
+    return hi
 
 
 def steady_region(surface: Surface, machine: Machine, settle: float = 0.0) -> np.ndarray:
@@ -186,18 +240,20 @@ def surface_metrics(surface: Surface) -> dict[str, float]:
 
     Keys: pv_nm, pv_tilt_removed_nm, rms_nm, psd1_rms_nm, psd2_rms_nm, grid_spacing_mm.
     """
-    x, y, z = surface.x, surface.y, surface.z
-    # cell-centred symmetric grid: 1, x and y are orthogonal, so the plane fit is three means
+    core = surface.core_rows
+    x, y, z = surface.x, surface.y[core], surface.z[core]
+    # evenly spaced symmetric grid: 1, x and y are orthogonal, so the plane fit is three means
     xc, yc = x - x.mean(), y - y.mean()
     bx = (z @ xc).sum() / (y.size * (xc @ xc))
     by = (yc @ z).sum() / (x.size * (yc @ yc))
-    flat = z - z.mean() - bx * xc[None, :] - by * yc[:, None]
+    plane = z.mean() + bx * (surface.x - x.mean())[None, :] + by * (surface.y - y.mean())[:, None]
+    flat = z - plane[core]
     hx, hy = surface.spacing
     win, norm, masks = _spectral(x.size, y.size, hx, hy)
     power = np.abs(np.fft.rfft2(flat * win)) ** 2
     out = {
-        "pv_nm": float(np.ptp(z)) * 1e9,
-        "pv_tilt_removed_nm": float(np.ptp(flat)) * 1e9,
+        "pv_nm": float(np.ptp(surface.z)) * 1e9,
+        "pv_tilt_removed_nm": float(np.ptp(surface.z - plane)) * 1e9,
         "rms_nm": float(np.sqrt(np.mean(flat**2))) * 1e9,
     }
     for name, mask in masks.items():

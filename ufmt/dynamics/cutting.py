@@ -267,7 +267,8 @@ def tool_over_workpiece(phi, slide_y, machine: Machine) -> np.ndarray:
 
 
 def chip_factor(phi, slide_y, machine: Machine) -> np.ndarray:
-    """cos(phi) where the leading arc cuts the workpiece, else 0 (chip thickness / feed per rev)."""
+    """cos(phi) where the leading arc cuts the workpiece, else 0: the uncut chip thickness
+    h = (v / f) cos(phi) over the feed per revolution v / f."""
     c = np.cos(np.asarray(phi, dtype=float))
     return np.where((c > 0) & tool_over_workpiece(phi, slide_y, machine), c, 0.0)
 
@@ -309,11 +310,6 @@ def chip_factor_cells(phi, slide_y, machine: Machine, width: float) -> np.ndarra
     return total / width
 
 
-def chip_thickness(phi, slide_y, feed_per_rev: float, machine: Machine) -> np.ndarray:
-    """Uncut chip thickness h = (v / f) cos(phi) on the cutting arc, else 0 [m]."""
-    return feed_per_rev * chip_factor(phi, slide_y, machine)
-
-
 def force_per_area(phi, machine: Machine, coefficients: ForceCoefficients) -> np.ndarray:
     """Force on the tool per unit chip area, -K_c t - K_f n + K_t z: (..., 3) [N/m^2]."""
     phi = np.asarray(phi, dtype=float)
@@ -331,11 +327,18 @@ def cutting_force(
     machine: Machine,
     coefficients: ForceCoefficients = ForceCoefficients(),
     force_scale: float = 1.0,
+    cell: float | None = None,
 ) -> np.ndarray:
     """Force of the workpiece on the tool [N], (..., 3); the workpiece gets the reaction.
 
-    F = force_scale * a_p * h(phi, Y) * (-K_c t - K_f n + K_t z), with h from
-    :func:`chip_thickness`; ``phi`` [rad] and ``slide_y`` [m] broadcast.
+    F = force_scale * a_p * h(phi, Y) * (-K_c t - K_f n + K_t z), with the uncut chip
+    thickness h = (v / f) :func:`chip_factor`; ``phi`` [rad] and ``slide_y`` [m] broadcast.
+    With ``cell`` [rad] the chip factor is the mean over each sample's cell
+    (:func:`chip_factor_cells`), as the response samples it.
     """
-    area = process.depth_m * chip_thickness(phi, slide_y, process.feed_per_rev_m, machine)
+    if cell is None:
+        chip = chip_factor(phi, slide_y, machine)
+    else:
+        chip = chip_factor_cells(phi, slide_y, machine, cell)
+    area = process.depth_m * process.feed_per_rev_m * chip
     return force_scale * area[..., None] * force_per_area(phi, machine, coefficients)

@@ -21,8 +21,13 @@ assumption of (b):
     steady state at each Y is taken as the response while the slide passes Y (quasi-static in
     Y), tabulated at ``table_rows`` slide positions. Where the leading arc crosses the whole
     plate width the chip pattern is the same every revolution and (a) converges to (b)
-    exactly; where the arc enters or leaves the plate the two differ by the transient
-    (measured: PV within 0.2 %, tests/test_response.py).
+    exactly (tests/test_response.py). Where the arc's top enters and leaves the plate, the
+    table's resolution in Y limits (b): the points along the plate's entry and exit edges are
+    cut just as the tip crosses an edge, where z_re changes within a revolution or two, and
+    they can set the whole-plate PV. Measured on the prior UFMT model (four processes of
+    Table 1), the whole-plate PV of (b) is 0.6-5.6 % below (a) with 96 rows, 0.05-2.4 % with
+    the default 192 and 0.02-0.7 % with 384 (cost of (b) roughly linear in the rows). Use (a)
+    for reference values, (b) for fast studies.
 
 Mode shapes are those of the nominal configuration, taken as the halfway point of the cut (see
 :mod:`ufmt.dynamics.basis`). The workpiece is loaded at the material point under the tool: its
@@ -50,24 +55,40 @@ from ufmt.dynamics.cutting import (
     Machine,
     arc_y_bounds,
     chip_factor_cells,
+    cutting_force,
     force_per_area,
     tool_tip,
+    tool_tip_rates,
 )
 
 DEFAULT_ZETA = 0.03
 #: Force samples per spindle revolution (both paths): the PV converges as 1/n_phi^2 and is
 #: within 0.1 % of its limit at 512 (tests/test_response.py).
 DEFAULT_N_PHI = 512
-#: Slide positions of the periodic path's table (see :func:`cut_geometry`).
-DEFAULT_TABLE_ROWS = 96
+#: Slide positions of the periodic path's table (see :func:`cut_geometry` and the accuracy
+#: note above).
+DEFAULT_TABLE_ROWS = 192
 #: Share of the table rows spread evenly in slide travel; the rest follow the chip pattern.
 UNIFORM_SHARE = 0.1
 DEFAULT_COEFFICIENTS = ForceCoefficients()
-#: Spindle periods recorded around the halfway point (time path; paper Figs. 6-7 show 2 s).
+#: Spindle periods in the time path's record window (paper Figs. 6-7 show 2 s = 10 periods).
 DEFAULT_RECORD_PERIODS = 10
 
 _HARM_W = np.arange(-2, 3)  # harmonics of the modal-force shape w_s(phi)
 _HARM_C = np.arange(-1, 2)  # harmonics of the output shape c_s(phi)
+
+
+def record_slide(machine: Machine) -> float:
+    """Slide position Y [m] at the middle of the record window of both paths.
+
+    The middle of the steady span, where the leading arc crosses the whole plate every
+    revolution (the representative cutting state; the paper records "the middle 2 s in the
+    cutting process"), or of the cutting span when the plate is too short for one.
+    """
+    a, b = machine.steady_span
+    if a >= b:
+        a, b = machine.cutting_span
+    return 0.5 * (a + b)
 
 
 def modal_damping(zeta, n_modes: int) -> np.ndarray:
@@ -178,7 +199,7 @@ class CutGeometry:
     c_trig: np.ndarray
     trig: np.ndarray
     table_y: np.ndarray
-    row_knots: tuple[np.ndarray, np.ndarray]
+    row_knots: tuple[float, float, np.ndarray]
     table_a: np.ndarray
     active: np.ndarray
 
@@ -250,9 +271,7 @@ def cut_geometry(
     shifted = spectra[np.arange(half)[:, None] + np.arange(6, -1, -1)[None, :]].transpose(0, 2, 1)
     powers = table_y[:, None] ** np.arange(3)[None, :]
     table_a = (powers[None, :, :, None] * shifted[:, :, None, :]).reshape(half, -1, 21)
-    r, s = machine.tool_radius, machine.sense
-    dtip = np.stack([s * r * np.cos(phases), -r * np.sin(phases), 0 * phases], axis=1)
-    ddtip = np.stack([-s * r * np.sin(phases), -r * np.cos(phases), 0 * phases], axis=1)
+    dtip, ddtip = tool_tip_rates(phases, machine, 1 / (2 * np.pi))  # d/dphi, d^2/dphi^2
     return CutGeometry(
         basis=basis,
         machine=machine,
@@ -301,7 +320,8 @@ def _table_rows(machine: Machine, rows: int, uniform: float = UNIFORM_SHARE):
     kinks = [y for y in machine.steady_span if y0 < y < y1]
     table_y = np.unique(np.concatenate([ys, kinks]))
     at_rows = np.interp(table_y, fine, measure)
-    return table_y, (fine, np.interp(measure, at_rows, np.arange(table_y.size, dtype=float)))
+    u = np.interp(measure, at_rows, np.arange(table_y.size, dtype=float))
+    return table_y, (y0, fine[1] - fine[0], u)
 
 
 def _extend(half: np.ndarray, pad: int = 3) -> np.ndarray:
@@ -321,15 +341,16 @@ class ZreTable:
     travel during one row's revolution. Time path: one row per revolution, drift = v / f, the
     padding taken from the neighbouring revolutions. Periodic path: one row per tabulated slide
     position, drift = 0 (steady state at fixed Y), padded periodically. The slide position of
-    (row, phi) is row_y + drift phi / (2 pi). row_knots (Y (K,), u (K,)): the fractional row
-    of a slide position Y is np.interp(Y, *row_knots) (rows and knots agree at the rows);
-    beyond the first and last rows their values apply (they carry no cutting force).
+    (row, phi) is row_y + drift phi / (2 pi). row_knots (Y_0, dY, u (K,)): the fractional row
+    of a slide position Y, linear between knots Y_0 + k dY holding u[k] (equal to the row index
+    at each row's Y); beyond the first and last rows their values apply (they carry no cutting
+    force).
     """
 
     values: np.ndarray
     row_y: np.ndarray
     drift: float
-    row_knots: tuple[np.ndarray, np.ndarray]
+    row_knots: tuple[float, float, np.ndarray]
 
 
 @dataclass(frozen=True, eq=False)
@@ -390,8 +411,8 @@ def periodic_response(
     Per harmonic k: z_re[k] = sum_s sum_l c_hat[s,l] H_s[k-l] sum_m w_hat[s,m] A[k-l-m]
     = sum_d K_d[k] A[k-d], with A the spectrum of the chip factor (cached in ``geo``) and H_s
     the receptance of :func:`discrete_receptance`; with the workpiece arm's Y terms the kernels
-    are a quadratic in Y, sum_p Y^p K_pd. The record window is one spindle period at
-    the halfway slide position Y = 0.
+    are a quadratic in Y, sum_p Y^p K_pd. The record window is one spindle period at the slide
+    position of :func:`record_slide`.
     """
     b = geo.basis
     n = geo.n_phi
@@ -419,21 +440,27 @@ def periodic_response(
     values[:, 0], values[:, n + 1 :] = rows[:, -1], rows[:, :2]
     table = ZreTable(values, geo.table_y, 0.0, geo.row_knots)
 
-    a0 = chip_factor_cells(geo.phases, 0.0, geo.machine, 2 * np.pi / n) * amp
+    y_rec = record_slide(geo.machine)
+    a0 = chip_factor_cells(geo.phases, y_rec, geo.machine, 2 * np.pi / n) * amp
     a0_ext = _extend(np.fft.rfft(a0))
-    fk = geo.w_hat[:, :1] * a0_ext[None, 5 : 5 + half + 1]
+    w_hat = geo.w_hat + y_rec * geo.w_y_hat
+    fk = w_hat[:, :1] * a0_ext[None, 5 : 5 + half + 1]
     for mi in range(1, 5):
-        fk += geo.w_hat[:, mi : mi + 1] * a0_ext[None, 5 - mi : 5 - mi + half + 1]
+        fk += w_hat[:, mi : mi + 1] * a0_ext[None, 5 - mi : 5 - mi + half + 1]
     q = np.fft.irfft(hq[:, 1 : half + 2] * fk, n=n, axis=1)
     qd = np.fft.irfft(hv[:, 1 : half + 2] * fk, n=n, axis=1)
-    qdd = geo.w * a0 - (2 * zeta * b.omega)[:, None] * qd - (b.omega**2)[:, None] * q
+    fs = (geo.w + y_rec * geo.w_y) * a0
+    qdd = fs - (2 * zeta * b.omega)[:, None] * qd - (b.omega**2)[:, None] * q
     j = np.arange(n)
-    tip, acc, work = _outputs(geo, j, np.zeros(n), q, qd, qdd, f)
+    slide = np.full(n, y_rec)
+    tip, acc, work = _outputs(geo, j, slide, q, qd, qdd, f)
     return Response(
         method="periodic",
-        t=(j - geo.machine.cut_span[0] / process.feed_per_rev_m * n) * dt,
-        slide_y=np.zeros(n),
-        force=a0[:, None] * force_per_area(geo.phases, geo.machine, geo.coefficients),
+        t=(j + (y_rec - geo.machine.cut_span[0]) / process.feed_per_rev_m * n) * dt,
+        slide_y=slide,
+        force=cutting_force(
+            geo.phases, y_rec, process, geo.machine, geo.coefficients, force_scale, 2 * np.pi / n
+        ),
         tip_disp=tip,
         tip_acc=acc,
         work_disp=work,
@@ -459,7 +486,7 @@ def time_response(
     recurrence (:func:`real_recurrence`, ``scipy.signal.lfilter``) in blocks of about
     ``block_samples`` samples, the filter state carried from block to block; modal forces and
     z_re are matrix products over the modes (w and c are trigonometric in phi). The record
-    window holds ``record_periods`` revolutions centred on the halfway point (Y = 0); there the
+    window holds ``record_periods`` revolutions centred on :func:`record_slide`; there the
     modal velocities come from the exact complex-pole state recovered from q_{k-1}, q_k.
     Memory: the z_re table takes 8 n_phi bytes per revolution.
     """
@@ -473,7 +500,8 @@ def time_response(
     y_start, y_end = mach.cut_span
     n_rev = int(np.ceil((y_end - y_start) / delta)) + 1
     record_periods = max(1, min(record_periods, n_rev))
-    rec0 = int(np.clip(round(-y_start / delta) - record_periods // 2, 0, n_rev - record_periods))
+    middle = round((record_slide(mach) - y_start) / delta)
+    rec0 = int(np.clip(middle - record_periods // 2, 0, n_rev - record_periods))
     rec1 = rec0 + record_periods
     num, den = real_recurrence(b.omega, zeta, dt)
     state = np.zeros((nm, 2))
@@ -511,7 +539,7 @@ def time_response(
     rows[1:, 0] = rows[:-1, n]
     rows[:-1, n + 1 :] = rows[1:, 1:3]
     row_y = y_start + delta * np.arange(n_rev)
-    table = ZreTable(rows[:-1], row_y, delta, (row_y, np.arange(n_rev, dtype=float)))
+    table = ZreTable(rows[:-1], row_y, delta, (y_start, delta, np.arange(n_rev, dtype=float)))
 
     idx = np.arange(rec0 * n - 1, rec1 * n)  # global sample numbers, one before the window
     j = idx % n
@@ -532,7 +560,9 @@ def time_response(
         method="time",
         t=idx[1:] * dt,
         slide_y=y[1:],
-        force=a[1:, None] * force_per_area(geo.phases[j[1:]], mach, geo.coefficients),
+        force=cutting_force(
+            geo.phases[j[1:]], y[1:], process, mach, geo.coefficients, force_scale, 2 * np.pi / n
+        ),
         tip_disp=tip,
         tip_acc=acc,
         work_disp=work,

@@ -130,22 +130,42 @@ def mode_shapes(system: TransferSystem, frequencies_hz) -> ModeShapes:
     )
 
 
-def _beam_field(system, beam: Beam, states, z, omega):
-    """Beam motion at Gauss points: transfer from the input end over part of the length."""
+def _beam_field(system, beam: Beam, states, z, omega, fractions=None):
+    """Beam motion (n, g, 6) at Gauss points, or at ``fractions`` of its length from ``start``.
+
+    The state at the beam's input end is transferred over part of the length (eq. 2.12).
+    Returns (positions (g, 3) [m], quadrature weights (g,) [m], motion (n, g, 6)).
+    """
     topo = system.topology
     index = next(i for i, e in enumerate(topo.edges) if e.kind == "beam" and e.name == beam.name)
     e = topo.edges[index]
     p_in, p_out = e.point_at(e.input_node), e.point_at(e.output_node)
     z_in = _apply(states[("edge_in", index)], z)
-    x, wts = np.polynomial.legendre.leggauss(GAUSS_POINTS)
     length = beam.length
-    s = 0.5 * (x + 1.0) * length
+    if fractions is None:
+        x, wts = np.polynomial.legendre.leggauss(GAUSS_POINTS)
+        s = 0.5 * (x + 1.0) * length
+        wts = 0.5 * wts * length
+    else:  # fractions from the beam's start; the transfer runs from its input end
+        f = np.asarray(fractions, dtype=float)
+        reversed_ = e.input_node.endswith("@end")
+        s = (1.0 - f if reversed_ else f) * length
+        wts = np.full(s.size, np.nan)
     motion = np.empty((omega.size, s.size, 6))
-    for g, sg in enumerate(s):  # a handful of Gauss points, each batched over all modes
+    for g, sg in enumerate(s):  # a handful of points, each batched over all modes
         u = elements.beam(omega, beam, p_in, p_out, length=sg)
         motion[:, g, :] = np.einsum("nij,nj->ni", u, z_in)[:, :6]
     positions = p_in + np.outer(s / length, p_out - p_in)
-    return positions, 0.5 * wts * length, motion
+    return positions, wts, motion
+
+
+def beam_shape(system: TransferSystem, shapes: ModeShapes, beam_name: str, fractions):
+    """Motion (n, P, 6) [m, rad] of beam points at ``fractions`` of its length from its start,
+    for the modes of ``shapes`` (same normalisation), with their positions (P, 3) [m]."""
+    beam = system.model.body(beam_name)
+    _, states = system.evaluate(shapes.omega, keep_states=True)
+    positions, _, motion = _beam_field(system, beam, states, shapes.z_all, shapes.omega, fractions)
+    return positions, motion
 
 
 def modal_mass(model, rigid, beams) -> np.ndarray:

@@ -17,10 +17,10 @@ import numpy as np
 
 from ufmt.model.schema import GROUND, Model
 from ufmt.mstmm import elements
-from ufmt.mstmm.topology import Topology, build_topology
+from ufmt.mstmm.topology import Topology, build_topology, drop_redundant_rigid
 
 CUT = np.diag(np.r_[np.ones(6), -np.ones(6)])  # C = diag(I3, I3, -I3, -I3)
-GROWTH_LIMIT = 1e12  # condition growth allowed along a transfer path before segmenting
+GROWTH_LIMIT = 1e8  # condition growth allowed along a transfer path before segmenting
 
 
 def _physical_scaling(model: Model) -> np.ndarray:
@@ -109,7 +109,7 @@ class TransferSystem:
 
     def __init__(self, model: Model, fmax_hz: float | None = None):
         self.model = model
-        self.topology: Topology = build_topology(model)
+        self.topology: Topology = build_topology(drop_redundant_rigid(model))
         self.segments: tuple[str, ...] = ()
         self._hinge_cache: dict[int, np.ndarray] = {}
         self._body_cache: dict[str, tuple[np.ndarray, np.ndarray]] = {}

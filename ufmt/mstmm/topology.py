@@ -17,6 +17,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.linalg import qr
 
 from ufmt.errors import ModelError
 from ufmt.model.schema import GROUND, Beam, Hinge, Model, RigidBody
@@ -247,3 +248,56 @@ def _layout_unknowns(nodes, edges, order) -> Topology:
         free_tip_columns,
         root_columns,
     )
+
+
+def drop_redundant_rigid(model: Model) -> Model:
+    """The model with every redundant rigid hinge direction released.
+
+    A rigid direction that repeats a restriction already imposed by other rigid directions
+    adds nothing kinematically, but it leaves a self-stress that no displacement sees: U_all
+    would be singular at every ω. Releasing it gives the same motions and frequencies.
+    Every body gets six small-motion dofs [r; θ] at a reference point (centre of mass, or the
+    hinge point for virtual bodies and beam ends); a rigid direction j of a hinge at P
+    constrains e_j·(u_a(P) - u_b(P)) with u(P) = [r + θ × (P - ref); θ]; ground is fixed.
+    Independent rows are picked by pivoted QR, dependent ones released.
+    """
+    beams = {b.name: b for b in model.bodies if isinstance(b, Beam)}
+    refs: dict[str, np.ndarray] = {}
+    for b in model.bodies:
+        if isinstance(b, RigidBody):
+            refs[b.name] = b.center_of_mass
+    rows, owners = [], []
+    nodes: dict[str, int] = {}
+    for h in model.hinges:
+        for j in np.flatnonzero(h.rigid):
+            entries = []
+            for side, sign in zip(h.between, (1.0, -1.0), strict=True):
+                if side == GROUND:
+                    continue
+                node = beam_end_node(beams[side], h.at) if side in beams else side
+                ref = refs.get(node, h.at)
+                lever = np.asarray(h.at) - ref
+                motion = np.eye(6)
+                motion[0:3, 3:6] = -np.array(
+                    [[0, -lever[2], lever[1]], [lever[2], 0, -lever[0]], [-lever[1], lever[0], 0]]
+                )
+                entries.append((nodes.setdefault(node, len(nodes)), sign * motion[j]))
+            rows.append(entries)
+            owners.append((h.name, int(j)))
+    if not rows:
+        return model
+    g = np.zeros((len(rows), 6 * len(nodes)))
+    for r, entries in enumerate(rows):
+        for k, vec in entries:
+            g[r, 6 * k : 6 * k + 6] += vec
+    g /= np.maximum(np.linalg.norm(g, axis=1, keepdims=True), 1e-300)
+    _, rr, piv = qr(g.T, pivoting=True, mode="economic")
+    diag = np.abs(np.diag(rr))
+    rank = int(np.sum(diag > 1e-9 * diag[0])) if diag.size else 0
+    for r in piv[rank:]:
+        name, j = owners[r]
+        h = model.hinge(name)
+        six = h.stiffness6.copy()
+        six[j] = 0.0
+        model = model.with_hinge(name, stiffness=six[:3], rotational_stiffness=six[3:])
+    return model

@@ -169,7 +169,11 @@ def plot_convergence(convergence: pd.DataFrame, path: Path) -> Path:
     fig = Figure(figsize=(1.4 * PANEL[0], PANEL[1]), layout="constrained")
     ax = fig.add_subplot()
     for stage, data in convergence.groupby("stage", sort=False):
-        ax.plot(data["evaluation"], data["best_objective_nm"], label=stage)
+        (line,) = ax.plot(data["evaluation"], data["best_objective_nm"], label=stage)
+        refine = data[data["phase"] == "trust-region"]
+        ax.plot(
+            refine["evaluation"], refine["best_objective_nm"], "o", ms=2, color=line.get_color()
+        )
     ax.set_xlabel("evaluations")
     if (convergence["best_objective_nm"] > 0).all():
         ax.set_yscale("log")
@@ -177,7 +181,7 @@ def plot_convergence(convergence: pd.DataFrame, path: Path) -> Path:
     ax.grid(True, alpha=0.3)
     stages = convergence["stage"].nunique()
     ax.legend(fontsize="x-small", ncol=1 + stages // 6)
-    ax.set_title("Optimiser convergence")
+    ax.set_title("Optimiser convergence (dots: convex trust-region steps)")
     return _save(fig, path)
 
 

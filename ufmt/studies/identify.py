@@ -14,7 +14,8 @@ than its neighbours' (:func:`ufmt.validation.tool_tip_neighbours`).
 Local iteration: at u_i, with the residual r and the exact sensitivities S = d ln f / d u,
 cvxpy solves the bounded, regularised least-squares step
 
-    min_d |r + S d|^2 + rho^2 |u_i + d|^2   s.t.  |d_p| <= t,  ln band_p[0] <= u_i,p + d_p <= ln band_p[1]
+    min_d |r + S d|^2 + rho^2 |u_i + d|^2
+    s.t.  |d_p| <= t  and  ln band_p[0] <= u_i,p + d_p <= ln band_p[1]
 
 and the step is taken if J decreases, else t is halved (a trust region). It stops when no
 paired frequency changes by more than ``tolerance_percent`` in a step, t falls below
@@ -31,7 +32,9 @@ Pairing by order is enforced through the penalty and checked again on the final 
 Cheap model. Hinge stiffness enters the assembled model linearly, so its stiffness matrix is
 ``K(s) = K_fixed + sum_p s_p K_p`` exactly (:class:`ReducedModel`): K_p are assembled once, the
 rigid (inf) directions are removed by a null-space basis and the massless dofs condensed, and
-each evaluation is one dense symmetric eigenproblem (about 10 ms for the UFMT). With
+each evaluation is one dense symmetric eigenproblem (about 10 ms for the UFMT; the lowest
+roots carry up to eps * cond(K) ~ 1e-5 relative rounding, so the result is checked by the
+MSTMM at the end, ``ufmt calibrate`` reports the difference). With
 mass-normalised shapes phi the sensitivity is exact (Rayleigh quotient stationarity; distinct
 roots): ``d ln f_m / d u_p = s_p phi_m^T K_p phi_m / (2 omega_m^2)``.
 """
@@ -60,11 +63,13 @@ from ufmt.model.schema import Model
 from ufmt.validation import (
     ModeSet,
     Reference,
+    Validation,
     check_tag,
     modeset_from_dofs,
     pair_by_class,
     read_reference,
     tool_tip_neighbours,
+    validate,
 )
 
 FIELDS = ("stiffness", "rotational_stiffness")
@@ -141,6 +146,9 @@ _SETTING_RULES = {  # name -> (type, lower bound, strict)
     "population": (int, 1, False),
     "generations": (int, 1, False),
 }
+
+
+_KIND_NAMES = {float: "a number", int: "an integer"}
 
 
 @dataclass(frozen=True)
@@ -228,15 +236,21 @@ def _settings(where: str, table) -> Settings:
     values = {}
     for key, value in table.items():
         kind, low, strict = _SETTING_RULES[key]
-        ok = isinstance(value, bool) if kind is bool else (
-            isinstance(value, int | float) and not isinstance(value, bool)
+        ok = (
+            isinstance(value, bool)
+            if kind is bool
+            else (isinstance(value, int | float) and not isinstance(value, bool))
         )
         if ok and kind is int:
             ok = isinstance(value, int)
         if ok and low is not None:
             ok = math.isfinite(value) and (value > low if strict else value >= low)
         if not ok:
-            need = "true or false" if kind is bool else f"a {kind.__name__} {'>' if strict else '>='} {low}"
+            need = (
+                "true or false"
+                if kind is bool
+                else f"{_KIND_NAMES[kind]} {'>' if strict else '>='} {low:g}"
+            )
             _fail(f"{where}: [settings]", f"field {key!r}: {value!r} must be {need}")
         values[key] = kind(value)
     return Settings(**values)
@@ -277,7 +291,9 @@ def _parameters(where: str, tables, model: Model) -> tuple[Parameter, ...]:
         if (
             not isinstance(comps, list)
             or not comps
-            or not all(isinstance(c, int) and not isinstance(c, bool) and 0 <= c <= 2 for c in comps)
+            or not all(
+                isinstance(c, int) and not isinstance(c, bool) and 0 <= c <= 2 for c in comps
+            )
             or len(set(comps)) != len(comps)
         ):
             _fail(label, f"field 'components': {comps!r} must list distinct 0, 1, 2 (x, y, z)")
@@ -288,7 +304,9 @@ def _parameters(where: str, tables, model: Model) -> tuple[Parameter, ...]:
             or not all(isinstance(b, int | float) and math.isfinite(b) for b in band)
             or not 0 < band[0] <= 1 <= band[1]
         ):
-            _fail(label, f"field 'band': {band!r} must be [lower, upper] with 0 < lower <= 1 <= upper")
+            _fail(
+                label, f"field 'band': {band!r} must be [lower, upper] with 0 < lower <= 1 <= upper"
+            )
         for h in hinges:
             values = getattr(model.hinge(h), fld)
             for c in comps:
@@ -306,7 +324,9 @@ def _parameters(where: str, tables, model: Model) -> tuple[Parameter, ...]:
                     )
                 seen_entries[(h, fld, c)] = name
         reason = t.get("reason", "")
-        out.append(Parameter(name, tuple(hinges), fld, tuple(comps), tuple(map(float, band)), reason))
+        out.append(
+            Parameter(name, tuple(hinges), fld, tuple(comps), tuple(map(float, band)), reason)
+        )
     return tuple(out)
 
 
@@ -374,7 +394,7 @@ class ReducedModel:
 
     model: Model
     parameters: tuple[Parameter, ...]
-    assembled: AssembledModel  # of the prior: dofs and M
+    assembled: AssembledModel  # K_fixed's assembly: dof layout and M
     k_fixed: np.ndarray  # [T_a T_b]^T K_fixed [T_a T_b]
     k_parts: np.ndarray  # (P, r, r) likewise
     k_parts_full: np.ndarray  # (P, n, n) on all dofs
@@ -568,9 +588,9 @@ def local_iteration(problem: Problem, u0, stage: str, log: list) -> Evaluation:
     for it in range(1, s.max_iterations + 1):
         ok = current.paired >= 0
         sens = np.zeros((len(ok), len(u0)))
-        sens[ok] = problem.reduced.sensitivities(
-            current.u, current.frequencies_hz, current.shapes
-        )[current.paired[ok]]
+        sens[ok] = problem.reduced.sensitivities(current.u, current.frequencies_hz, current.shapes)[
+            current.paired[ok]
+        ]
         while True:
             d = stepper.step(sens, current.residual, current.u, problem.lower, problem.upper, trust)
             trial = problem.evaluate(current.u + d)
@@ -596,7 +616,14 @@ def global_start(problem: Problem, x0, log: list) -> np.ndarray:
 
     def record(intermediate_result):
         generation[0] += 1
-        _log(log, "global", generation[0], problem.evaluate(intermediate_result.x), math.nan, math.nan)
+        _log(
+            log,
+            "global",
+            generation[0],
+            problem.evaluate(intermediate_result.x),
+            math.nan,
+            math.nan,
+        )
 
     result = differential_evolution(
         problem.cost,
@@ -606,7 +633,6 @@ def global_start(problem: Problem, x0, log: list) -> np.ndarray:
         rng=s.seed,
         x0=np.clip(x0, problem.lower, problem.upper),
         polish=False,
-        init="sobol",
         callback=record,
     )
     return result.x
@@ -735,19 +761,23 @@ def provenance_header(
     return "\n".join(lines) + "\n"
 
 
+@dataclass(frozen=True, eq=False)
+class CalibrationRun:
+    """What ``ufmt calibrate`` did: the identification, the model, its MSTMM check, the file."""
+
+    identification: Identification
+    model: Model
+    validation: Validation
+    output: Path
+
+
 def calibrate(
     settings_path: str | Path,
     prior: str | Path | None = None,
     output: str | Path | None = None,
     log_path: str | Path | None = None,
-) -> tuple[Identification, Model, dict]:
-    """Run the identification of a calibration file and write the model and the log.
-
-    Returns (identification, identified model, MSTMM check: frequencies, errors, pairing).
-    """
-    from ufmt.mstmm.solve import solve_modes
-    from ufmt.validation import modeset_from_mstmm
-
+) -> CalibrationRun:
+    """Run the identification of a calibration file, check it by the MSTMM, write model and log."""
     calibration, model, reference = load_calibration(settings_path, prior, output)
     result = identify(
         model, calibration.parameters, calibration.targets, calibration.settings, reference
@@ -755,35 +785,28 @@ def calibrate(
     identified = replace(
         apply_parameters(model, calibration.parameters, result.u), name=calibration.output_name
     )
-    n = calibration.settings.n_modes
-    solution = solve_modes(identified, count=n, method="mstmm", shapes=True)
-    modes = modeset_from_mstmm(identified, solution.shapes)
-    idx = np.array(calibration.targets.modes) - 1
-    errors = 100.0 * (modes.frequencies_hz[idx] / calibration.targets.frequencies_hz - 1.0)
-    tags = {
-        k: check_tag(modes, k - 1, reference.modes[k].tag)
-        for k in calibration.targets.modes
-        if reference.modes[k].tag is not None
-    }
-    check = {
-        "frequencies_hz": modes.frequencies_hz,
-        "errors_percent": errors,
-        "tags": tags,
-        "loop_vs_mstmm": float(
-            np.max(np.abs(result.evaluation.frequencies_hz / modes.frequencies_hz - 1.0))
-        ),
-    }
-    log = result.log.copy()
+    check = validate(identified, reference, calibration.settings.n_modes)
+    tested = check.table.set_index("mode").loc[list(calibration.targets.modes)]
+    errors = 100.0 * (tested["mstmm_hz"].to_numpy() / calibration.targets.frequencies_hz - 1.0)
+    tip = check.summary["tool_tip_z_modes_above_neighbours"]
     final = {
         "stage": "mstmm check",
         "iteration": 0,
         "max_abs_error_percent": float(np.abs(errors).max()),
         "mean_abs_error_percent": float(np.abs(errors).mean()),
-        "shape_mismatches": sum(s not in ("ok", "phase") for s, _ in tags.values()),
-        "mismatched_modes": " ".join(str(k) for k, (s, _) in tags.items() if s != "ok"),
+        "shape_mismatches": int(tested["tag_check"].isin(["class", "bodies"]).sum())
+        + sum(not above for above in tip.values()),
+        "mismatched_modes": " ".join(
+            str(k)
+            for k in sorted(
+                set(check.summary["tag_mismatches"]) | {k for k, a in tip.items() if not a}
+            )
+        ),
     }
-    final.update({f"s[{p.name}]": s for p, s in zip(calibration.parameters, result.scales)})
-    log = pd.concat([log, pd.DataFrame([final])], ignore_index=True)
+    final.update(
+        {f"s[{p.name}]": s for p, s in zip(calibration.parameters, result.scales, strict=True)}
+    )
+    log = pd.concat([result.log, pd.DataFrame([final])], ignore_index=True)
     calibration.output.parent.mkdir(parents=True, exist_ok=True)
     calibration.output.write_text(
         provenance_header(calibration, result, errors) + model_to_toml(identified)
@@ -791,4 +814,4 @@ def calibrate(
     if log_path is not None:
         Path(log_path).parent.mkdir(parents=True, exist_ok=True)
         log.to_csv(log_path, index=False, float_format="%.8g")
-    return replace(result, log=log), identified, check
+    return CalibrationRun(replace(result, log=log), identified, check, calibration.output)

@@ -124,11 +124,13 @@ class Space:
 @dataclass
 class SearchResult:
     """Best point found: unit coordinates ``u``, objective ``value``; ``history`` holds every
-    objective value in evaluation order (for convergence plots)."""
+    objective value in evaluation order (for convergence plots), the first ``n_global`` of them
+    from the global search."""
 
     u: np.ndarray
     value: float
     history: list[float] = field(default_factory=list)
+    n_global: int = 0
 
 
 class _Recorder:
@@ -181,8 +183,10 @@ def global_search(
         x0=x0,
     )
     if recorder.best_u is None:
-        raise StudyError("global search: every evaluated point failed")
-    return SearchResult(recorder.best_u, recorder.best, recorder.history)
+        raise StudyError(
+            "global search: every evaluated point failed (status and message in points.csv)"
+        )
+    return SearchResult(recorder.best_u, recorder.best, recorder.history, len(recorder.history))
 
 
 def fit_convex_quadratic(d: np.ndarray, y: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
@@ -280,7 +284,8 @@ def minimise(
     refined = trust_region_refine(
         objective, found.u, found.value, options["refine_steps"], options["seed"]
     )
-    return SearchResult(refined.u, refined.value, found.history + refined.history)
+    history = found.history + refined.history
+    return SearchResult(refined.u, refined.value, history, found.n_global)
 
 
 def pareto_mask(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -325,6 +330,9 @@ def _convergence(stages: Sequence[tuple[str, SearchResult]]) -> pd.DataFrame:
             pd.DataFrame(
                 {
                     "stage": stage,
+                    "phase": np.where(
+                        np.arange(len(values)) < result.n_global, "global", "trust-region"
+                    ),
                     "evaluation": np.arange(1, len(values) + 1),
                     "objective_nm": values,
                     "best_objective_nm": best,

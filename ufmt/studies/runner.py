@@ -13,7 +13,9 @@ Every finished point is appended to ``results/<study>/points.csv`` and flushed a
 killed run loses only the points in flight. A rerun of the same study (same study file, model
 file, function and physics code, checked by a fingerprint in ``meta.json``) reads the rows back,
 evaluates only the missing points and ends with the same table; with anything changed it starts
-afresh. A point whose function fails is a row with ``status = "error"`` and the message.
+afresh. A point whose function fails is a row with ``status = "error"`` and the message; a
+rerun tries failed points again (a failure may have been transient; a deterministic one gives
+the same row).
 """
 
 from __future__ import annotations
@@ -209,7 +211,8 @@ class Evaluator:
         self.model = None if study.model is None else str(study.model)
         self._parallel = parallel
         self._log = outputs.PointLog(out_dir / outputs.POINTS, ["group", "index", *self.parameters])
-        self._rows = {self._key(row["group"], row): row for row in self._log.read()}
+        logged = {self._key(row["group"], row): row for row in self._log.read()}  # last wins
+        self._rows = {k: row for k, row in logged.items() if row.get("status") != "error"}
         self._requested: dict[str, dict[str, int]] = {}
         self.points_new = 0
         self.points_reused = 0

@@ -1,0 +1,161 @@
+"""CLI sub-commands ``calibrate``, ``validate`` and ``plot-mode`` (registered by ufmt.cli).
+
+* ``ufmt calibrate [--prior PATH] [--settings PATH] [--output PATH] [--log PATH]``: identify the
+  hinge stiffnesses (:mod:`ufmt.studies.identify`) and write the packaged model and the log.
+* ``ufmt validate [MODEL] [--output-dir DIR] [--modes LIST]``: the validation table
+  ``frequencies.csv``, the chart ``frequencies.png`` and ``mode-N.png`` for the listed modes.
+* ``ufmt plot-mode N [MODEL] [--output PNG] [--scale S]``: one mode shape in 3-D.
+
+User errors raise :class:`~ufmt.errors.UfmtError`; the CLI prints one line and exits 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from importlib import resources
+from pathlib import Path
+
+from ufmt.errors import UfmtError
+
+RESULTS = Path("results") / "validation"
+DEFAULT_LOG = RESULTS / "identification-log.csv"
+DEFAULT_PLOTTED_MODES = "1,11,12,18,29"  # mode 1 and the tool-tip z modes of section 4.1
+N_MODES = 30  # modes in the validation table (the paper's first thirty, section 2.5)
+
+
+def _data(name: str) -> str:
+    return str(resources.files("ufmt") / "data" / name)
+
+
+def _model(path: str | None):
+    from ufmt.model.load import load_model
+
+    return load_model(path or _data("ufmt.toml"))
+
+
+def _mode_number(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a mode number") from None
+    if not 1 <= value <= N_MODES:
+        raise argparse.ArgumentTypeError(f"mode {value} is outside 1..{N_MODES}")
+    return value
+
+
+def _mode_list(text: str) -> list[int]:
+    return [_mode_number(t) for t in text.split(",") if t.strip()]
+
+
+def _positive(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not value > 0:
+        raise argparse.ArgumentTypeError(f"{text} must be > 0")
+    return value
+
+
+def register(subparsers) -> None:
+    """Add the ``calibrate``, ``validate`` and ``plot-mode`` sub-parsers."""
+    p = subparsers.add_parser("calibrate", help="identify hinge stiffness against Table 3")
+    p.add_argument("--prior", help="prior model (default: the calibration file's)")
+    p.add_argument("--settings", help="calibration file (default: packaged calibration.toml)")
+    p.add_argument("--output", help="identified model (default: the calibration file's)")
+    p.add_argument("--log", default=str(DEFAULT_LOG), help=f"iteration log (default {DEFAULT_LOG})")
+    p.set_defaults(func=cmd_calibrate)
+
+    p = subparsers.add_parser("validate", help="validation table and plots against Table 3")
+    p.add_argument("model", nargs="?", help="model TOML (default: packaged UFMT)")
+    p.add_argument("--output-dir", default=str(RESULTS), help=f"default {RESULTS}")
+    p.add_argument(
+        "--modes",
+        type=_mode_list,
+        default=_mode_list(DEFAULT_PLOTTED_MODES),
+        help=f"modes to draw, comma-separated (default {DEFAULT_PLOTTED_MODES})",
+    )
+    p.set_defaults(func=cmd_validate)
+
+    p = subparsers.add_parser("plot-mode", help="draw mode N in 3-D to a PNG")
+    p.add_argument("mode", type=_mode_number, help=f"mode number 1..{N_MODES}")
+    p.add_argument("model", nargs="?", help="model TOML (default: packaged UFMT)")
+    p.add_argument("--output", help=f"PNG (default {RESULTS}/mode-N.png)")
+    p.add_argument("--scale", type=_positive, help="displacement factor (default: automatic)")
+    p.set_defaults(func=cmd_plot_mode)
+
+
+def cmd_calibrate(args) -> int:
+    """Identify, write the model and the log, print the result."""
+    from ufmt.studies.identify import calibrate
+
+    t0 = time.perf_counter()
+    run = calibrate(args.settings or _data("calibration.toml"), args.prior, args.output, args.log)
+    result = run.identification
+    print(
+        f"identified {len(result.parameters)} factors in {time.perf_counter() - t0:.1f} s "
+        f"(global start {'used' if result.used_global_start else 'not needed'})"
+    )
+    for p, s in zip(result.parameters, result.scales, strict=True):
+        print(f"  {p.name:<24} s = {s:8.4f}   band [{p.band[0]:g}, {p.band[1]:g}]")
+    _print_summary(run.model, run.validation.summary)
+    print(f"wrote {run.output} and {args.log}")
+    return 0
+
+
+def _print_summary(model, s: dict) -> None:
+    print(
+        f"{model.name}: tested modes max |error| {s['max_abs_error_percent']:.3f} %, "
+        f"mean {s['mean_abs_error_percent']:.3f} % (MSTMM); {s['modes_below_30_hz']} modes "
+        f"below 30 Hz, mode 6 at {s['mode_6_hz']:.2f} Hz"
+    )
+    tip = s["tool_tip_z_modes_above_neighbours"]
+    print(
+        "tool tip moves most in z among neighbours: "
+        + ", ".join(f"mode {k}: {v}" for k, v in tip.items())
+    )
+    if s["tag_mismatches"]:
+        print(
+            "Table 3 shape tags not matched: "
+            + ", ".join(f"mode {k} ({v})" for k, v in s["tag_mismatches"].items())
+        )
+
+
+def cmd_validate(args) -> int:
+    """Write frequencies.csv, frequencies.png and the mode plots; print the summary."""
+    from ufmt.mstmm.solve import describe
+    from ufmt.plots.modes import plot_frequencies, plot_mode
+    from ufmt.validation import read_reference, validate, write_table
+
+    model = _model(args.model)
+    out = Path(args.output_dir)
+    result = validate(model, read_reference(_data("paper_reference.toml")), N_MODES)
+    write_table(result.table, out / "frequencies.csv")
+    plot_frequencies(result.table, out / "frequencies.png")
+    lines = describe(model, result.modes.shares, top=3)
+    for n in args.modes:
+        plot_mode(model, result.solution.shapes, n - 1, out / f"mode-{n}.png", None, lines[n - 1])
+    _print_summary(model, result.summary)
+    plots = ", ".join(f"mode-{n}.png" for n in args.modes)
+    print(f"wrote frequencies.csv, frequencies.png, {plots} in {out}")
+    return 0
+
+
+def cmd_plot_mode(args) -> int:
+    """Solve the first N modes by the MSTMM and draw mode N."""
+    from ufmt.mstmm.solve import describe, solve_modes
+    from ufmt.plots.modes import plot_mode
+
+    model = _model(args.model)
+    solution = solve_modes(model, count=args.mode, method="mstmm", shapes=True)
+    if solution.frequencies_hz.size < args.mode:
+        raise UfmtError(
+            f"{model.source}: mode {args.mode}: the model has only "
+            f"{solution.frequencies_hz.size} modes"
+        )
+    line = describe(model, solution.energy_shares(model), top=3)[args.mode - 1]
+    path = args.output or RESULTS / f"mode-{args.mode}.png"
+    written = plot_mode(model, solution.shapes, args.mode - 1, path, args.scale, line)
+    print(f"mode {args.mode}: {solution.frequencies_hz[-1]:.3f} Hz ({line}); wrote {written}")
+    return 0
