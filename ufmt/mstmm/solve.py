@@ -137,7 +137,9 @@ def describe(model: Model, shares: np.ndarray, top: int = 2) -> list[str]:
     names = [b.name for b in model.bodies]
     lines = []
     for s in shares:
-        flat = np.argsort(s.ravel())[::-1][:top]
+        # ties (mirror-symmetric bodies) broken by body order, not by rounding noise
+        rounded = np.round(s.ravel(), 6)
+        flat = np.lexsort((np.arange(rounded.size), -rounded))[:top]
         parts = [f"{names[i // 6]} {DIRECTIONS[i % 6]} {100 * s.ravel()[i]:.0f}%" for i in flat]
         lines.append(", ".join(parts))
     return lines
