@@ -11,6 +11,8 @@ import json
 import sys
 from importlib import resources
 
+from threadpoolctl import threadpool_limits
+
 from ufmt.errors import UfmtError
 
 PACKAGED_MODEL = "ufmt.toml"
@@ -21,13 +23,16 @@ def packaged_model_path() -> str:
     return str(resources.files("ufmt") / "data" / PACKAGED_MODEL)
 
 
-def _load(path: str | None):
+def load(path: str | None):
+    """The model at ``path``, or the packaged UFMT."""
     from ufmt.model.load import load_model
 
     return load_model(path or packaged_model_path())
 
 
-def _positive(kind):
+def positive(kind):
+    """argparse type: a number of ``kind`` that must be > 0."""
+
     def parse(text):
         try:
             value = kind(text)
@@ -44,7 +49,7 @@ def cmd_modes(args) -> int:
     """Natural frequencies (and dominant bodies/directions) of a model."""
     from ufmt.mstmm.solve import describe, solve_modes
 
-    model = _load(args.model)
+    model = load(args.model)
     sol = solve_modes(model, args.fmax, args.count, args.method, shapes=args.method == "mstmm")
     lines = describe(model, sol.energy_shares(model)) if sol.shapes is not None else []
     if args.json:
@@ -83,8 +88,8 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True)
     p = sub.add_parser("modes", help="natural frequencies and mode descriptions")
     p.add_argument("model", nargs="?", help="model TOML (default: packaged UFMT)")
-    p.add_argument("--fmax", type=_positive(float), help="upper frequency [Hz] (default 1000)")
-    p.add_argument("--count", type=_positive(int), help="number of modes")
+    p.add_argument("--fmax", type=positive(float), help="upper frequency [Hz] (default 1000)")
+    p.add_argument("--count", type=positive(int), help="number of modes")
     p.add_argument("--method", choices=["mstmm", "assembled"], default="mstmm")
     p.add_argument("--json", action="store_true", help="one JSON object on stdout")
     p.set_defaults(func=cmd_modes)
@@ -98,6 +103,7 @@ def _extensions():
     found = []
     for module, name in (
         ("ufmt.commands", "register"),
+        ("ufmt.dynamics.cli", "register"),
         ("ufmt.studies.cli", "add_run_parser"),
     ):
         try:
@@ -121,7 +127,10 @@ def main(argv=None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
-        return int(args.func(args) or 0)
+        if args.command == "run":  # the study runner limits BLAS threads per worker itself
+            return int(args.func(args) or 0)
+        with threadpool_limits(limits=1, user_api="blas"):  # small matrices: threads only
+            return int(args.func(args) or 0)  # add contention
     except UfmtError as exc:
         print(f"ufmt {args.command}: error: {exc}", file=sys.stderr)
         return 2

@@ -123,7 +123,8 @@ def _print_summary(model, s: dict) -> None:
 
 
 def cmd_validate(args) -> int:
-    """Write frequencies.csv, frequencies.png and the mode plots; print the summary."""
+    """Write frequencies.csv, frequencies.png, the mode plots and (for a model with a
+    ``[machine]`` table) response.csv of section 4.2 / Table 4; print the summary."""
     from ufmt.mstmm.solve import describe
     from ufmt.plots.modes import plot_frequencies, plot_mode
     from ufmt.validation import read_reference, validate, write_table
@@ -139,6 +140,13 @@ def cmd_validate(args) -> int:
     _print_summary(model, result.summary)
     plots = ", ".join(f"mode-{n}.png" for n in args.modes)
     print(f"wrote frequencies.csv, frequencies.png, {plots} in {out}")
+    if model.machine:
+        from ufmt.dynamics.validation import response_table
+
+        table = response_table(model, _data("paper_reference.toml"))
+        table.to_csv(out / "response.csv", index=False, float_format="%.6g")
+        print(table.drop(columns=["note"]).to_string(index=False))
+        print(f"wrote response.csv in {out}")
     return 0
 
 

@@ -75,7 +75,7 @@ def simulate(
     coefficients: ForceCoefficients = DEFAULT_COEFFICIENTS,
     n_phi: int = DEFAULT_N_PHI,
     table_rows: int = DEFAULT_TABLE_ROWS,
-    spacing: float = DEFAULT_SPACING,
+    spacing: float | tuple[float, float] = DEFAULT_SPACING,
     nose_radius: float | None = None,
     trailing_arc: bool = False,
     record_periods: int = DEFAULT_RECORD_PERIODS,
@@ -98,8 +98,11 @@ def simulate(
         (1 when absent).
     coefficients, n_phi, table_rows : force model and discretisation (see
         :func:`ufmt.dynamics.response.cut_geometry`).
-    spacing, nose_radius, trailing_arc : surface grid [m], kinematic marks [m] (off) and
-        back-cutting (off), see :func:`ufmt.surface.machined_surface`.
+    spacing, nose_radius, trailing_arc : surface grid step [m] (one value or (x, y)),
+        kinematic marks [m] (off) and back-cutting (off), see
+        :func:`ufmt.surface.machined_surface`. The defaults (grid 1 x 2 mm with refined edge
+        bands, 192 table rows) keep the PV within ~1-3 % of a converged time-domain surface;
+        ``spacing=2e-3, table_rows=96`` is about twice as fast and 1-7 % low.
     record_periods : spindle periods in the time path's record window.
     """
     machine = machine_of(model)
@@ -170,7 +173,7 @@ def _run(
     coefficients: ForceCoefficients = DEFAULT_COEFFICIENTS,
     n_phi: int = DEFAULT_N_PHI,
     table_rows: int = DEFAULT_TABLE_ROWS,
-    spacing: float = DEFAULT_SPACING,
+    spacing: float | tuple[float, float] = DEFAULT_SPACING,
     nose_radius: float | None = None,
     trailing_arc: bool = False,
     record_periods: int = DEFAULT_RECORD_PERIODS,

@@ -142,8 +142,9 @@ def machined_surface(
     rho = (y[:, None, None] - machine.tool_radius * cos - y_start) / feed_per_rev - turn
     k = np.floor(rho)
     y_lo = y_start + feed_per_rev * (k + turn) - table.drift * turn
-    z_lo = _lookup(cols, table.row_knots, y_lo)
-    z_hi = _lookup(cols, table.row_knots, y_lo + feed_per_rev)
+    columns = np.arange(cols.shape[1]).reshape(arcs, -1)
+    z_lo = _lookup(cols, table.row_knots, y_lo, columns)
+    z_hi = _lookup(cols, table.row_knots, y_lo + feed_per_rev, columns)
     if nose_radius is not None:
         frac = rho - k
         d2 = (feed_per_rev * cos) ** 2 / (2 * nose_radius)
@@ -169,37 +170,22 @@ def _columns(values: np.ndarray, phi: np.ndarray) -> np.ndarray:
     return cols.reshape(rows, -1)
 
 
-def _lookup(cols: np.ndarray, row_knots, slide: np.ndarray) -> np.ndarray:
-    """``cols`` (rows, arcs * Nx) linearly interpolated at slide positions (Ny, arcs, Nx) [m].
+def _lookup(cols: np.ndarray, row_knots, slide: np.ndarray, columns: np.ndarray) -> np.ndarray:
+    """``cols`` (rows, C) linearly interpolated in rows at slide positions [m], in ``columns``.
 
-    The fractional row of a slide position comes from the table's knots (see ZreTable).
+    The fractional row of a slide position comes from the table's knots (see ZreTable);
+    the column indices ``columns`` broadcast against ``slide``.
     """
     start, step, u = row_knots
     rows, width = cols.shape
-    t = slide - start
-    t *= 1.0 / step
-    np.clip(t, 0.0, u.size - 1.0, out=t)
-    k = t.astype(np.intp)
-    np.minimum(k, u.size - 2, out=k)
-    t -= k
-    below = u[k]
-    rr = u[k + 1]
-    rr -= below
-    rr *= t
-    rr += below
-    i0 = rr.astype(np.intp)
-    np.minimum(i0, rows - 2, out=i0)
-    rr -= i0  # weight of the next row
-    i0 *= width
-    i0 += np.arange(width).reshape(slide.shape[1:])
+    t = np.clip((slide - start) / step, 0.0, u.size - 1.0)
+    k = np.minimum(t.astype(np.intp), u.size - 2)
+    rr = u[k] + (t - k) * (u[k + 1] - u[k])
+    i0 = np.minimum(rr.astype(np.intp), rows - 2)
+    flat = i0 * width + columns
     c = cols.ravel()
-    lo = c[i0]
-    i0 += width
-    hi = c[i0]
-    hi -= lo
-    hi *= rr
-    hi += lo
-    return hi
+    lo = c[flat]
+    return lo + (rr - i0) * (c[flat + width] - lo)
 
 
 def steady_region(surface: Surface, machine: Machine, settle: float = 0.0) -> np.ndarray:

@@ -412,15 +412,40 @@ def periodic_response(
     = sum_d K_d[k] A[k-d], with A the spectrum of the chip factor (cached in ``geo``) and H_s
     the receptance of :func:`discrete_receptance`; with the workpiece arm's Y terms the kernels
     are a quadratic in Y, sum_p Y^p K_pd. The record window is one spindle period at the slide
-    position of :func:`record_slide`.
+    position of :func:`record_slide`. Everything is linear in the chip area a_p v/f: the
+    response per unit area is cached per (geometry, spindle speed, damping), so another feed
+    or depth at a known spindle speed costs a scaling.
     """
+    zeta = modal_damping(zeta, geo.basis.n_modes)
+    f = process.spindle_hz
+    n = geo.n_phi
+    amp = force_scale * process.depth_m * process.feed_per_rev_m
+    values, tip, acc, work, chip = _unit_periodic(geo, f, tuple(zeta.tolist()))
+    y_rec = record_slide(geo.machine)
+    j = np.arange(n)
+    return Response(
+        method="periodic",
+        t=(j + (y_rec - geo.machine.cut_span[0]) / process.feed_per_rev_m * n) / (f * n),
+        slide_y=np.full(n, y_rec),
+        force=(amp * chip)[:, None] * force_per_area(geo.phases, geo.machine, geo.coefficients),
+        tip_disp=amp * tip,
+        tip_acc=amp * acc,
+        work_disp=amp * work,
+        z_re=amp * (tip[:, 2] - work[:, 2]),
+        period=1.0 / f,
+        periods=1,
+        table=ZreTable(amp * values, geo.table_y, 0.0, geo.row_knots),
+    )
+
+
+@lru_cache(maxsize=32)
+def _unit_periodic(geo: CutGeometry, spindle_hz: float, zeta: tuple):
+    """Table values and record-window outputs of :func:`periodic_response` per unit chip area."""
     b = geo.basis
     n = geo.n_phi
     half = n // 2
-    zeta = modal_damping(zeta, b.n_modes)
-    f = process.spindle_hz
-    dt = 1.0 / (f * n)
-    amp = force_scale * process.depth_m * process.feed_per_rev_m
+    zeta = np.array(zeta)
+    dt = 1.0 / (spindle_hz * n)
     k = np.arange(-1, half + 2)
     hq, hv = discrete_receptance(b.omega, zeta, dt, 2 * np.pi * k / n)
     # kernels of Y^0, Y^1, Y^2: c = c_hat + Y c_y (l = 0 only), w_s = w_hat + Y w_y_hat
@@ -434,41 +459,26 @@ def periodic_response(
                 kern[pc + pw, li : li + 5] += g
     kern = np.ascontiguousarray(kern.reshape(21, half + 1).T)[:, :, None]
     zk = np.matmul(geo.table_a, kern)[:, :, 0]
-    rows = np.fft.irfft(zk, n=n, axis=0).T * amp
+    rows = np.fft.irfft(zk, n=n, axis=0).T
     values = np.empty((rows.shape[0], n + 3))
     values[:, 1 : n + 1] = rows
     values[:, 0], values[:, n + 1 :] = rows[:, -1], rows[:, :2]
-    table = ZreTable(values, geo.table_y, 0.0, geo.row_knots)
 
     y_rec = record_slide(geo.machine)
-    a0 = chip_factor_cells(geo.phases, y_rec, geo.machine, 2 * np.pi / n) * amp
-    a0_ext = _extend(np.fft.rfft(a0))
+    chip = chip_factor_cells(geo.phases, y_rec, geo.machine, 2 * np.pi / n)
+    chip_ext = _extend(np.fft.rfft(chip))
     w_hat = geo.w_hat + y_rec * geo.w_y_hat
-    fk = w_hat[:, :1] * a0_ext[None, 5 : 5 + half + 1]
+    fk = w_hat[:, :1] * chip_ext[None, 5 : 5 + half + 1]
     for mi in range(1, 5):
-        fk += w_hat[:, mi : mi + 1] * a0_ext[None, 5 - mi : 5 - mi + half + 1]
+        fk += w_hat[:, mi : mi + 1] * chip_ext[None, 5 - mi : 5 - mi + half + 1]
     q = np.fft.irfft(hq[:, 1 : half + 2] * fk, n=n, axis=1)
     qd = np.fft.irfft(hv[:, 1 : half + 2] * fk, n=n, axis=1)
-    fs = (geo.w + y_rec * geo.w_y) * a0
+    fs = (geo.w + y_rec * geo.w_y) * chip
     qdd = fs - (2 * zeta * b.omega)[:, None] * qd - (b.omega**2)[:, None] * q
-    j = np.arange(n)
-    slide = np.full(n, y_rec)
-    tip, acc, work = _outputs(geo, j, slide, q, qd, qdd, f)
-    return Response(
-        method="periodic",
-        t=(j + (y_rec - geo.machine.cut_span[0]) / process.feed_per_rev_m * n) * dt,
-        slide_y=slide,
-        force=cutting_force(
-            geo.phases, y_rec, process, geo.machine, geo.coefficients, force_scale, 2 * np.pi / n
-        ),
-        tip_disp=tip,
-        tip_acc=acc,
-        work_disp=work,
-        z_re=tip[:, 2] - work[:, 2],
-        period=1.0 / f,
-        periods=1,
-        table=table,
-    )
+    tip, acc, work = _outputs(geo, np.arange(n), np.full(n, y_rec), q, qd, qdd, spindle_hz)
+    for a in (values, tip, acc, work, chip):
+        a.setflags(write=False)
+    return values, tip, acc, work, chip
 
 
 def time_response(

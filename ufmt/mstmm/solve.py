@@ -10,6 +10,7 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
+from threadpoolctl import threadpool_limits
 
 from ufmt.assembled import assembled_modes
 from ufmt.errors import UfmtError
@@ -67,8 +68,14 @@ def solve_modes(
     """Natural frequencies (and shapes) below ``fmax_hz`` or the first ``count`` modes.
 
     method "mstmm" (default) roots det U_all; "assembled" is the independent mass-stiffness
-    eigen-solution, for cross-checks.
+    eigen-solution, for cross-checks. BLAS runs single-threaded here: the matrices are small
+    (order ~100), where threads only add contention.
     """
+    with threadpool_limits(limits=1, user_api="blas"):
+        return _solve_modes(model, fmax_hz, count, method, shapes)
+
+
+def _solve_modes(model, fmax_hz, count, method, shapes) -> ModalSolution:
     if fmax_hz is not None and not (np.isfinite(fmax_hz) and fmax_hz > 0):
         raise UfmtError(f"--fmax: {fmax_hz} must be a positive number of Hz")
     if method not in ("mstmm", "assembled"):

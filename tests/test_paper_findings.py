@@ -1,0 +1,78 @@
+"""The paper's findings (section 4.2, Figs. 15-16) as properties of the packaged model, and
+the force calibration of Table 4 (the packaged model's force scale reproduces the measured PV).
+"""
+
+import tomllib
+from functools import lru_cache
+from importlib import resources
+
+import numpy as np
+import pytest
+
+from ufmt.dynamics.process import Process
+from ufmt.model.load import load_model
+from ufmt.simulate import simulate
+
+REFERENCE = Process(300.0, 15.0, 4.0)
+
+
+@lru_cache(maxsize=1)
+def packaged():
+    return load_model(str(resources.files("ufmt") / "data" / "ufmt.toml"))
+
+
+def pv(model, process=REFERENCE, **options) -> float:
+    return simulate(model, process, **options).metrics["pv_nm"]
+
+
+def scaled_hinge(name, translation=(1, 1, 1), rotation=(1, 1, 1)):
+    model = packaged()
+    h = model.hinge(name)
+    return model.with_hinge(
+        name,
+        stiffness=h.stiffness * np.asarray(translation),
+        rotational_stiffness=h.rotational_stiffness * np.asarray(rotation),
+    )
+
+
+def test_force_scale_reproduces_the_measured_pv():
+    """Table 4: 142.91 nm measured; the force scale was fitted on the exact time path, and the
+    fast periodic path agrees within the 1 % the issue asks for."""
+    with open(resources.files("ufmt") / "data" / "paper_reference.toml", "rb") as fh:
+        measured = tomllib.load(fh)["surface_pv"]["measured_nm"]
+    assert pv(packaged()) == pytest.approx(measured, rel=0.01)
+
+
+def test_stiffer_angular_head_bearing_lowers_pv():
+    """Fig. 15: the higher the head's angular air-bearing stiffness, the better."""
+    values = [pv(scaled_hinge("h31", rotation=(f, f, 1))) for f in (0.5, 1.0, 2.0)]
+    assert values[0] > values[1] > values[2]
+
+
+@pytest.mark.parametrize(
+    "better, worse",
+    [
+        (Process(400.0, 15.0, 4.0), Process(200.0, 15.0, 4.0)),  # higher spindle speed
+        (Process(300.0, 4.0, 4.0), Process(300.0, 16.0, 4.0)),  # lower feed
+        (Process(300.0, 15.0, 2.0), Process(300.0, 15.0, 8.0)),  # smaller depth of cut
+    ],
+)
+def test_process_trends_of_fig_16(better, worse):
+    assert pv(packaged(), better) < pv(packaged(), worse)
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason=(
+        "known discrepancy: in the identified model the spindle air bearing (h25) carries the head "
+        "axially in parallel with the head bearing (h31), so doubling it lowers PV by ~14 %; the "
+        "paper reports 'little influence'. Kept visible until the model explains it."
+    ),
+)
+def test_spindle_air_bearing_changes_pv_little():
+    """Section 4.2: the spindle air-bearing stiffness has little influence (here: < 5 % for a
+    factor 2 either way)."""
+    base = pv(packaged())
+    for f in (0.5, 2.0):
+        changed = pv(scaled_hinge("h25", translation=(f, f, f), rotation=(f, f, 1)))
+        assert abs(changed / base - 1) < 0.05
