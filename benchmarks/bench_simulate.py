@@ -1,0 +1,61 @@
+"""Benchmark (issue 4): PV evaluation cost on the packaged UFMT.
+
+1. a new design: modal basis (MSTMM, 30 modes) + periodic response + surface; target <= 20 ms;
+2. a new process on a known design: periodic response + surface; target <= 5 ms;
+3. a whole-workpiece time-domain simulation at the reference process; target <= 10 s.
+Medians; BLAS single-threaded (small matrices).
+"""
+
+import statistics
+import time
+from importlib import resources
+
+import numpy as np
+from threadpoolctl import threadpool_limits
+
+from ufmt.dynamics.modal import modal_basis
+from ufmt.dynamics.process import Process
+from ufmt.model.load import load_model
+from ufmt.simulate import simulate
+
+
+def median_ms(fn, repeats) -> float:
+    times = []
+    for i in range(repeats):
+        t0 = time.perf_counter()
+        fn(i)
+        times.append(time.perf_counter() - t0)
+    return 1e3 * statistics.median(times)
+
+
+def main() -> None:
+    model = load_model(str(resources.files("ufmt") / "data" / "ufmt.toml"))
+    h31 = model.hinge("h31")
+    rng = np.random.default_rng(0)
+    reference = Process(300.0, 15.0, 4.0)
+
+    def new_design(i):
+        factor = 10 ** rng.uniform(-0.3, 0.3)
+        m = model.with_hinge("h31", stiffness=h31.stiffness * factor)
+        simulate(m, reference, basis=modal_basis(m))
+
+    basis = modal_basis(model)
+    simulate(model, reference, basis=basis)  # geometry set-up of this basis
+
+    def new_process(i):
+        p = Process(rng.uniform(200, 400), rng.uniform(4, 16), rng.uniform(2, 8))
+        simulate(model, p, basis=basis)
+
+    with threadpool_limits(limits=1, user_api="blas"):
+        t_design = median_ms(new_design, 7)
+        t_process = median_ms(new_process, 41)
+        t0 = time.perf_counter()
+        simulate(model, reference, basis=basis, method="time")
+        t_time = time.perf_counter() - t0
+    print(f"new design (modes + response + surface): {t_design:9.1f} ms median  (target <= 20)")
+    print(f"new process on a known design:           {t_process:9.1f} ms median  (target <= 5)")
+    print(f"whole workpiece, time domain:            {t_time:9.2f} s          (target <= 10)")
+
+
+if __name__ == "__main__":
+    main()
