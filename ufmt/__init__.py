@@ -1,31 +1,24 @@
 """ufmt: dynamics of ultra-precision fly-cutting machine tools (MSTMM).
 
-Public entry points (imported lazily, so ``import ufmt`` stays cheap):
+Public entry points:
 
 - ``ufmt.load_model(path)``: read and validate a model file;
 - ``ufmt.solve_modes(model, fmax_hz=None, count=None, method="mstmm")``: natural frequencies
   and mode shapes;
-- ``ufmt.simulate(model, process, ...)``: tool-tip response, machined surface and its PV;
+- ``ufmt.simulate(model, ufmt.Process(rpm, feed_mm_min, depth_um), ...)``: tool-tip response,
+  machined surface and its PV;
 - ``ufmt.evaluate(design, process, model=None)``: the study function (design, process) → PV.
 """
 
-from importlib import import_module
-
 __version__ = "0.1.0"
 
-_EXPORTS = {
-    "load_model": "ufmt.model.load",
-    "solve_modes": "ufmt.mstmm.solve",
-    "simulate": "ufmt.simulate",
-    "evaluate": "ufmt.evaluate",
-    "Process": "ufmt.dynamics.process",
-}
+# Imported eagerly: the functions ``simulate`` and ``evaluate`` share their names with their
+# modules, and binding them here (after the submodules load) keeps ``ufmt.simulate`` the
+# function whatever is imported later.
+from ufmt.dynamics.process import Process  # noqa: E402
+from ufmt.evaluate import evaluate  # noqa: E402
+from ufmt.model.load import load_model  # noqa: E402
+from ufmt.mstmm.solve import solve_modes  # noqa: E402
+from ufmt.simulate import simulate  # noqa: E402
 
-
-def __getattr__(name):
-    if name in _EXPORTS:
-        return getattr(import_module(_EXPORTS[name]), name)
-    raise AttributeError(f"module 'ufmt' has no attribute {name!r}")
-
-
-__all__ = list(_EXPORTS)
+__all__ = ["Process", "evaluate", "load_model", "simulate", "solve_modes"]

@@ -438,7 +438,7 @@ def periodic_response(
     )
 
 
-@lru_cache(maxsize=32)
+@lru_cache(maxsize=4)  # ~17 MB per entry; a sweep visits many designs
 def _unit_periodic(geo: CutGeometry, spindle_hz: float, zeta: tuple):
     """Table values and record-window outputs of :func:`periodic_response` per unit chip area."""
     b = geo.basis

@@ -75,14 +75,12 @@ def resolve_function(ref: str):
         if module_name.endswith(".py"):
             digest = hashlib.sha256(module_name.encode()).hexdigest()[:16]
             name = f"_ufmt_study_function_{digest}"
-            module = sys.modules.get(name)
-            if module is None:
-                spec = importlib.util.spec_from_file_location(name, module_name)
-                if spec is None or spec.loader is None:
-                    raise ImportError(f"cannot load {module_name}")
-                module = importlib.util.module_from_spec(spec)
-                sys.modules[name] = module
-                spec.loader.exec_module(module)
+            spec = importlib.util.spec_from_file_location(name, module_name)
+            if spec is None or spec.loader is None:
+                raise ImportError(f"cannot load {module_name}")
+            module = importlib.util.module_from_spec(spec)
+            sys.modules[name] = module  # lets the module's own functions pickle by reference
+            spec.loader.exec_module(module)
         else:
             module = importlib.import_module(module_name)
         function = getattr(module, attribute)
@@ -119,7 +117,7 @@ def evaluate_point(
         record = dict(record)
         record.setdefault("status", "ok")
         record.setdefault("message", "")
-    except Exception as exc:  # noqa: BLE001 - a failing point is recorded, not fatal
+    except Exception as exc:  # a failing point is recorded, not fatal
         record = {"status": "error", "message": f"{type(exc).__name__}: {exc}"}
     return position, record, time.perf_counter() - start
 
