@@ -5,6 +5,7 @@ import warnings
 
 import numpy as np
 import pytest
+from machine_table import MACHINE
 
 from ufmt.dynamics.basis import ModalBasis
 from ufmt.dynamics.cutting import (
@@ -22,18 +23,6 @@ from ufmt.dynamics.process import Process, ProcessRangeWarning
 from ufmt.dynamics.response import cut_geometry
 from ufmt.errors import ModelError, ProcessError
 from ufmt.model.schema import Model
-
-MACHINE = {
-    "tool_body": "head",
-    "workpiece_body": "slider",
-    "spindle_axis_xy": [0.0, 0.0],
-    "cutting_plane_z": 0.0,
-    "tool_radius": 0.25,
-    "workpiece_size": [0.41, 0.41],
-    "workpiece_center_xy": [0.0, 0.0],
-    "rotation": "cw",
-}
-
 
 # --- process ------------------------------------------------------------------------------
 

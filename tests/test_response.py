@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+from machine_table import MACHINE
 from scipy.signal import lfilter
 
 from ufmt.dynamics.basis import ModalBasis
@@ -22,16 +23,6 @@ from ufmt.model.schema import Model
 from ufmt.simulate import fit_force_scale, simulate
 from ufmt.surface import machined_surface, steady_region
 
-MACHINE = {
-    "tool_body": "head",
-    "workpiece_body": "slider",
-    "spindle_axis_xy": [0.0, 0.0],
-    "cutting_plane_z": 0.0,
-    "tool_radius": 0.25,
-    "workpiece_size": [0.41, 0.41],
-    "workpiece_center_xy": [0.0, 0.0],
-    "rotation": "cw",
-}
 # a small plate so that the whole-workpiece time path takes a fraction of a second
 SMALL = {**MACHINE, "tool_radius": 0.06, "workpiece_size": [0.1, 0.2]}
 

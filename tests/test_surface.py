@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+from machine_table import MACHINE
 
 from ufmt.dynamics.basis import ModalBasis
 from ufmt.dynamics.cutting import read_machine
@@ -9,16 +10,6 @@ from ufmt.dynamics.process import Process
 from ufmt.dynamics.response import ZreTable, cut_geometry, periodic_response
 from ufmt.surface import DEFAULT_SPACING, Surface, machined_surface, surface_metrics
 
-MACHINE = {
-    "tool_body": "head",
-    "workpiece_body": "slider",
-    "spindle_axis_xy": [0.0, 0.0],
-    "cutting_plane_z": 0.0,
-    "tool_radius": 0.25,
-    "workpiece_size": [0.41, 0.41],
-    "workpiece_center_xy": [0.0, 0.0],
-    "rotation": "cw",
-}
 N_PHI = 512
 
 

@@ -16,6 +16,7 @@ import time
 from importlib import resources
 from pathlib import Path
 
+from ufmt.cli import positive
 from ufmt.errors import UfmtError
 
 RESULTS = Path("results") / "validation"
@@ -48,16 +49,6 @@ def _mode_list(text: str) -> list[int]:
     return [_mode_number(t) for t in text.split(",") if t.strip()]
 
 
-def _positive(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    if not value > 0:
-        raise argparse.ArgumentTypeError(f"{text} must be > 0")
-    return value
-
-
 def register(subparsers) -> None:
     """Add the ``calibrate``, ``validate`` and ``plot-mode`` sub-parsers."""
     p = subparsers.add_parser("calibrate", help="identify hinge stiffness against Table 3")
@@ -82,7 +73,7 @@ def register(subparsers) -> None:
     p.add_argument("mode", type=_mode_number, help=f"mode number 1..{N_MODES}")
     p.add_argument("model", nargs="?", help="model TOML (default: packaged UFMT)")
     p.add_argument("--output", help=f"PNG (default {RESULTS}/mode-N.png)")
-    p.add_argument("--scale", type=_positive, help="displacement factor (default: automatic)")
+    p.add_argument("--scale", type=positive(float), help="displacement factor (default: automatic)")
     p.set_defaults(func=cmd_plot_mode)
 
 

@@ -33,7 +33,6 @@ phi = 0 has no z motion in the x/ry and rz classes.
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -45,6 +44,7 @@ from ufmt.dynamics.cutting import machine_of, tool_tip
 from ufmt.errors import StudyError
 from ufmt.model.schema import Beam, Model, RigidBody
 from ufmt.mstmm.solve import DIRECTIONS, ModalSolution, describe, energy_shares, solve_modes
+from ufmt.tomlfile import read_toml
 
 CLASSES = ("x/ry", "y/rx", "z", "rz")
 CLASS_OF_MOTION = {"x": 0, "ry": 0, "y": 1, "rx": 1, "z": 2, "rz": 3}
@@ -109,13 +109,7 @@ class Reference:
 def read_reference(path: str | Path) -> Reference:
     """Read ``paper_reference.toml``; errors name the file, the mode and the field."""
     where = str(path)
-    try:
-        with open(path, "rb") as fh:
-            data = tomllib.load(fh)
-    except FileNotFoundError:
-        raise StudyError(f"{where}: file not found") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise StudyError(f"{where}: malformed TOML: {exc}") from None
+    data = read_toml(path)
     modes: dict[int, ReferenceMode] = {}
     for i, row in enumerate(data.get("mode", [])):
         number = row.get("number")

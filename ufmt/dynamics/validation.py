@@ -8,13 +8,13 @@ values read from ``ufmt/data/paper_reference.toml``.
 
 from __future__ import annotations
 
-import tomllib
 from pathlib import Path
 
 import pandas as pd
 
 from ufmt.dynamics.process import Process
 from ufmt.model.schema import Model
+from ufmt.tomlfile import read_toml
 
 
 def reference_process(reference: dict) -> Process:
@@ -32,8 +32,7 @@ def response_table(model: Model, reference_path: str | Path, basis=None) -> pd.D
     from ufmt.dynamics.modal import modal_basis
     from ufmt.simulate import simulate
 
-    with open(reference_path, "rb") as fh:
-        ref = tomllib.load(fh)
+    ref = read_toml(reference_path)
     process = reference_process(ref)
     basis = modal_basis(model) if basis is None else basis
     per = simulate(model, process, basis=basis, method="periodic").metrics

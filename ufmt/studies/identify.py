@@ -45,7 +45,6 @@ import difflib
 import hashlib
 import math
 import time
-import tomllib
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -60,6 +59,7 @@ from ufmt.assembled import AssembledModel, assemble, assembled_modes
 from ufmt.errors import StudyError
 from ufmt.model.load import load_model, model_to_toml
 from ufmt.model.schema import Model
+from ufmt.tomlfile import read_toml
 from ufmt.validation import (
     ModeSet,
     Reference,
@@ -200,13 +200,7 @@ def load_calibration(
     one line naming the file, the table and the field.
     """
     where = str(path)
-    try:
-        with open(path, "rb") as fh:
-            data = tomllib.load(fh)
-    except FileNotFoundError:
-        raise StudyError(f"{where}: file not found") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise StudyError(f"{where}: malformed TOML: {exc}") from None
+    data = read_toml(path)
     _check_keys(where, data, TOP_KEYS)
     base = Path(path).parent
     for key in ("prior", "reference", "output"):
@@ -781,8 +775,7 @@ def with_fitted_force_scale(model: Model, reference_path: str | Path) -> Model:
     from ufmt.dynamics.process import Process
     from ufmt.simulate import fit_force_scale
 
-    with open(reference_path, "rb") as fh:
-        ref = tomllib.load(fh)
+    ref = read_toml(reference_path)
     proc = ref["reference_process"]
     process = Process(proc["spindle_speed_rpm"], proc["feed_mm_min"], proc["depth_of_cut_um"])
     scale = fit_force_scale(model, process, ref["surface_pv"]["measured_nm"], method="time")
