@@ -81,9 +81,12 @@ def _solve_modes(model, fmax_hz, count, method, shapes) -> ModalSolution:
     if method not in ("mstmm", "assembled"):
         raise UfmtError(f"--method: {method!r} is not one of 'mstmm', 'assembled'")
     t0 = time.perf_counter()
-    guess_fmax = fmax_hz if count is None else None
+    guess_fmax = (DEFAULT_FMAX_HZ if fmax_hz is None else fmax_hz) if count is None else None
     asm = assembled_modes(
-        model, fmax_hz=_pad(guess_fmax), count=None if count is None else count + 1
+        model,
+        fmax_hz=_pad(guess_fmax),
+        count=None if count is None else count + 1,
+        elements_per_beam=None if method == "assembled" else BRACKETING_ELEMENTS,
     )
     est = np.asarray(asm.frequencies_hz)
     fmax = _range(fmax_hz, count, est)
