@@ -96,3 +96,26 @@ def test_bad_model_gives_one_line_and_exit_2(tmp_path, text, needle):
 def test_bad_argument_one_line(model_file):
     res = run("modes", str(model_file), "--fmax", "-5")
     assert res.returncode == 2 and len(res.stderr.strip().splitlines()) == 1
+
+
+def test_simulate_json_contract(capsys):
+    """`ufmt simulate --json`: one JSON object with the metrics the issue lists."""
+    assert main(["simulate", "--json", "--rpm", "350", "--feed", "10", "--depth", "3"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    for key in ("pv_nm", "pv_tilt_removed_nm", "rms_nm", "psd1_rms_nm", "psd2_rms_nm",
+                "zre_peak_nm", "tip_acc_peak_mm_s2"):
+        assert np.isfinite(out[key])
+    assert out["pv_nm"] > 0
+
+
+def test_simulate_rejects_non_physical_process():
+    res = run("simulate", "--rpm", "nan")
+    assert res.returncode == 2 and len(res.stderr.strip().splitlines()) == 1
+    assert "Traceback" not in res.stderr
+
+
+def test_simulate_warns_outside_table_1(capsys):
+    assert main(["simulate", "--json", "--rpm", "500"]) == 0
+    captured = capsys.readouterr()
+    assert "outside" in captured.err and "rpm" in captured.err
+    assert json.loads(captured.out)["pv_nm"] > 0
