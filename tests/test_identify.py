@@ -269,9 +269,15 @@ def test_cli_reports_bad_calibration_in_one_line(tmp_path, capsys):
 
 @pytest.mark.slow
 def test_calibrate_regenerates_the_packaged_model(tmp_path):
-    """`make calibrate` on a fresh clone writes exactly the committed ufmt.toml (deterministic)."""
+    """`make calibrate` on a fresh clone writes the committed ufmt.toml: the same provenance
+    header and stiffnesses, and the same force scale to 1e-9 (it comes from a time-domain
+    simulation whose last digits follow the root finder's)."""
     run = calibrate(CALIBRATION, output=tmp_path / "ufmt.toml", log_path=tmp_path / "log.csv")
-    assert run.output.read_text() == (DATA / "ufmt.toml").read_text()
+    new, committed = run.output.read_text(), (DATA / "ufmt.toml").read_text()
+    strip = [line for line in new.splitlines() if not line.startswith("force_scale")]
+    assert strip == [line for line in committed.splitlines() if not line.startswith("force_scale")]
+    scales = [load_model(str(p)).machine["force_scale"] for p in (run.output, DATA / "ufmt.toml")]
+    assert scales[0] == pytest.approx(scales[1], rel=1e-9)
     err = np.abs(run.validation.table.dropna(subset=["test_hz"])["mstmm_error_percent"])
     assert err.max() <= 3.0 and err.mean() <= 1.0
     assert math.isfinite(run.identification.seconds)
