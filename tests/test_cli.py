@@ -102,8 +102,15 @@ def test_simulate_json_contract(capsys):
     """`ufmt simulate --json`: one JSON object with the metrics the issue lists."""
     assert main(["simulate", "--json", "--rpm", "350", "--feed", "10", "--depth", "3"]) == 0
     out = json.loads(capsys.readouterr().out)
-    for key in ("pv_nm", "pv_tilt_removed_nm", "rms_nm", "psd1_rms_nm", "psd2_rms_nm",
-                "zre_peak_nm", "tip_acc_peak_mm_s2"):
+    for key in (
+        "pv_nm",
+        "pv_tilt_removed_nm",
+        "rms_nm",
+        "psd1_rms_nm",
+        "psd2_rms_nm",
+        "zre_peak_nm",
+        "tip_acc_peak_mm_s2",
+    ):
         assert np.isfinite(out[key])
     assert out["pv_nm"] > 0
 
