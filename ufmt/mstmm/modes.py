@@ -10,7 +10,7 @@ Repeated roots are made mass-orthogonal; all shapes are normalised to unit modal
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -26,9 +26,9 @@ GAUSS_POINTS = 16  # per beam: modal-mass integrals to ~1e-12 up to βL ≈ 15
 class ModeShapes:
     """Mass-normalised modes of a model.
 
-    frequencies_hz (n,); z_all (n, order) boundary unknowns; rigid: body -> (n, 6) motion
-    [r_C (m); θ (rad)] per unit modal mass; points: body -> (n, 6) motion at the body's
-    reference point (virtual bodies: their point); beams: beam -> (positions (g, 3) [m],
+    frequencies_hz (n,); z_all (n, size) boundary (and segment) unknowns; rigid: body ->
+    (n, 6) motion [r_C (m); θ (rad)] per unit modal mass; virtual: body -> (n, 6) motion at
+    its point; beams: beam -> (positions (g, 3) [m],
     weights (g,) [m], motion (n, g, 6)). Shapes have unit modal mass; ``modal_mass`` (n,) [kg]
     is the modal mass of each shape scaled to a largest translation of 1 (eq. 3.11).
     """
@@ -95,10 +95,7 @@ def mode_shapes(system: TransferSystem, frequencies_hz) -> ModeShapes:
     rigid, virtual, centers, beams = {}, {}, {}, {}
     for body in model.bodies:
         if isinstance(body, RigidBody):
-            node = topo.nodes[body.name]
-            point = topo.edges[node.inputs[0][0]].point_at(body.name) if node.inputs else None
-            if point is None:
-                point = node.output_point
+            point = topo.first_input_point(body.name)
             s = _apply(states[("node_in", body.name, 0)], z)
             rigid[body.name] = _rigid_motion_from_state(s, point, body.center_of_mass)
             centers[body.name] = body.center_of_mass
@@ -122,12 +119,7 @@ def mode_shapes(system: TransferSystem, frequencies_hz) -> ModeShapes:
     peak[peak == 0] = 1.0
     shapes = _scaled(shapes, 1.0 / peak)
     mass = modal_mass(model, shapes.rigid, shapes.beams)
-    shapes = _scaled(shapes, 1.0 / np.sqrt(mass))
-    return ModeShapes(
-        *[getattr(shapes, k) for k in ("frequencies_hz", "z_all", "rigid", "virtual", "beams")],
-        mass,
-        centers,
-    )
+    return replace(_scaled(shapes, 1.0 / np.sqrt(mass)), modal_mass=mass)
 
 
 def _beam_field(system, beam: Beam, states, z, omega, fractions=None):
@@ -168,35 +160,51 @@ def beam_shape(system: TransferSystem, shapes: ModeShapes, beam_name: str, fract
     return positions, motion
 
 
+def kinetic_terms(model, rigid_a, beams_a, rigid_b=None, beams_b=None) -> np.ndarray:
+    """Mass products ⟨V_a, M V_b⟩ split per body and direction: (n, bodies, 6) [kg].
+
+    Rigid bodies (eq. 3.1): m r_a·r_b per axis and θ_a,i (J θ_b)_i per axis; beams:
+    ∫ρA u_a·u_b ds per axis and ∫ρJp τ_a τ_b ds (τ the twist about the beam axis) split over
+    the global axes by the squared axis components. Summed over bodies and directions this is
+    the modal mass (b = a) or the mass inner product of two modes; with b = a, per body and
+    direction, the kinetic-energy distribution of a mode.
+    """
+    rigid_b = rigid_a if rigid_b is None else rigid_b
+    beams_b = beams_a if beams_b is None else beams_b
+    n = next(iter(rigid_a.values() or [m for _, _, m in beams_a.values()])).shape[0]
+    out = np.zeros((n, len(model.bodies), 6))
+    for k, body in enumerate(model.bodies):
+        if isinstance(body, RigidBody):
+            va, vb = rigid_a[body.name], rigid_b[body.name]
+            out[:, k, :3] = body.mass * va[:, :3] * vb[:, :3]
+            out[:, k, 3:] = va[:, 3:] * (vb[:, 3:] @ body.inertia)
+        elif isinstance(body, Beam):
+            _, wts, ma = beams_a[body.name]
+            mb = beams_b[body.name][2]
+            rho = body.density
+            out[:, k, :3] = (
+                rho * body.area * np.einsum("ngi,ngi,g->ni", ma[..., :3], mb[..., :3], wts)
+            )
+            axis = (body.end - body.start) / body.length
+            twist = (ma[..., 3:] @ axis) * (mb[..., 3:] @ axis) @ wts
+            out[:, k, 3:] = rho * body.polar_moment * twist[:, None] * axis[None, :] ** 2
+    return out
+
+
 def modal_mass(model, rigid, beams) -> np.ndarray:
-    """<V, M V> per mode: rigid bodies (eq. 3.1) plus ∫ρA|u|² + ρJpθ_axial² ds of beams."""
-    total = 0.0
-    for name, v in rigid.items():
-        b = model.body(name)
-        total = total + b.mass * np.sum(v[:, :3] ** 2, axis=1)
-        total = total + np.einsum("ni,ij,nj->n", v[:, 3:], b.inertia, v[:, 3:])
-    for name, (_, wts, mot) in beams.items():
-        b = model.body(name)
-        axis = (b.end - b.start) / b.length
-        twist = mot[:, :, 3:] @ axis
-        dens = b.density * b.area * np.sum(mot[:, :, :3] ** 2, axis=2)
-        dens = dens + b.density * b.polar_moment * twist**2
-        total = total + dens @ wts
-    return np.asarray(total)
+    """⟨V, M V⟩ per mode [kg] (eq. 3.11), from :func:`kinetic_terms`."""
+    return kinetic_terms(model, rigid, beams).sum(axis=(1, 2))
 
 
-def _mass_inner(model, a: ModeShapes, i: int, j: int) -> float:
-    total = 0.0
-    for name, v in a.rigid.items():
-        b = model.body(name)
-        total += b.mass * v[i, :3] @ v[j, :3] + v[i, 3:] @ b.inertia @ v[j, 3:]
-    for name, (_, wts, mot) in a.beams.items():
-        b = model.body(name)
-        axis = (b.end - b.start) / b.length
-        dens = b.density * b.area * np.sum(mot[i, :, :3] * mot[j, :, :3], axis=1)
-        dens += b.density * b.polar_moment * (mot[i, :, 3:] @ axis) * (mot[j, :, 3:] @ axis)
-        total += dens @ wts
-    return float(total)
+def _mass_inner(model, shapes: ModeShapes, i: int, j: int) -> float:
+    """⟨V_i, M V_j⟩ of two modes of ``shapes`` [kg]."""
+
+    def one(m):
+        rigid = {k: v[[m]] for k, v in shapes.rigid.items()}
+        beams = {k: (p, w, v[[m]]) for k, (p, w, v) in shapes.beams.items()}
+        return rigid, beams
+
+    return float(kinetic_terms(model, *one(i), *one(j)).sum())
 
 
 def _orthonormalise_repeated(model, shapes: ModeShapes) -> ModeShapes:

@@ -135,18 +135,7 @@ class TransferSystem:
             node = topo.nodes[name]
             stage = np.broadcast_to(self._edge_matrix(node.parent_edge, w), (1, 12, 12))[0]
             if node.kind == "rigid":
-                p1 = (
-                    topo.edges[node.inputs[0][0]].point_at(name)
-                    if node.inputs
-                    else (node.output_point)
-                )
-                b = node.body
-                stage = (
-                    stage
-                    @ elements.rigid_body_first_input(
-                        w, b.mass, b.inertia, b.center_of_mass, p1, node.output_point
-                    )[0]
-                )
+                stage = stage @ self._rigid_first_input(node, w)[0]
             g = np.linalg.cond(scale[:, None] * stage / scale[None, :])
             upstream = [
                 growth[topo.edges[i].input_node]
@@ -177,33 +166,20 @@ class TransferSystem:
             if index not in self._hinge_cache:
                 self._hinge_cache[index] = elements.hinge(np.zeros(1), e.element.stiffness6)[0]
             return self._hinge_cache[index]
-        if e.kind == "beam":
-            p_in = e.point_at(e.input_node)
-            p_out = e.point_at(e.output_node) if e.output_node != "" else None
-            if e.output_node == e.input_node:  # pragma: no cover - impossible by construction
-                raise AssertionError
-            return elements.beam(omega, e.element, p_in, p_out)
-        raise AssertionError(e.kind)  # pragma: no cover
+        return elements.beam(omega, e.element, e.point_at(e.input_node), e.point_at(e.output_node))
 
-    def _rigid_first_input(self, node, p1, omega: np.ndarray) -> np.ndarray:
+    def _rigid_first_input(self, node, omega: np.ndarray) -> np.ndarray:
         """U_{i,I1} (eq. 2.8) from cached constant and ω² parts."""
         key = node.name
         if key not in self._body_cache:
             b = node.body
+            p1 = self.topology.first_input_point(key)
             both = elements.rigid_body_first_input(
                 np.array([0.0, 1.0]), b.mass, b.inertia, b.center_of_mass, p1, node.output_point
             )
             self._body_cache[key] = (both[0], both[1] - both[0])
         base, inertial = self._body_cache[key]
         return base[None] + (omega**2)[:, None, None] * inertial[None]
-
-    def _edge_input(self, index: int, n_omega: int) -> State | None:
-        topo = self.topology
-        if index in topo.cut_columns:
-            return _unknown_state(n_omega, topo.cut_columns[index])
-        if index in topo.ground_columns:
-            return _unknown_state(n_omega, topo.ground_columns[index])
-        return None
 
     def _edge_output(self, index: int, state_in: State, omega: np.ndarray) -> State:
         out = state_in.transfer(self._edge_matrix(index, omega))
@@ -230,8 +206,8 @@ class TransferSystem:
         rows: list[State] = []
         states: dict = {}
         edge_out: dict[int, State] = {}
-        for i in list(topo.cut_columns) + list(topo.ground_columns):
-            z_in = self._edge_input(i, nw)
+        for i, columns in (topo.cut_columns | topo.ground_columns).items():
+            z_in = _unknown_state(nw, columns)
             edge_out[i] = self._edge_output(i, z_in, omega)
             if keep_states:
                 states[("edge_in", i)] = z_in
@@ -291,10 +267,10 @@ class TransferSystem:
     def _node_output(self, node, inputs, omega) -> State:
         """Output state of a body from its input states (eqs. 2.4, 2.8, 2.9, 2.11)."""
         nw = omega.size
-        (z1, p1) = inputs[0]
+        z1 = inputs[0][0]
         p_out = node.output_point
         if node.kind == "rigid":
-            out = z1.transfer(self._rigid_first_input(node, p1, omega))
+            out = z1.transfer(self._rigid_first_input(node, omega))
         else:
             out = z1
         for zk, pk in inputs[1:]:

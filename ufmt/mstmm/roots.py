@@ -34,12 +34,6 @@ class Roots:
 
     frequencies_hz: np.ndarray
     expected: int  # how many the assembled model counts in (0, f_max]
-    evaluations: int  # number of U_all evaluations (cost measure)
-
-    @property
-    def complete(self) -> bool:
-        """True when the MSTMM found as many roots as the assembled model counts."""
-        return self.frequencies_hz.size >= self.expected
 
 
 def _sign_det(system: TransferSystem, omega: np.ndarray) -> np.ndarray:
@@ -71,7 +65,6 @@ def _illinois(system, lo, hi, rtol, max_iter=100):
     lost = np.sign(fa) == np.sign(fb)
     on_end = np.where(np.abs(fa) < np.abs(fb), a, b)
     a, b = np.where(lost, on_end, a), np.where(lost, on_end, b)
-    n_eval = 4 * n
     previous = np.abs(b - a)
     step = np.abs(b - a)
     for _ in range(max_iter):
@@ -87,7 +80,6 @@ def _illinois(system, lo, hi, rtol, max_iter=100):
         cpt = np.where(bad | slow, 0.5 * (aa + bb), cpt)
         s, ld = np.linalg.slogdet(system.evaluate(cpt) * r[active] * c[active])
         fc = s * np.exp(ld - ref[active])
-        n_eval += active.size
         previous[active] = np.abs(bb - aa)
         step[active] = np.abs(cpt - bb)
         flip = np.sign(fc) != np.sign(fb_)
@@ -96,7 +88,7 @@ def _illinois(system, lo, hi, rtol, max_iter=100):
         b[active] = cpt
         fb[active] = fc
         a[active] = np.where(fc == 0, cpt, a[active])
-    return b, n_eval
+    return b
 
 
 def _golden_nullity(system, centre, lo, hi, k, iters=48):
@@ -156,7 +148,7 @@ def natural_frequencies(
     est = est[est > 0]
     expected = int(np.sum(est <= fmax_hz))
     if est.size == 0:
-        return Roots(np.zeros(0), 0, 0)
+        return Roots(np.zeros(0), 0)
     f_lo = 0.5 * est[0]
     near = est[est <= fmax_hz * 1.05]
     grid = [np.linspace(f_lo, fmax_hz, 64), near, np.sqrt(near[1:] * near[:-1])]
@@ -165,23 +157,20 @@ def natural_frequencies(
     f = np.unique(np.clip(np.concatenate(grid), f_lo, fmax_hz))
     w = TWO_PI * f
     sign = _sign_det(system, w)
-    n_eval = w.size
     change = np.flatnonzero((sign[1:] != sign[:-1]) & (sign[1:] != 0) & (sign[:-1] != 0))
     exact = w[1:-1][(sign[1:-1] == 0)]
-    roots_w, cost = (np.zeros(0), 0)
-    if change.size:
-        roots_w, cost = _illinois(system, w[change], w[change + 1], rtol)
-    n_eval += cost
+    roots_w = _illinois(system, w[change], w[change + 1], rtol) if change.size else np.zeros(0)
     found = np.sort(np.concatenate([roots_w, exact])) / TWO_PI
-    found = _merge_noise_roots(found, near)
-    found = _add_even_roots(system, found, near, fmax_hz, f_lo)
-    return Roots(found, expected, n_eval)
+    windows = _windows(near, f_lo, fmax_hz)
+    found = _merge_noise_roots(found, windows)
+    found = _add_even_roots(system, found, windows, fmax_hz)
+    return Roots(found, expected)
 
 
-def _add_even_roots(system, found, near, fmax_hz, f_lo):
+def _add_even_roots(system, found, windows, fmax_hz):
     """Find repeated (even-multiplicity) roots the sign scan cannot see, near the estimates."""
     lo_list, hi_list, need, centres = [], [], [], []
-    for idx, centre, lo, hi in _windows(near, f_lo, fmax_hz):
+    for idx, centre, lo, hi in windows:
         if centre > fmax_hz:
             continue
         have = np.sum((found >= lo) & (found <= hi))
@@ -220,7 +209,7 @@ def _windows(near: np.ndarray, f_lo: float, fmax_hz: float):
     return out
 
 
-def _merge_noise_roots(found: np.ndarray, near: np.ndarray) -> np.ndarray:
+def _merge_noise_roots(found: np.ndarray, windows) -> np.ndarray:
     """Undo sign flips of det U_all caused by rounding noise near a root.
 
     At noise level det flips sign an odd number of times within ~NOISE_RTOL of one root.
@@ -228,7 +217,7 @@ def _merge_noise_roots(found: np.ndarray, near: np.ndarray) -> np.ndarray:
     three consecutive roots a < b < c spanning less than NOISE_RTOL are replaced by b.
     """
     out = np.sort(found)
-    for idx, _, lo, hi in _windows(near, 0.0, np.inf):
+    for idx, _, lo, hi in windows:
         while True:
             inside = np.flatnonzero((out >= lo) & (out <= hi))
             if inside.size <= idx.size or inside.size < 3:

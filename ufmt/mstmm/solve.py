@@ -14,8 +14,8 @@ from threadpoolctl import threadpool_limits
 
 from ufmt.assembled import assembled_modes
 from ufmt.errors import UfmtError
-from ufmt.model.schema import Beam, Model, RigidBody
-from ufmt.mstmm.modes import ModeShapes, mode_shapes
+from ufmt.model.schema import Model
+from ufmt.mstmm.modes import ModeShapes, kinetic_terms, mode_shapes
 from ufmt.mstmm.overall import TransferSystem
 from ufmt.mstmm.roots import natural_frequencies
 
@@ -119,24 +119,7 @@ def _pad(fmax_hz):
 
 def energy_shares(model: Model, shapes: ModeShapes) -> np.ndarray:
     """Kinetic energy per body and direction [share of the mode's total] (n, bodies, 6)."""
-    n = shapes.frequencies_hz.size
-    out = np.zeros((n, len(model.bodies), 6))
-    for b_i, body in enumerate(model.bodies):
-        if isinstance(body, RigidBody):
-            v = shapes.rigid[body.name]
-            out[:, b_i, :3] = body.mass * v[:, :3] ** 2
-            rot = v[:, 3:]  # θᵀJθ split along the global axes as θ_i (Jθ)_i
-            out[:, b_i, 3:] = rot * (rot @ body.inertia)
-        elif isinstance(body, Beam):
-            _, wts, mot = shapes.beams[body.name]
-            out[:, b_i, :3] = (
-                body.density * body.area * (mot[:, :, :3] ** 2 * wts[None, :, None]).sum(axis=1)
-            )
-            axis = (body.end - body.start) / body.length
-            twist = mot[:, :, 3:] @ axis
-            out[:, b_i, 3:] = (body.density * body.polar_moment * twist**2 @ wts)[:, None] * (
-                axis**2
-            )[None, :]
+    out = kinetic_terms(model, shapes.rigid, shapes.beams)
     total = out.sum(axis=(1, 2), keepdims=True)
     total[total == 0] = 1.0
     return out / total

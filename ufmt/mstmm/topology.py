@@ -21,6 +21,7 @@ from scipy.linalg import qr
 
 from ufmt.errors import ModelError
 from ufmt.model.schema import GROUND, Beam, Hinge, Model, RigidBody
+from ufmt.mstmm.elements import tilde
 
 #: Unknown label kinds of the overall state vector Z_all.
 DISPLACEMENT_NAMES = ("x", "y", "z", "θx", "θy", "θz")
@@ -81,6 +82,13 @@ class Topology:
     released_columns: dict[int, dict[int, int]]  # edge -> {direction: δ column}
     free_tip_columns: dict[str, np.ndarray]  # node -> 6 displacement columns
     root_columns: dict[int, np.ndarray]  # root edge -> 6 reaction columns
+
+    def first_input_point(self, name: str) -> np.ndarray:
+        """Point of a node's first input end I1 [m]; a free tip's is its output point."""
+        node = self.nodes[name]
+        if node.inputs:
+            return self.edges[node.inputs[0][0]].point_at(name)
+        return node.output_point
 
     @property
     def order_size(self) -> int:
@@ -278,9 +286,7 @@ def drop_redundant_rigid(model: Model) -> Model:
                 ref = refs.get(node, h.at)
                 lever = np.asarray(h.at) - ref
                 motion = np.eye(6)
-                motion[0:3, 3:6] = -np.array(
-                    [[0, -lever[2], lever[1]], [lever[2], 0, -lever[0]], [-lever[1], lever[0], 0]]
-                )
+                motion[0:3, 3:6] = -tilde(lever)
                 entries.append((nodes.setdefault(node, len(nodes)), sign * motion[j]))
             rows.append(entries)
             owners.append((h.name, int(j)))
