@@ -6,12 +6,11 @@ eigen-solution with a converged beam mesh. Target (issue 2): ratio <= 5, no miss
 
 import statistics
 import time
-from importlib import resources
 
 import numpy as np
 
 from ufmt.assembled import assembled_modes
-from ufmt.model.load import load_model
+from ufmt.model.load import load_model, packaged_path
 from ufmt.mstmm.solve import solve_modes
 
 FMAX_HZ = 1000.0
@@ -28,8 +27,7 @@ def median_seconds(fn) -> float:
 
 
 def main() -> None:
-    path = resources.files("ufmt") / "data" / "ufmt-prior.toml"
-    model = load_model(str(path))
+    model = load_model(packaged_path("ufmt-prior.toml"))
     asm = assembled_modes(model, fmax_hz=FMAX_HZ)
     mst = solve_modes(model, fmax_hz=FMAX_HZ, shapes=False)
     f_a = np.asarray(asm.frequencies_hz)

@@ -8,14 +8,13 @@ Medians; BLAS single-threaded (small matrices).
 
 import statistics
 import time
-from importlib import resources
 
 import numpy as np
 from threadpoolctl import threadpool_limits
 
 from ufmt.dynamics.modal import modal_basis
 from ufmt.dynamics.process import Process
-from ufmt.model.load import load_model
+from ufmt.model.load import load_model, packaged_path
 from ufmt.simulate import simulate
 
 
@@ -29,7 +28,7 @@ def median_ms(fn, repeats) -> float:
 
 
 def main() -> None:
-    model = load_model(str(resources.files("ufmt") / "data" / "ufmt.toml"))
+    model = load_model(packaged_path())
     h31 = model.hinge("h31")
     rng = np.random.default_rng(0)
     reference = Process(300.0, 15.0, 4.0)

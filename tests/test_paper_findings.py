@@ -2,23 +2,22 @@
 the force calibration of Table 4 (the packaged model's force scale reproduces the measured PV).
 """
 
-import tomllib
 from functools import lru_cache
-from importlib import resources
 
 import numpy as np
 import pytest
 
 from ufmt.dynamics.process import Process
-from ufmt.model.load import load_model
+from ufmt.model.load import load_model, packaged_path
 from ufmt.simulate import simulate
+from ufmt.tomlfile import read_toml
 
 REFERENCE = Process(300.0, 15.0, 4.0)
 
 
 @lru_cache(maxsize=1)
 def packaged():
-    return load_model(str(resources.files("ufmt") / "data" / "ufmt.toml"))
+    return load_model(packaged_path())
 
 
 def pv(model, process=REFERENCE, **options) -> float:
@@ -38,8 +37,7 @@ def scaled_hinge(name, translation=(1, 1, 1), rotation=(1, 1, 1)):
 def test_force_scale_reproduces_the_measured_pv():
     """Table 4: 142.91 nm measured; the force scale was fitted on the exact time path, and the
     fast periodic path agrees within the 1 % the issue asks for."""
-    with open(resources.files("ufmt") / "data" / "paper_reference.toml", "rb") as fh:
-        measured = tomllib.load(fh)["surface_pv"]["measured_nm"]
+    measured = read_toml(packaged_path("paper_reference.toml"))["surface_pv"]["measured_nm"]
     assert pv(packaged()) == pytest.approx(measured, rel=0.01)
 
 

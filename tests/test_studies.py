@@ -22,6 +22,7 @@ import pytest
 
 from ufmt.errors import StudyError
 from ufmt.evaluate import apply_design, design_value, evaluate
+from ufmt.model.load import packaged_path
 from ufmt.studies.optimise import (
     Space,
     fit_convex_quadratic,
@@ -737,7 +738,7 @@ def test_evaluate_reuses_the_basis_and_caches_on_the_model_content(tmp_path, mon
     monkeypatch.setenv("UFMT_CACHE_DIR", str(tmp_path / "cache"))
     monkeypatch.setattr(evaluate_module, "_BASES", {})
     model = tmp_path / "ufmt.toml"
-    model.write_bytes(evaluate_module.packaged_model_path().read_bytes())
+    model.write_bytes(packaged_path().read_bytes())
     computed = []
     real = ufmt.dynamics.modal.modal_basis
 

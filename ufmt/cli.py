@@ -9,25 +9,17 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-from importlib import resources
 
 from threadpoolctl import threadpool_limits
 
 from ufmt.errors import UfmtError
 
-PACKAGED_MODEL = "ufmt.toml"
-
-
-def packaged_model_path() -> str:
-    """Path of the packaged (calibrated) UFMT model."""
-    return str(resources.files("ufmt") / "data" / PACKAGED_MODEL)
-
 
 def load(path: str | None):
     """The model at ``path``, or the packaged UFMT."""
-    from ufmt.model.load import load_model
+    from ufmt.model.load import load_model, packaged_path
 
-    return load_model(path or packaged_model_path())
+    return load_model(path or packaged_path())
 
 
 def positive(kind):

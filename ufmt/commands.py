@@ -13,26 +13,16 @@ from __future__ import annotations
 
 import argparse
 import time
-from importlib import resources
 from pathlib import Path
 
-from ufmt.cli import positive
+from ufmt.cli import load, positive
 from ufmt.errors import UfmtError
+from ufmt.model.load import packaged_path
 
 RESULTS = Path("results") / "validation"
 DEFAULT_LOG = RESULTS / "identification-log.csv"
 DEFAULT_PLOTTED_MODES = "1,11,12,18,29"  # mode 1 and the tool-tip z modes of section 4.1
 N_MODES = 30  # modes in the validation table (the paper's first thirty, section 2.5)
-
-
-def _data(name: str) -> str:
-    return str(resources.files("ufmt") / "data" / name)
-
-
-def _model(path: str | None):
-    from ufmt.model.load import load_model
-
-    return load_model(path or _data("ufmt.toml"))
 
 
 def _mode_number(text: str) -> int:
@@ -82,7 +72,9 @@ def cmd_calibrate(args) -> int:
     from ufmt.studies.identify import calibrate
 
     t0 = time.perf_counter()
-    run = calibrate(args.settings or _data("calibration.toml"), args.prior, args.output, args.log)
+    run = calibrate(
+        args.settings or packaged_path("calibration.toml"), args.prior, args.output, args.log
+    )
     result = run.identification
     print(
         f"identified {len(result.parameters)} factors in {time.perf_counter() - t0:.1f} s "
@@ -120,9 +112,9 @@ def cmd_validate(args) -> int:
     from ufmt.plots.modes import plot_frequencies, plot_mode
     from ufmt.validation import read_reference, validate, write_table
 
-    model = _model(args.model)
+    model = load(args.model)
     out = Path(args.output_dir)
-    result = validate(model, read_reference(_data("paper_reference.toml")), N_MODES)
+    result = validate(model, read_reference(packaged_path("paper_reference.toml")), N_MODES)
     write_table(result.table, out / "frequencies.csv")
     plot_frequencies(result.table, out / "frequencies.png")
     lines = describe(model, result.modes.shares, top=3)
@@ -134,7 +126,7 @@ def cmd_validate(args) -> int:
     if model.machine:
         from ufmt.dynamics.validation import response_table
 
-        table = response_table(model, _data("paper_reference.toml"))
+        table = response_table(model, packaged_path("paper_reference.toml"))
         table.to_csv(out / "response.csv", index=False, float_format="%.6g")
         print(table.drop(columns=["note"]).to_string(index=False))
         print(f"wrote response.csv in {out}")
@@ -146,7 +138,7 @@ def cmd_plot_mode(args) -> int:
     from ufmt.mstmm.solve import describe, solve_modes
     from ufmt.plots.modes import plot_mode
 
-    model = _model(args.model)
+    model = load(args.model)
     solution = solve_modes(model, count=args.mode, method="mstmm", shapes=True)
     if solution.frequencies_hz.size < args.mode:
         raise UfmtError(

@@ -32,7 +32,6 @@ from __future__ import annotations
 
 import functools
 import hashlib
-import importlib.resources
 import math
 import os
 import re
@@ -44,6 +43,7 @@ from pathlib import Path
 import numpy as np
 
 from ufmt.errors import StudyError
+from ufmt.model.load import packaged_path
 
 HEAD_HINGE = "h31"
 SPINDLE_HINGE = "h25"
@@ -149,14 +149,9 @@ def design_value(model, name: str) -> float:
 # model file and code identity
 
 
-def packaged_model_path() -> Path:
-    """Path of the packaged, calibrated UFMT model (``ufmt/data/ufmt.toml``)."""
-    return Path(str(importlib.resources.files("ufmt") / "data" / "ufmt.toml"))
-
-
 def model_file(model: str | os.PathLike | None) -> Path:
     """The model file to use: ``model`` or, if None, the packaged UFMT."""
-    return packaged_model_path() if model is None else Path(model)
+    return packaged_path() if model is None else Path(model)
 
 
 def cutting_travel_mm(model: str | os.PathLike | None = None) -> float:

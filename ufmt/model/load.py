@@ -18,6 +18,7 @@ import numbers
 import re
 import tomllib
 from collections.abc import Mapping
+from importlib import resources
 from pathlib import Path
 from typing import Any, NoReturn
 
@@ -67,6 +68,11 @@ _STIFFNESS_ALLOWED = ">= 0, 0 = released, inf = rigid"
 
 # ---------------------------------------------------------------------------------------------
 # public API
+
+
+def packaged_path(name: str = "ufmt.toml") -> Path:
+    """A file packaged in ``ufmt/data`` (default: the calibrated UFMT model)."""
+    return Path(str(resources.files("ufmt") / "data" / name))
 
 
 def load_model(source: str | Path) -> Model:
