@@ -124,9 +124,11 @@ def cmd_validate(args) -> int:
     plots = ", ".join(f"mode-{n}.png" for n in args.modes)
     print(f"wrote frequencies.csv, frequencies.png, {plots} in {out}")
     if model.machine:
+        from ufmt.dynamics.modal import basis_from_shapes
         from ufmt.dynamics.validation import response_table
 
-        table = response_table(model, packaged_path("paper_reference.toml"))
+        basis = basis_from_shapes(result.solution.shapes)  # the modes just validated
+        table = response_table(model, packaged_path("paper_reference.toml"), basis)
         table.to_csv(out / "response.csv", index=False, float_format="%.6g")
         print(table.drop(columns=["note"]).to_string(index=False))
         print(f"wrote response.csv in {out}")

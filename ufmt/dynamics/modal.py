@@ -13,6 +13,7 @@ import numpy as np
 from ufmt.dynamics.basis import ModalBasis
 from ufmt.errors import UfmtError
 from ufmt.model.schema import Model
+from ufmt.mstmm.modes import ModeShapes
 from ufmt.mstmm.solve import solve_modes
 
 DEFAULT_MODES = 30  # as in the paper (section 3.3)
@@ -20,10 +21,14 @@ DEFAULT_MODES = 30  # as in the paper (section 3.3)
 
 def modal_basis(model: Model, n_modes: int = DEFAULT_MODES) -> ModalBasis:
     """ModalBasis of the first ``n_modes`` modes of ``model`` (MSTMM) [SI]."""
-    sol = solve_modes(model, count=n_modes)
-    shapes = sol.shapes
+    shapes = solve_modes(model, count=n_modes).shapes
     if shapes is None or shapes.frequencies_hz.size == 0:
         raise UfmtError(f"{model.source}: the model has no elastic modes")
+    return basis_from_shapes(shapes)
+
+
+def basis_from_shapes(shapes: ModeShapes) -> ModalBasis:
+    """ModalBasis of MSTMM mode shapes (unit modal mass, rigid-body motions)."""
     n = shapes.frequencies_hz.size
     return ModalBasis(
         omega=shapes.omega,

@@ -772,13 +772,12 @@ def with_fitted_force_scale(model: Model, reference_path: str | Path) -> Model:
     3.3: 300 rpm, 15 mm/min, 4 um) give the measured surface PV, on the exact time-domain
     path (issue 4, item 5). PV is linear in the force, so the fit is a ratio.
     """
-    from ufmt.dynamics.process import Process
+    from ufmt.dynamics.validation import reference_process
     from ufmt.simulate import fit_force_scale
 
     ref = read_toml(reference_path)
-    proc = ref["reference_process"]
-    process = Process(proc["spindle_speed_rpm"], proc["feed_mm_min"], proc["depth_of_cut_um"])
-    scale = fit_force_scale(model, process, ref["surface_pv"]["measured_nm"], method="time")
+    target = ref["surface_pv"]["measured_nm"]
+    scale = fit_force_scale(model, reference_process(ref), target, method="time")
     return replace(model, machine={**model.machine, "force_scale": float(scale)})
 
 
