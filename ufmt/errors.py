@@ -1,5 +1,7 @@
 """User-facing errors: the CLI prints their message as one line and exits non-zero."""
 
+import difflib
+
 
 class UfmtError(Exception):
     """An error caused by the user's input (file, field, argument), not by a bug."""
@@ -15,3 +17,9 @@ class StudyError(UfmtError, ValueError):
 
 class ProcessError(UfmtError, ValueError):
     """Cutting-process parameters that are non-physical (<= 0, NaN)."""
+
+
+def closest_name(word, choices, cutoff: float = 0.6) -> str | None:
+    """The valid name closest to a misspelled ``word`` (difflib ratio >= cutoff), or None."""
+    close = difflib.get_close_matches(str(word), [str(c) for c in choices], n=1, cutoff=cutoff)
+    return close[0] if close else None

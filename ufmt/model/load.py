@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import copy
 import datetime
-import difflib
 import math
 import numbers
 import re
@@ -24,7 +23,7 @@ from typing import Any, NoReturn
 
 import numpy as np
 
-from ufmt.errors import ModelError
+from ufmt.errors import ModelError, closest_name
 from ufmt.model.schema import (
     GROUND,
     Beam,
@@ -213,8 +212,8 @@ def _type_name(value) -> str:
 
 
 def _suggest(word: str, choices) -> str:
-    close = difflib.get_close_matches(word, list(choices), n=1, cutoff=0.6)
-    return f"did you mean {close[0]!r}?" if close else ""
+    close = closest_name(word, choices)
+    return f"did you mean {close!r}?" if close else ""
 
 
 # ---------------------------------------------------------------------------------------------

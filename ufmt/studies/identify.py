@@ -41,7 +41,6 @@ roots): ``d ln f_m / d u_p = s_p phi_m^T K_p phi_m / (2 omega_m^2)``.
 
 from __future__ import annotations
 
-import difflib
 import hashlib
 import math
 import time
@@ -56,7 +55,7 @@ from scipy.optimize import differential_evolution
 from threadpoolctl import threadpool_limits
 
 from ufmt.assembled import AssembledModel, assemble, assembled_modes
-from ufmt.errors import StudyError
+from ufmt.errors import StudyError, closest_name
 from ufmt.model.load import load_model, model_to_toml
 from ufmt.model.schema import Model
 from ufmt.tomlfile import read_toml
@@ -180,8 +179,8 @@ def _fail(where: str, problem: str):
 
 
 def _suggest(word, choices) -> str:
-    close = difflib.get_close_matches(str(word), [str(c) for c in choices], n=1)
-    return f" (did you mean {close[0]!r}?)" if close else ""
+    close = closest_name(word, choices)
+    return f" (did you mean {close!r}?)" if close else ""
 
 
 def _check_keys(where: str, table: dict, allowed) -> None:

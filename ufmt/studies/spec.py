@@ -42,7 +42,6 @@ Every problem raises :class:`~ufmt.errors.StudyError` with one line naming the f
 
 from __future__ import annotations
 
-import difflib
 import itertools
 import math
 import numbers
@@ -56,7 +55,7 @@ from typing import Any, NoReturn
 import numpy as np
 
 from ufmt.dynamics.process import TABLE1_RANGE
-from ufmt.errors import StudyError
+from ufmt.errors import StudyError, closest_name
 from ufmt.evaluate import (
     PROCESS_PARAMETERS,
     is_design_parameter,
@@ -327,8 +326,8 @@ class _Where:
 
 
 def _hint(word: str, choices, what: str) -> str:
-    close = difflib.get_close_matches(word, list(choices), n=1, cutoff=0.5)
-    return f"did you mean {close[0]!r}?" if close else f"{what}: {', '.join(choices)}"
+    close = closest_name(word, choices, cutoff=0.5)
+    return f"did you mean {close!r}?" if close else f"{what}: {', '.join(choices)}"
 
 
 def _check_keys(where: _Where, prefix: str, table: Mapping, valid) -> None:
