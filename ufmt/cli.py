@@ -85,27 +85,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--method", choices=["mstmm", "assembled"], default="mstmm")
     p.add_argument("--json", action="store_true", help="one JSON object on stdout")
     p.set_defaults(func=cmd_modes)
-    for register in _extensions():
+    # the other modules add their own sub-parsers (imported here: they import this module)
+    from ufmt.commands import register as register_model_commands
+    from ufmt.dynamics.cli import register as register_dynamics_commands
+    from ufmt.studies.cli import add_run_parser
+
+    for register in (register_model_commands, register_dynamics_commands, add_run_parser):
         register(sub)
     return parser
-
-
-def _extensions():
-    """Sub-command registrars of the other modules (each adds its own sub-parser)."""
-    found = []
-    for module, name in (
-        ("ufmt.commands", "register"),
-        ("ufmt.dynamics.cli", "register"),
-        ("ufmt.studies.cli", "add_run_parser"),
-    ):
-        try:
-            mod = __import__(module, fromlist=[name])
-        except ModuleNotFoundError as exc:
-            if exc.name != module:
-                raise
-            continue
-        found.append(getattr(mod, name))
-    return found
 
 
 class _Parser(argparse.ArgumentParser):
@@ -121,8 +108,9 @@ def main(argv=None) -> int:
     try:
         if args.command == "run":  # the study runner limits BLAS threads per worker itself
             return int(args.func(args) or 0)
-        with threadpool_limits(limits=1, user_api="blas"):  # small matrices: threads only
-            return int(args.func(args) or 0)  # add contention
+        # the matrices are small (order ~100): BLAS threads would only add contention
+        with threadpool_limits(limits=1, user_api="blas"):
+            return int(args.func(args) or 0)
     except UfmtError as exc:
         print(f"ufmt {args.command}: error: {exc}", file=sys.stderr)
         return 2
