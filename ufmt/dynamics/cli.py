@@ -3,8 +3,6 @@
 from __future__ import annotations
 
 import json
-import sys
-import warnings
 from pathlib import Path
 
 import numpy as np
@@ -47,10 +45,6 @@ def register(subparsers) -> None:
     p.set_defaults(func=cmd_frf)
 
 
-def _warn_one_line(message, category, filename, lineno, file=None, line=None):
-    print(f"warning: {message}", file=sys.stderr)
-
-
 def cmd_simulate(args) -> int:
     """Run one process on a model and report the surface metrics."""
     from ufmt.cli import load
@@ -58,9 +52,7 @@ def cmd_simulate(args) -> int:
     from ufmt.simulate import simulate
 
     model = load(args.model)
-    with warnings.catch_warnings():
-        warnings.showwarning = _warn_one_line
-        process = Process(args.rpm, args.feed, args.depth)
+    process = Process(args.rpm, args.feed, args.depth)
     options = {} if args.zeta is None else {"zeta": args.zeta}
     result = simulate(model, process, n_modes=args.modes, method=args.method, **options)
     metrics = {k: float(v) for k, v in result.metrics.items()}
