@@ -30,7 +30,9 @@ class ModeShapes:
     (n, 6) motion [r_C (m); θ (rad)] per unit modal mass; virtual: body -> (n, 6) motion at
     its point; beams: beam -> (positions (g, 3) [m],
     weights (g,) [m], motion (n, g, 6)). Shapes have unit modal mass; ``modal_mass`` (n,) [kg]
-    is the modal mass of each shape scaled to a largest translation of 1 (eq. 3.11).
+    is the modal mass of each shape scaled to a largest translation of 1 (eq. 3.11). Points
+    of rigid bodies: ``ufmt.dynamics.modal.basis_from_shapes(shapes).point_shapes``; points
+    along beams: :func:`beam_shape`.
     """
 
     frequencies_hz: np.ndarray
@@ -45,12 +47,6 @@ class ModeShapes:
     def omega(self) -> np.ndarray:
         """Natural angular frequencies [rad/s]."""
         return 2 * np.pi * self.frequencies_hz
-
-    def point_motion(self, body: str, points) -> np.ndarray:
-        """Translation (n, P, 3) of points (P, 3) [m] rigidly attached to a rigid body."""
-        v = self.rigid[body]
-        d = np.atleast_2d(points) - self.centers[body]
-        return v[:, None, :3] + np.cross(v[:, None, 3:], d[None, :, :])
 
 
 def _null_vectors(u: np.ndarray, u_near: np.ndarray, multiplicity: int) -> np.ndarray:
