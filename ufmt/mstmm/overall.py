@@ -251,8 +251,6 @@ class TransferSystem:
                 ident = np.broadcast_to(np.eye(12), (nw, 12, 12))
                 rows.append(out + State(cols, -ident))
                 out = State(cols, ident)
-                if keep_states:
-                    states[("segment", name)] = out
             edge_out[i] = self._edge_output(i, out, omega)
             if keep_states:
                 states[("edge_in", i)] = out
