@@ -12,8 +12,8 @@ import time
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-from ufmt.dynamics.modal import modal_basis
-from ufmt.dynamics.process import Process
+from ufmt.machining.modal import modal_basis
+from ufmt.machining.process import Process
 from ufmt.model.load import load_model, packaged_path
 from ufmt.simulate import simulate
 

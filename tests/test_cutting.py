@@ -7,21 +7,20 @@ import numpy as np
 import pytest
 from machine_table import MACHINE
 
-from ufmt.dynamics.basis import ModalBasis
-from ufmt.dynamics.cutting import (
+from ufmt.errors import ModelError, ProcessError
+from ufmt.machining.basis import ModalBasis
+from ufmt.machining.cutting import (
     ForceCoefficients,
     chip_factor,
     chip_factor_cells,
     cutting_force,
-    machine_of,
-    read_machine,
     tool_over_workpiece,
     tool_tip,
     tool_tip_rates,
 )
-from ufmt.dynamics.process import Process, ProcessRangeWarning
-from ufmt.dynamics.response import cut_geometry
-from ufmt.errors import ModelError, ProcessError
+from ufmt.machining.process import Process, ProcessRangeWarning
+from ufmt.machining.response import cut_geometry
+from ufmt.model.machine import machine_of, read_machine
 from ufmt.model.schema import Model
 
 # --- process ------------------------------------------------------------------------------

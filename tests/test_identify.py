@@ -1,4 +1,4 @@
-"""Identification of hinge stiffnesses (ufmt.studies.identify).
+"""Identification of hinge stiffnesses (ufmt.calibration.identify).
 
 Oracles: an independent eigen-solution (``ufmt.assembled.assembled_modes`` on the model with the
 stiffnesses written in) for the cheap affine model and for the "measured" frequencies of a
@@ -15,10 +15,8 @@ import numpy as np
 import pytest
 
 from ufmt.assembled import assembled_modes
-from ufmt.cli import main
-from ufmt.errors import StudyError
-from ufmt.model.load import load_model
-from ufmt.studies.identify import (
+from ufmt.calibration.frequencies import Reference, ReferenceMode, Tag, modeset_from_dofs
+from ufmt.calibration.identify import (
     Parameter,
     ReducedModel,
     Settings,
@@ -28,7 +26,9 @@ from ufmt.studies.identify import (
     identify,
     load_calibration,
 )
-from ufmt.validation import Reference, ReferenceMode, Tag, modeset_from_dofs
+from ufmt.cli import main
+from ufmt.errors import StudyError
+from ufmt.model.load import load_model
 
 DATA = Path(__file__).resolve().parents[1] / "ufmt" / "data"
 CALIBRATION = DATA / "calibration.toml"

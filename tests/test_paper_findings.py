@@ -7,7 +7,7 @@ from functools import lru_cache
 import numpy as np
 import pytest
 
-from ufmt.dynamics.process import Process
+from ufmt.machining.process import Process
 from ufmt.model.load import load_model, packaged_path
 from ufmt.simulate import simulate
 from ufmt.tomlfile import read_toml

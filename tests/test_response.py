@@ -5,11 +5,11 @@ import pytest
 from machine_table import MACHINE
 from scipy.signal import lfilter
 
-from ufmt.dynamics.basis import ModalBasis
-from ufmt.dynamics.cutting import ForceCoefficients, read_machine
-from ufmt.dynamics.frf import tool_workpiece_receptance
-from ufmt.dynamics.process import Process
-from ufmt.dynamics.response import (
+from ufmt.machining.basis import ModalBasis
+from ufmt.machining.cutting import ForceCoefficients
+from ufmt.machining.frf import tool_workpiece_receptance
+from ufmt.machining.process import Process
+from ufmt.machining.response import (
     _outputs,
     cut_geometry,
     discrete_receptance,
@@ -19,9 +19,10 @@ from ufmt.dynamics.response import (
     record_slide,
     time_response,
 )
+from ufmt.machining.surface import machined_surface, steady_region
+from ufmt.model.machine import read_machine
 from ufmt.model.schema import Model
 from ufmt.simulate import fit_force_scale, simulate
-from ufmt.surface import machined_surface, steady_region
 
 # a small plate so that the whole-workpiece time path takes a fraction of a second
 SMALL = {**MACHINE, "tool_radius": 0.06, "workpiece_size": [0.1, 0.2]}
@@ -211,7 +212,7 @@ def test_periodic_and_time_paths_agree_over_the_whole_workpiece(turning):
     """Whole plate, edges included: within 1 % on this plate and basis.
 
     (The edge transients can be larger: on the UFMT prior model the default table is 1-7 %
-    low, see ufmt.dynamics.response; this checks the table and surface machinery end to end.)
+    low, see ufmt.machining.response; this checks the table and surface machinery end to end.)
     """
     s_per, s_tim = surfaces(turning)
     assert np.ptp(s_tim.z) == pytest.approx(np.ptp(s_per.z), rel=0.01)

@@ -227,7 +227,7 @@ def test_bad_study_files_give_one_line_naming_file_and_field(tmp_path, body, fie
 
 
 def test_bad_study_through_cli_exits_2_with_one_line(tmp_path, capsys):
-    from ufmt.studies.cli import main
+    from ufmt.cli import main
 
     path = tmp_path / "bad.toml"
     path.write_text('kind = "sweep"\n[[axis]]\nparameter = "rpm"\nvalues = []', encoding="utf-8")
@@ -332,7 +332,7 @@ def test_killed_run_resumes_to_the_same_table(tmp_path):
 
     results = tmp_path / "results"
     log = results / "killed" / "points.csv"
-    command = [sys.executable, "-m", "ufmt.studies.cli", "run", str(study), "--jobs", "2"]
+    command = [sys.executable, "-m", "ufmt.cli", "run", str(study), "--jobs", "2"]
     command += ["--results", str(results), "--no-progress"]
     proc = subprocess.Popen(command, cwd=REPO, start_new_session=True, stderr=subprocess.DEVNULL)
     try:
@@ -732,7 +732,7 @@ def test_optimise_design_on_the_model_with_a_small_budget(tmp_path, monkeypatch)
 def test_evaluate_reuses_the_basis_and_caches_on_the_model_content(tmp_path, monkeypatch):
     import importlib
 
-    import ufmt.dynamics.modal
+    import ufmt.machining.modal
 
     evaluate_module = importlib.import_module("ufmt.evaluate")  # ufmt.evaluate is the function
     monkeypatch.setenv("UFMT_CACHE_DIR", str(tmp_path / "cache"))
@@ -740,13 +740,13 @@ def test_evaluate_reuses_the_basis_and_caches_on_the_model_content(tmp_path, mon
     model = tmp_path / "ufmt.toml"
     model.write_bytes(packaged_path().read_bytes())
     computed = []
-    real = ufmt.dynamics.modal.modal_basis
+    real = ufmt.machining.modal.modal_basis
 
     def counting(*args):
         computed.append(args)
         return real(*args)
 
-    monkeypatch.setattr(ufmt.dynamics.modal, "modal_basis", counting)
+    monkeypatch.setattr(ufmt.machining.modal, "modal_basis", counting)
     first = evaluate({}, {}, model)
     slower = evaluate({}, {"rpm": 250.0}, model)
     assert first["status"] == slower["status"] == "ok"
@@ -756,7 +756,7 @@ def test_evaluate_reuses_the_basis_and_caches_on_the_model_content(tmp_path, mon
     def broken(*args):
         raise RuntimeError("modal basis must not be recomputed")
 
-    monkeypatch.setattr(ufmt.dynamics.modal, "modal_basis", broken)
+    monkeypatch.setattr(ufmt.machining.modal, "modal_basis", broken)
     monkeypatch.setattr(evaluate_module, "_BASES", {})
     assert evaluate({}, {}, model) == first  # served from the disk cache
     with model.open("a", encoding="utf-8") as f:

@@ -4,11 +4,11 @@ import numpy as np
 import pytest
 from machine_table import MACHINE
 
-from ufmt.dynamics.basis import ModalBasis
-from ufmt.dynamics.cutting import read_machine
-from ufmt.dynamics.process import Process
-from ufmt.dynamics.response import ZreTable, cut_geometry, periodic_response
-from ufmt.surface import DEFAULT_SPACING, Surface, machined_surface, surface_metrics
+from ufmt.machining.basis import ModalBasis
+from ufmt.machining.process import Process
+from ufmt.machining.response import ZreTable, cut_geometry, periodic_response
+from ufmt.machining.surface import DEFAULT_SPACING, Surface, machined_surface, surface_metrics
+from ufmt.model.machine import read_machine
 
 N_PHI = 512
 

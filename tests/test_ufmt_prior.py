@@ -18,8 +18,8 @@ import numpy as np
 import pytest
 import scipy.linalg
 
-from ufmt.dynamics.cutting import read_machine
 from ufmt.model.load import load_model
+from ufmt.model.machine import read_machine
 from ufmt.model.schema import GROUND, Beam, RigidBody, VirtualBody
 
 DATA = Path(__file__).resolve().parents[1] / "ufmt" / "data"

@@ -1,4 +1,4 @@
-"""Validation against Table 3 (ufmt.validation) and the packaged, identified model.
+"""Validation against Table 3 (ufmt.calibration.frequencies) and the packaged, identified model.
 
 Oracles: the committed validation table (golden file, regenerated with ``make validate``);
 the assembled mass-stiffness model as an independent solver of the same file; issue 3's
@@ -15,10 +15,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from ufmt.errors import StudyError
-from ufmt.model.load import load_model
-from ufmt.plots.modes import equivalent_box, plot_frequencies, plot_mode
-from ufmt.validation import (
+from ufmt.calibration.frequencies import (
     ModeSet,
     Reference,
     ReferenceMode,
@@ -30,6 +27,9 @@ from ufmt.validation import (
     tool_tip_neighbours,
     validate,
 )
+from ufmt.errors import StudyError
+from ufmt.model.load import load_model
+from ufmt.plots.modes import equivalent_box, plot_frequencies, plot_mode
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT / "ufmt" / "data"

@@ -15,8 +15,8 @@ __version__ = "0.1.0"
 # Imported eagerly: the functions ``simulate`` and ``evaluate`` share their names with their
 # modules, and binding them here (after the submodules load) keeps ``ufmt.simulate`` the
 # function whatever is imported later.
-from ufmt.dynamics.process import Process  # noqa: E402
 from ufmt.evaluate import evaluate  # noqa: E402
+from ufmt.machining.process import Process  # noqa: E402
 from ufmt.model.load import load_model  # noqa: E402
 from ufmt.mstmm.solve import solve_modes  # noqa: E402
 from ufmt.simulate import simulate  # noqa: E402

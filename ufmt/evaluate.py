@@ -70,7 +70,7 @@ _HINGE_PARAMETER = re.compile(
     r"hinge\.(?P<hinge>[^.\[\]]+)\.(?P<field>stiffness|rotational_stiffness)\[(?P<index>[012])\]"
 )
 _PACKAGE = Path(__file__).resolve().parent
-_NOT_PHYSICS = ("studies", "plots")
+_NOT_PHYSICS = ("studies", "plots", "cli", "calibration")
 
 
 # ---------------------------------------------------------------------------------------------
@@ -157,8 +157,8 @@ def model_file(model: str | os.PathLike | None) -> Path:
 def cutting_travel_mm(model: str | os.PathLike | None = None) -> float:
     """Slide travel of one finishing pass [mm]: workpiece length along y + 2 R, from the first
     touch of the tool circle to its exit (``Machine.cut_span`` of the model's ``[machine]``)."""
-    from ufmt.dynamics.cutting import machine_of
     from ufmt.model.load import load_model
+    from ufmt.model.machine import machine_of
 
     low, high = machine_of(load_model(model_file(model))).cut_span
     return (high - low) * 1e3
@@ -265,7 +265,7 @@ def _memory_cached(location: str | None):
 
 def _physics(design_items, process_items, model_sha, code_sha, path) -> dict:
     """Metrics [nm] and frequencies [Hz] of one case; raises on any failure (not cached)."""
-    from ufmt.dynamics.process import Process
+    from ufmt.machining.process import Process
     from ufmt.simulate import simulate
 
     with warnings.catch_warnings(record=True) as caught:
@@ -307,7 +307,7 @@ _BASES_LOCK = threading.Lock()  # dask workers may evaluate in threads
 def _modal_basis(model, key):
     """Modal basis (first N_MODES modes) of ``model``, kept for the last BASIS_CACHE designs so
     that process changes on a known design reuse it."""
-    from ufmt.dynamics.modal import modal_basis
+    from ufmt.machining.modal import modal_basis
 
     with _BASES_LOCK:
         basis = _BASES.pop(key, None)

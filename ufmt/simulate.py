@@ -16,10 +16,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ufmt.dynamics.basis import ModalBasis
-from ufmt.dynamics.cutting import ForceCoefficients, Machine, machine_of, read_machine
-from ufmt.dynamics.process import Process
-from ufmt.dynamics.response import (
+from ufmt.machining.basis import ModalBasis
+from ufmt.machining.cutting import ForceCoefficients
+from ufmt.machining.process import Process
+from ufmt.machining.response import (
     DEFAULT_COEFFICIENTS,
     DEFAULT_N_PHI,
     DEFAULT_RECORD_PERIODS,
@@ -31,7 +31,8 @@ from ufmt.dynamics.response import (
     periodic_response,
     time_response,
 )
-from ufmt.surface import DEFAULT_SPACING, Surface, machined_surface, surface_metrics
+from ufmt.machining.surface import DEFAULT_SPACING, Surface, machined_surface, surface_metrics
+from ufmt.model.machine import Machine, machine_of, read_machine
 
 METHODS = ("periodic", "time")
 
@@ -41,9 +42,9 @@ class SimulationResult:
     """Everything one simulation produced.
 
     metrics [nm, mm/s^2]: pv_nm, pv_tilt_removed_nm, rms_nm, psd1_rms_nm, psd2_rms_nm,
-    grid_spacing_mm (see :func:`ufmt.surface.surface_metrics`), zre_peak_nm (mean over the
+    grid_spacing_mm (see :func:`ufmt.machining.surface.surface_metrics`), zre_peak_nm (mean over the
     record window's spindle periods of the largest |z_re| in each; the window sits mid-cut, at
-    :func:`ufmt.dynamics.response.record_slide`) and tip_acc_peak_mm_s2 (the same for the
+    :func:`ufmt.machining.response.record_slide`) and tip_acc_peak_mm_s2 (the same for the
     tool-tip z acceleration, in mm/s^2), force_scale.
     """
 
@@ -88,26 +89,27 @@ def simulate(
     process : :class:`Process` (rpm, feed_mm_min, depth_um).
     n_modes : modes kept (paper: 30).
     zeta : modal damping ratio, scalar or (n_modes,) array (default 0.03, see
-        :mod:`ufmt.dynamics.response`).
+        :mod:`ufmt.machining.response`).
     method : "periodic" (frequency domain, milliseconds; quasi-static in the slide position,
         so a few per cent low where transients at the plate's entry and exit edges set the PV)
         or "time" (every revolution of the whole workpiece, exact recurrence, seconds; use it
-        for reference values). See :mod:`ufmt.dynamics.response`.
-    basis : modal basis to use instead of ``ufmt.dynamics.modal.modal_basis(model, n_modes)``.
+        for reference values). See :mod:`ufmt.machining.response`.
+    basis : modal basis to use instead of ``ufmt.machining.modal.modal_basis(model, n_modes)``.
     force_scale : factor on the force coefficients; default the model's ``machine.force_scale``
         (1 when absent).
     coefficients, n_phi, table_rows : force model and discretisation (see
-        :func:`ufmt.dynamics.response.cut_geometry`).
+        :func:`ufmt.machining.response.cut_geometry`).
     spacing, nose_radius, trailing_arc : surface grid step [m] (one value or (x, y)),
         kinematic marks [m] (off) and back-cutting (off), see
-        :func:`ufmt.surface.machined_surface`. The defaults (grid 1 x 2 mm with refined edge
-        bands, 192 table rows) keep the PV within ~1-3 % of a converged time-domain surface;
+        :func:`ufmt.machining.surface.machined_surface`. The defaults (grid 1 x 2 mm with
+        refined edge bands, 192 table rows) keep the PV within ~1-3 % of a converged time-domain
+        surface;
         ``spacing=2e-3, table_rows=96`` is about twice as fast and 1-7 % low.
     record_periods : spindle periods in the time path's record window.
     """
     machine = machine_of(model)
     if basis is None:
-        from ufmt.dynamics.modal import modal_basis
+        from ufmt.machining.modal import modal_basis
 
         basis = modal_basis(model, n_modes)
     return _run(

@@ -31,7 +31,7 @@ class ModeShapes:
     its point; beams: beam -> (positions (g, 3) [m],
     weights (g,) [m], motion (n, g, 6)). Shapes have unit modal mass; ``modal_mass`` (n,) [kg]
     is the modal mass of each shape scaled to a largest translation of 1 (eq. 3.11). Points
-    of rigid bodies: ``ufmt.dynamics.modal.basis_from_shapes(shapes).point_shapes``; points
+    of rigid bodies: ``ufmt.machining.modal.basis_from_shapes(shapes).point_shapes``; points
     along beams: :func:`beam_shape`.
     """
 

@@ -54,7 +54,6 @@ from typing import Any, NoReturn
 
 import numpy as np
 
-from ufmt.dynamics.process import TABLE1_RANGE
 from ufmt.errors import StudyError, closest_name
 from ufmt.evaluate import (
     PROCESS_PARAMETERS,
@@ -62,6 +61,7 @@ from ufmt.evaluate import (
     is_parameter,
     parameter_names,
 )
+from ufmt.machining.process import TABLE1_RANGE
 
 KINDS = ("sweep", "grid", "optimise-process", "optimise-design", "sensitivity")
 DEFAULT_FUNCTION = "ufmt.evaluate:evaluate"

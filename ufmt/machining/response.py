@@ -6,7 +6,7 @@ tool body and its reaction on the workpiece body at the same point, f_s = (V_too
 V_work,s(p)) . F / M_s, where V_b,s(p) is the translation of point p of body b in mode s.
 
 The force is sampled at ``n_phi`` equally spaced spindle angles per revolution (each sample
-the mean of the chip factor over its cell, :func:`~ufmt.dynamics.cutting.chip_factor_cells`)
+the mean of the chip factor over its cell, :func:`~ufmt.machining.cutting.chip_factor_cells`)
 and taken as piecewise linear between samples (first-order hold). Both paths solve that forced
 problem exactly, so they differ only by the start-up transient and by the quasi-static
 assumption of (b):
@@ -30,7 +30,7 @@ assumption of (b):
     for reference values, (b) for fast studies.
 
 Mode shapes are those of the nominal configuration, taken as the halfway point of the cut (see
-:mod:`ufmt.dynamics.basis`). The workpiece is loaded at the material point under the tool: its
+:mod:`ufmt.machining.basis`). The workpiece is loaded at the material point under the tool: its
 arm from the workpiece body's centre of mass is p - C + Y y_hat, so the workpiece terms of the
 modal force and of z_re are linear in the slide position Y (``*_y`` in :class:`CutGeometry`).
 
@@ -49,10 +49,9 @@ import numpy as np
 from scipy.signal import lfilter
 from threadpoolctl import threadpool_limits
 
-from ufmt.dynamics.basis import ModalBasis
-from ufmt.dynamics.cutting import (
+from ufmt.machining.basis import ModalBasis
+from ufmt.machining.cutting import (
     ForceCoefficients,
-    Machine,
     arc_y_bounds,
     chip_factor_cells,
     cutting_force,
@@ -60,6 +59,7 @@ from ufmt.dynamics.cutting import (
     tool_tip,
     tool_tip_rates,
 )
+from ufmt.model.machine import Machine
 
 DEFAULT_ZETA = 0.03
 #: Force samples per spindle revolution (both paths): the PV converges as 1/n_phi^2 and is

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from ufmt.dynamics.process import Process
+from ufmt.machining.process import Process
 from ufmt.model.schema import Model
 from ufmt.tomlfile import read_toml
 
@@ -29,7 +29,7 @@ def response_table(model: Model, reference_path: str | Path, basis=None) -> pd.D
     Columns: quantity, unit, periodic, time, paper_simulated, paper_measured, fitted
     (True where the value was used to fit the force scale), note.
     """
-    from ufmt.dynamics.modal import modal_basis
+    from ufmt.machining.modal import modal_basis
     from ufmt.simulate import simulate
 
     ref = read_toml(reference_path)

@@ -1,12 +1,12 @@
 """Machined surface from the relative tool-workpiece motion (paper eq. 4.1) and its metrics.
 
-Tool path on the workpiece (eq. 4.1; workpiece frame, see :mod:`ufmt.dynamics.cutting`):
+Tool path on the workpiece (eq. 4.1; workpiece frame, see :mod:`ufmt.machining.cutting`):
 x = s_x + sigma R sin(phi), y = Y + R cos(phi), the slide position Y advancing by v/f per
 revolution. A grid point (x, y) is met by the leading arc at phi_f = asin((x - s_x)/(sigma R))
 when Y = y - R cos(phi_f), once per revolution in the neighbourhood of that slide position, and
 keeps the lowest z_re of the passes over it ("tool interference", section 4.2):
 z(x, y) = min over passes of z_re(phi, Y), z_re read from the response's
-:class:`~ufmt.dynamics.response.ZreTable` (cubic in phi, linear in Y).
+:class:`~ufmt.machining.response.ZreTable` (cubic in phi, linear in Y).
 
 The tool of eq. 4.1 is a point (no kinematic marks): the passes over a point are the two
 revolutions whose paths bracket it, each read at its own slide position (a time table holds
@@ -43,8 +43,8 @@ from functools import lru_cache
 import numpy as np
 from scipy.fft import next_fast_len
 
-from ufmt.dynamics.cutting import Machine
-from ufmt.dynamics.response import ZreTable
+from ufmt.machining.response import ZreTable
+from ufmt.model.machine import Machine
 
 #: Grid spacing (x, y) [m]: x finer, as the x-profile of a pass carries the vibration of the
 #: highest modes (down to ~6 mm wavelength at 200 rpm and 700 Hz); y coarser, as the surface

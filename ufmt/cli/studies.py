@@ -20,17 +20,12 @@ Arguments of ``ufmt run`` (built by :func:`add_run_parser`):
 ``--no-plots``
     Skip the PNG plots.
 
-``python -m ufmt.studies.cli run STUDY.toml ...`` is the same command without the rest of
-the ``ufmt`` CLI.
 """
 
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
-
-from ufmt.errors import UfmtError
 
 
 def _positive_int(text: str) -> int:
@@ -95,19 +90,3 @@ def run_study_cli(args: argparse.Namespace) -> int:
         f" {run['points_failed']} failed) in {run['wall_s']} s -> {out_dir}"
     )
     return 0
-
-
-def main(argv: list[str] | None = None) -> int:
-    """Stand-alone entry point: ``python -m ufmt.studies.cli run STUDY.toml [...]``."""
-    parser = argparse.ArgumentParser(prog="ufmt")
-    add_run_parser(parser.add_subparsers(dest="command", required=True))
-    args = parser.parse_args(argv)
-    try:
-        return args.func(args)
-    except UfmtError as exc:
-        print(f"ufmt run: error: {exc}", file=sys.stderr)
-        return 2
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -1,7 +1,7 @@
 """Modal data for the cutting dynamics from the MSTMM eigen-solution (paper eqs. 3.8-3.13).
 
 The first ``n_modes`` natural frequencies and mass-normalised augmented eigenvectors of the
-model become a :class:`~ufmt.dynamics.basis.ModalBasis`: for every rigid body its
+model become a :class:`~ufmt.machining.basis.ModalBasis`: for every rigid body its
 centre-of-mass translation and rotation per mode, and unit modal masses (the shapes are
 normalised so that ⟨V^s, M V^s⟩ = 1 kg; eq. 3.11 then reads q̈ + 2ζωq̇ + ω²q = ⟨f, V^s⟩).
 """
@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ufmt.dynamics.basis import ModalBasis
 from ufmt.errors import UfmtError
+from ufmt.machining.basis import ModalBasis
 from ufmt.model.schema import Model
 from ufmt.mstmm.modes import ModeShapes
 from ufmt.mstmm.solve import solve_modes

@@ -1,7 +1,7 @@
 """CLI sub-commands ``calibrate``, ``validate`` and ``plot-mode`` (registered by ufmt.cli).
 
 * ``ufmt calibrate [--prior PATH] [--settings PATH] [--output PATH] [--log PATH]``: identify the
-  hinge stiffnesses (:mod:`ufmt.studies.identify`) and write the packaged model and the log.
+  hinge stiffnesses (:mod:`ufmt.calibration.identify`) and write the packaged model and the log.
 * ``ufmt validate [MODEL] [--output-dir DIR] [--modes LIST]``: the validation table
   ``frequencies.csv``, the chart ``frequencies.png`` and ``mode-N.png`` for the listed modes.
 * ``ufmt plot-mode N [MODEL] [--output PNG] [--scale S]``: one mode shape in 3-D.
@@ -15,7 +15,7 @@ import argparse
 import time
 from pathlib import Path
 
-from ufmt.cli import load, positive
+from ufmt.cli.common import load, positive
 from ufmt.errors import UfmtError
 from ufmt.model.load import packaged_path
 
@@ -69,7 +69,7 @@ def register(subparsers) -> None:
 
 def cmd_calibrate(args) -> int:
     """Identify, write the model and the log, print the result."""
-    from ufmt.studies.identify import calibrate
+    from ufmt.calibration.identify import calibrate
 
     t0 = time.perf_counter()
     run = calibrate(
@@ -108,9 +108,9 @@ def _print_summary(model, s: dict) -> None:
 def cmd_validate(args) -> int:
     """Write frequencies.csv, frequencies.png, the mode plots and (for a model with a
     ``[machine]`` table) response.csv of section 4.2 / Table 4; print the summary."""
+    from ufmt.calibration.frequencies import read_reference, validate, write_table
     from ufmt.mstmm.solve import describe
     from ufmt.plots.modes import plot_frequencies, plot_mode
-    from ufmt.validation import read_reference, validate, write_table
 
     model = load(args.model)
     out = Path(args.output_dir)
@@ -124,8 +124,8 @@ def cmd_validate(args) -> int:
     plots = ", ".join(f"mode-{n}.png" for n in args.modes)
     print(f"wrote frequencies.csv, frequencies.png, {plots} in {out}")
     if model.machine:
-        from ufmt.dynamics.modal import basis_from_shapes
-        from ufmt.dynamics.validation import response_table
+        from ufmt.calibration.response import response_table
+        from ufmt.machining.modal import basis_from_shapes
 
         basis = basis_from_shapes(result.solution.shapes)  # the modes just validated
         table = response_table(model, packaged_path("paper_reference.toml"), basis)

@@ -12,7 +12,7 @@ DEFAULT_FRF_DIR = Path("results") / "frf"
 
 def register(subparsers) -> None:
     """Add the ``simulate`` and ``frf`` sub-parsers."""
-    from ufmt.cli import positive
+    from ufmt.cli.common import positive
 
     p = subparsers.add_parser("simulate", help="cutting response, machined surface and PV")
     p.add_argument("model", nargs="?", help="model TOML (default: packaged UFMT)")
@@ -47,8 +47,8 @@ def register(subparsers) -> None:
 
 def cmd_simulate(args) -> int:
     """Run one process on a model and report the surface metrics."""
-    from ufmt.cli import load
-    from ufmt.dynamics.process import Process
+    from ufmt.cli.common import load
+    from ufmt.machining.process import Process
     from ufmt.simulate import simulate
 
     model = load(args.model)
@@ -86,11 +86,11 @@ def cmd_frf(args) -> int:
     """Tool-workpiece receptance in z: CSV table and magnitude/phase plot."""
     import pandas as pd
 
-    from ufmt.cli import load
-    from ufmt.dynamics.cutting import machine_of
-    from ufmt.dynamics.frf import tool_workpiece_receptance
-    from ufmt.dynamics.modal import modal_basis
+    from ufmt.cli.common import load
     from ufmt.errors import UfmtError
+    from ufmt.machining.frf import tool_workpiece_receptance
+    from ufmt.machining.modal import modal_basis
+    from ufmt.model.machine import machine_of
     from ufmt.plots.response import plot_frf
 
     if args.fmin >= args.fmax:

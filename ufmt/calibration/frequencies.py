@@ -21,7 +21,7 @@ Tag check of one mode (status, best first):
 * ``class``: the mode is in another symmetry class.
 
 Tool-tip z. The tool tip is the point of ``machine.tool_body`` at radius ``tool_radius`` from
-the spindle axis in the cutting plane, taken at spindle angle phi = 0 (:func:`ufmt.dynamics.
+the spindle axis in the cutting plane, taken at spindle angle phi = 0 (:func:`ufmt.machining.
 cutting.tool_tip`): the tip pointing along +y, the middle of the leading half of the tool circle,
 where it cuts. Its z translation in a unit-modal-mass shape is ``phi_k`` [m/sqrt(kg)]; ``phi_k^2``
 is the mode's residue in the tool tip's z driving-point receptance
@@ -40,8 +40,9 @@ import numpy as np
 import pandas as pd
 
 from ufmt.assembled import AssembledModel, assembled_modes
-from ufmt.dynamics.cutting import machine_of, tool_tip
 from ufmt.errors import StudyError
+from ufmt.machining.cutting import tool_tip
+from ufmt.model.machine import machine_of
 from ufmt.model.schema import Beam, Model, RigidBody
 from ufmt.mstmm.solve import DIRECTIONS, ModalSolution, describe, energy_shares, solve_modes
 from ufmt.tomlfile import read_toml

@@ -4,9 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from ufmt.dynamics.basis import ModalBasis
-from ufmt.dynamics.cutting import Machine, tool_tip
-from ufmt.dynamics.response import DEFAULT_ZETA, modal_damping
+from ufmt.machining.basis import ModalBasis
+from ufmt.machining.cutting import tool_tip
+from ufmt.machining.response import DEFAULT_ZETA, modal_damping
+from ufmt.model.machine import Machine
 
 
 def tool_workpiece_receptance(

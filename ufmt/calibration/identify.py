@@ -7,9 +7,10 @@ listed hinges by one factor, ``k = s_p k_prior``, and is identified as ``u_p = l
     J(u) = sum_m (ln f_m(u) - ln f_t,m)^2 + rho^2 sum_p u_p^2 + penalty * (shape mismatches)
 
 where a shape mismatch is a tested mode whose computed shape contradicts its Table 3 tag (wrong
-symmetry class or a named body that does not move; :func:`ufmt.validation.check_tag`), a mode
-that is not paired by order, or a tool-tip z mode of section 4.1 whose tool tip moves less in z
-than its neighbours' (:func:`ufmt.validation.tool_tip_neighbours`).
+symmetry class or a named body that does not move;
+:func:`ufmt.calibration.frequencies.check_tag`), a mode that is not paired by order, or a
+tool-tip z mode of section 4.1 whose tool tip moves less in z than its neighbours'
+(:func:`ufmt.calibration.frequencies.tool_tip_neighbours`).
 
 Local iteration: at u_i, with the residual r and the exact sensitivities S = d ln f / d u,
 cvxpy solves the bounded, regularised least-squares step
@@ -24,7 +25,8 @@ acceptance levels unmet; then scipy's differential evolution searches all of ln 
 lowest J (deterministic seed, the local result in its initial population), and the local
 iteration restarts from its best point. The lower J of the two runs is kept.
 
-Pairing inside the loop is by symmetry class and rank (:func:`ufmt.validation.pair_by_class`):
+Pairing inside the loop is by symmetry class and rank
+(:func:`ufmt.calibration.frequencies.pair_by_class`):
 for a model whose class sequence is Table 3's it is the pairing by order, and it keeps J smooth
 when modes of different classes (e.g. Table 3 modes 12 and 13, 0.4 % apart) change places.
 Pairing by order is enforced through the penalty and checked again on the final MSTMM solution.
@@ -55,11 +57,7 @@ from scipy.optimize import differential_evolution
 from threadpoolctl import threadpool_limits
 
 from ufmt.assembled import AssembledModel, assemble, assembled_modes
-from ufmt.errors import StudyError, closest_name
-from ufmt.model.load import load_model, model_to_toml
-from ufmt.model.schema import Model
-from ufmt.tomlfile import read_toml
-from ufmt.validation import (
+from ufmt.calibration.frequencies import (
     ModeSet,
     Reference,
     Validation,
@@ -70,6 +68,10 @@ from ufmt.validation import (
     tool_tip_neighbours,
     validate,
 )
+from ufmt.errors import StudyError, closest_name
+from ufmt.model.load import load_model, model_to_toml
+from ufmt.model.schema import Model
+from ufmt.tomlfile import read_toml
 
 FIELDS = ("stiffness", "rotational_stiffness")
 COLUMNS = ("modal_test_hz", "mstmm_hz", "fem_hz")
@@ -451,7 +453,7 @@ class ReducedModel:
         return energy * s[None, :] / (2.0 * omega2[:, None])
 
     def modeset(self, frequencies_hz, shapes) -> ModeSet:
-        """The modes as a :class:`~ufmt.validation.ModeSet` (for pairing and tag checks)."""
+        """The modes as a :class:`~ufmt.calibration.frequencies.ModeSet` (pairing, tag checks)."""
         return modeset_from_dofs(self.model, self.assembled, frequencies_hz, shapes)
 
 
@@ -771,7 +773,7 @@ def with_fitted_force_scale(model: Model, reference_path: str | Path) -> Model:
     3.3: 300 rpm, 15 mm/min, 4 um) give the measured surface PV, on the exact time-domain
     path (issue 4, item 5). PV is linear in the force, so the fit is a ratio.
     """
-    from ufmt.dynamics.validation import reference_process
+    from ufmt.calibration.response import reference_process
     from ufmt.simulate import fit_force_scale
 
     ref = read_toml(reference_path)

@@ -1,0 +1,70 @@
+"""Command-line interface: ``ufmt modes | simulate | frf | calibrate | plot-mode | run``.
+
+User errors (bad model, study or argument) print one line on stderr and exit with status 2;
+no traceback. ``--json`` output is exactly one JSON object on stdout.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import warnings
+
+from threadpoolctl import threadpool_limits
+
+from ufmt.cli.calibration import register as register_calibration
+from ufmt.cli.common import positive
+from ufmt.cli.machining import register as register_machining
+from ufmt.cli.modes import cmd_modes
+from ufmt.cli.studies import add_run_parser
+from ufmt.errors import UfmtError
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(prog="ufmt", description=__doc__.splitlines()[0])
+    sub = parser.add_subparsers(dest="command", required=True)
+    p = sub.add_parser("modes", help="natural frequencies and mode descriptions")
+    p.add_argument("model", nargs="?", help="model TOML (default: packaged UFMT)")
+    p.add_argument("--fmax", type=positive(float), help="upper frequency [Hz] (default 1000)")
+    p.add_argument("--count", type=positive(int), help="number of modes")
+    p.add_argument("--method", choices=["mstmm", "assembled"], default="mstmm")
+    p.add_argument("--json", action="store_true", help="one JSON object on stdout")
+    p.set_defaults(func=cmd_modes)
+    for register in (register_calibration, register_machining, add_run_parser):
+        register(sub)
+    return parser
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with a one-line error (no usage dump) and exit status 2."""
+
+    def error(self, message):
+        self.exit(2, f"{self.prog}: error: {message}\n")
+
+
+def _warning_line(message, category, filename, lineno, file=None, line=None):
+    """Warnings (e.g. a process outside Table 1) as one line on stderr, without source."""
+    print(f"warning: {message}", file=sys.stderr)
+
+
+def main(argv=None) -> int:
+    with warnings.catch_warnings():
+        warnings.showwarning = _warning_line
+        return _main(argv)
+
+
+def _main(argv) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        if args.command == "run":  # the study runner limits BLAS threads per worker itself
+            return int(args.func(args) or 0)
+        # the matrices are small (order ~100): BLAS threads would only add contention
+        with threadpool_limits(limits=1, user_api="blas"):
+            return int(args.func(args) or 0)
+    except UfmtError as exc:
+        print(f"ufmt {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"ufmt {args.command}: interrupted", file=sys.stderr)
+        return 130

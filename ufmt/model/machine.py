@@ -1,0 +1,185 @@
+"""Machine geometry of a model: the ``[machine]`` table (tool, workpiece, spindle, cut).
+
+Frames and the meaning of every quantity are described in :mod:`ufmt.machining.cutting`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+
+from ufmt.errors import ModelError
+
+
+@dataclass(frozen=True)
+class Machine:
+    """Tool and workpiece geometry, read from the model's ``[machine]`` table.
+
+    Attributes
+    ----------
+    tool_body, workpiece_body : body names carrying the tool and the workpiece.
+    spindle_axis_xy : (x, y) of the vertical spindle axis [m].
+    cutting_plane_z : z of the tool tip = workpiece top surface [m].
+    tool_radius : fly-cutting radius R [m].
+    workpiece_size : (x, y) size of the workpiece [m].
+    workpiece_center_xy : workpiece centre when the cut is halfway (under the spindle) [m].
+    rotation : "cw" (eq. 4.1 as printed, clockwise seen from +z) or "ccw".
+    force_scale : factor on the force coefficients (optional key, default 1; see
+        :func:`ufmt.simulate.fit_force_scale`).
+    """
+
+    tool_body: str
+    workpiece_body: str
+    spindle_axis_xy: tuple[float, float]
+    cutting_plane_z: float
+    tool_radius: float
+    workpiece_size: tuple[float, float]
+    workpiece_center_xy: tuple[float, float]
+    rotation: str
+    force_scale: float = 1.0
+
+    @property
+    def sense(self) -> float:
+        """+1 for "cw" (x = R sin phi, eq. 4.1), -1 for "ccw"."""
+        return 1.0 if self.rotation == "cw" else -1.0
+
+    @property
+    def offset_x(self) -> float:
+        """s_x: spindle axis x relative to the workpiece centre [m]."""
+        return self.spindle_axis_xy[0] - self.workpiece_center_xy[0]
+
+    @property
+    def cut_span(self) -> tuple[float, float]:
+        """Slide positions Y [m]: first touch of the leading arc, exit of the trailing arc."""
+        half = self.workpiece_size[1] / 2 + self.tool_radius
+        return -half, half
+
+    @property
+    def cutting_span(self) -> tuple[float, float]:
+        """Slide positions Y [m] over which the leading arc cuts (force is zero outside)."""
+        far = self.workpiece_size[0] / 2 + abs(self.offset_x)
+        end = self.workpiece_size[1] / 2 - math.sqrt(self.tool_radius**2 - far**2)
+        return self.cut_span[0], end
+
+    @property
+    def cutting_angles(self) -> tuple[float, float]:
+        """Angles (lo, hi) [rad], |.| < pi/2, where the leading arc is over the plate's x range."""
+        ends = np.array([-1.0, 1.0]) * self.workpiece_size[0] / 2 - self.offset_x
+        lo, hi = np.sort(np.arcsin(ends / (self.sense * self.tool_radius)))
+        return float(lo), float(hi)
+
+    @property
+    def steady_span(self) -> tuple[float, float]:
+        """Slide positions Y [m] over which the leading arc crosses the whole workpiece width.
+
+        The chip pattern of every revolution is then the same (empty if the plate is too short).
+        """
+        lo, hi = self.cutting_angles
+        cos_max = 1.0 if lo <= 0.0 <= hi else max(np.cos(lo), np.cos(hi))
+        cos_min = min(np.cos(lo), np.cos(hi))
+        ly = self.workpiece_size[1]
+        return -ly / 2 - self.tool_radius * cos_min, ly / 2 - self.tool_radius * cos_max
+
+
+MACHINE_FIELDS = (
+    "tool_body",
+    "workpiece_body",
+    "spindle_axis_xy",
+    "cutting_plane_z",
+    "tool_radius",
+    "workpiece_size",
+    "workpiece_center_xy",
+    "rotation",
+)
+
+
+def read_machine(machine: Mapping, source: str = "<memory>") -> Machine:
+    """Validate a ``[machine]`` table and return the :class:`Machine`.
+
+    Raises ModelError naming the file and field, e.g.
+    ``ufmt.toml: machine: field 'tool_radius': -0.2 must be > 0``.
+    """
+
+    def fail(field: str, problem: str):
+        raise ModelError(f"{source}: machine: field '{field}': {problem}")
+
+    missing = [f for f in MACHINE_FIELDS if f not in machine]
+    if missing:
+        raise ModelError(f"{source}: machine: missing field '{missing[0]}' (need {MACHINE_FIELDS})")
+
+    def name(field):
+        v = machine[field]
+        if not isinstance(v, str) or not v:
+            fail(field, f"{v!r} must be a body name")
+        return v
+
+    def number(field, positive=False):
+        v = machine[field]
+        if isinstance(v, bool) or not isinstance(v, int | float | np.integer | np.floating):
+            fail(field, f"{v!r} must be a number")
+        v = float(v)
+        if not math.isfinite(v):
+            fail(field, f"{v!r} must be finite")
+        if positive and v <= 0:
+            fail(field, f"{v!r} must be > 0")
+        return v
+
+    def pair(field, positive=False):
+        v = machine[field]
+        try:
+            a = np.asarray(v, dtype=float)
+        except (TypeError, ValueError):
+            fail(field, f"{v!r} must be two numbers")
+        if a.shape != (2,) or not np.all(np.isfinite(a)):
+            fail(field, f"{v!r} must be two finite numbers")
+        if positive and not np.all(a > 0):
+            fail(field, f"{v!r} must be > 0")
+        return float(a[0]), float(a[1])
+
+    rotation = machine["rotation"]
+    if rotation not in ("cw", "ccw"):
+        fail("rotation", f"{rotation!r} must be 'cw' (eq. 4.1, clockwise seen from +z) or 'ccw'")
+    m = Machine(
+        tool_body=name("tool_body"),
+        workpiece_body=name("workpiece_body"),
+        spindle_axis_xy=pair("spindle_axis_xy"),
+        cutting_plane_z=number("cutting_plane_z"),
+        tool_radius=number("tool_radius", positive=True),
+        workpiece_size=pair("workpiece_size", positive=True),
+        workpiece_center_xy=pair("workpiece_center_xy"),
+        rotation=rotation,
+        force_scale=number("force_scale", positive=True) if "force_scale" in machine else 1.0,
+    )
+    if abs(m.workpiece_center_xy[1] - m.spindle_axis_xy[1]) > 1e-9:
+        fail(
+            "workpiece_center_xy",
+            f"y = {m.workpiece_center_xy[1]!r} must equal spindle_axis_xy y = "
+            f"{m.spindle_axis_xy[1]!r} (the workpiece centre is under the spindle halfway)",
+        )
+    far = m.workpiece_size[0] / 2 + abs(m.offset_x)
+    if far >= m.tool_radius:
+        fail(
+            "tool_radius",
+            f"{m.tool_radius!r} must exceed workpiece_size x / 2 + |workpiece centre x - spindle "
+            f"x| = {far!r} (the tool circle must cross the whole workpiece width)",
+        )
+    return m
+
+
+def machine_of(model) -> Machine:
+    """The validated :class:`Machine` of a :class:`ufmt.model.schema.Model`.
+
+    The tool and workpiece bodies must be bodies of the model (checked when it has bodies).
+    """
+    m = read_machine(model.machine, model.source)
+    names = [b.name for b in model.bodies]
+    for field in ("tool_body", "workpiece_body"):
+        if names and getattr(m, field) not in names:
+            raise ModelError(
+                f"{model.source}: machine: field '{field}': {getattr(m, field)!r} is not a body "
+                f"of the model (bodies: {', '.join(names)})"
+            )
+    return m
