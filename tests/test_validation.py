@@ -29,6 +29,7 @@ from ufmt.calibration.frequencies import (
 )
 from ufmt.errors import StudyError
 from ufmt.model.load import load_model
+from ufmt.plots import save_figure
 from ufmt.plots.modes import equivalent_box, plot_frequencies, plot_mode
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -140,8 +141,8 @@ def test_packaged_model_file_says_it_is_generated():
 
 
 def test_plots_are_written(model, result, tmp_path):
-    chart = plot_frequencies(result.table, tmp_path / "f.png")
-    mode = plot_mode(model, result.solution.shapes, 10, tmp_path / "m.png")
+    chart = save_figure(plot_frequencies(result.table), tmp_path / "f.png")
+    mode = save_figure(plot_mode(model, result.solution.shapes, 10), tmp_path / "m.png")
     for path in (chart, mode):
         assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 

@@ -62,7 +62,10 @@ def register(subparsers) -> None:
     p = subparsers.add_parser("plot-mode", help="draw mode N in 3-D to a PNG")
     p.add_argument("mode", type=_mode_number, help=f"mode number 1..{N_MODES}")
     p.add_argument("model", nargs="?", help="model TOML (default: packaged UFMT)")
-    p.add_argument("--output", help=f"PNG (default {RESULTS}/mode-N.png)")
+    p.add_argument(
+        "--output",
+        help=f"PNG (default {RESULTS}/mode-N.png, or results/<model file name>/mode-N.png)",
+    )
     p.add_argument("--scale", type=positive(float), help="displacement factor (default: automatic)")
     p.set_defaults(func=cmd_plot_mode)
 
@@ -110,16 +113,18 @@ def cmd_validate(args) -> int:
     ``[machine]`` table) response.csv of section 4.2 / Table 4; print the summary."""
     from ufmt.calibration.frequencies import read_reference, validate, write_table
     from ufmt.mstmm.solve import describe
+    from ufmt.plots import save_figure
     from ufmt.plots.modes import plot_frequencies, plot_mode
 
     model = load(args.model)
     out = Path(args.output_dir)
     result = validate(model, read_reference(packaged_path("paper_reference.toml")), N_MODES)
     write_table(result.table, out / "frequencies.csv")
-    plot_frequencies(result.table, out / "frequencies.png")
+    save_figure(plot_frequencies(result.table), out / "frequencies.png")
     lines = describe(model, result.modes.shares, top=3)
     for n in args.modes:
-        plot_mode(model, result.solution.shapes, n - 1, out / f"mode-{n}.png", None, lines[n - 1])
+        figure = plot_mode(model, result.solution.shapes, n - 1, description=lines[n - 1])
+        save_figure(figure, out / f"mode-{n}.png")
     _print_summary(model, result.summary)
     plots = ", ".join(f"mode-{n}.png" for n in args.modes)
     print(f"wrote frequencies.csv, frequencies.png, {plots} in {out}")
@@ -138,6 +143,7 @@ def cmd_validate(args) -> int:
 def cmd_plot_mode(args) -> int:
     """Solve the first N modes by the MSTMM and draw mode N."""
     from ufmt.mstmm.solve import describe, solve_modes
+    from ufmt.plots import save_figure
     from ufmt.plots.modes import plot_mode
 
     model = load(args.model)
@@ -148,7 +154,14 @@ def cmd_plot_mode(args) -> int:
             f"{solution.frequencies_hz.size} modes"
         )
     line = describe(model, solution.energy_shares(model), top=3)[args.mode - 1]
-    path = args.output or RESULTS / f"mode-{args.mode}.png"
-    written = plot_mode(model, solution.shapes, args.mode - 1, path, args.scale, line)
+    path = args.output or _plot_mode_default(args.model, model) / f"mode-{args.mode}.png"
+    figure = plot_mode(model, solution.shapes, args.mode - 1, args.scale, line)
+    written = save_figure(figure, path)
     print(f"mode {args.mode}: {solution.frequencies_hz[-1]:.3f} Hz ({line}); wrote {written}")
     return 0
+
+
+def _plot_mode_default(path: str | None, model) -> Path:
+    """Default folder of ``plot-mode``: results/validation/ for the packaged model, else
+    results/<model file stem>/ (a user's model never writes into the validation folder)."""
+    return RESULTS if path is None else Path("results") / Path(model.source).stem

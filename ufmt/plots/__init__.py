@@ -1,1 +1,41 @@
-"""Plots: figures drawn from results on disk (matplotlib, Agg canvas)."""
+"""Plots: figures drawn from results (matplotlib object API, Agg canvas).
+
+Every plot function takes data (a result object or a table read from disk) and an optional
+``ax``, and returns the :class:`matplotlib.figure.Figure`; it never solves and never writes.
+:func:`save_figure` writes a figure to a PNG.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+
+DPI = 120
+
+
+def new_axes(ax=None, figsize=(6.4, 4.8), **subplot):
+    """(figure, axes): ``ax`` and its figure when given, else a new constrained-layout figure.
+
+    ``subplot`` is passed to ``Figure.add_subplot`` (e.g. ``projection="3d"``).
+    """
+    if ax is not None:
+        return ax.figure, ax
+    fig = new_figure(figsize)
+    return fig, fig.add_subplot(**subplot)
+
+
+def new_figure(figsize=(6.4, 4.8)) -> Figure:
+    """A constrained-layout figure on its own Agg canvas (no pyplot state)."""
+    fig = Figure(figsize=figsize, layout="constrained")
+    FigureCanvasAgg(fig)
+    return fig
+
+
+def save_figure(fig: Figure, path, dpi: int = DPI) -> Path:
+    """Write ``fig`` to ``path`` (PNG; parent folders created); returns the path."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=dpi)
+    return path

@@ -2,25 +2,30 @@
 
 Plots read solved shapes and written tables; they never solve. Rigid bodies are drawn as their
 inertia-equivalent boxes (the box with the body's mass and principal moments, axes along x, y,
-z), beams as lines, virtual bodies and hinge points as dots; the undeformed machine in grey,
-the mode (scaled) in colour. Figures use matplotlib's object API on the Agg canvas.
+z), beams as lines from their start to their end, virtual bodies and hinge points as dots; the
+undeformed machine in grey, the mode (scaled) in colour, the tool tip (when the model has a
+``[machine]`` table) as a star. Functions take an optional ``ax`` and return the Figure.
 """
 
 from __future__ import annotations
 
 from itertools import product
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
+from matplotlib.ticker import MaxNLocator
 
+from ufmt.errors import ModelError
+from ufmt.machining.cutting import tool_tip
+from ufmt.model.machine import read_machine
 from ufmt.model.schema import GROUND, Beam, Model, RigidBody
+from ufmt.plots import new_axes, new_figure
 
-DPI = 120
 DISPLAY_SHARE = 0.12  # default scale: largest drawn displacement = this share of the machine size
 ERROR_BAND_PERCENT = 3.0  # issue 3's target band, drawn on the error panel
+GROUND_CUT_RATIO = 3.0  # a grounded body more than this times the rest's size is kept whole
+TICKS_PER_AXIS = 4
 
 
 def equivalent_box(body: RigidBody) -> np.ndarray:
@@ -47,27 +52,51 @@ def _rigid_points(points: np.ndarray, center: np.ndarray, motion: np.ndarray) ->
     return motion[:3] + np.cross(motion[3:], points - center)
 
 
-def _view_box(model: Model) -> tuple[np.ndarray, np.ndarray]:
-    """(low, high) corners [m] of the drawn region: every body not hinged to ground + margin.
+def _body_points(body) -> np.ndarray | None:
+    """Corner points [m] of a rigid body's box or the two ends of a beam; None for a virtual."""
+    if isinstance(body, RigidBody):
+        return body.center_of_mass + _CORNERS * equivalent_box(body)
+    if isinstance(body, Beam):
+        return np.vstack([body.start, body.end])
+    return None
 
-    A body on ground (the foundation block) is usually much larger than the machine; it is
-    drawn cut to this region.
+
+def _view_box(model: Model) -> tuple[np.ndarray, np.ndarray]:
+    """(low, high) corners [m] of the drawn region: the machine plus a margin.
+
+    A body on ground (the foundation block) is drawn cut to the region of the bodies above it
+    when those span at least 1/GROUND_CUT_RATIO of its size; a grounded body that dwarfs the
+    rest (a bridge carrying a small spindle) is the machine itself and is kept whole.
     """
     grounded = {b for h in model.hinges if GROUND in h.between for b in h.between}
-    points = []
+    free = [_body_points(b) for b in model.bodies if b.name not in grounded]
+    hinges = [h.at[None, :] for h in model.hinges if GROUND not in h.between]
+    free = np.vstack([p for p in free if p is not None] + hinges)
+    size = float(np.max(np.ptp(free, axis=0)))
+    points = [free]
     for body in model.bodies:
-        if body.name in grounded:
-            continue
-        if isinstance(body, RigidBody):
-            points.append(body.center_of_mass + _CORNERS * equivalent_box(body))
-        elif isinstance(body, Beam):
-            points.append(np.vstack([body.start, body.end]))
-    if not points:
-        points = [h.at[None, :] for h in model.hinges]
+        corners = _body_points(body) if body.name in grounded else None
+        if corners is not None and np.max(np.ptp(corners, axis=0)) > GROUND_CUT_RATIO * size:
+            points.append(corners)
     points = np.vstack(points)
     low, high = points.min(axis=0), points.max(axis=0)
     pad = VIEW_MARGIN * float(np.max(high - low))
     return low - pad, high + pad
+
+
+def beam_polyline(beam: Beam, positions: np.ndarray, motion: np.ndarray):
+    """A beam's drawn line from its start to its end, and the displacement of each vertex.
+
+    positions : (g, 3) [m] stations in any order (the MSTMM stores them from the beam's
+        input end, which may be its end); motion : (g, 6) [m, rad] at those stations.
+    Returns (line (g + 2, 3) [m], displacement (g + 2, 3) [m]): start, the stations sorted
+    along the axis, end; the ends take the displacement of their nearest station.
+    """
+    axis = beam.end - beam.start
+    order = np.argsort((positions - beam.start) @ axis)
+    disp = motion[order, :3]
+    line = np.vstack([beam.start, positions[order], beam.end])
+    return line, np.vstack([disp[:1], disp, disp[-1:]])
 
 
 def _geometry(model: Model, shapes, index: int, view: tuple[np.ndarray, np.ndarray]):
@@ -85,9 +114,7 @@ def _geometry(model: Model, shapes, index: int, view: tuple[np.ndarray, np.ndarr
             boxes.append((body, corners, moved))
         elif isinstance(body, Beam):
             pos, _, motion = shapes.beams[body.name]
-            line = np.vstack([body.start, pos, body.end])
-            disp = np.vstack([motion[index, :1, :3], motion[index, :, :3], motion[index, -1:, :3]])
-            beams.append((body, line, disp))
+            beams.append((body, *beam_polyline(body, pos, motion[index])))
         else:
             point = _virtual_point(model, body.name)
             dots.append((body, point, shapes.virtual[body.name][index, :3]))
@@ -99,21 +126,49 @@ def _virtual_point(model: Model, name: str) -> np.ndarray:
     return np.asarray(next(h.at for h in model.hinges if name in h.between), dtype=float)
 
 
+def _tool_tip(model: Model, shapes, index: int):
+    """(position [m], displacement [m]) of the tool tip at spindle angle 0, or None.
+
+    None when the model has no valid ``[machine]`` table or its tool body is not rigid.
+    """
+    try:
+        machine = read_machine(model.machine, model.source) if model.machine else None
+    except ModelError:
+        return None
+    if machine is None or machine.tool_body not in shapes.rigid:
+        return None
+    tip = tool_tip(0.0, machine)
+    body = model.body(machine.tool_body)
+    return tip, _rigid_points(tip[None, :], body.center_of_mass, shapes.rigid[body.name][index])[0]
+
+
 def plot_mode(
     model: Model,
     shapes,
     index: int,
-    path,
     scale: float | None = None,
     description: str = "",
-) -> Path:
-    """Draw mode ``index`` (0-based) of MSTMM ``shapes`` in 3-D to ``path`` (PNG).
+    ax=None,
+) -> Figure:
+    """Draw mode ``index`` (0-based) of MSTMM ``shapes`` in 3-D.
 
+    Parameters
+    ----------
+    model : the model the shapes belong to.
+    shapes : :class:`ufmt.mstmm.modes.ModeShapes`.
+    index : mode index, 0-based.
     scale : factor on the unit-modal-mass displacements [m per m/sqrt(kg)]; default: the
         largest drawn displacement is DISPLAY_SHARE of the machine's largest extent.
+    description : second title line (e.g. the dominant bodies and directions).
+    ax : a 3-D axes to draw in (default: a new figure).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
     """
     view = _view_box(model)
     boxes, beams, dots = _geometry(model, shapes, index, view)
+    tip = _tool_tip(model, shapes, index)
     extent = float(np.max(view[1] - view[0])) / (1.0 + 2.0 * VIEW_MARGIN)
     largest = max(
         [float(np.max(np.linalg.norm(d, axis=1))) for _, _, d in boxes + beams]
@@ -121,44 +176,47 @@ def plot_mode(
     )
     if scale is None:
         scale = DISPLAY_SHARE * extent / largest if largest > 0 else 1.0
-    fig = Figure(figsize=(9, 7.5), layout="constrained")
-    FigureCanvasAgg(fig)
-    ax = fig.add_subplot(projection="3d")
+    fig, ax = new_axes(ax, (9, 7.5), projection="3d")
+    grey = {"color": "0.7", "label": "undeformed"}
     for n, (body, corners, moved) in enumerate(boxes):
         colour = PALETTE[n % len(PALETTE)]
         for i, j in _EDGES:
-            ax.plot(*corners[[i, j]].T, color="0.75", lw=0.7)
+            ax.plot(*corners[[i, j]].T, lw=0.7, **grey)
+            grey.pop("label", None)
             ax.plot(*(corners + scale * moved)[[i, j]].T, color=colour, lw=1.3)
         label = f"{body.number} {body.name}" if body.number is not None else body.name
         ax.text(*(corners.mean(axis=0) + scale * moved.mean(axis=0)), label, fontsize=7)
-    for _, line, disp in beams:
-        ax.plot(*line.T, color="0.6", lw=2.0)
-        ax.plot(*(line + scale * disp).T, color="k", lw=2.5)
+    for body, line, disp in beams:
+        ax.plot(*line.T, lw=2.0, gid=f"beam:{body.name}:undeformed", **grey)
+        grey.pop("label", None)
+        ax.plot(*(line + scale * disp).T, color="k", lw=2.5, gid=f"beam:{body.name}:mode")
+    if beams:
+        ax.plot([], [], color="k", lw=2.5, label="beams, mode shape")
     for _, point, disp in dots:
         ax.scatter(*(point + scale * disp), color="k", s=12)
     hinge_points = np.array(
         [h.at for h in model.hinges if np.all((h.at >= view[0]) & (h.at <= view[1]))]
     )
     ax.scatter(*hinge_points.T, color="r", s=6, alpha=0.6, label="hinge points (undeformed)")
+    if tip is not None:
+        ax.scatter(*(tip[0] + scale * tip[1]), marker="*", s=140, color="m", label="tool tip")
     f = shapes.frequencies_hz[index]
     title = f"Mode {index + 1}: {f:.2f} Hz (MSTMM), displacements x {scale:.3g}"
     ax.set_title(title + (f"\n{description}" if description else ""), fontsize=10)
-    ax.set_xlabel("x [m]")
-    ax.set_ylabel("y [m]")
-    ax.set_zlabel("z [m]")
-    ax.set_xlim(view[0][0], view[1][0])
-    ax.set_ylim(view[0][1], view[1][1])
-    ax.set_zlim(view[0][2], view[1][2])
-    ax.set_box_aspect(view[1] - view[0], zoom=1.1)
+    for name, (lo, hi) in zip("xyz", zip(*view, strict=True), strict=True):
+        getattr(ax, f"set_{name}label")(f"{name} [m]")
+        getattr(ax, f"set_{name}lim")(lo, hi)
+        getattr(ax, f"{name}axis").set_major_locator(MaxNLocator(TICKS_PER_AXIS))
+    ax.tick_params(labelsize=7)
+    ax.set_box_aspect(view[1] - view[0], zoom=0.9)
     ax.view_init(elev=18, azim=-55)
     ax.legend(loc="upper left", fontsize=7)
-    return _save(fig, path)
+    return fig
 
 
-def plot_frequencies(table: pd.DataFrame, path) -> Path:
+def plot_frequencies(table: pd.DataFrame) -> Figure:
     """Frequencies of every mode and errors of the tested ones (validation table columns)."""
-    fig = Figure(figsize=(10, 7.5), layout="constrained")
-    FigureCanvasAgg(fig)
+    fig = new_figure((10, 7.5))
     top, bottom = fig.subplots(2, 1, height_ratios=[3, 2])
     mode = table["mode"].to_numpy()
     top.plot(mode, table["mstmm_hz"], "o-", ms=4, lw=0.8, label="this project, MSTMM")
@@ -187,18 +245,17 @@ def plot_frequencies(table: pd.DataFrame, path) -> Path:
     ):
         bottom.bar(x + (k - 1) * width, tested[col], width, label=label)
     for sign in (-1, 1):
-        bottom.axhline(sign * ERROR_BAND_PERCENT, color="k", ls="--", lw=0.8)
+        bottom.axhline(
+            sign * ERROR_BAND_PERCENT,
+            color="k",
+            ls="--",
+            lw=0.8,
+            label=f"target band ±{ERROR_BAND_PERCENT:g} %" if sign > 0 else None,
+        )
     bottom.axhline(0.0, color="k", lw=0.5)
     bottom.set_xticks(x, [str(m) for m in tested["mode"]])
     bottom.set_xlabel("mode (tested in Table 3)")
     bottom.set_ylabel("error against the test [%]")
     bottom.grid(alpha=0.3, axis="y")
-    bottom.legend(fontsize=8, ncols=3)
-    return _save(fig, path)
-
-
-def _save(fig: Figure, path) -> Path:
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=DPI)
-    return path
+    bottom.legend(fontsize=8, ncols=4)
+    return fig

@@ -1,0 +1,79 @@
+"""Figures: geometry drawn where the model says (oracle: the model file's coordinates), every
+plot returns a Figure and draws into a given axes."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from matplotlib.figure import Figure
+
+from ufmt.model.load import load_model
+from ufmt.mstmm.solve import solve_modes
+from ufmt.plots import new_figure, save_figure
+from ufmt.plots.modes import beam_polyline, plot_mode
+
+BRIDGE = Path(__file__).resolve().parents[1] / "examples" / "bridge.toml"
+
+
+@pytest.fixture(scope="module")
+def bridge():
+    model = load_model(BRIDGE)
+    return model, solve_modes(model, count=3)
+
+
+def _lines(fig: Figure, gid: str) -> np.ndarray:
+    (line,) = [a for a in fig.axes[0].get_lines() if a.get_gid() == gid]
+    return np.column_stack(line.get_data_3d())
+
+
+def test_beam_is_drawn_start_to_end_monotone_along_its_axis(bridge):
+    # the shaft runs start (top) -> end (bottom); the MSTMM stores its stations from the input
+    # end, here its end, which used to come out as an "N" zigzag
+    model, solution = bridge
+    shaft = model.body("shaft")
+    stations = solution.shapes.beams["shaft"][0]
+    axis = shaft.end - shaft.start
+    assert np.all(np.diff((stations - shaft.start) @ axis) < 0)  # the stored order is reversed
+    line = _lines(plot_mode(model, solution.shapes, 0), "beam:shaft:undeformed")
+    along = (line - shaft.start) @ axis / (axis @ axis)
+    assert along[0] == 0.0 and along[-1] == 1.0
+    assert np.all(np.diff(along) > 0)
+    np.testing.assert_allclose(np.cross(line - shaft.start, axis), 0.0, atol=1e-12)
+
+
+def test_beam_end_displacements_are_those_of_the_nearest_stations(bridge):
+    model, solution = bridge
+    shaft = model.body("shaft")
+    positions, _, motion = solution.shapes.beams["shaft"]
+    line, disp = beam_polyline(shaft, positions, motion[0])
+    nearest_start = np.argmin(np.linalg.norm(positions - shaft.start, axis=1))
+    nearest_end = np.argmin(np.linalg.norm(positions - shaft.end, axis=1))
+    np.testing.assert_array_equal(disp[0], motion[0, nearest_start, :3])
+    np.testing.assert_array_equal(disp[-1], motion[0, nearest_end, :3])
+
+
+def test_mode_plot_legend_names_undeformed_and_tool_tip(bridge, tmp_path):
+    model, solution = bridge
+    fig = plot_mode(model, solution.shapes, 0)
+    labels = [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
+    assert "undeformed" in labels and "tool tip" in labels
+    path = save_figure(fig, tmp_path / "mode.png")
+    assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_small_grounded_body_is_in_view(bridge):
+    # the bridge stands on ground but is the machine itself: it must not be cut off
+    model, solution = bridge
+    fig = plot_mode(model, solution.shapes, 0)
+    ax = fig.axes[0]
+    bridge_z = model.body("bridge").center_of_mass[2]
+    assert ax.get_zlim()[0] < bridge_z < ax.get_zlim()[1]
+
+
+def test_mode_plot_draws_into_a_given_axes(bridge):
+    model, solution = bridge
+    fig = new_figure()
+    ax = fig.add_subplot(projection="3d")
+    assert plot_mode(model, solution.shapes, 1, ax=ax) is fig
