@@ -4,7 +4,7 @@ STAMP   := .venv/.installed
 JOBS    ?= 2
 
 .PHONY: test test-all bench lint format calibrate sweep-stiffness sweep-process \
-        optimise-process optimise-design sensitivity validate clean-venv
+        optimise-process optimise-design sensitivity validate report clean-venv
 
 $(STAMP): pyproject.toml
 	python3 -m venv .venv
@@ -34,6 +34,9 @@ calibrate: $(STAMP)
 
 validate: $(STAMP)
 	$(PY) -m ufmt.cli validate
+
+report: $(STAMP)
+	$(PY) -m ufmt.cli report
 
 sweep-stiffness: $(STAMP)
 	$(PY) -m ufmt.cli run studies/sweep-stiffness.toml --jobs $(JOBS)

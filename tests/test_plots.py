@@ -77,3 +77,12 @@ def test_mode_plot_draws_into_a_given_axes(bridge):
     fig = new_figure()
     ax = fig.add_subplot(projection="3d")
     assert plot_mode(model, solution.shapes, 1, ax=ax) is fig
+
+
+def test_plot_mode_of_a_user_model_stays_out_of_the_validation_folder(tmp_path, monkeypatch):
+    from ufmt.cli import main
+
+    monkeypatch.chdir(tmp_path)
+    assert main(["plot-mode", "1", str(BRIDGE)]) == 0
+    assert (tmp_path / "results" / "bridge" / "mode-1.png").is_file()
+    assert not (tmp_path / "results" / "validation").exists()

@@ -1,4 +1,5 @@
-"""Command-line interface: ``ufmt modes | simulate | frf | calibrate | plot-mode | run``.
+"""Command-line interface: ``ufmt modes | simulate | frf | calibrate | validate | plot-mode |
+run | report``; ``ufmt --version``; bare ``ufmt`` prints the help.
 
 User errors (bad model, study or argument) print one line on stderr and exit with status 2;
 no traceback. ``--json`` output is exactly one JSON object on stdout.
@@ -12,17 +13,26 @@ import warnings
 
 from threadpoolctl import threadpool_limits
 
+from ufmt import __version__
 from ufmt.cli.calibration import register as register_calibration
 from ufmt.cli.common import positive
 from ufmt.cli.machining import register as register_machining
 from ufmt.cli.modes import cmd_modes
+from ufmt.cli.report import register as register_report
 from ufmt.cli.studies import add_run_parser
 from ufmt.errors import UfmtError
 
+DESCRIPTION = (
+    "Dynamics of ultra-precision fly-cutting machine tools: natural frequencies and mode "
+    "shapes (MSTMM), cutting response and machined-surface PV, validation against the paper, "
+    "parameter studies and an HTML report. MODEL defaults to the packaged, calibrated UFMT."
+)
+
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = _Parser(prog="ufmt", description=__doc__.splitlines()[0])
-    sub = parser.add_subparsers(dest="command", required=True)
+    parser = _Parser(prog="ufmt", description=DESCRIPTION)
+    parser.add_argument("--version", action="version", version=f"ufmt {__version__}")
+    sub = parser.add_subparsers(dest="command", title="commands")
     p = sub.add_parser("modes", help="natural frequencies and mode descriptions")
     p.add_argument("model", nargs="?", help="model TOML (default: packaged UFMT)")
     p.add_argument("--fmax", type=positive(float), help="upper frequency [Hz] (default 1000)")
@@ -30,7 +40,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--method", choices=["mstmm", "assembled"], default="mstmm")
     p.add_argument("--json", action="store_true", help="one JSON object on stdout")
     p.set_defaults(func=cmd_modes)
-    for register in (register_calibration, register_machining, add_run_parser):
+    for register in (register_calibration, register_machining, add_run_parser, register_report):
         register(sub)
     return parser
 
@@ -56,6 +66,9 @@ def main(argv=None) -> int:
 def _main(argv) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    if args.command is None:  # bare `ufmt`: the help, not an error
+        parser.print_help()
+        return 0
     try:
         if args.command == "run":  # the study runner limits BLAS threads per worker itself
             return int(args.func(args) or 0)

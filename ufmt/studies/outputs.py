@@ -199,6 +199,7 @@ def write_index(results_root: Path) -> Path:
         "do not edit by hand. Each study directory holds `points.csv` (one row per evaluated",
         "point, units in the column names), `meta.json` (inputs, model and code hashes,",
         "package versions, git revision, timings) and its plots.",
+        "All of it on one page (validation, FRF, studies): [report.html](report.html).",
         "",
     ]
     others = []

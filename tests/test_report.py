@@ -1,0 +1,84 @@
+"""ufmt report: one self-contained page (oracle: the files in a hand-made results folder; every
+PNG there is embedded byte for byte, nothing is fetched from a network)."""
+
+from __future__ import annotations
+
+import base64
+import json
+import re
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from ufmt.cli import main
+from ufmt.model.load import load_model
+from ufmt.plots import new_axes, save_figure
+
+EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "bridge.toml"
+
+
+def _png(path: Path) -> bytes:
+    fig, ax = new_axes(figsize=(2, 1.5))
+    ax.plot(np.arange(3))
+    return save_figure(fig, path).read_bytes()
+
+
+def _results(root: Path) -> dict[str, bytes]:
+    """A results folder: validation (tables, figures, reference cut), an FRF and one study."""
+    pngs = {}
+    validation = root / "validation"
+    (validation / "reference-process").mkdir(parents=True)
+    pd.DataFrame({"mode": [1, 2], "mstmm_hz": [7.45, 9.99]}).to_csv(
+        validation / "frequencies.csv", index=False
+    )
+    for rel in (
+        "validation/frequencies.png",
+        "validation/mode-2.png",
+        "validation/mode-11.png",
+        "validation/reference-process/surface.png",
+        "frf/frf.png",
+        "sweep-x/pv_vs_parameters.png",
+    ):
+        (root / rel).parent.mkdir(parents=True, exist_ok=True)
+        pngs[rel] = _png(root / rel)
+    study = root / "sweep-x"
+    pd.DataFrame({"rpm": [150.0, 300.0, 350.0], "pv_nm": [3.0, 2.0, 1.0]}).to_csv(
+        study / "points.csv", index=False
+    )
+    meta = {
+        "kind": "sweep",
+        "description": "a <tiny> sweep",
+        "headline": "PV falls as rpm rises",
+        "plots": ["pv_vs_parameters.png"],
+        "model_sha256": "abc123",
+        "git": {"revision": "deadbeef", "dirty": False},
+        "run": {"points_total": 3, "wall_s": 1.5},
+        "versions": {"ufmt": "0.1.0"},
+        "study_text": 'kind = "sweep"',
+    }
+    (study / "meta.json").write_text(json.dumps(meta), encoding="utf-8")
+    return pngs
+
+
+def test_report_embeds_every_figure_and_needs_no_network(tmp_path, capsys):
+    pngs = _results(tmp_path)
+    assert main(["report", str(EXAMPLE), "--results", str(tmp_path)]) == 0
+    assert "report.html" in capsys.readouterr().out
+    page = (tmp_path / "report.html").read_text(encoding="utf-8")
+    embedded = [base64.b64decode(d) for d in re.findall(r"data:image/png;base64,([^\"]+)", page)]
+    assert sorted(embedded) == sorted(pngs.values())
+    # mode figures in mode order, not string order
+    assert page.index("mode-2.png") < page.index("mode-11.png")
+    assert not re.search(r"(src|href)=\"?(https?:)?//", page)
+    assert "PV falls as rpm rises" in page and "deadbeef" in page and "abc123" in page
+    assert "a &lt;tiny&gt; sweep" in page  # text is escaped
+    # the Table 1 warning of the study's points is on the page, not only in the CSV
+    assert "1 with rpm outside 200-400 rpm" in page
+    assert load_model(EXAMPLE).name in page
+
+
+def test_report_lists_what_is_missing(tmp_path):
+    assert main(["report", str(EXAMPLE), "--results", str(tmp_path / "none")]) == 0
+    page = (tmp_path / "none" / "report.html").read_text(encoding="utf-8")
+    assert "missing:" in page and "data:image/png" not in page

@@ -1,0 +1,27 @@
+"""CLI sub-command ``ufmt report``: one self-contained HTML page of the results folder."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from ufmt.cli.common import load
+
+
+def register(subparsers) -> None:
+    """Add the ``report`` sub-parser."""
+    p = subparsers.add_parser(
+        "report", help="one self-contained HTML page of results/ (figures embedded)"
+    )
+    p.add_argument("model", nargs="?", help="model summarised (default: packaged UFMT)")
+    p.add_argument("--results", type=Path, default=Path("results"), help="results folder")
+    p.add_argument("--output", type=Path, help="HTML file (default RESULTS/report.html)")
+    p.set_defaults(func=cmd_report)
+
+
+def cmd_report(args) -> int:
+    """Write the report from the files in ``--results`` (nothing is recomputed)."""
+    from ufmt.report import write_report
+
+    path = write_report(args.results, load(args.model), args.output)
+    print(f"wrote {path} ({path.stat().st_size / 1e6:.1f} MB)")
+    return 0

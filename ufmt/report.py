@@ -1,0 +1,272 @@
+"""One self-contained HTML page of everything in ``results/``: ``ufmt report`` / ``make report``.
+
+The page holds the model summary, the validation tables and figures (``results/validation/``),
+the reference cut and the FRF, each study's finding, tables and plots (``results/<study>/``,
+read from ``meta.json``), and the provenance of every study (model and code hashes, git
+revision, package versions, timings). Figures are embedded as base64 PNG and the style sheet
+is inline, so the file opens anywhere without a network. It reads existing results only: a
+missing part is listed as missing, never recomputed.
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import json
+from pathlib import Path
+
+import pandas as pd
+
+from ufmt.machining.process import TABLE1_RANGE
+from ufmt.model.machine import MACHINE_FIELDS
+from ufmt.model.schema import Beam, Model, RigidBody
+
+REPORT = "report.html"
+VALIDATION = "validation"
+REFERENCE_CUT = "reference-process"
+FRF = "frf"
+MAX_TABLE_ROWS = 40  # longer tables are shown in full behind a <details> toggle
+
+_STYLE = """
+body { font-family: sans-serif; max-width: 1100px; margin: 2em auto; color: #222; }
+h1 { border-bottom: 2px solid #444; } h2 { border-bottom: 1px solid #aaa; margin-top: 2em; }
+table { border-collapse: collapse; font-size: 0.8em; margin: 0.5em 0; }
+th, td { border: 1px solid #ccc; padding: 2px 6px; text-align: right; }
+th { background: #eee; } td.text { text-align: left; }
+img { max-width: 100%; border: 1px solid #ddd; margin: 0.3em 0; }
+.finding { background: #eef5ff; padding: 0.5em 1em; border-left: 4px solid #36c; }
+.warning { background: #fff4e0; padding: 0.5em 1em; border-left: 4px solid #e90; }
+.missing { color: #999; font-style: italic; } code, pre { font-size: 0.85em; }
+nav a { margin-right: 1em; }
+"""
+
+
+def write_report(results: str | Path = "results", model: Model | None = None, output=None) -> Path:
+    """Write the HTML report of ``results`` to ``output`` (default ``results/report.html``).
+
+    Parameters
+    ----------
+    results : the results folder (``validation/``, ``frf/``, one folder per study).
+    model : the model summarised at the top (default: the packaged UFMT).
+    output : the HTML file (default ``<results>/report.html``).
+
+    Returns
+    -------
+    pathlib.Path
+        The file written.
+    """
+    results = Path(results)
+    path = Path(output) if output is not None else results / REPORT
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(build_report(results, model), encoding="utf-8")
+    return path
+
+
+def build_report(results: str | Path = "results", model: Model | None = None) -> str:
+    """The report as one HTML string (see :func:`write_report`)."""
+    from ufmt import __version__
+
+    if model is None:
+        from ufmt.model.load import load_model, packaged_path
+
+        model = load_model(packaged_path())
+    results = Path(results)
+    studies = _studies(results)
+    sections = [
+        ("model", "Model", _model_section(model)),
+        ("validation", "Validation against the paper", _validation_section(results / VALIDATION)),
+        ("reference-cut", "Reference cut and FRF", _reference_section(results)),
+    ] + [(name, f"Study: {name}", _study_section(d, meta)) for name, d, meta in studies]
+    nav = " ".join(f'<a href="#{key}">{html.escape(title)}</a>' for key, title, _ in sections)
+    body = "\n".join(
+        f'<h2 id="{key}">{html.escape(title)}</h2>\n{content}' for key, title, content in sections
+    )
+    return (
+        "<!DOCTYPE html>\n<html lang='en'><head><meta charset='utf-8'>"
+        f"<title>ufmt report: {html.escape(model.name)}</title><style>{_STYLE}</style></head>"
+        f"<body><h1>ufmt report: {html.escape(model.name)}</h1>"
+        f"<p>ufmt {__version__}; built by <code>ufmt report</code> from the files in "
+        f"<code>{html.escape(str(results))}/</code> (nothing recomputed).</p>"
+        f"<nav>{nav}</nav>\n{body}\n</body></html>\n"
+    )
+
+
+def _studies(results: Path) -> list[tuple[str, Path, dict]]:
+    """(name, folder, meta) of every study folder (one with a meta.json naming its kind)."""
+    found = []
+    for folder in sorted(p for p in results.iterdir() if p.is_dir()) if results.is_dir() else []:
+        meta_file = folder / "meta.json"
+        if meta_file.is_file():
+            meta = json.loads(meta_file.read_text(encoding="utf-8"))
+            if meta.get("kind"):
+                found.append((folder.name, folder, meta))
+    return found
+
+
+# ---------------------------------------------------------------------------------------------
+# sections
+
+
+def _model_section(model: Model) -> str:
+    rows = []
+    for body in model.bodies:
+        kind = (
+            "rigid"
+            if isinstance(body, RigidBody)
+            else "beam"
+            if isinstance(body, Beam)
+            else "virtual"
+        )
+        mass = body.mass if kind != "virtual" else 0.0
+        rows.append({"body": body.name, "number": body.number, "kind": kind, "mass_kg": mass})
+    hinges = pd.DataFrame(
+        [
+            {
+                "hinge": h.name,
+                "between": " – ".join(h.between),
+                "stiffness_N_m": " ".join(f"{v:.3g}" for v in h.stiffness),
+                "rotational_stiffness_Nm_rad": " ".join(f"{v:.3g}" for v in h.rotational_stiffness),
+            }
+            for h in model.hinges
+        ]
+    )
+    parts = [
+        f"<p><b>{html.escape(model.name)}</b> ({html.escape(str(model.source))}): "
+        f"{len(model.bodies)} bodies, {len(model.hinges)} hinges.</p>",
+        _table(pd.DataFrame(rows)),
+        _details("hinges", _table(hinges)),
+    ]
+    if model.machine:
+        fields = [k for k in (*MACHINE_FIELDS, "force_scale") if k in model.machine]
+        machine = pd.DataFrame({"field": fields, "value": [str(model.machine[k]) for k in fields]})
+        parts.append("<p>Machine (<code>[machine]</code>, SI units):</p>" + _table(machine))
+    return "\n".join(parts)
+
+
+def _validation_section(folder: Path) -> str:
+    if not folder.is_dir():
+        return _missing(f"{folder}/ (run make validate)")
+    parts = [
+        "<p>Natural frequencies against the modal test of the paper's Table 3 "
+        "(<code>frequencies.csv</code>) and the cutting response against Table 4 "
+        "(<code>response.csv</code>).</p>"
+    ]
+    parts += [_figure(folder / "frequencies.png")]
+    for name in ("frequencies.csv", "response.csv", "identification-log.csv"):
+        parts.append(f"<h3>{name}</h3>" + _csv(folder / name))
+    modes = sorted(folder.glob("mode-*.png"), key=lambda p: int(p.stem.split("-")[1]))
+    if modes:
+        parts.append("<h3>Mode shapes</h3>" + "".join(_figure(p) for p in modes))
+    return "\n".join(parts)
+
+
+def _reference_section(results: Path) -> str:
+    cut = results / VALIDATION / REFERENCE_CUT
+    parts = [
+        "<p>The reference cut of the paper (300 rpm, 15 mm/min, 4 µm; Figs. 6, 7, 13, 14), "
+        "from <code>ufmt simulate --method time --plot</code>.</p>"
+    ]
+    pngs = sorted(cut.glob("*.png")) if cut.is_dir() else []
+    parts += [_figure(p) for p in pngs] or [_missing(f"{cut}/")]
+    parts.append("<h3>Tool-workpiece receptance (ufmt frf)</h3>")
+    frf = sorted((results / FRF).glob("*.png")) if (results / FRF).is_dir() else []
+    parts += [_figure(p) for p in frf] or [_missing(f"{results / FRF}/ (run ufmt frf)")]
+    return "\n".join(parts)
+
+
+def _study_section(folder: Path, meta: dict) -> str:
+    parts = []
+    if meta.get("description"):
+        parts.append(f"<p>{html.escape(meta['description'])}</p>")
+    finding = meta.get("headline") or "(run incomplete)"
+    parts.append(f'<p class="finding"><b>Finding:</b> {html.escape(finding)}</p>')
+    warning = _range_warning(folder / "points.csv")
+    if warning:
+        parts.append(f'<p class="warning">{html.escape(warning)}</p>')
+    for name in meta.get("plots", []):
+        parts.append(_figure(folder / name))
+    for name in ("optima.csv", "indices.csv", "pareto.csv"):
+        if (folder / name).is_file():
+            parts.append(f"<h3>{name}</h3>" + _csv(folder / name))
+    parts.append(_details("provenance", _provenance(meta)))
+    return "\n".join(parts)
+
+
+def _range_warning(points_csv: Path) -> str:
+    """One sentence counting the points outside the paper's Table 1 ranges, or ''."""
+    if not points_csv.is_file():
+        return ""
+    points = pd.read_csv(points_csv)
+    outside = []
+    for name, (low, high, unit) in TABLE1_RANGE.items():
+        if name in points:
+            n = int(((points[name] < low) | (points[name] > high)).sum())
+            if n:
+                outside.append(f"{n} with {name} outside {low:g}-{high:g} {unit}")
+    if not outside:
+        return ""
+    return (
+        f"Warning: of {len(points)} points, " + "; ".join(outside) + ". The paper validated "
+        "the model only within its Table 1 ranges."
+    )
+
+
+def _provenance(meta: dict) -> str:
+    run = meta.get("run", {})
+    git = meta.get("git", {})
+    rows = {
+        "study file": meta.get("study_file"),
+        "function": meta.get("function"),
+        "model": meta.get("model"),
+        "model SHA-256": meta.get("model_sha256"),
+        "code SHA-256": meta.get("code_sha256"),
+        "git revision": f"{git.get('revision')}{' (dirty)' if git.get('dirty') else ''}",
+        "started": meta.get("started"),
+        "status": meta.get("status"),
+        "points (new, reused, failed)": (
+            f"{run.get('points_total')} ({run.get('points_new')}, {run.get('points_reused')}, "
+            f"{run.get('points_failed')})"
+        ),
+        "wall time [s]": run.get("wall_s"),
+        "jobs, backend": f"{run.get('jobs')}, {run.get('backend')}",
+        "versions": ", ".join(f"{k} {v}" for k, v in meta.get("versions", {}).items()),
+    }
+    table = _table(pd.DataFrame({"item": list(rows), "value": [str(v) for v in rows.values()]}))
+    study = html.escape(meta.get("study_text", ""))
+    return table + (f"<pre>{study}</pre>" if study else "")
+
+
+# ---------------------------------------------------------------------------------------------
+# HTML pieces
+
+
+def _figure(png: Path) -> str:
+    """The PNG embedded as a base64 data URI (or a note that it is missing)."""
+    if not png.is_file():
+        return _missing(str(png))
+    data = base64.b64encode(png.read_bytes()).decode("ascii")
+    return (
+        f'<figure><img alt="{html.escape(png.name)}" src="data:image/png;base64,{data}">'
+        f"<figcaption><code>{html.escape(png.name)}</code></figcaption></figure>"
+    )
+
+
+def _csv(path: Path) -> str:
+    if not path.is_file():
+        return _missing(str(path))
+    table = pd.read_csv(path)
+    if len(table) > MAX_TABLE_ROWS:
+        return _details(f"{path.name}: {len(table)} rows", _table(table))
+    return _table(table)
+
+
+def _table(table: pd.DataFrame) -> str:
+    return table.to_html(index=False, na_rep="", float_format=lambda v: f"{v:.6g}", border=0)
+
+
+def _details(summary: str, content: str) -> str:
+    return f"<details><summary>{html.escape(summary)}</summary>{content}</details>"
+
+
+def _missing(what: str) -> str:
+    return f'<p class="missing">missing: {html.escape(what)}</p>'
