@@ -86,3 +86,33 @@ def test_plot_mode_of_a_user_model_stays_out_of_the_validation_folder(tmp_path, 
     assert main(["plot-mode", "1", str(BRIDGE)]) == 0
     assert (tmp_path / "results" / "bridge" / "mode-1.png").is_file()
     assert not (tmp_path / "results" / "validation").exists()
+
+
+def test_modal_solution_repr_table_plot_and_save(bridge, tmp_path):
+    from ufmt.mstmm.solve import describe
+
+    model, solution = bridge
+    assert len(repr(solution)) < 1000 and "modes=3" in repr(solution)
+    table = solution.to_frame(model)
+    assert list(table.columns) == [
+        "mode",
+        "frequency_hz",
+        "body",
+        "direction",
+        "energy_share",
+    ]
+    np.testing.assert_array_equal(table["frequency_hz"], solution.frequencies_hz)
+    # the dominant body and direction are the first entry of `ufmt modes`' description
+    lines = describe(model, solution.energy_shares(model), top=1)
+    for row, line in zip(table.itertuples(), lines, strict=True):
+        assert line == f"{row.body} {row.direction} {100 * row.energy_share:.0f}%"
+    assert list(solution.to_frame().columns) == ["mode", "frequency_hz"]
+    # the energy shares stacked in the plot sum to 100 % per mode
+    fig = solution.plot(model=model)
+    heights = np.zeros(3)
+    for bar in fig.axes[0].patches:
+        heights[round(bar.get_x() + bar.get_width() / 2) - 1] += bar.get_height()
+    np.testing.assert_allclose(heights, 100.0)
+    written = solution.save(tmp_path, model)
+    assert [p.name for p in written] == ["modes.csv", "modes.png"]
+    assert all(p.is_file() for p in written)

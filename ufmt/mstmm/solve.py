@@ -24,9 +24,20 @@ BRACKETING_ELEMENTS = 8  # beam elements of the assembled model that only counts
 DIRECTIONS = ("x", "y", "z", "rx", "ry", "rz")
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, repr=False)
 class ModalSolution:
-    """Natural frequencies [Hz], shapes and bookkeeping of one eigen-solution."""
+    """Natural frequencies [Hz], shapes and bookkeeping of one eigen-solution.
+
+    Attributes
+    ----------
+    frequencies_hz : (n,) natural frequencies [Hz], ascending (zero-frequency modes excluded).
+    order : order of the overall transfer matrix U_all (0 for the assembled method).
+    method : "mstmm" or "assembled".
+    expected : modes the assembled model counts in the same range.
+    rigid_body_modes : zero-frequency modes (counted, not listed).
+    shapes : :class:`ufmt.mstmm.modes.ModeShapes` (unit modal mass), or None.
+    seconds : wall time of the solution [s].
+    """
 
     frequencies_hz: np.ndarray
     order: int
@@ -36,9 +47,67 @@ class ModalSolution:
     shapes: ModeShapes | None
     seconds: float
 
+    def __repr__(self) -> str:
+        f = self.frequencies_hz
+        span = f"{f[0]:.4g}-{f[-1]:.4g} Hz" if f.size else "none"
+        return (
+            f"ModalSolution(method={self.method!r}, order={self.order}, modes={f.size} "
+            f"({span}), expected={self.expected}, rigid_body_modes={self.rigid_body_modes}, "
+            f"shapes={'yes' if self.shapes is not None else 'no'}, seconds={self.seconds:.3g})"
+        )
+
     def energy_shares(self, model: Model) -> np.ndarray:
         """Kinetic-energy share (n_modes, n_bodies, 6) per body and direction."""
         return energy_shares(model, self.shapes)
+
+    def to_frame(self, model: Model | None = None):
+        """One row per mode: ``mode``, ``frequency_hz`` and, given the model the shapes belong
+        to, the dominant ``body``, ``direction`` and its ``energy_share`` (of kinetic energy).
+
+        Returns
+        -------
+        pandas.DataFrame
+        """
+        import pandas as pd
+
+        table = pd.DataFrame(
+            {
+                "mode": np.arange(1, self.frequencies_hz.size + 1),
+                "frequency_hz": self.frequencies_hz,
+            }
+        )
+        if model is not None and self.shapes is not None:
+            shares = self.energy_shares(model).reshape(self.frequencies_hz.size, -1)
+            top = np.argmax(shares, axis=1)
+            table["body"] = [model.bodies[i // 6].name for i in top]
+            table["direction"] = [DIRECTIONS[i % 6] for i in top]
+            table["energy_share"] = shares[np.arange(top.size), top]
+        return table
+
+    def plot(self, ax=None, model: Model | None = None):
+        """Natural frequency of each mode; given the model, each mode's kinetic energy split
+        over the bodies (which part of the machine moves in which mode).
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+        """
+        from ufmt.plots.modes import plot_modal_solution
+
+        return plot_modal_solution(self, model, ax=ax)
+
+    def save(self, directory, model: Model | None = None) -> list:
+        """Write ``modes.csv`` (:meth:`to_frame`) and ``modes.png`` (:meth:`plot`) to
+        ``directory``; returns the paths."""
+        from pathlib import Path
+
+        from ufmt.plots import save_figure
+
+        directory = Path(directory)
+        directory.mkdir(parents=True, exist_ok=True)
+        csv = directory / "modes.csv"
+        self.to_frame(model).to_csv(csv, index=False, float_format="%.10g")
+        return [csv, save_figure(self.plot(model=model), directory / "modes.png")]
 
 
 def _range(fmax_hz, count, estimates) -> float:
@@ -67,9 +136,34 @@ def solve_modes(
 ) -> ModalSolution:
     """Natural frequencies (and shapes) below ``fmax_hz`` or the first ``count`` modes.
 
-    method "mstmm" (default) roots det U_all; "assembled" is the independent mass-stiffness
-    eigen-solution, for cross-checks. BLAS runs single-threaded here: the matrices are small
-    (order ~100), where threads only add contention.
+    BLAS runs single-threaded here: the matrices are small (order ~100), where threads only
+    add contention.
+
+    Parameters
+    ----------
+    model : the validated model (:func:`ufmt.load_model`).
+    fmax_hz : upper end of the search [Hz] (default 1000 when ``count`` is not given).
+    count : number of lowest nonzero modes to find (with ``fmax_hz``: at most that many
+        below it).
+    method : "mstmm" (default) roots det U_all(ω) = 0 (paper eq. 2.23) and builds each shape
+        from the null vector of U_all Z_all = 0 (eq. 2.15); "assembled" is the independent
+        mass-stiffness eigen-solution, for cross-checks (frequencies only).
+    shapes : False skips the mode shapes (frequencies only, faster).
+
+    Returns
+    -------
+    ModalSolution
+        ``frequencies_hz`` (n,) [Hz] ascending without the zero-frequency modes, ``order`` of
+        U_all, ``expected`` (the assembled model's count in the range), ``rigid_body_modes``,
+        ``shapes`` (unit-modal-mass :class:`~ufmt.mstmm.modes.ModeShapes`, or None), and
+        ``seconds``; ``.to_frame(model)``, ``.plot(ax=None, model=None)``,
+        ``.save(directory, model=None)``.
+
+    Raises
+    ------
+    UfmtError
+        A non-positive ``fmax_hz`` or ``count``, an unknown method, or more modes asked for
+        than the model has.
     """
     with threadpool_limits(limits=1, user_api="blas"):
         return _solve_modes(model, fmax_hz, count, method, shapes)

@@ -259,3 +259,50 @@ def plot_frequencies(table: pd.DataFrame) -> Figure:
     bottom.grid(alpha=0.3, axis="y")
     bottom.legend(fontsize=8, ncols=4)
     return fig
+
+
+MAX_BODIES_SHOWN = 8  # bodies named in the energy-share chart; the rest are summed as "other"
+
+
+def plot_modal_solution(solution, model: Model | None = None, ax=None) -> Figure:
+    """Natural frequency of each mode of a :class:`ufmt.mstmm.solve.ModalSolution`.
+
+    Without the model: frequency [Hz, log axis] against mode number. With it (and shapes):
+    one stacked bar per mode of the kinetic-energy share of each body (the bodies with the
+    most energy over all modes; the rest as "other"), the frequency under each mode number.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    f = solution.frequencies_hz
+    mode = np.arange(1, f.size + 1)
+    if model is None or solution.shapes is None:
+        fig, ax = new_axes(ax, (max(5.0, 0.25 * f.size + 2), 3.5))
+        ax.semilogy(mode, f, "o-", ms=4, lw=0.8)
+        ax.set_xlabel("mode")
+        ax.set_ylabel("natural frequency [Hz]")
+        ax.set_xticks(mode)
+        ax.grid(alpha=0.3, which="both")
+        ax.set_title(f"{f.size} natural frequencies ({solution.method})")
+        return fig
+    shares = solution.energy_shares(model).sum(axis=2)  # (modes, bodies)
+    names = [b.name for b in model.bodies]
+    ranked = np.argsort(-shares.sum(axis=0))
+    shown = ranked[:MAX_BODIES_SHOWN]
+    fig, ax = new_axes(ax, (max(6.0, 0.4 * f.size + 3), 4.5))
+    bottom = np.zeros(f.size)
+    columns = [(names[i], shares[:, i]) for i in shown]
+    if ranked.size > shown.size:
+        columns.append(("other", shares[:, ranked[MAX_BODIES_SHOWN:]].sum(axis=1)))
+    for n, (name, share) in enumerate(columns):
+        colour = "0.7" if name == "other" else PALETTE[n % len(PALETTE)]
+        ax.bar(mode, 100 * share, bottom=100 * bottom, color=colour, label=name, width=0.8)
+        bottom += share
+    ax.set_xticks(mode, [f"{m}\n{v:.3g}" for m, v in zip(mode, f, strict=True)], fontsize=7)
+    ax.set_xlabel("mode and natural frequency [Hz]")
+    ax.set_ylabel("kinetic energy [% of the mode's]")
+    ax.set_ylim(0, 100)
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.0, 1.0))
+    ax.set_title(f"{model.name}: which body moves in each mode ({solution.method})")
+    return fig
