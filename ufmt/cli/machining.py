@@ -91,6 +91,7 @@ def cmd_frf(args) -> int:
     from ufmt.machining.frf import tool_workpiece_receptance
     from ufmt.machining.modal import modal_basis
     from ufmt.model.machine import machine_of
+    from ufmt.plots import save_figure
     from ufmt.plots.response import plot_frf
 
     if args.fmin >= args.fmax:
@@ -112,7 +113,7 @@ def cmd_frf(args) -> int:
         }
     )
     table.to_csv(out / "frf.csv", index=False, float_format="%.8g")
-    plot_frf(freq, h, out / "frf.png")
+    save_figure(plot_frf(freq, h, natural_hz=basis.omega / (2 * np.pi)), out / "frf.png")
     peak = int(np.argmax(np.abs(h)))
     summary = {
         "model": model.name,

@@ -1,7 +1,10 @@
 """Simulation plots: tool-tip motion (paper Figs. 6, 7), z_re (Fig. 13), surface (Fig. 14), FRF.
 
-Plotting reads results and never recomputes them. Figures are built with the object-oriented
-matplotlib API (``matplotlib.figure.Figure``, Agg canvas), so no global backend state is used.
+Plotting reads results and never recomputes them. Each function takes the data and an optional
+``ax`` (a sequence of axes for the multi-panel tool-tip figure) and returns the Figure;
+:func:`ufmt.plots.save_figure` writes it. Time plots show the record window (mid-cut, the
+paper's "middle 2 s of the cutting process") as time from the window's start, with the time
+since the first touch in the axis label, and shade the intervals in which the tool cuts.
 """
 
 from __future__ import annotations
@@ -11,87 +14,167 @@ from pathlib import Path
 import numpy as np
 from matplotlib.figure import Figure
 
+from ufmt.plots import new_axes, new_figure, save_figure
+
 _AXES = ("x", "y", "z")
+CUT_SHADE = {"color": "tab:orange", "alpha": 0.12, "lw": 0}
+SPINDLE_HARMONICS = 10  # harmonics of the spindle frequency marked on the FRF
+REFERENCE_RPM = 300.0  # the paper's reference process (Table 4)
 
 
-def plot_tool_tip(response, path, quantity: str = "displacement") -> Path:
-    """Tool-tip displacement [nm] or acceleration [mm/s^2] in x, y, z against time (Figs. 6, 7)."""
+def _window_time(response) -> tuple[np.ndarray, str]:
+    """Time from the start of the record window [s] and the axis label naming its start."""
+    t0 = float(response.t[0])
+    return response.t - t0, f"time in the record window [s] (window starts {t0:.1f} s into the cut)"
+
+
+def _shade_cutting(ax, t: np.ndarray, response, label: bool) -> None:
+    """Shade the time intervals in which the tool touches the workpiece (force non-zero)."""
+    cutting = np.linalg.norm(response.force, axis=1) > 0
+    ax.fill_between(
+        t,
+        0,
+        1,
+        where=cutting,
+        transform=ax.get_xaxis_transform(),
+        label="tool cutting" if label else None,
+        **CUT_SHADE,
+    )
+
+
+def plot_tool_tip(response, quantity: str = "displacement", ax=None) -> Figure:
+    """Tool-tip displacement [nm] or acceleration [mm/s^2] in x, y, z against time (Figs. 6, 7).
+
+    ax : three axes (x, y, z panels) to draw in; default a new figure.
+    """
     if quantity == "displacement":
         data, unit, scale = response.tip_disp, "nm", 1e9
     elif quantity == "acceleration":
         data, unit, scale = response.tip_acc, "mm/s$^2$", 1e3
     else:
         raise ValueError(f"quantity must be 'displacement' or 'acceleration', got {quantity!r}")
-    fig = Figure(figsize=(8, 7), layout="constrained")
-    axes = fig.subplots(3, 1, sharex=True)
-    for i, ax in enumerate(axes):
-        ax.plot(response.t, data[:, i] * scale, lw=0.8)
-        ax.set_ylabel(f"{_AXES[i]} [{unit}]")
-        ax.grid(alpha=0.3)
-    axes[-1].set_xlabel("time [s]")
-    axes[-1].ticklabel_format(axis="x", useOffset=False)
+    if ax is None:
+        fig = new_figure((8, 7))
+        axes = fig.subplots(3, 1, sharex=True)
+    else:
+        axes = list(ax)
+        fig = axes[0].figure
+    t, label = _window_time(response)
+    for i, a in enumerate(axes):
+        _shade_cutting(a, t, response, label=i == 0)
+        a.plot(t, data[:, i] * scale, lw=0.8)
+        a.set_ylabel(f"{_AXES[i]} [{unit}]")
+        a.grid(alpha=0.3)
+    axes[-1].set_xlabel(label)
+    axes[0].legend(fontsize="small", loc="upper right")
     axes[0].set_title(f"Tool-tip {quantity} ({response.method} response)")
-    return _save(fig, path)
+    return fig
 
 
-def plot_zre(response, path) -> Path:
+def plot_zre(response, ax=None) -> Figure:
     """Relative tool-workpiece z displacement z_re [nm] against time (Fig. 13)."""
-    fig = Figure(figsize=(8, 3.5), layout="constrained")
-    ax = fig.subplots()
-    ax.plot(response.t, response.z_re * 1e9, lw=0.8)
-    ax.set_xlabel("time [s]")
-    ax.ticklabel_format(axis="x", useOffset=False)
+    fig, ax = new_axes(ax, (8, 3.5))
+    t, label = _window_time(response)
+    _shade_cutting(ax, t, response, label=True)
+    ax.plot(t, response.z_re * 1e9, lw=0.8, label="$z_{re}$")
+    ax.set_xlabel(label)
     ax.set_ylabel("$z_{re}$ [nm]")
     ax.set_title(f"Relative tool-workpiece displacement in z ({response.method} response)")
+    ax.legend(fontsize="small", loc="upper right")
     ax.grid(alpha=0.3)
-    return _save(fig, path)
+    return fig
 
 
-def plot_surface(surface, path, pv_nm: float | None = None) -> Path:
-    """Machined surface height [nm] over the workpiece [mm] (Fig. 14)."""
-    fig = Figure(figsize=(6.5, 5.5), layout="constrained")
-    ax = fig.subplots()
+def plot_surface(surface, pv_nm: float | None = None, ax=None) -> Figure:
+    """Machined surface height [nm] over the workpiece [mm] (Fig. 14), highest and lowest
+    points (the two ends of the PV) marked."""
+    fig, ax = new_axes(ax, (6.5, 5.5))
     z = surface.z * 1e9
-    mesh = ax.pcolormesh(surface.x * 1e3, surface.y * 1e3, z, shading="auto", cmap="viridis")
+    x, y = surface.x * 1e3, surface.y * 1e3
+    mesh = ax.pcolormesh(x, y, z, shading="auto", cmap="viridis")
     fig.colorbar(mesh, ax=ax, label="height [nm]")
+    for pick, marker, name in ((np.nanargmax, "^", "highest"), (np.nanargmin, "v", "lowest")):
+        i, j = np.unravel_index(pick(z), z.shape)
+        ax.plot(
+            x[j],
+            y[i],
+            marker,
+            ms=10,
+            mfc="w",
+            mec="r",
+            mew=1.5,
+            clip_on=False,
+            label=f"{name} point ({z[i, j]:.1f} nm at x {x[j]:.0f}, y {y[i]:.0f} mm)",
+        )
     ax.set_aspect("equal")
     ax.set_xlabel("x [mm]")
     ax.set_ylabel("y [mm] (opposite to the feed)")
-    pv = float(np.ptp(z)) if pv_nm is None else pv_nm
-    ax.set_title(f"Simulated machined surface, PV {pv:.2f} nm")
-    return _save(fig, path)
+    ax.legend(fontsize="small", loc="upper center", bbox_to_anchor=(0.5, -0.12), ncols=1)
+    pv = float(np.nanmax(z) - np.nanmin(z)) if pv_nm is None else pv_nm
+    ax.set_title(f"Simulated machined surface, PV {pv:.2f} nm", pad=12)
+    return fig
 
 
-def plot_frf(freq_hz, receptance, path) -> Path:
-    """Magnitude [m/N] and phase [deg] of the tool-workpiece receptance in z."""
-    fig = Figure(figsize=(8, 6), layout="constrained")
-    mag, phase = fig.subplots(2, 1, sharex=True)
-    mag.loglog(freq_hz, np.abs(receptance), lw=0.9)
+def plot_frf(
+    freq_hz,
+    receptance,
+    natural_hz=None,
+    spindle_rpm: float | None = REFERENCE_RPM,
+    ax=None,
+) -> Figure:
+    """Magnitude [m/N] and phase [deg] of the tool-workpiece receptance in z.
+
+    natural_hz : natural frequencies [Hz] marked on the magnitude (triangles); none if None.
+    spindle_rpm : spindle speed [rev/min] whose first SPINDLE_HARMONICS harmonics are drawn as
+        dotted lines (default the reference process, 300 rpm); None draws none.
+    ax : two axes (magnitude, phase); default a new figure.
+    """
+    if ax is None:
+        fig = new_figure((8, 6))
+        mag, phase = fig.subplots(2, 1, sharex=True)
+    else:
+        mag, phase = ax
+        fig = mag.figure
+    freq_hz = np.asarray(freq_hz, dtype=float)
+    magnitude = np.abs(receptance)
+    mag.loglog(freq_hz, magnitude, lw=0.9, label="$|H_{zz}|$")
+    phase.semilogx(freq_hz, np.degrees(np.angle(receptance)), lw=0.9)
+    if spindle_rpm:
+        harmonics = spindle_rpm / 60.0 * np.arange(1, SPINDLE_HARMONICS + 1)
+        harmonics = harmonics[(harmonics >= freq_hz[0]) & (harmonics <= freq_hz[-1])]
+        for k, f in enumerate(harmonics):
+            label = f"spindle harmonics ({spindle_rpm:g} rpm, 1-{SPINDLE_HARMONICS}x)"
+            for a in (mag, phase):
+                a.axvline(
+                    f, color="0.5", ls=":", lw=0.8, label=label if k == 0 and a is mag else None
+                )
+    if natural_hz is not None:
+        f = np.asarray(natural_hz, dtype=float)
+        f = f[(f >= freq_hz[0]) & (f <= freq_hz[-1])]
+        level = np.interp(np.log(f), np.log(freq_hz), magnitude)
+        mag.plot(f, level, "v", ms=5, color="r", label="natural frequencies")
     mag.set_ylabel("$|H_{zz}|$ [m/N]")
     mag.grid(alpha=0.3, which="both")
-    phase.semilogx(freq_hz, np.degrees(np.angle(receptance)), lw=0.9)
+    mag.legend(fontsize="small")
     phase.set_ylabel("phase [deg]")
     phase.set_xlabel("frequency [Hz]")
     phase.grid(alpha=0.3, which="both")
     mag.set_title("Tool-workpiece receptance in z")
-    return _save(fig, path)
+    return fig
+
+
+def simulation_figures(result) -> dict[str, Figure]:
+    """The four figures of a :class:`ufmt.simulate.SimulationResult` by file stem."""
+    r = result.response
+    return {
+        "tool_tip_displacement": plot_tool_tip(r, "displacement"),
+        "tool_tip_acceleration": plot_tool_tip(r, "acceleration"),
+        "z_re": plot_zre(r),
+        "surface": plot_surface(result.surface, result.metrics["pv_nm"]),
+    }
 
 
 def plot_simulation(result, directory) -> list[Path]:
-    """The four figures of a :class:`ufmt.simulate.SimulationResult`, written to ``directory``."""
+    """Write :func:`simulation_figures` to ``directory`` as PNGs; returns the paths."""
     d = Path(directory)
-    d.mkdir(parents=True, exist_ok=True)
-    r = result.response
-    return [
-        plot_tool_tip(r, d / "tool_tip_displacement.png", "displacement"),
-        plot_tool_tip(r, d / "tool_tip_acceleration.png", "acceleration"),
-        plot_zre(r, d / "z_re.png"),
-        plot_surface(result.surface, d / "surface.png", result.metrics["pv_nm"]),
-    ]
-
-
-def _save(fig: Figure, path) -> Path:
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=120)
-    return path
+    return [save_figure(fig, d / f"{name}.png") for name, fig in simulation_figures(result).items()]
