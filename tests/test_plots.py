@@ -116,3 +116,60 @@ def test_modal_solution_repr_table_plot_and_save(bridge, tmp_path):
     written = solution.save(tmp_path, model)
     assert [p.name for p in written] == ["modes.csv", "modes.png"]
     assert all(p.is_file() for p in written)
+
+
+# ---------------------------------------------------------------------------------------------
+# study figures on hand-made tables
+
+
+def _tick_texts(fig: Figure) -> list[str]:
+    fig.canvas.draw()
+    ax = fig.axes[0]
+    return [t.get_text() for t in ax.get_yticklabels() + ax.get_xticklabels() if t.get_text()]
+
+
+def test_pareto_log_axis_reads_plain_numbers_and_points_carry_their_recipe():
+    import pandas as pd
+
+    from ufmt.plots.studies import plot_pareto
+
+    feed = np.array([4.0, 8.0, 16.0])
+    points = pd.DataFrame(
+        {"rpm": 300.0, "feed_mm_min": feed, "depth_um": 2.0, "pv_nm": [30.0, 60.0, 400.0]}
+    )
+    front = points.assign(cutting_time_min=1000.0 / feed)
+    optima = front.iloc[[0]].assign(optimum="min-pv", travel_mm=1000.0, target_pv_nm=100.0)
+    fig = plot_pareto(points, front, optima)
+    texts = _tick_texts(fig)
+    assert "100" in texts and "200" in texts
+    assert not any("10^" in t or "times" in t or "×" in t for t in texts)
+    notes = [t.get_text() for t in fig.axes[0].texts]
+    assert "300 rpm, 16 mm/min, 2 µm" in notes
+    legend = [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
+    assert not any("min-pv" in t for t in legend) and any("minimum PV" in t for t in legend)
+
+
+def test_design_tradeoff_cost_is_the_optimisers_cost():
+    import pandas as pd
+
+    from ufmt.plots.studies import design_cost
+
+    meta = {"baseline": {"k_a": 2.0, "k_b": 10.0}, "options": {"cost": {"k_a": 5.0, "k_b": 1.0}}}
+    points = pd.DataFrame({"k_a": [2.0, 4.0], "k_b": [10.0, 5.0]})
+    # calibrated design: every ratio 1, cost = sum of the weights
+    np.testing.assert_allclose(design_cost(points, meta), [6.0, 10.5])
+
+
+def test_points_outside_table1_are_shaded_on_the_sweep():
+    import pandas as pd
+
+    from ufmt.plots.studies import plot_pv_lines
+
+    def labels(rpm):
+        points = pd.DataFrame({"group": "rpm", "rpm": rpm, "pv_nm": [3.0, 2.0, 1.0]})
+        groups = [{"name": "rpm", "axes": [{"parameter": "rpm", "log": False}]}]
+        fig = plot_pv_lines(points, groups, {"rpm": 300.0})
+        return fig.axes[0].get_legend_handles_labels()[1]
+
+    assert "outside Table 1" in labels([150.0, 300.0, 350.0])
+    assert "outside Table 1" not in labels([200.0, 300.0, 400.0])

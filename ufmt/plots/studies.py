@@ -1,13 +1,16 @@
 """Plots of study results, read from ``results/<study>/`` (never recomputed).
 
 * sweeps: PV against each swept parameter (log axis for stiffnesses, the calibrated value
-  marked), as the paper's Fig. 15 (bearing stiffness) and Fig. 16 (rpm, feed, depth);
-  PV maps over 2-D grids;
-* optimisers: convergence (best objective against evaluations, per stage) and, for cutting
-  recipes, the Pareto front of PV against cutting time with the PV target;
-* sensitivity: bar chart of the indices.
+  marked, the region outside the paper's Table 1 shaded for process parameters), as the
+  paper's Fig. 15 (bearing stiffness) and Fig. 16 (rpm, feed, depth); PV maps over 2-D grids
+  with the lowest point and the calibrated design / base recipe marked;
+* optimisers: convergence (best objective against evaluations, per stage); for cutting
+  recipes the Pareto front of PV against cutting time with the PV target, each front point
+  labelled with its recipe; for designs the trade-off of PV against stiffness cost;
+* sensitivity: bar chart of the indices with their 95 % confidence intervals.
 
-Figures are drawn with matplotlib's object API on the Agg canvas (no display, no pyplot state).
+Each ``plot_*`` takes tables (and an optional ``ax``) and returns the Figure;
+:func:`plot_study` draws every figure of a study folder and writes them as PNGs.
 """
 
 from __future__ import annotations
@@ -17,10 +20,12 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.colors import LogNorm
 from matplotlib.figure import Figure
+from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
 
+from ufmt.machining.process import TABLE1_RANGE
+from ufmt.plots import new_axes, new_figure, save_figure
 from ufmt.studies.outputs import (
     CONVERGENCE,
     INDICES,
@@ -32,64 +37,110 @@ from ufmt.studies.outputs import (
     read_table,
 )
 
-DPI = 120
 PANEL = (4.2, 3.2)  # inches per panel
 MAX_LABELLED_CELLS = 64  # PV maps print each cell's value up to this many cells
+MAX_RECIPE_LABELS = 10  # Pareto points labelled with their recipe (evenly picked)
+OUTSIDE_TABLE1 = {"color": "0.85", "hatch": "//", "alpha": 0.5, "lw": 0}
+OPTIMUM_LABELS = {
+    "min-pv": "minimum PV",
+    "fastest-under-target": "fastest recipe under the PV target",
+    "calibrated": "calibrated design",
+    "optimum": "optimum design",
+}
 
 
 def plot_study(out_dir: str | Path) -> list[Path]:
-    """Draw every plot of the study in ``out_dir``; returns the PNG paths written."""
+    """Draw every plot of the study in ``out_dir`` and write them there; returns the PNGs."""
+    out_dir = Path(out_dir)
+    return [save_figure(fig, out_dir / name) for name, fig in study_figures(out_dir).items()]
+
+
+def study_figures(out_dir: str | Path) -> dict[str, Figure]:
+    """Every figure of the study in ``out_dir``, by PNG file name (read from its tables)."""
     out_dir = Path(out_dir)
     meta = json.loads((out_dir / META).read_text(encoding="utf-8"))
     points = read_table(out_dir / POINTS)
     kind = meta["kind"]
     if kind in ("sweep", "grid"):
-        return plot_sweeps(points, meta, out_dir)
+        return sweep_figures(points, meta)
     if kind == "sensitivity":
-        return [plot_sensitivity(read_table(out_dir / INDICES), out_dir / "sensitivity.png")]
-    written = [plot_convergence(read_table(out_dir / CONVERGENCE), out_dir / "convergence.png")]
+        return {"sensitivity.png": plot_sensitivity(read_table(out_dir / INDICES))}
+    figures = {"convergence.png": plot_convergence(read_table(out_dir / CONVERGENCE))}
     if kind == "optimise-process":
-        written.append(
-            plot_pareto(
-                points,
-                read_table(out_dir / PARETO),
-                read_table(out_dir / OPTIMA),
-                out_dir / "pareto.png",
-            )
+        figures["pareto.png"] = plot_pareto(
+            points, read_table(out_dir / PARETO), read_table(out_dir / OPTIMA)
         )
-    return written
-
-
-def _save(fig: Figure, path: Path) -> Path:
-    FigureCanvasAgg(fig)
-    fig.savefig(path, dpi=DPI)
-    return path
+    if kind == "optimise-design":
+        figures["tradeoff.png"] = plot_design_tradeoff(points, read_table(out_dir / OPTIMA), meta)
+    return figures
 
 
 def _ok(points: pd.DataFrame) -> pd.DataFrame:
     return points[points["status"] == "ok"] if "status" in points else points
 
 
-def plot_sweeps(points: pd.DataFrame, meta: dict, out_dir: Path) -> list[Path]:
+def _plain_log(axis) -> None:
+    """Log axis with plain numbers at 1, 2, 5 x 10^k ("200", not "2x10^2")."""
+    axis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
+    axis.set_major_formatter(FuncFormatter(lambda v, _: _plain(v)))
+    axis.set_minor_formatter(NullFormatter())
+
+
+def _plain(value: float) -> str:
+    """A tick label: "200", "0.5", or "2e8" for large and small numbers (never "2x10^8")."""
+    if value == 0 or 1e-3 <= abs(value) < 1e5:
+        return f"{value:g}"
+    mantissa, exponent = f"{value:.0e}".split("e")
+    return f"{mantissa}e{int(exponent)}"
+
+
+def _label(name: str) -> str:
+    """Legend text of an optimum or optimiser stage ("min-pv" -> "minimum PV")."""
+    if name in OPTIMUM_LABELS:
+        return OPTIMUM_LABELS[name]
+    if name.startswith("feed-"):
+        return f"feed {name[5:]} mm/min"
+    return name.replace("-", " ").replace("_", " ")
+
+
+def _shade_outside_table1(ax, name: str, values, axis: str = "x") -> bool:
+    """Shade where process parameter ``name`` leaves the paper's Table 1 range, when some of
+    ``values`` lie there; True if shaded."""
+    if name not in TABLE1_RANGE:
+        return False
+    low, high, _ = TABLE1_RANGE[name]
+    values = np.asarray(values, dtype=float)
+    if np.all((values >= low) & (values <= high)):
+        return False
+    lo, hi = ax.get_xlim() if axis == "x" else ax.get_ylim()
+    span = ax.axvspan if axis == "x" else ax.axhspan
+    labelled = "outside Table 1" in ax.get_legend_handles_labels()[1]
+    for a, b in ((lo, min(low, hi)), (max(high, lo), hi)):
+        if b > a:
+            span(a, b, label=None if labelled else "outside Table 1", **OUTSIDE_TABLE1)
+            labelled = True
+    (ax.set_xlim if axis == "x" else ax.set_ylim)(lo, hi)
+    return True
+
+
+def sweep_figures(points: pd.DataFrame, meta: dict) -> dict[str, Figure]:
     """PV against each one-at-a-time axis (one figure) and a PV map per 2-D grid."""
-    written = []
+    figures = {}
     lines = [g for g in meta["groups"] if len(g["axes"]) == 1]
     if lines:
-        written.append(
-            plot_pv_lines(points, lines, meta["baseline"], out_dir / "pv_vs_parameters.png")
-        )
+        figures["pv_vs_parameters.png"] = plot_pv_lines(points, lines, meta["baseline"])
     for group in meta["groups"]:
         if len(group["axes"]) == 2:
-            written.append(plot_pv_map(points, group, out_dir / f"pv_map_{group['name']}.png"))
-    return written
+            figures[f"pv_map_{group['name']}.png"] = plot_pv_map(points, group, meta["baseline"])
+    return figures
 
 
-def plot_pv_lines(points: pd.DataFrame, groups: list[dict], baseline: dict, path: Path) -> Path:
+def plot_pv_lines(points: pd.DataFrame, groups: list[dict], baseline: dict) -> Figure:
     """One panel per swept parameter: PV and PV with tilt removed [nm] against it."""
     n = len(groups)
     cols = min(n, 3)
     rows = -(-n // cols)
-    fig = Figure(figsize=(PANEL[0] * cols, PANEL[1] * rows), layout="constrained")
+    fig = new_figure((PANEL[0] * cols, PANEL[1] * rows))
     ok = _ok(points)
     for i, group in enumerate(groups):
         ax = fig.add_subplot(rows, cols, i + 1)
@@ -104,23 +155,23 @@ def plot_pv_lines(points: pd.DataFrame, groups: list[dict], baseline: dict, path
         reference = baseline.get(name)
         if reference is not None and np.isfinite(reference):
             ax.axvline(reference, color="0.5", lw=0.8, ls=":", label="calibrated / base")
+        _shade_outside_table1(ax, name, data[name])
         ax.set_xlabel(parameter_label(name))
         ax.set_ylabel("surface PV [nm]")
         ax.grid(True, which="both", alpha=0.3)
-        if i == 0:
-            ax.legend(fontsize="small")
+        ax.legend(fontsize="x-small")
     fig.suptitle("Surface PV against each swept parameter (others at the base design)")
-    return _save(fig, path)
+    return fig
 
 
-def plot_pv_map(points: pd.DataFrame, group: dict, path: Path) -> Path:
-    """PV [nm] over a 2-D grid (log axes for log-spaced parameters), lowest point marked."""
+def plot_pv_map(points: pd.DataFrame, group: dict, baseline: dict | None = None, ax=None) -> Figure:
+    """PV [nm] over a 2-D grid (log axes for log-spaced parameters), the lowest point and the
+    calibrated design / base recipe marked."""
     x_axis, y_axis = group["axes"]
     x_name, y_name = x_axis["parameter"], y_axis["parameter"]
     data = points[points["group"] == group["name"]]
     table = data.pivot_table(index=y_name, columns=x_name, values="pv_nm", aggfunc="first")
-    fig = Figure(figsize=(1.3 * PANEL[0], 1.2 * PANEL[1]), layout="constrained")
-    ax = fig.add_subplot()
+    fig, ax = new_axes(ax, (1.5 * PANEL[0], 1.35 * PANEL[1]))
     pv = table.to_numpy(float)
     norm = LogNorm() if np.nanmin(pv) > 0 and np.nanmax(pv) > 10 * np.nanmin(pv) else None
     x, y = table.columns.to_numpy(float), table.index.to_numpy(float)
@@ -141,15 +192,30 @@ def plot_pv_map(points: pd.DataFrame, group: dict, path: Path) -> Path:
     ok = _ok(data)
     if not ok.empty:
         best = ok.iloc[int(np.argmin(ok["pv_nm"].to_numpy(float)))]
-        ax.plot(best[x_name], best[y_name], "o", ms=22, mfc="none", mec="r", mew=1.5)
-    if x_axis["log"]:
-        ax.set_xscale("log")
-    if y_axis["log"]:
-        ax.set_yscale("log")
+        ax.plot(
+            best[x_name], best[y_name], "o", ms=22, mfc="none", mec="r", mew=1.5, label="lowest PV"
+        )
+    base = baseline or {}
+    if x_name in base and y_name in base:
+        kind = "base recipe" if x_name in TABLE1_RANGE else "calibrated design"
+        ax.plot(base[x_name], base[y_name], "*", ms=14, mfc="w", mec="k", label=kind)
+    for name, axis_name, spec in ((x_name, "x", x_axis), (y_name, "y", y_axis)):
+        if spec["log"]:
+            getattr(ax, f"set_{axis_name}scale")("log")
+            _plain_log(getattr(ax, f"{axis_name}axis"))
+        _shade_outside_table1(ax, name, data[name], axis_name)
     ax.set_xlabel(parameter_label(x_name))
     ax.set_ylabel(parameter_label(y_name))
-    ax.set_title(f"Surface PV [nm] over grid {group['name']} (red ring: lowest)")
-    return _save(fig, path)
+    ax.legend(
+        fontsize="x-small",
+        loc="upper center",
+        bbox_to_anchor=(0.5, -0.18),
+        ncols=3,
+        markerscale=0.5,
+    )
+    short = [parameter_label(n).split(" [")[0] for n in (y_name, x_name)]
+    ax.set_title(f"Surface PV [nm]: {short[0]} against {short[1]}", fontsize="medium")
+    return fig
 
 
 def _edges(centres: np.ndarray, log: bool) -> np.ndarray:
@@ -164,12 +230,11 @@ def _edges(centres: np.ndarray, log: bool) -> np.ndarray:
     return 10.0**edges if log else edges
 
 
-def plot_convergence(convergence: pd.DataFrame, path: Path) -> Path:
+def plot_convergence(convergence: pd.DataFrame, ax=None) -> Figure:
     """Best objective so far [nm] against evaluations, one line per optimiser stage."""
-    fig = Figure(figsize=(1.4 * PANEL[0], PANEL[1]), layout="constrained")
-    ax = fig.add_subplot()
+    fig, ax = new_axes(ax, (1.4 * PANEL[0], PANEL[1]))
     for stage, data in convergence.groupby("stage", sort=False):
-        (line,) = ax.plot(data["evaluation"], data["best_objective_nm"], label=stage)
+        (line,) = ax.plot(data["evaluation"], data["best_objective_nm"], label=_label(stage))
         refine = data[data["phase"] == "trust-region"]
         ax.plot(
             refine["evaluation"], refine["best_objective_nm"], "o", ms=2, color=line.get_color()
@@ -177,50 +242,114 @@ def plot_convergence(convergence: pd.DataFrame, path: Path) -> Path:
     ax.set_xlabel("evaluations")
     if (convergence["best_objective_nm"] > 0).all():
         ax.set_yscale("log")
+        _plain_log(ax.yaxis)
     ax.set_ylabel("best objective so far [nm]")
-    ax.grid(True, alpha=0.3)
+    ax.grid(True, which="both", alpha=0.3)
     stages = convergence["stage"].nunique()
     ax.legend(fontsize="x-small", ncol=1 + stages // 6)
-    ax.set_title("Optimiser convergence (dots: convex trust-region steps)")
-    return _save(fig, path)
+    ax.set_title("Optimiser convergence (dots: convex trust-region steps)", fontsize="medium")
+    return fig
 
 
-def plot_pareto(
-    points: pd.DataFrame, front: pd.DataFrame, optima: pd.DataFrame, path: Path
-) -> Path:
-    """Every evaluated recipe, the non-dominated front and the optima: PV against time."""
-    fig = Figure(figsize=(1.4 * PANEL[0], 1.2 * PANEL[1]), layout="constrained")
-    ax = fig.add_subplot()
+def _recipe(row) -> str:
+    return f"{row.rpm:.0f} rpm, {row.feed_mm_min:.3g} mm/min, {row.depth_um:.2g} µm"
+
+
+def plot_pareto(points: pd.DataFrame, front: pd.DataFrame, optima: pd.DataFrame, ax=None) -> Figure:
+    """Every evaluated recipe, the non-dominated front (points labelled with their recipe) and
+    the optima: PV against cutting time."""
+    fig, ax = new_axes(ax, (2.0 * PANEL[0], 1.6 * PANEL[1]))
     ok = _ok(points)
     travel = optima["travel_mm"].iloc[0]
-    ax.scatter(travel / ok["feed_mm_min"], ok["pv_nm"], s=4, c="0.75", label="evaluated")
+    ax.scatter(travel / ok["feed_mm_min"], ok["pv_nm"], s=4, c="0.75", label="evaluated recipes")
+    front = front.sort_values("cutting_time_min")
     ax.step(
         front["cutting_time_min"], front["pv_nm"], "o-", where="post", ms=3, label="Pareto front"
     )
+    gap = np.ptp(front["cutting_time_min"].to_numpy(float)) / MAX_RECIPE_LABELS
+    last = -np.inf
+    for row in front.itertuples():
+        if row.cutting_time_min - last < gap:
+            continue
+        last = row.cutting_time_min
+        ax.annotate(
+            _recipe(row),
+            (row.cutting_time_min, row.pv_nm),
+            xytext=(4, 4),
+            textcoords="offset points",
+            fontsize=6,
+            rotation=20,
+        )
     for row in optima.itertuples():
-        ax.plot(row.cutting_time_min, row.pv_nm, "*", ms=12, label=row.optimum)
+        ax.plot(
+            row.cutting_time_min,
+            row.pv_nm,
+            "*",
+            ms=13,
+            label=f"{_label(row.optimum)}: {_recipe(row)}",
+        )
     target = optima["target_pv_nm"].iloc[0]
-    ax.axhline(target, color="r", lw=0.8, ls="--", label=f"target {target:g} nm")
+    ax.axhline(target, color="r", lw=0.8, ls="--", label=f"PV target {target:g} nm")
     ax.set_yscale("log")
+    _plain_log(ax.yaxis)
     ax.set_xlabel("cutting time of one pass [min]")
     ax.set_ylabel("surface PV [nm]")
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize="small")
-    ax.set_title("PV against cutting time")
-    return _save(fig, path)
+    ax.legend(fontsize="x-small", loc="upper right")
+    ax.set_title("Cutting recipes: surface PV against cutting time (Table 1 ranges)")
+    return fig
 
 
-def plot_sensitivity(indices: pd.DataFrame, path: Path) -> Path:
-    """Horizontal bars of the sensitivity indices with their confidence intervals."""
+def design_cost(points: pd.DataFrame, meta: dict) -> np.ndarray:
+    """Stiffness cost [nm] of each design of an optimise-design study: the sum over the costed
+    parameters of weight [nm] x stiffness / calibrated stiffness (see ufmt.studies.optimise)."""
+    weights = meta["options"]["cost"]
+    return sum(w * points[k].to_numpy(float) / meta["baseline"][k] for k, w in weights.items())
+
+
+def plot_design_tradeoff(points: pd.DataFrame, optima: pd.DataFrame, meta: dict, ax=None) -> Figure:
+    """PV against stiffness cost of every evaluated bearing design, lines of equal objective
+    (PV + cost), the calibrated design and the optimum."""
+    fig, ax = new_axes(ax, (1.6 * PANEL[0], 1.4 * PANEL[1]))
+    ok = _ok(points)
+    cost, pv = design_cost(ok, meta), ok["pv_nm"].to_numpy(float)
+    ax.scatter(cost, pv, s=6, c="0.6", label="evaluated designs")
+    order = np.argsort(cost)
+    front = order[pv[order] <= np.minimum.accumulate(pv[order])]
+    ax.step(cost[front], pv[front], where="post", color="C0", label="lowest PV for its cost")
+    best = optima.loc[optima["objective_nm"].idxmin()]
+    span = np.array([cost.min(), cost.max()])
+    for level in best["objective_nm"] * np.array([1.0, 1.25, 1.5]):
+        ax.plot(span, level - span, color="0.4", ls=":", lw=0.8)
+    ax.plot([], [], color="0.4", ls=":", lw=0.8, label="equal PV + cost")
+    for row in optima.itertuples():
+        label = f"{_label(row.design)}: PV {row.pv_nm:.0f} + cost {row.cost_nm:.0f} nm"
+        ax.plot(row.cost_nm, row.pv_nm, "*", ms=13, label=label)
+    ax.set_ylim(0.9 * pv.min(), 1.05 * pv.max())
+    ax.set_xlabel("stiffness cost [nm] (weights x stiffness / calibrated)")
+    ax.set_ylabel("surface PV [nm]")
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize="x-small")
+    ax.set_title("Bearing design: surface PV against stiffness cost", fontsize="medium")
+    return fig
+
+
+def plot_sensitivity(indices: pd.DataFrame, ax=None) -> Figure:
+    """Horizontal bars of the sensitivity indices with their 95 % confidence intervals."""
     morris = "mu_star_nm" in indices
     bars = (
-        [("mu_star_nm", "mu_star_conf_nm", "mu* (mean |effect|)"), ("sigma_nm", None, "sigma")]
+        [
+            ("mu_star_nm", "mu_star_conf_nm", "μ* (mean |effect|), error bar: 95 % bootstrap CI"),
+            ("sigma_nm", None, "σ (spread of the effect)"),
+        ]
         if morris
-        else [("ST", "ST_conf", "total ST"), ("S1", "S1_conf", "first-order S1")]
+        else [
+            ("ST", "ST_conf", "total ST, error bar: 95 % bootstrap CI"),
+            ("S1", "S1_conf", "first-order S1, error bar: 95 % bootstrap CI"),
+        ]
     )
     n = len(indices)
-    fig = Figure(figsize=(1.6 * PANEL[0], 0.6 + 0.35 * n), layout="constrained")
-    ax = fig.add_subplot()
+    fig, ax = new_axes(ax, (1.6 * PANEL[0], 1.0 + 0.35 * n))
     y = np.arange(n)
     height = 0.38
     for k, (value, conf, label) in enumerate(bars):
@@ -230,6 +359,6 @@ def plot_sensitivity(indices: pd.DataFrame, path: Path) -> Path:
     ax.invert_yaxis()
     ax.set_xlabel("PV effect per full range [nm]" if morris else "share of PV variance")
     ax.grid(True, axis="x", alpha=0.3)
-    ax.legend(fontsize="small")
+    ax.legend(fontsize="x-small", loc="lower right")
     ax.set_title("Sensitivity of surface PV" + (" (Morris)" if morris else " (Sobol)"))
-    return _save(fig, path)
+    return fig
