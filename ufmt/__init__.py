@@ -2,9 +2,10 @@
 
 Public entry points:
 
-- ``ufmt.load_model(path)``: read and validate a model file;
+- ``ufmt.load_model(path)``: read and validate a model file (``ufmt.packaged_path()`` is the
+  packaged, calibrated UFMT);
 - ``ufmt.solve_modes(model, fmax_hz=None, count=None, method="mstmm")``: natural frequencies
-  and mode shapes;
+  and mode shapes (:class:`ufmt.ModalSolution`: ``.to_frame()``, ``.plot()``, ``.save()``);
 - ``ufmt.simulate(model, ufmt.Process(rpm, feed_mm_min, depth_um), ...)``: tool-tip response,
   machined surface and its PV;
 - ``ufmt.evaluate(design, process, model=None)``: the study function (design, process) → PV.
@@ -17,8 +18,16 @@ __version__ = "0.1.0"
 # function whatever is imported later.
 from ufmt.evaluate import evaluate  # noqa: E402
 from ufmt.machining.process import Process  # noqa: E402
-from ufmt.model.load import load_model  # noqa: E402
-from ufmt.mstmm.solve import solve_modes  # noqa: E402
+from ufmt.model.load import load_model, packaged_path  # noqa: E402
+from ufmt.mstmm.solve import ModalSolution, solve_modes  # noqa: E402
 from ufmt.simulate import simulate  # noqa: E402
 
-__all__ = ["Process", "evaluate", "load_model", "simulate", "solve_modes"]
+__all__ = [
+    "ModalSolution",
+    "Process",
+    "evaluate",
+    "load_model",
+    "packaged_path",
+    "simulate",
+    "solve_modes",
+]
