@@ -173,3 +173,50 @@ def test_points_outside_table1_are_shaded_on_the_sweep():
 
     assert "outside Table 1" in labels([150.0, 300.0, 350.0])
     assert "outside Table 1" not in labels([200.0, 300.0, 400.0])
+
+
+# ---------------------------------------------------------------------------------------------
+# response figures on hand-made data
+
+
+def test_surface_map_marks_the_pv_extremes():
+    from types import SimpleNamespace
+
+    from ufmt.plots.response import plot_surface
+
+    x, y = np.linspace(-0.1, 0.1, 21), np.linspace(-0.2, 0.2, 41)
+    z = np.zeros((y.size, x.size))
+    z[30, 4], z[7, 15] = 5e-9, -3e-9  # highest at (x[4], y[30]), lowest at (x[15], y[7])
+    fig = plot_surface(SimpleNamespace(x=x, y=y, z=z))
+    marks = {
+        line.get_label().split(" point")[0]: (line.get_xdata()[0], line.get_ydata()[0])
+        for line in fig.axes[0].get_lines()
+    }
+    np.testing.assert_allclose(marks["highest"], (x[4] * 1e3, y[30] * 1e3))
+    np.testing.assert_allclose(marks["lowest"], (x[15] * 1e3, y[7] * 1e3))
+    assert "PV 8.00 nm" in fig.axes[0].get_title()
+
+
+def test_time_plots_shade_exactly_when_the_tool_cuts():
+    from types import SimpleNamespace
+
+    from ufmt.plots.response import plot_zre
+
+    t = 981.0 + np.linspace(0.0, 0.4, 401)
+    force = np.zeros((t.size, 3))
+    cutting = (t - 981.0) % 0.2 < 0.05
+    force[cutting, 2] = 1.0
+    response = SimpleNamespace(t=t, force=force, z_re=np.sin(t), method="time")
+    fig = plot_zre(response)
+    ax = fig.axes[0]
+    assert ax.get_xlim()[0] < 0.01  # time runs from the window's start
+    assert "981.0 s" in ax.get_xlabel()
+    (shade,) = [c for c in ax.collections if c.get_label() == "tool cutting"]
+    shaded_x = np.concatenate([p.vertices[:, 0] for p in shade.get_paths()])
+    assert shaded_x.min() >= 0.0 and shaded_x.max() <= 0.25 + 1e-9
+    # the shade's x extents cover the cutting samples and nothing else
+    inside = np.zeros(t.size, bool)
+    for path in shade.get_paths():
+        lo, hi = path.vertices[:, 0].min(), path.vertices[:, 0].max()
+        inside |= (t - 981.0 >= lo) & (t - 981.0 <= hi)
+    np.testing.assert_array_equal(inside, cutting)

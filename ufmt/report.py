@@ -32,7 +32,7 @@ body { font-family: sans-serif; max-width: 1100px; margin: 2em auto; color: #222
 h1 { border-bottom: 2px solid #444; } h2 { border-bottom: 1px solid #aaa; margin-top: 2em; }
 table { border-collapse: collapse; font-size: 0.8em; margin: 0.5em 0; }
 th, td { border: 1px solid #ccc; padding: 2px 6px; text-align: right; }
-th { background: #eee; } td.text { text-align: left; }
+th { background: #eee; }
 img { max-width: 100%; border: 1px solid #ddd; margin: 0.3em 0; }
 .finding { background: #eef5ff; padding: 0.5em 1em; border-left: 4px solid #36c; }
 .warning { background: #fff4e0; padding: 0.5em 1em; border-left: 4px solid #e90; }
@@ -131,7 +131,7 @@ def _model_section(model: Model) -> str:
         ]
     )
     parts = [
-        f"<p><b>{html.escape(model.name)}</b> ({html.escape(str(model.source))}): "
+        f"<p><b>{html.escape(model.name)}</b> ({html.escape(_shown_path(model.source))}): "
         f"{len(model.bodies)} bodies, {len(model.hinges)} hinges.</p>",
         _table(pd.DataFrame(rows)),
         _details("hinges", _table(hinges)),
@@ -238,6 +238,16 @@ def _provenance(meta: dict) -> str:
 
 # ---------------------------------------------------------------------------------------------
 # HTML pieces
+
+
+def _shown_path(source: str) -> str:
+    """A model file's path relative to the current folder when under it (the page then reads
+    the same on every checkout), else as given."""
+    path = Path(source)
+    try:
+        return str(path.resolve().relative_to(Path.cwd().resolve()))
+    except ValueError:
+        return str(source)
 
 
 def _figure(png: Path) -> str:
