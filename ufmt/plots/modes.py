@@ -26,6 +26,7 @@ DISPLAY_SHARE = 0.12  # default scale: largest drawn displacement = this share o
 ERROR_BAND_PERCENT = 3.0  # issue 3's target band, drawn on the error panel
 GROUND_CUT_RATIO = 3.0  # a grounded body more than this times the rest's size is kept whole
 TICKS_PER_AXIS = 4
+MIN_AXIS_SHARE = 0.4  # each axis of the view spans at least this share of the largest
 
 
 def equivalent_box(body: RigidBody) -> np.ndarray:
@@ -80,8 +81,12 @@ def _view_box(model: Model) -> tuple[np.ndarray, np.ndarray]:
             points.append(corners)
     points = np.vstack(points)
     low, high = points.min(axis=0), points.max(axis=0)
-    pad = VIEW_MARGIN * float(np.max(high - low))
-    return low - pad, high + pad
+    largest = float(np.max(high - low))
+    # a flat machine keeps some depth on its thin axes, so their ticks do not collide
+    half = np.maximum(high - low, MIN_AXIS_SHARE * largest) / 2.0
+    centre = (low + high) / 2.0
+    pad = VIEW_MARGIN * largest
+    return centre - half - pad, centre + half + pad
 
 
 def beam_polyline(beam: Beam, positions: np.ndarray, motion: np.ndarray):
