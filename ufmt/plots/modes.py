@@ -219,10 +219,17 @@ def plot_mode(
     return fig
 
 
-def plot_frequencies(table: pd.DataFrame) -> Figure:
-    """Frequencies of every mode and errors of the tested ones (validation table columns)."""
-    fig = new_figure((10, 7.5))
-    top, bottom = fig.subplots(2, 1, height_ratios=[3, 2])
+def plot_frequencies(table: pd.DataFrame, ax=None) -> Figure:
+    """Frequencies of every mode and errors of the tested ones (validation table columns).
+
+    ax : two axes (frequencies, errors); default a new figure.
+    """
+    if ax is None:
+        fig = new_figure((10, 7.5))
+        top, bottom = fig.subplots(2, 1, height_ratios=[3, 2])
+    else:
+        top, bottom = ax
+        fig = top.figure
     mode = table["mode"].to_numpy()
     top.plot(mode, table["mstmm_hz"], "o-", ms=4, lw=0.8, label="this project, MSTMM")
     top.plot(mode, table["assembled_hz"], "+", ms=8, label="this project, assembled model")

@@ -135,15 +135,22 @@ def sweep_figures(points: pd.DataFrame, meta: dict) -> dict[str, Figure]:
     return figures
 
 
-def plot_pv_lines(points: pd.DataFrame, groups: list[dict], baseline: dict) -> Figure:
-    """One panel per swept parameter: PV and PV with tilt removed [nm] against it."""
+def plot_pv_lines(points: pd.DataFrame, groups: list[dict], baseline: dict, ax=None) -> Figure:
+    """One panel per swept parameter: PV and PV with tilt removed [nm] against it.
+
+    ax : one axes per group; default a new figure with up to three panels a row.
+    """
     n = len(groups)
     cols = min(n, 3)
     rows = -(-n // cols)
-    fig = new_figure((PANEL[0] * cols, PANEL[1] * rows))
+    if ax is None:
+        fig = new_figure((PANEL[0] * cols, PANEL[1] * rows))
+        panels = [fig.add_subplot(rows, cols, i + 1) for i in range(n)]
+    else:
+        panels = list(ax)
+        fig = panels[0].figure
     ok = _ok(points)
-    for i, group in enumerate(groups):
-        ax = fig.add_subplot(rows, cols, i + 1)
+    for ax, group in zip(panels, groups, strict=True):
         axis = group["axes"][0]
         name = axis["parameter"]
         data = ok[ok["group"] == group["name"]].sort_values(name)
