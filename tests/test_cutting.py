@@ -86,7 +86,18 @@ def test_read_machine_accepts_the_documented_table():
         ({"cutting_plane_z": "top"}, "field 'cutting_plane_z': 'top' must be a number"),
         ({"workpiece_center_xy": [0.0, 0.1]}, "field 'workpiece_center_xy'"),
         ({"tool_body": ""}, "field 'tool_body'"),
-        ({"force_scale": 0.0}, "field 'force_scale': 0.0 must be > 0"),
+        ({"force_scale": 0.0}, r"field 'force_scale': 0.0 is outside the allowed range \[0.3, 3\]"),
+        ({"force_scale": 36.3}, r"field 'force_scale': 36.3 is outside the allowed range"),
+        ({"force_scale": float("inf")}, "field 'force_scale': inf must be finite"),
+        (
+            {"force_scal": 1.0},
+            "field 'force_scal': unknown key \\(did you mean 'force_scale'\\?\\)",
+        ),
+        ({"nose_radius": 0.5}, r"field 'nose_radius': 0.5 is outside the allowed range .* m"),
+        ({"spindle_tilt_rad": 1e-3}, "field 'spindle_tilt_rad'"),
+        ({"error_motion_m": -1e-9}, "field 'error_motion_m'"),
+        ({"straightness_wavelength_m": 0.0}, "field 'straightness_wavelength_m'"),
+        ({"rake_angle_deg": "neg"}, "field 'rake_angle_deg': 'neg' must be a number"),
     ],
 )
 def test_read_machine_errors_name_file_and_field(change, message):

@@ -29,6 +29,13 @@ assumption of (b):
     the default 192 and 0.02-0.7 % with 384 (cost of (b) roughly linear in the rows). Use (a)
     for reference values, (b) for fast studies.
 
+Both paths solve each force part (cutting "area" and ploughing "edge", see
+:mod:`ufmt.machining.cutting`) with its own :class:`CutGeometry`; the response is linear, so
+:func:`combine` adds the parts. With a :class:`~ufmt.machining.static.ResidualFlexibility`
+the quasi-static response of the modes above the basis (the static correction) is added to
+the displacements and to z_re (not to the tool-tip acceleration: those modes respond
+quasi-statically, with accelerations of the order of the force's own rate of change).
+
 Mode shapes are those of the nominal configuration, taken as the halfway point of the cut (see
 :mod:`ufmt.machining.basis`). The workpiece is loaded at the material point under the tool: its
 arm from the workpiece body's centre of mass is p - C + Y y_hat, so the workpiece terms of the
@@ -55,10 +62,12 @@ from ufmt.machining.cutting import (
     arc_y_bounds,
     chip_factor_cells,
     cutting_force,
-    force_per_area,
+    force_vector,
+    part_amplitude,
     tool_tip,
     tool_tip_rates,
 )
+from ufmt.machining.static import ResidualFlexibility
 from ufmt.model.machine import Machine
 
 DEFAULT_ZETA = 0.03
@@ -162,11 +171,18 @@ def real_recurrence(omega, zeta, dt: float) -> tuple[np.ndarray, np.ndarray]:
 
 @dataclass(frozen=True, eq=False)
 class CutGeometry:
-    """Process-independent data of one (basis, machine, force coefficients, n_phi, table_rows).
+    """Process-independent data of one (basis, machine, force coefficients, n_phi, table_rows,
+    force part, static correction).
+
+    part: "area" or "edge" (:data:`~ufmt.machining.cutting.FORCE_PARTS`): the pattern and the
+    force vector below are that part's. static_tool, static_work (3, N, 3) or None: the
+    residual-flexibility displacement of the tool tip and of the workpiece point per unit
+    pattern, as a quadratic in Y (coefficients of Y^0, Y^1, Y^2); static_table (M, N) its z_re
+    at the table rows times the pattern there.
 
     phases (N,) [rad]; tip (N, 3) tool-tip position [m] and dtip, ddtip (N, 3) its first and
     second derivatives in phi [m]; w (n, N) modal force per unit chip area,
-    (V_tool - V_work)(p) . k / M_s with k from :func:`force_per_area` [N/(kg m^2)];
+    (V_tool - V_work)(p) . k / M_s with k from :func:`force_vector` [N/(kg m^2)];
     c (n, N) relative z translation (V_tool - V_work)_z(p) [m], both at slide position Y = 0;
     w_y (n, N) [N/(kg m^3)] and c_y (n,) [m/m] their rates of change with Y (the workpiece's
     rotation times the moving arm). w, w_y and c are trigonometric polynomials in phi (degree
@@ -202,6 +218,20 @@ class CutGeometry:
     row_knots: tuple[float, float, np.ndarray]
     table_a: np.ndarray
     active: np.ndarray
+    part: str = "area"
+    static_tool: np.ndarray | None = None
+    static_work: np.ndarray | None = None
+    static_table: np.ndarray | None = None
+
+    def static_at(self, j, slide_y) -> tuple[np.ndarray, np.ndarray]:
+        """Static-correction displacement of tool tip and workpiece point per unit pattern.
+
+        ``j`` phase indices and ``slide_y`` [m] broadcast; returns two (..., 3) arrays [m].
+        """
+        y = np.asarray(slide_y, dtype=float)[..., None]
+        tool = self.static_tool[0][j] + y * (self.static_tool[1][j] + y * self.static_tool[2][j])
+        work = self.static_work[0][j] + y * (self.static_work[1][j] + y * self.static_work[2][j])
+        return tool, work
 
 
 @lru_cache(maxsize=8)
@@ -211,8 +241,13 @@ def cut_geometry(
     coefficients: ForceCoefficients = DEFAULT_COEFFICIENTS,
     n_phi: int = DEFAULT_N_PHI,
     table_rows: int = DEFAULT_TABLE_ROWS,
+    part: str = "area",
+    residual: ResidualFlexibility | None = None,
 ) -> CutGeometry:
     """Precompute what does not depend on the process (cached per arguments).
+
+    ``part``: the force part ("area" cutting, "edge" ploughing); ``residual``: the static
+    correction of the basis (none: modal superposition alone).
 
     ``n_phi`` force samples per revolution (even, >= 8). ``table_rows`` slide positions of the
     periodic table over the cutting span: half of them evenly spaced, half where the chip
@@ -237,7 +272,7 @@ def cut_geometry(
         tip = tool_tip(ph, machine)
         rel = basis.point_shapes(machine.tool_body, tip)
         rel = rel - basis.point_shapes(machine.workpiece_body, tip)
-        k = force_per_area(ph, machine, coefficients)
+        k = force_vector(ph, machine, coefficients, part)
         return tip, np.einsum("sjc,jc->sj", rel, k) / mass, lever @ k.T / mass, rel[:, :, 2]
 
     def harmonics(values, orders):  # complex Fourier coefficients from 8 exact samples
@@ -264,7 +299,7 @@ def cut_geometry(
     lo, hi = machine.cutting_angles
     active = (centred + cell / 2 > lo) & (centred - cell / 2 < hi) & (np.abs(centred) < np.pi / 2)
     pattern = np.zeros((table_y.size, n_phi))
-    pattern[:, active] = chip_factor_cells(phases[active], table_y[:, None], machine, cell)
+    pattern[:, active] = chip_factor_cells(phases[active], table_y[:, None], machine, cell, part)
     spectra = _extend(np.fft.rfft(pattern, axis=1)).T  # (N/2 + 7, M)
     half = n_phi // 2 + 1
     # A[k - d] Y^p for the 3 x 7 kernels of periodic_response, as (N/2 + 1, M, 21)
@@ -272,6 +307,17 @@ def cut_geometry(
     powers = table_y[:, None] ** np.arange(3)[None, :]
     table_a = (powers[None, :, :, None] * shifted[:, :, None, :]).reshape(half, -1, 21)
     dtip, ddtip = tool_tip_rates(phases, machine, 1 / (2 * np.pi))  # d/dphi, d^2/dphi^2
+    static_tool = static_work = static_table = None
+    if residual is not None:
+        # quadratic in Y from three exact evaluations (the workpiece point moves with Y)
+        k = force_vector(phases, machine, coefficients, part)
+        samples = [residual.relative(tip, tip + [0.0, y, 0.0], k) for y in (-1.0, 0.0, 1.0)]
+        fit = np.array([[0.0, 1.0, 0.0], [-0.5, 0.0, 0.5], [0.5, -1.0, 0.5]])
+        static_tool = np.einsum("pk,knc->pnc", fit, np.stack([t for t, _ in samples]))
+        static_work = np.einsum("pk,knc->pnc", fit, np.stack([w for _, w in samples]))
+        y = table_y[:, None]
+        rel = static_tool[..., 2] - static_work[..., 2]
+        static_table = pattern * (rel[0] + y * (rel[1] + y * rel[2]))
     return CutGeometry(
         basis=basis,
         machine=machine,
@@ -296,6 +342,10 @@ def cut_geometry(
         row_knots=row_knots,
         table_a=table_a,
         active=active,
+        part=part,
+        static_tool=static_tool,
+        static_work=static_work,
+        static_table=static_table,
     )
 
 
@@ -419,7 +469,7 @@ def periodic_response(
     zeta = modal_damping(zeta, geo.basis.n_modes)
     f = process.spindle_hz
     n = geo.n_phi
-    amp = force_scale * process.depth_m * process.feed_per_rev_m
+    amp = force_scale * part_amplitude(process, geo.machine, geo.part)
     values, tip, acc, work, chip = _unit_periodic(geo, f, tuple(zeta.tolist()))
     y_rec = record_slide(geo.machine)
     j = np.arange(n)
@@ -427,7 +477,8 @@ def periodic_response(
         method="periodic",
         t=(j + (y_rec - geo.machine.cut_span[0]) / process.feed_per_rev_m * n) / (f * n),
         slide_y=np.full(n, y_rec),
-        force=(amp * chip)[:, None] * force_per_area(geo.phases, geo.machine, geo.coefficients),
+        force=(amp * chip)[:, None]
+        * force_vector(geo.phases, geo.machine, geo.coefficients, geo.part),
         tip_disp=amp * tip,
         tip_acc=amp * acc,
         work_disp=amp * work,
@@ -462,10 +513,12 @@ def _unit_periodic(geo: CutGeometry, spindle_hz: float, zeta: tuple):
     rows = np.fft.irfft(zk, n=n, axis=0).T
     values = np.empty((rows.shape[0], n + 3))
     values[:, 1 : n + 1] = rows
+    if geo.static_table is not None:
+        rows = rows + geo.static_table
     values[:, 0], values[:, n + 1 :] = rows[:, -1], rows[:, :2]
 
     y_rec = record_slide(geo.machine)
-    chip = chip_factor_cells(geo.phases, y_rec, geo.machine, 2 * np.pi / n)
+    chip = chip_factor_cells(geo.phases, y_rec, geo.machine, 2 * np.pi / n, geo.part)
     chip_ext = _extend(np.fft.rfft(chip))
     w_hat = geo.w_hat + y_rec * geo.w_y_hat
     fk = w_hat[:, :1] * chip_ext[None, 5 : 5 + half + 1]
@@ -476,6 +529,9 @@ def _unit_periodic(geo: CutGeometry, spindle_hz: float, zeta: tuple):
     fs = (geo.w + y_rec * geo.w_y) * chip
     qdd = fs - (2 * zeta * b.omega)[:, None] * qd - (b.omega**2)[:, None] * q
     tip, acc, work = _outputs(geo, np.arange(n), np.full(n, y_rec), q, qd, qdd, spindle_hz)
+    if geo.static_tool is not None:
+        s_tool, s_work = geo.static_at(np.arange(n), np.full(n, y_rec))
+        tip, work = tip + chip[:, None] * s_tool, work + chip[:, None] * s_work
     for a in (values, tip, acc, work, chip):
         a.setflags(write=False)
     return values, tip, acc, work, chip
@@ -506,7 +562,7 @@ def time_response(
     f = process.spindle_hz
     dt = 1.0 / (f * n)
     delta = process.feed_per_rev_m
-    amp = force_scale * process.depth_m * delta
+    amp = force_scale * part_amplitude(process, mach, geo.part)
     y_start, y_end = mach.cut_span
     n_rev = int(np.ceil((y_end - y_start) / delta)) + 1
     record_periods = max(1, min(record_periods, n_rev))
@@ -522,6 +578,7 @@ def time_response(
     edges = np.flatnonzero(np.diff(np.concatenate([[0], geo.active.astype(int), [0]])))
     runs = [slice(lo, hi) for lo, hi in zip(edges[::2], edges[1::2], strict=True)]
     forces = np.zeros((nm, step, n))
+    static = np.zeros((step, n))  # static-correction z_re of a block
     w_both = np.concatenate([geo.w_trig, geo.w_y_trig], axis=1)
     # skinny products over the modes: BLAS threads only add synchronisation here
     with threadpool_limits(limits=1, user_api="blas"):
@@ -530,16 +587,20 @@ def time_response(
             c = r1 - r0
             for run in runs:
                 y = y_start + delta * (np.arange(r0, r1)[:, None] + np.arange(n)[run] / n)
-                a = chip_factor_cells(geo.phases[run], y, mach, 2 * np.pi / n) * amp
+                a = chip_factor_cells(geo.phases[run], y, mach, 2 * np.pi / n, geo.part) * amp
                 basis_a = geo.trig[:, None, run] * a
                 inputs = np.concatenate([basis_a, basis_a * y]).reshape(10, -1)
                 forces[:, :c, run] = (w_both @ inputs).reshape(nm, c, -1)
+                if geo.static_tool is not None:
+                    s_tool, s_work = geo.static_at(np.arange(n)[run], y)
+                    static[:c, run] = a * (s_tool[..., 2] - s_work[..., 2])
             q = np.empty((nm, c * n))
             for s in range(nm):
                 q[s], state[s] = lfilter(num[s], den[s], forces[s, :c].ravel(), zi=state[s])
             zc = (np.vstack([geo.c_trig, geo.c_y]) @ q).reshape(4, c, n)
             y = y_start + delta * (np.arange(r0, r1)[:, None] + np.arange(n) / n)
             rows[r0:r1, 1 : n + 1] = np.einsum("irj,ij->rj", zc[:3], geo.trig[:3]) + y * zc[3]
+            rows[r0:r1, 1 : n + 1] += static[:c]
             lo, hi = max(r0 * n, rec0 * n - 1), min(r1 * n, rec1 * n)
             if lo < hi:
                 rec_q[:, lo - (rec0 * n - 1) : hi - (rec0 * n - 1)] = q[
@@ -554,7 +615,7 @@ def time_response(
     idx = np.arange(rec0 * n - 1, rec1 * n)  # global sample numbers, one before the window
     j = idx % n
     y = y_start + delta * idx / n
-    a = chip_factor_cells(geo.phases[j], y, mach, 2 * np.pi / n) * amp
+    a = chip_factor_cells(geo.phases[j], y, mach, 2 * np.pi / n, geo.part) * amp
     fs = (geo.w[:, j] + y * geo.w_y[:, j]) * a
     lam, e, b0, b1 = (v[:, None] for v in discretise(b.omega, zeta, dt))
     # z_{k-1} = u + i v from q_{k-1} = 2 Re z_{k-1} and q_k = 2 Re(E z_{k-1} + g_k)
@@ -566,12 +627,22 @@ def time_response(
     qd = 2 * (lam * z).real
     qdd = fs[:, 1:] - (2 * zeta * b.omega)[:, None] * qd - (b.omega**2)[:, None] * q
     tip, acc, work = _outputs(geo, j[1:], y[1:], q, qd, qdd, f)
+    if geo.static_tool is not None:
+        s_tool, s_work = geo.static_at(j[1:], y[1:])
+        tip, work = tip + a[1:, None] * s_tool, work + a[1:, None] * s_work
     return Response(
         method="time",
         t=idx[1:] * dt,
         slide_y=y[1:],
         force=cutting_force(
-            geo.phases[j[1:]], y[1:], process, mach, geo.coefficients, force_scale, 2 * np.pi / n
+            geo.phases[j[1:]],
+            y[1:],
+            process,
+            mach,
+            geo.coefficients,
+            force_scale,
+            2 * np.pi / n,
+            parts=(geo.part,),
         ),
         tip_disp=tip,
         tip_acc=acc,
@@ -580,4 +651,38 @@ def time_response(
         period=1.0 / f,
         periods=record_periods,
         table=table,
+    )
+
+
+def combine(responses) -> Response:
+    """Sum of the responses of the force parts of one process (the response is linear).
+
+    All must come from the same path, process and table rows (as :func:`ufmt.simulate.simulate`
+    makes them); the first one's time axis and table layout are kept.
+    """
+    responses = list(responses)
+    first = responses[0]
+    if len(responses) == 1:
+        return first
+
+    def total(name):
+        return sum(getattr(r, name) for r in responses)
+
+    return Response(
+        method=first.method,
+        t=first.t,
+        slide_y=first.slide_y,
+        force=total("force"),
+        tip_disp=total("tip_disp"),
+        tip_acc=total("tip_acc"),
+        work_disp=total("work_disp"),
+        z_re=total("z_re"),
+        period=first.period,
+        periods=first.periods,
+        table=ZreTable(
+            sum(r.table.values for r in responses),
+            first.table.row_y,
+            first.table.drift,
+            first.table.row_knots,
+        ),
     )
