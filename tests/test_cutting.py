@@ -188,7 +188,7 @@ def test_cutting_force_components_and_scaling():
     p = Process(300, 15, 4)
     phi = np.radians([-40.0, 0.0, 25.0])
     slide = -0.25  # arc fully over the plate
-    f = cutting_force(phi, slide, p, m, k, force_scale=1.5)
+    f = cutting_force(phi, slide, p, m, k, force_scale=1.5, parts=("area",))
     area = 1.5 * p.depth_m * p.feed_per_rev_m * np.cos(phi)
     vel, _ = tool_tip_rates(phi, m, p.spindle_hz)
     t = vel / np.linalg.norm(vel, axis=1, keepdims=True)
@@ -197,11 +197,39 @@ def test_cutting_force_components_and_scaling():
     np.testing.assert_allclose(np.einsum("ij,ij->i", f, n), -k.feed * area)  # pushed back
     np.testing.assert_allclose(f[:, 2], k.thrust * area)  # tool pushed up, away from the cut
     # linear in depth and in feed per revolution
-    f2 = cutting_force(phi, slide, Process(300, 15, 8), m, k, force_scale=1.5)
+    f2 = cutting_force(phi, slide, Process(300, 15, 8), m, k, force_scale=1.5, parts=("area",))
     np.testing.assert_allclose(f2, 2 * f)
-    f3 = cutting_force(phi, slide, Process(400, 16, 4), m, k)
-    f4 = cutting_force(phi, slide, Process(200, 16, 4), m, k)
+    f3 = cutting_force(phi, slide, Process(400, 16, 4), m, k, parts=("area",))
+    f4 = cutting_force(phi, slide, Process(200, 16, 4), m, k, parts=("area",))
     np.testing.assert_allclose(f4, 2 * f3)
+
+
+def test_edge_term_is_k_e_times_the_contact_arc_and_independent_of_the_feed():
+    """F = K_e b + K_c A per component, b = sqrt(2 r_n a_p) wherever the edge engages."""
+    m = read_machine({**MACHINE, "nose_radius": 2e-3})
+    k = ForceCoefficients()
+    phi = np.radians([-40.0, 0.0, 25.0, 120.0])  # the last on the trailing arc: no force
+    slow, fast = Process(300, 4, 4), Process(300, 16, 4)
+    b = np.sqrt(2 * 2e-3 * 4e-6)
+    edge = cutting_force(phi, -0.25, slow, m, k, parts=("edge",))
+    np.testing.assert_allclose(edge[:3, 2], k.edge_thrust * b)
+    np.testing.assert_array_equal(edge[3], 0.0)
+    np.testing.assert_allclose(cutting_force(phi, -0.25, fast, m, k, parts=("edge",)), edge)
+    total = cutting_force(phi, -0.25, fast, m, k)
+    np.testing.assert_allclose(total, edge + cutting_force(phi, -0.25, fast, m, k, parts=("area",)))
+
+
+def test_forces_at_the_reference_cut_lie_in_the_literature_band():
+    """Peak forces 0.1-1 N and specific cutting energy 1-5 GPa (diamond cutting of KDP)."""
+    m = read_machine(MACHINE)
+    p = Process(300, 15, 4)
+    k = ForceCoefficients()
+    f = cutting_force(np.linspace(-0.5, 0.5, 101), -0.25, p, m, k)
+    peak = np.linalg.norm(f, axis=1).max()
+    assert 0.1 <= peak <= 1.0
+    assert 1e9 <= k.cutting <= 5e9
+    # the whole [machine] force_scale band keeps the specific energy within 0.6-6 GPa
+    assert 0.3 * k.cutting >= 0.5e9 and 3 * k.cutting <= 6e9
 
 
 def test_reaction_on_the_workpiece_cancels_when_both_bodies_move_together():
