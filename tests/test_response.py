@@ -338,3 +338,28 @@ def test_pv_converges_with_the_force_sampling():
     err = {n: abs(pv[n] / pv[4096] - 1) for n in (256, 512)}
     assert err[512] < 1e-3
     assert err[256] / err[512] > 3.0  # second order: 4 x
+
+
+def test_time_path_skips_the_negligible_free_decay_after_the_cut(monkeypatch):
+    """Blocks after the cut whose state is below 1e-20 of the response are set to zero: the
+    z_re table agrees with the full recurrence to 1e-18 of its largest value."""
+    import ufmt.machining.response as response
+
+    m = read_machine(SMALL)
+    geo = cut_geometry(synthetic_basis(n=5), m, n_phi=64)
+    p = Process(300, 15, 4)
+    calls = []
+
+    def counted(*args, **kwargs):
+        calls.append(1)
+        return lfilter(*args, **kwargs)
+
+    monkeypatch.setattr(response, "lfilter", counted)
+    fast = time_response(geo, p, block_samples=128)
+    n_fast = len(calls)
+    monkeypatch.setattr(response, "NEGLIGIBLE_STATE", 0.0)  # never skip
+    full = time_response(geo, p, block_samples=128)
+    assert n_fast < 0.9 * (len(calls) - n_fast)  # blocks were skipped
+    scale = np.abs(full.table.values).max()
+    np.testing.assert_allclose(fast.table.values, full.table.values, rtol=0, atol=1e-18 * scale)
+    np.testing.assert_array_equal(fast.z_re, full.z_re)

@@ -80,6 +80,10 @@ DEFAULT_TABLE_ROWS = 192
 #: Share of the table rows spread evenly in slide travel; the rest follow the chip pattern.
 UNIFORM_SHARE = 0.1
 DEFAULT_COEFFICIENTS = ForceCoefficients()
+#: Modal state of the time path, relative to the largest modal coordinate so far, below which
+#: a force-free block after the cut is taken as zero (1e-20 of the response: far below any
+#: printed digit, and it stops the decay before it reaches subnormal numbers).
+NEGLIGIBLE_STATE = 1e-20
 #: Spindle periods in the time path's record window (paper Figs. 6-7 show 2 s = 10 periods).
 DEFAULT_RECORD_PERIODS = 10
 
@@ -578,6 +582,7 @@ def time_response(
     edges = np.flatnonzero(np.diff(np.concatenate([[0], geo.active.astype(int), [0]])))
     runs = [slice(lo, hi) for lo, hi in zip(edges[::2], edges[1::2], strict=True)]
     forces = np.zeros((nm, step, n))
+    peak = 0.0  # largest |q| so far
     static = np.zeros((step, n))  # static-correction z_re of a block
     w_both = np.concatenate([geo.w_trig, geo.w_y_trig], axis=1)
     # skinny products over the modes: BLAS threads only add synchronisation here
@@ -594,9 +599,16 @@ def time_response(
                 if geo.static_tool is not None:
                     s_tool, s_work = geo.static_at(np.arange(n)[run], y)
                     static[:c, run] = a * (s_tool[..., 2] - s_work[..., 2])
-            q = np.empty((nm, c * n))
-            for s in range(nm):
-                q[s], state[s] = lfilter(num[s], den[s], forces[s, :c].ravel(), zi=state[s])
+            if not forces[:, :c].any() and np.abs(state).max() <= NEGLIGIBLE_STATE * peak:
+                # free decay after the cut below any visible level: lfilter would only grind
+                # through subnormal numbers (issue 9: 20 of 21 s); the response is zero
+                q = np.zeros((nm, c * n))
+                state[:] = 0.0
+            else:
+                q = np.empty((nm, c * n))
+                for s in range(nm):
+                    q[s], state[s] = lfilter(num[s], den[s], forces[s, :c].ravel(), zi=state[s])
+                peak = max(peak, float(np.abs(q).max()))
             zc = (np.vstack([geo.c_trig, geo.c_y]) @ q).reshape(4, c, n)
             y = y_start + delta * (np.arange(r0, r1)[:, None] + np.arange(n) / n)
             rows[r0:r1, 1 : n + 1] = np.einsum("irj,ij->rj", zc[:3], geo.trig[:3]) + y * zc[3]
