@@ -363,3 +363,20 @@ def test_time_path_skips_the_negligible_free_decay_after_the_cut(monkeypatch):
     scale = np.abs(full.table.values).max()
     np.testing.assert_allclose(fast.table.values, full.table.values, rtol=0, atol=1e-18 * scale)
     np.testing.assert_array_equal(fast.z_re, full.z_re)
+
+
+def test_time_path_of_both_force_parts_is_the_sum_of_each_part():
+    """Linearity: one pass with the modal forces of both parts summed equals the two parts run
+    separately and added (table, record window, force)."""
+    from ufmt.machining.response import combine
+
+    m = read_machine(SMALL)
+    basis = synthetic_basis(n=5)
+    p = Process(300, 15, 4)
+    geos = [cut_geometry(basis, m, n_phi=64, part=part) for part in ("area", "edge")]
+    both = time_response(geos, p)
+    apart = combine(time_response(g, p) for g in geos)
+    scale = np.abs(apart.table.values).max()
+    np.testing.assert_allclose(both.table.values, apart.table.values, atol=1e-12 * scale)
+    np.testing.assert_allclose(both.z_re, apart.z_re, atol=1e-12 * scale)
+    np.testing.assert_allclose(both.force, apart.force, rtol=1e-12)

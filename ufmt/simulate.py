@@ -298,14 +298,14 @@ def _run(
     sources = check_sources(sources)
     zeta = modal_damping(zeta, basis.n_modes)
     parts = [p for p in FORCE_PARTS if any(coefficients.vector(p))]
-    responses = []
-    for part in parts:
-        geo = cut_geometry(basis, machine, coefficients, n_phi, table_rows, part, residual)
-        if method == "periodic":
-            responses.append(periodic_response(geo, process, zeta, force_scale))
-        else:
-            responses.append(time_response(geo, process, zeta, force_scale, record_periods))
-    response = combine(responses)
+    geos = [
+        cut_geometry(basis, machine, coefficients, n_phi, table_rows, part, residual)
+        for part in parts
+    ]
+    if method == "periodic":
+        response = combine(periodic_response(g, process, zeta, force_scale) for g in geos)
+    else:  # the parts share one pass of the recurrence
+        response = time_response(geos, process, zeta, force_scale, record_periods)
 
     def surface(srcs, window=None, grid=spacing, marks=True):
         return machined_surface(

@@ -542,7 +542,7 @@ def _unit_periodic(geo: CutGeometry, spindle_hz: float, zeta: tuple):
 
 
 def time_response(
-    geo: CutGeometry,
+    geo,
     process,
     zeta=DEFAULT_ZETA,
     force_scale: float = 1.0,
@@ -559,14 +559,20 @@ def time_response(
     window holds ``record_periods`` revolutions centred on :func:`record_slide`; there the
     modal velocities come from the exact complex-pole state recovered from q_{k-1}, q_k.
     Memory: the z_re table takes 8 n_phi bytes per revolution.
+
+    ``geo``: one :class:`CutGeometry` or a sequence of them, the force parts of one force on
+    the same basis, machine and n_phi: their modal forces are summed before the recurrence,
+    so the parts cost one pass.
     """
+    parts = (geo,) if isinstance(geo, CutGeometry) else tuple(geo)
+    geo = parts[0]
     b, mach = geo.basis, geo.machine
     n, nm = geo.n_phi, b.n_modes
     zeta = modal_damping(zeta, nm)
     f = process.spindle_hz
     dt = 1.0 / (f * n)
     delta = process.feed_per_rev_m
-    amp = force_scale * part_amplitude(process, mach, geo.part)
+    amps = [force_scale * part_amplitude(process, mach, g.part) for g in parts]
     y_start, y_end = mach.cut_span
     n_rev = int(np.ceil((y_end - y_start) / delta)) + 1
     record_periods = max(1, min(record_periods, n_rev))
@@ -584,7 +590,7 @@ def time_response(
     forces = np.zeros((nm, step, n))
     peak = 0.0  # largest |q| so far
     static = np.zeros((step, n))  # static-correction z_re of a block
-    w_both = np.concatenate([geo.w_trig, geo.w_y_trig], axis=1)
+    w_both = [np.concatenate([g.w_trig, g.w_y_trig], axis=1) for g in parts]
     # skinny products over the modes: BLAS threads only add synchronisation here
     with threadpool_limits(limits=1, user_api="blas"):
         for r0 in range(0, n_rev + 1, step):
@@ -592,13 +598,16 @@ def time_response(
             c = r1 - r0
             for run in runs:
                 y = y_start + delta * (np.arange(r0, r1)[:, None] + np.arange(n)[run] / n)
-                a = chip_factor_cells(geo.phases[run], y, mach, 2 * np.pi / n, geo.part) * amp
-                basis_a = geo.trig[:, None, run] * a
-                inputs = np.concatenate([basis_a, basis_a * y]).reshape(10, -1)
-                forces[:, :c, run] = (w_both @ inputs).reshape(nm, c, -1)
-                if geo.static_tool is not None:
-                    s_tool, s_work = geo.static_at(np.arange(n)[run], y)
-                    static[:c, run] = a * (s_tool[..., 2] - s_work[..., 2])
+                forces[:, :c, run] = 0.0
+                static[:c, run] = 0.0
+                for g, amp, w in zip(parts, amps, w_both, strict=True):
+                    a = chip_factor_cells(g.phases[run], y, mach, 2 * np.pi / n, g.part) * amp
+                    basis_a = g.trig[:, None, run] * a
+                    inputs = np.concatenate([basis_a, basis_a * y]).reshape(10, -1)
+                    forces[:, :c, run] += (w @ inputs).reshape(nm, c, -1)
+                    if g.static_tool is not None:
+                        s_tool, s_work = g.static_at(np.arange(n)[run], y)
+                        static[:c, run] += a * (s_tool[..., 2] - s_work[..., 2])
             if not forces[:, :c].any() and np.abs(state).max() <= NEGLIGIBLE_STATE * peak:
                 # free decay after the cut below any visible level: lfilter would only grind
                 # through subnormal numbers (issue 9: 20 of 21 s); the response is zero
@@ -627,8 +636,11 @@ def time_response(
     idx = np.arange(rec0 * n - 1, rec1 * n)  # global sample numbers, one before the window
     j = idx % n
     y = y_start + delta * idx / n
-    a = chip_factor_cells(geo.phases[j], y, mach, 2 * np.pi / n, geo.part) * amp
-    fs = (geo.w[:, j] + y * geo.w_y[:, j]) * a
+    chips = [
+        chip_factor_cells(g.phases[j], y, mach, 2 * np.pi / n, g.part) * amp
+        for g, amp in zip(parts, amps, strict=True)
+    ]
+    fs = sum((g.w[:, j] + y * g.w_y[:, j]) * a for g, a in zip(parts, chips, strict=True))
     lam, e, b0, b1 = (v[:, None] for v in discretise(b.omega, zeta, dt))
     # z_{k-1} = u + i v from q_{k-1} = 2 Re z_{k-1} and q_k = 2 Re(E z_{k-1} + g_k)
     g = b0 * fs[:, 1:] + b1 * fs[:, :-1]
@@ -639,9 +651,10 @@ def time_response(
     qd = 2 * (lam * z).real
     qdd = fs[:, 1:] - (2 * zeta * b.omega)[:, None] * qd - (b.omega**2)[:, None] * q
     tip, acc, work = _outputs(geo, j[1:], y[1:], q, qd, qdd, f)
-    if geo.static_tool is not None:
-        s_tool, s_work = geo.static_at(j[1:], y[1:])
-        tip, work = tip + a[1:, None] * s_tool, work + a[1:, None] * s_work
+    for g, a in zip(parts, chips, strict=True):
+        if g.static_tool is not None:
+            s_tool, s_work = g.static_at(j[1:], y[1:])
+            tip, work = tip + a[1:, None] * s_tool, work + a[1:, None] * s_work
     return Response(
         method="time",
         t=idx[1:] * dt,
@@ -654,7 +667,7 @@ def time_response(
             geo.coefficients,
             force_scale,
             2 * np.pi / n,
-            parts=(geo.part,),
+            parts=tuple(g.part for g in parts),
         ),
         tip_disp=tip,
         tip_acc=acc,

@@ -171,7 +171,7 @@ def machined_surface(
     if table is None:
         z_lo, z_hi = np.zeros(rho.shape), np.zeros(rho.shape)
     else:
-        cols = _columns(table.values, phi)
+        cols = _table_columns(table, machine, spacing, window, arcs)
         y_lo = slide_lo - table.drift * turn
         columns = np.arange(cols.shape[1]).reshape(arcs, -1)
         z_lo = _lookup(cols, table.row_knots, y_lo, columns)
@@ -186,6 +186,13 @@ def machined_surface(
         z_hi += (1 - frac) ** 2 * d2
     z = np.minimum(z_lo, z_hi)
     return Surface(x, y, z.min(axis=1) if arcs > 1 else z[:, 0], core)
+
+
+@lru_cache(maxsize=1)  # one simulation reads its table for the total and each source alone
+def _table_columns(table: ZreTable, machine: Machine, spacing, window, arcs: int) -> np.ndarray:
+    """:func:`_columns` of ``table`` at the pass angles of the grid (cached per table, grid)."""
+    phi = _grid(machine, spacing, window)[3][:arcs]
+    return _columns(table.values, phi)
 
 
 def _columns(values: np.ndarray, phi: np.ndarray) -> np.ndarray:
