@@ -36,7 +36,13 @@ from ufmt.machining.response import (
     periodic_response,
     time_response,
 )
-from ufmt.machining.sources import SOURCES, check_sources, geometric_z, is_active
+from ufmt.machining.sources import (
+    GEOMETRIC,
+    SOURCES,
+    check_sources,
+    geometric_z,
+    is_active,
+)
 from ufmt.machining.static import ResidualFlexibility, residual_flexibility
 from ufmt.machining.surface import (
     DEFAULT_APERTURE_MARGIN,
@@ -307,7 +313,22 @@ def _run(
     else:  # the parts share one pass of the recurrence
         response = time_response(geos, process, zeta, force_scale, record_periods)
 
+    made = {}  # surfaces by what acts on them: the total, the band surface and a source alone
+    #            are often the same (geometric sources of zero amplitude act on none)
+
     def surface(srcs, window=None, grid=spacing, marks=True):
+        key = (
+            "dynamic" in srcs,
+            marks and "feed_marks" in srcs,
+            tuple(s for s in srcs if s in GEOMETRIC and is_active(s, machine)),
+            window,
+            grid,
+        )
+        if key not in made:
+            made[key] = _surface(srcs, window, grid, marks)
+        return made[key]
+
+    def _surface(srcs, window, grid, marks):
         return machined_surface(
             response.table if "dynamic" in srcs else None,
             machine,

@@ -303,17 +303,19 @@ def _legendre_fit(x: np.ndarray, y: np.ndarray, z: np.ndarray) -> tuple[np.ndarr
     """Least-squares fit of Legendre polynomials up to 2nd order in (x, y) over the grid.
 
     Returns (fit, form): the whole fit (piston, tilt, 2nd order) and its 2nd-order part
-    (P2(u), u v, P2(v) with u, v the coordinates scaled to [-1, 1]), both (Ny, Nx).
+    (P2(u), u v, P2(v) with u, v the coordinates scaled to [-1, 1]), both (Ny, Nx). Every term
+    is a product f(u) g(v), so the normal equations are sums over u and v separately.
     """
     u = (2 * x - x[0] - x[-1]) / (x[-1] - x[0])
     v = (2 * y - y[0] - y[-1]) / (y[-1] - y[0])
-    uu, vv = np.meshgrid(u, v)
-    terms = np.stack(
-        [np.ones_like(uu), uu, vv, 1.5 * uu**2 - 0.5, uu * vv, 1.5 * vv**2 - 0.5], axis=-1
-    ).reshape(-1, 6)
-    coef, *_ = np.linalg.lstsq(terms, z.ravel(), rcond=None)
-    fit = (terms @ coef).reshape(z.shape)
-    form = (terms[:, 3:] @ coef[3:]).reshape(z.shape)
+    one_u, one_v = np.ones_like(u), np.ones_like(v)
+    fu = np.stack([one_u, u, one_u, 1.5 * u**2 - 0.5, u, one_u])  # (6, Nx)
+    gv = np.stack([one_v, one_v, v, one_v, v, 1.5 * v**2 - 0.5])  # (6, Ny)
+    normal = (fu @ fu.T) * (gv @ gv.T)
+    rhs = np.einsum("kj,ji,ki->k", gv, z, fu)
+    coef = np.linalg.solve(normal, rhs)
+    fit = np.einsum("k,kj,ki->ji", coef, gv, fu)
+    form = np.einsum("k,kj,ki->ji", coef[3:], gv[3:], fu[3:])
     return fit, form
 
 
