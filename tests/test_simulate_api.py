@@ -103,12 +103,14 @@ def test_model_without_machine_table_says_what_to_add():
         ufmt.simulate(Model("syn", (), (), source="syn.toml"), Process(300, 15, 4))
 
 
-def test_loader_validates_the_machine_table(tmp_path):
+def test_machine_table_is_validated_where_it_is_used(tmp_path):
+    """The loader keeps [machine] free-form (tests/test_model_load.py); every command that
+    uses it (simulate, frf, calibrate, studies) validates it: one line, did-you-mean, exit 2."""
     bad = packaged_text().replace("force_scale = 1.0", "force_scal = 1.0")
     path = tmp_path / "bad.toml"
     path.write_text(bad)
     res = subprocess.run(
-        [sys.executable, "-m", "ufmt.cli", "modes", str(path)], capture_output=True, text=True
+        [sys.executable, "-m", "ufmt.cli", "simulate", str(path)], capture_output=True, text=True
     )
     assert res.returncode == 2
     lines = res.stderr.strip().splitlines()

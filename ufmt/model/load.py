@@ -24,7 +24,6 @@ from typing import Any, NoReturn
 import numpy as np
 
 from ufmt.errors import ModelError, closest_name
-from ufmt.model.machine import read_machine
 from ufmt.model.schema import (
     GROUND,
     Beam,
@@ -124,8 +123,6 @@ def model_from_dict(data: Mapping[str, Any], source: str = "<dict>") -> Model:
     if not isinstance(machine, Mapping):
         top.fail("machine", f"expected a table [machine], got {_type_name(machine)}")
     _check_no_nan(top, "machine", machine)
-    if machine:
-        read_machine(machine, source)
 
     bodies = _parse_bodies(source, _tables(top, "body", data["body"], required=True))
     hinges = _parse_hinges(source, _tables(top, "hinge", data.get("hinge", [])), bodies)
