@@ -265,3 +265,20 @@ def test_point_shapes_are_rigid_motions():
     assert basis.point_shapes("b", np.zeros((4, 3))).shape == (1, 4, 3)
     with pytest.raises(KeyError, match="unknown body"):
         basis.point_shapes("x", [0, 0, 0])
+
+
+def test_peak_forces_are_the_full_engagement_force_at_phi_zero():
+    """peak_forces = cutting_force at phi = 0 with the arc over the plate, component-wise."""
+    from ufmt.machining.cutting import peak_forces
+
+    m = read_machine(MACHINE)
+    p = Process(300, 15, 4)
+    k = ForceCoefficients()
+    peaks = peak_forces(p, m, k, force_scale=1.3)
+    f = cutting_force(np.array([0.0]), -0.25, p, m, k, force_scale=1.3)[0]
+    # at phi = 0 ("cw") the cutting velocity is +x and the outward normal +y; both oppose
+    assert peaks["cutting_n"] == pytest.approx(-f[0], rel=1e-12)
+    assert peaks["feed_n"] == pytest.approx(-f[1], rel=1e-12)
+    assert peaks["thrust_n"] == pytest.approx(f[2], rel=1e-12)
+    area = p.depth_m * p.feed_per_rev_m
+    assert peaks["specific_thrust_gpa"] == pytest.approx(f[2] / area * 1e-9, rel=1e-12)

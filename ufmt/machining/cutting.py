@@ -224,3 +224,27 @@ def cutting_force(
         amp = part_amplitude(process, machine, part) * pattern
         total = total + amp[..., None] * force_vector(phi, machine, coefficients, part)
     return force_scale * total
+
+
+def peak_forces(
+    process,
+    machine: Machine,
+    coefficients: ForceCoefficients = ForceCoefficients(),
+    force_scale: float = 1.0,
+) -> dict[str, float]:
+    """Peak force components [N] and effective specific forces [GPa] of a process.
+
+    At phi = 0 with the leading arc fully engaged (largest chip, h = v/f): cutting, feed and
+    thrust force [N] of both parts, and the same per chip area a_p v/f [GPa] (the specific
+    forces a calibration implies; compare with the 1-5 GPa band of docs/ufmt-model.md).
+    """
+    area = process.depth_m * process.feed_per_rev_m
+    edge = edge_length(process, machine)
+    kc, kf, kt = coefficients.vector("area")
+    ec, ef, et = coefficients.vector("edge")
+    out = {}
+    for name, k, e in (("cutting", kc, ec), ("feed", kf, ef), ("thrust", kt, et)):
+        force = force_scale * (k * area + e * edge)
+        out[f"{name}_n"] = force
+        out[f"specific_{name}_gpa"] = force / area * 1e-9
+    return out
