@@ -69,7 +69,9 @@ class SimulationResult:
     at :func:`ufmt.machining.response.record_slide`), tip_acc_peak_mm_s2 (the same for the
     tool-tip z acceleration), force_peak_n (largest cutting-force magnitude in the window),
     force_scale. pv_by_source_nm: source -> PV [nm] of the surface with that source alone
-    (None where switched off). sources: the switched-on sources.
+    (None where switched off). sources: the switched-on sources. surface: every source
+    (the metrics' surface); smooth_surface: the same without the feed marks, whose scallops
+    (wavelength (v/f) cos(phi), tens of um) the grid only samples (the bands and the map use it).
     """
 
     process: Process
@@ -79,6 +81,7 @@ class SimulationResult:
     force_scale: float
     response: Response
     surface: Surface
+    smooth_surface: Surface
     metrics: dict[str, float]
     pv_by_source_nm: dict[str, float | None]
     sources: tuple[str, ...]
@@ -373,6 +376,7 @@ def _run(
         force_scale=float(force_scale),
         response=response,
         surface=total,
+        smooth_surface=band_surface,
         metrics=metrics,
         pv_by_source_nm=pv_by_source,
         sources=sources,
