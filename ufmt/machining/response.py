@@ -297,19 +297,7 @@ def cut_geometry(
     trig = np.stack(
         [np.ones(n_phi), np.cos(phases), np.sin(phases), np.cos(2 * phases), np.sin(2 * phases)]
     )
-    cell = 2 * np.pi / n_phi
-    table_y, row_knots = _table_rows(machine, table_rows)
-    centred = np.mod(phases + np.pi, 2 * np.pi) - np.pi
-    lo, hi = machine.cutting_angles
-    active = (centred + cell / 2 > lo) & (centred - cell / 2 < hi) & (np.abs(centred) < np.pi / 2)
-    pattern = np.zeros((table_y.size, n_phi))
-    pattern[:, active] = chip_factor_cells(phases[active], table_y[:, None], machine, cell, part)
-    spectra = _extend(np.fft.rfft(pattern, axis=1)).T  # (N/2 + 7, M)
-    half = n_phi // 2 + 1
-    # A[k - d] Y^p for the 3 x 7 kernels of periodic_response, as (N/2 + 1, M, 21)
-    shifted = spectra[np.arange(half)[:, None] + np.arange(6, -1, -1)[None, :]].transpose(0, 2, 1)
-    powers = table_y[:, None] ** np.arange(3)[None, :]
-    table_a = (powers[None, :, :, None] * shifted[:, :, None, :]).reshape(half, -1, 21)
+    table_y, row_knots, pattern, table_a, active = _pattern_tables(machine, n_phi, table_rows, part)
     dtip, ddtip = tool_tip_rates(phases, machine, 1 / (2 * np.pi))  # d/dphi, d^2/dphi^2
     static_tool = static_work = static_table = None
     if residual is not None:
@@ -351,6 +339,32 @@ def cut_geometry(
         static_work=static_work,
         static_table=static_table,
     )
+
+
+@lru_cache(maxsize=4)  # ~16 MiB each: both force parts of two machines
+def _pattern_tables(machine: Machine, n_phi: int, table_rows: int, part: str):
+    """Machine-only tables of :func:`cut_geometry` (cached per machine, not per design).
+
+    Returns table_y, row_knots, the chip pattern (M, N) of ``part`` at the table rows, its
+    shifted spectra table_a (N/2 + 1, M, 21) and the active angles (N,); all read-only.
+    """
+    phases = 2 * np.pi * np.arange(n_phi) / n_phi
+    cell = 2 * np.pi / n_phi
+    table_y, row_knots = _table_rows(machine, table_rows)
+    centred = np.mod(phases + np.pi, 2 * np.pi) - np.pi
+    lo, hi = machine.cutting_angles
+    active = (centred + cell / 2 > lo) & (centred - cell / 2 < hi) & (np.abs(centred) < np.pi / 2)
+    pattern = np.zeros((table_y.size, n_phi))
+    pattern[:, active] = chip_factor_cells(phases[active], table_y[:, None], machine, cell, part)
+    spectra = _extend(np.fft.rfft(pattern, axis=1)).T  # (N/2 + 7, M)
+    half = n_phi // 2 + 1
+    # A[k - d] Y^p for the 3 x 7 kernels of periodic_response, as (N/2 + 1, M, 21)
+    shifted = spectra[np.arange(half)[:, None] + np.arange(6, -1, -1)[None, :]].transpose(0, 2, 1)
+    powers = table_y[:, None] ** np.arange(3)[None, :]
+    table_a = (powers[None, :, :, None] * shifted[:, :, None, :]).reshape(half, -1, 21)
+    for a in (table_y, pattern, table_a, active):
+        a.setflags(write=False)
+    return table_y, row_knots, pattern, table_a, active
 
 
 def _table_rows(machine: Machine, rows: int, uniform: float = UNIFORM_SHARE):
