@@ -8,7 +8,13 @@ from packaged_unit import packaged_model
 from test_response import SMALL, synthetic_basis
 
 from ufmt.assembled import assemble
-from ufmt.machining.cutting import tool_tip
+from ufmt.machining.cutting import (
+    ForceCoefficients,
+    chip_factor_cells,
+    force_vector,
+    part_amplitude,
+    tool_tip,
+)
 from ufmt.machining.frf import tool_workpiece_receptance
 from ufmt.machining.modal import modal_basis
 from ufmt.machining.process import Process
@@ -111,3 +117,31 @@ def test_both_paths_add_the_residual_times_the_instantaneous_force(path):
         assert scale > 0
         np.testing.assert_allclose(with_res.z_re - without.z_re, expected, atol=1e-9 * scale)
         np.testing.assert_allclose(with_res.tip_disp - without.tip_disp, t_disp, atol=1e-9 * scale)
+
+
+@pytest.mark.parametrize("path", ["periodic", "time"])
+def test_surface_tables_carry_the_static_correction(path):
+    """The z_re table the surface reads (every revolution, every angle) differs by the
+    residual times the force there: (P G_res P^T F)_z with F = amp * pattern * force vector."""
+    m = read_machine(SMALL)
+    basis = synthetic_basis(n=5)
+    res = random_residual()
+    p = Process(300, 15, 4)
+    run = periodic_response if path == "periodic" else time_response
+    n = 64
+    phi = 2 * np.pi * np.arange(n) / n
+    for part in ("area", "edge"):
+        without = run(cut_geometry(basis, m, n_phi=n, part=part), p).table
+        with_res = run(cut_geometry(basis, m, n_phi=n, part=part, residual=res), p).table
+        # slide position of every table sample: row_y + drift * phi / (2 pi)
+        slide = with_res.row_y[:, None] + with_res.drift * phi[None, :] / (2 * np.pi)
+        amp = part_amplitude(p, m, part)
+        pattern = chip_factor_cells(phi[None, :], slide, m, 2 * np.pi / n, part)
+        force = (amp * pattern)[..., None] * force_vector(phi, m, ForceCoefficients(), part)
+        tip = np.broadcast_to(tool_tip(phi, m), force.shape)
+        t_disp, w_disp = res.relative(tip, tip + slide[..., None] * [0.0, 1.0, 0.0], force)
+        expected = t_disp[..., 2] - w_disp[..., 2]
+        scale = np.abs(expected).max()
+        assert scale > 0
+        diff = with_res.values[:, 1 : n + 1] - without.values[:, 1 : n + 1]
+        np.testing.assert_allclose(diff, expected, atol=1e-9 * scale)

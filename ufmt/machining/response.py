@@ -529,10 +529,10 @@ def _unit_periodic(geo: CutGeometry, spindle_hz: float, zeta: tuple):
     kern = np.ascontiguousarray(kern.reshape(21, half + 1).T)[:, :, None]
     zk = np.matmul(geo.table_a, kern)[:, :, 0]
     rows = np.fft.irfft(zk, n=n, axis=0).T
-    values = np.empty((rows.shape[0], n + 3))
-    values[:, 1 : n + 1] = rows
     if geo.static_table is not None:
         rows = rows + geo.static_table
+    values = np.empty((rows.shape[0], n + 3))
+    values[:, 1 : n + 1] = rows
     values[:, 0], values[:, n + 1 :] = rows[:, -1], rows[:, :2]
 
     y_rec = record_slide(geo.machine)
