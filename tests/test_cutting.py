@@ -86,7 +86,18 @@ def test_read_machine_accepts_the_documented_table():
         ({"cutting_plane_z": "top"}, "field 'cutting_plane_z': 'top' must be a number"),
         ({"workpiece_center_xy": [0.0, 0.1]}, "field 'workpiece_center_xy'"),
         ({"tool_body": ""}, "field 'tool_body'"),
-        ({"force_scale": 0.0}, "field 'force_scale': 0.0 must be > 0"),
+        ({"force_scale": 0.0}, r"field 'force_scale': 0.0 is outside the allowed range \[0.3, 3\]"),
+        ({"force_scale": 36.3}, r"field 'force_scale': 36.3 is outside the allowed range"),
+        ({"force_scale": float("inf")}, "field 'force_scale': inf must be finite"),
+        (
+            {"force_scal": 1.0},
+            "field 'force_scal': unknown key \\(did you mean 'force_scale'\\?\\)",
+        ),
+        ({"nose_radius": 0.5}, r"field 'nose_radius': 0.5 is outside the allowed range .* m"),
+        ({"spindle_tilt_rad": 1e-3}, "field 'spindle_tilt_rad'"),
+        ({"error_motion_m": -1e-9}, "field 'error_motion_m'"),
+        ({"straightness_wavelength_m": 0.0}, "field 'straightness_wavelength_m'"),
+        ({"rake_angle_deg": "neg"}, "field 'rake_angle_deg': 'neg' must be a number"),
     ],
 )
 def test_read_machine_errors_name_file_and_field(change, message):
@@ -177,7 +188,7 @@ def test_cutting_force_components_and_scaling():
     p = Process(300, 15, 4)
     phi = np.radians([-40.0, 0.0, 25.0])
     slide = -0.25  # arc fully over the plate
-    f = cutting_force(phi, slide, p, m, k, force_scale=1.5)
+    f = cutting_force(phi, slide, p, m, k, force_scale=1.5, parts=("area",))
     area = 1.5 * p.depth_m * p.feed_per_rev_m * np.cos(phi)
     vel, _ = tool_tip_rates(phi, m, p.spindle_hz)
     t = vel / np.linalg.norm(vel, axis=1, keepdims=True)
@@ -186,11 +197,39 @@ def test_cutting_force_components_and_scaling():
     np.testing.assert_allclose(np.einsum("ij,ij->i", f, n), -k.feed * area)  # pushed back
     np.testing.assert_allclose(f[:, 2], k.thrust * area)  # tool pushed up, away from the cut
     # linear in depth and in feed per revolution
-    f2 = cutting_force(phi, slide, Process(300, 15, 8), m, k, force_scale=1.5)
+    f2 = cutting_force(phi, slide, Process(300, 15, 8), m, k, force_scale=1.5, parts=("area",))
     np.testing.assert_allclose(f2, 2 * f)
-    f3 = cutting_force(phi, slide, Process(400, 16, 4), m, k)
-    f4 = cutting_force(phi, slide, Process(200, 16, 4), m, k)
+    f3 = cutting_force(phi, slide, Process(400, 16, 4), m, k, parts=("area",))
+    f4 = cutting_force(phi, slide, Process(200, 16, 4), m, k, parts=("area",))
     np.testing.assert_allclose(f4, 2 * f3)
+
+
+def test_edge_term_is_k_e_times_the_contact_arc_and_independent_of_the_feed():
+    """F = K_e b + K_c A per component, b = sqrt(2 r_n a_p) wherever the edge engages."""
+    m = read_machine({**MACHINE, "nose_radius": 2e-3})
+    k = ForceCoefficients()
+    phi = np.radians([-40.0, 0.0, 25.0, 120.0])  # the last on the trailing arc: no force
+    slow, fast = Process(300, 4, 4), Process(300, 16, 4)
+    b = np.sqrt(2 * 2e-3 * 4e-6)
+    edge = cutting_force(phi, -0.25, slow, m, k, parts=("edge",))
+    np.testing.assert_allclose(edge[:3, 2], k.edge_thrust * b)
+    np.testing.assert_array_equal(edge[3], 0.0)
+    np.testing.assert_allclose(cutting_force(phi, -0.25, fast, m, k, parts=("edge",)), edge)
+    total = cutting_force(phi, -0.25, fast, m, k)
+    np.testing.assert_allclose(total, edge + cutting_force(phi, -0.25, fast, m, k, parts=("area",)))
+
+
+def test_forces_at_the_reference_cut_lie_in_the_literature_band():
+    """Peak forces 0.1-1 N and specific cutting energy 1-5 GPa (diamond cutting of KDP)."""
+    m = read_machine(MACHINE)
+    p = Process(300, 15, 4)
+    k = ForceCoefficients()
+    f = cutting_force(np.linspace(-0.5, 0.5, 101), -0.25, p, m, k)
+    peak = np.linalg.norm(f, axis=1).max()
+    assert 0.1 <= peak <= 1.0
+    assert 1e9 <= k.cutting <= 5e9
+    # the whole [machine] force_scale band keeps the specific energy within 0.6-6 GPa
+    assert 0.3 * k.cutting >= 0.5e9 and 3 * k.cutting <= 6e9
 
 
 def test_reaction_on_the_workpiece_cancels_when_both_bodies_move_together():
@@ -226,3 +265,20 @@ def test_point_shapes_are_rigid_motions():
     assert basis.point_shapes("b", np.zeros((4, 3))).shape == (1, 4, 3)
     with pytest.raises(KeyError, match="unknown body"):
         basis.point_shapes("x", [0, 0, 0])
+
+
+def test_peak_forces_are_the_full_engagement_force_at_phi_zero():
+    """peak_forces = cutting_force at phi = 0 with the arc over the plate, component-wise."""
+    from ufmt.machining.cutting import peak_forces
+
+    m = read_machine(MACHINE)
+    p = Process(300, 15, 4)
+    k = ForceCoefficients()
+    peaks = peak_forces(p, m, k, force_scale=1.3)
+    f = cutting_force(np.array([0.0]), -0.25, p, m, k, force_scale=1.3)[0]
+    # at phi = 0 ("cw") the cutting velocity is +x and the outward normal +y; both oppose
+    assert peaks["cutting_n"] == pytest.approx(-f[0], rel=1e-12)
+    assert peaks["feed_n"] == pytest.approx(-f[1], rel=1e-12)
+    assert peaks["thrust_n"] == pytest.approx(f[2], rel=1e-12)
+    area = p.depth_m * p.feed_per_rev_m
+    assert peaks["specific_thrust_gpa"] == pytest.approx(f[2] / area * 1e-9, rel=1e-12)

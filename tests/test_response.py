@@ -5,6 +5,7 @@ import pytest
 from machine_table import MACHINE
 from scipy.signal import lfilter
 
+from ufmt.errors import ModelError
 from ufmt.machining.basis import ModalBasis
 from ufmt.machining.cutting import ForceCoefficients
 from ufmt.machining.frf import tool_workpiece_receptance
@@ -23,6 +24,12 @@ from ufmt.machining.surface import machined_surface, steady_region
 from ufmt.model.machine import read_machine
 from ufmt.model.schema import Model
 from ufmt.simulate import fit_force_scale, simulate
+
+#: the cutting-force vibration alone, without the static correction (a synthetic basis has no
+#: model to solve statically)
+DYN = {"sources": ("dynamic",), "static_correction": False}
+#: the cutting (area) term alone: forces exactly proportional to the chip area
+AREA_ONLY = ForceCoefficients(edge_cutting=0.0, edge_thrust=0.0, edge_feed=0.0)
 
 # a small plate so that the whole-workpiece time path takes a fraction of a second
 SMALL = {**MACHINE, "tool_radius": 0.06, "workpiece_size": [0.1, 0.2]}
@@ -241,30 +248,36 @@ def test_record_windows_of_both_paths_agree(still):
 
 
 def test_pv_is_linear_in_depth_and_force_scale():
-    """Doubling the depth doubles the chip area, every force, z_re and the PV (marks off)."""
+    """Doubling the depth doubles the chip area, every cutting force, z_re and the PV (dynamic
+    source alone, no edge term); doubling the force scale doubles them with the edge term."""
     model = Model("syn", (), (), machine=dict(MACHINE))
     basis = synthetic_basis(n=8)
-    base = simulate(model, Process(300, 15, 3), basis=basis).metrics
-    deep = simulate(model, Process(300, 15, 6), basis=basis).metrics
-    scaled = simulate(model, Process(300, 15, 3), basis=basis, force_scale=2.0).metrics
+    base = simulate(model, Process(300, 15, 3), basis=basis, coefficients=AREA_ONLY, **DYN)
+    deep = simulate(model, Process(300, 15, 6), basis=basis, coefficients=AREA_ONLY, **DYN)
+    base, deep = base.metrics, deep.metrics
+    scaled = simulate(model, Process(300, 15, 3), basis=basis, force_scale=0.6, **DYN).metrics
+    ref = simulate(model, Process(300, 15, 3), basis=basis, force_scale=0.3, **DYN).metrics
     for key in ("pv_nm", "pv_tilt_removed_nm", "rms_nm", "zre_peak_nm", "tip_acc_peak_mm_s2"):
         assert deep[key] == pytest.approx(2 * base[key], rel=1e-9)
-        assert scaled[key] == pytest.approx(2 * base[key], rel=1e-9)
+        assert scaled[key] == pytest.approx(2 * ref[key], rel=1e-9)
 
 
 def test_fit_force_scale_is_the_pv_ratio():
     model = Model("syn", (), (), machine=dict(MACHINE))
     basis = synthetic_basis(n=8)
     p = Process(300, 15, 4)
-    scale = fit_force_scale(model, p, 142.91, basis=basis)
-    assert simulate(model, p, basis=basis, force_scale=scale).metrics["pv_nm"] == pytest.approx(
-        142.91, rel=1e-9
-    )
-    same = fit_force_scale(basis, p, 142.91, machine=MACHINE)
+    target = 1.7 * simulate(model, p, basis=basis, **DYN).metrics["pv_nm"]
+    scale = fit_force_scale(model, p, target, basis=basis, static_correction=False)
+    assert scale == pytest.approx(1.7, rel=1e-9)
+    pv = simulate(model, p, basis=basis, force_scale=scale, **DYN).metrics["pv_nm"]
+    assert pv == pytest.approx(target, rel=1e-9)
+    same = fit_force_scale(basis, p, target, machine=MACHINE)
     assert same == pytest.approx(scale, rel=1e-12)
     # the model's [machine] force_scale is the default
     fitted = Model("syn", (), (), machine={**MACHINE, "force_scale": scale})
-    assert simulate(fitted, p, basis=basis).metrics["pv_nm"] == pytest.approx(142.91, rel=1e-9)
+    assert simulate(fitted, p, basis=basis, **DYN).metrics["pv_nm"] == pytest.approx(
+        target, rel=1e-9
+    )
 
 
 def test_simulate_options_are_checked():
@@ -272,13 +285,17 @@ def test_simulate_options_are_checked():
     basis = synthetic_basis(n=4)
     p = Process(300, 15, 4)
     with pytest.raises(ValueError, match="method must be one of"):
-        simulate(model, p, basis=basis, method="euler")
+        simulate(model, p, basis=basis, method="euler", **DYN)
     with pytest.raises(ValueError, match="damping ratios must lie in"):
-        simulate(model, p, basis=basis, zeta=[0.02, 0.02, 1.5, 0.02])
-    with pytest.raises(ValueError, match="kinematic marks off"):
-        fit_force_scale(model, p, 100.0, basis=basis, nose_radius=1e-3)
-    per_mode = simulate(model, p, basis=basis, zeta=np.full(4, 0.05)).metrics["pv_nm"]
-    assert per_mode == pytest.approx(simulate(model, p, basis=basis, zeta=0.05).metrics["pv_nm"])
+        simulate(model, p, basis=basis, zeta=[0.02, 0.02, 1.5, 0.02], **DYN)
+    with pytest.raises(ValueError, match="dynamic source alone"):
+        fit_force_scale(model, p, 100.0, basis=basis, sources=("dynamic", "feed_marks"))
+    with pytest.raises(ModelError, match="'vibration' is not an error source"):
+        simulate(model, p, basis=basis, sources=("vibration",), static_correction=False)
+    per_mode = simulate(model, p, basis=basis, zeta=np.full(4, 0.05), **DYN).metrics["pv_nm"]
+    assert per_mode == pytest.approx(
+        simulate(model, p, basis=basis, zeta=0.05, **DYN).metrics["pv_nm"]
+    )
 
 
 def test_frf_is_the_modal_sum_at_the_tip():
@@ -314,7 +331,52 @@ def test_pv_converges_with_the_force_sampling():
     model = Model("syn", (), (), machine=dict(MACHINE))
     basis = synthetic_basis(n=30, f_lo=7.0, f_hi=700.0)
     p = Process(200, 16, 4)  # slowest spindle: most samples per mode period needed
-    pv = {n: simulate(model, p, basis=basis, n_phi=n).metrics["pv_nm"] for n in (256, 512, 4096)}
+    pv = {
+        n: simulate(model, p, basis=basis, n_phi=n, **DYN).metrics["pv_nm"]
+        for n in (256, 512, 4096)
+    }
     err = {n: abs(pv[n] / pv[4096] - 1) for n in (256, 512)}
     assert err[512] < 1e-3
     assert err[256] / err[512] > 3.0  # second order: 4 x
+
+
+def test_time_path_skips_the_negligible_free_decay_after_the_cut(monkeypatch):
+    """Blocks after the cut whose state is below 1e-20 of the response are set to zero: the
+    z_re table agrees with the full recurrence to 1e-18 of its largest value."""
+    import ufmt.machining.response as response
+
+    m = read_machine(SMALL)
+    geo = cut_geometry(synthetic_basis(n=5), m, n_phi=64)
+    p = Process(300, 15, 4)
+    calls = []
+
+    def counted(*args, **kwargs):
+        calls.append(1)
+        return lfilter(*args, **kwargs)
+
+    monkeypatch.setattr(response, "lfilter", counted)
+    fast = time_response(geo, p, block_samples=128)
+    n_fast = len(calls)
+    monkeypatch.setattr(response, "NEGLIGIBLE_STATE", 0.0)  # never skip
+    full = time_response(geo, p, block_samples=128)
+    assert n_fast < 0.9 * (len(calls) - n_fast)  # blocks were skipped
+    scale = np.abs(full.table.values).max()
+    np.testing.assert_allclose(fast.table.values, full.table.values, rtol=0, atol=1e-18 * scale)
+    np.testing.assert_array_equal(fast.z_re, full.z_re)
+
+
+def test_time_path_of_both_force_parts_is_the_sum_of_each_part():
+    """Linearity: one pass with the modal forces of both parts summed equals the two parts run
+    separately and added (table, record window, force)."""
+    from ufmt.machining.response import combine
+
+    m = read_machine(SMALL)
+    basis = synthetic_basis(n=5)
+    p = Process(300, 15, 4)
+    geos = [cut_geometry(basis, m, n_phi=64, part=part) for part in ("area", "edge")]
+    both = time_response(geos, p)
+    apart = combine(time_response(g, p) for g in geos)
+    scale = np.abs(apart.table.values).max()
+    np.testing.assert_allclose(both.table.values, apart.table.values, atol=1e-12 * scale)
+    np.testing.assert_allclose(both.z_re, apart.z_re, atol=1e-12 * scale)
+    np.testing.assert_allclose(both.force, apart.force, rtol=1e-12)

@@ -758,7 +758,10 @@ def test_evaluate_reuses_the_basis_and_caches_on_the_model_content(tmp_path, mon
 
     monkeypatch.setattr(ufmt.machining.modal, "modal_basis", broken)
     monkeypatch.setattr(evaluate_module, "_BASES", {})
-    assert evaluate({}, {}, model) == first  # served from the disk cache
+    cached = evaluate({}, {}, model)  # served from the disk cache
+    assert cached.keys() == first.keys()
+    for key, value in first.items():  # psd2_rms_nm is NaN (unresolved band) in both
+        assert cached[key] == value or (value != value and cached[key] != cached[key])
     with model.open("a", encoding="utf-8") as f:
         f.write("\n# a comment changes the file's content, hence the cache key\n")
     changed = evaluate({}, {}, model)

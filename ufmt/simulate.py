@@ -1,14 +1,18 @@
 """Simulate fly-cutting on a machine model: cutting force, modal response, machined surface.
 
 ``simulate(model, process)`` is the Python API of ``ufmt simulate``: it takes the modal basis
-of the model (or the one given), runs the periodic or the time-domain response and returns a
-:class:`SimulationResult` with the arrays, the metrics and ``.plot(directory)``.
-Process-independent work is cached per (basis, machine, options), so a new process on a known
-basis costs only the response and the surface.
+of the model (or the one given) with its static correction, runs the periodic or the
+time-domain response for each force part, builds the machined surface from every switched-on
+error source (:mod:`ufmt.machining.sources`) and returns a :class:`SimulationResult` with the
+arrays, the metrics and the PV of each source alone. Process-independent work is cached per
+(basis, machine, options), so a new process on a known basis costs only the response and the
+surfaces.
 """
 
 from __future__ import annotations
 
+import json
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from functools import lru_cache
@@ -17,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from ufmt.machining.basis import ModalBasis
-from ufmt.machining.cutting import ForceCoefficients
+from ufmt.machining.cutting import FORCE_PARTS, ForceCoefficients
 from ufmt.machining.process import Process
 from ufmt.machining.response import (
     DEFAULT_COEFFICIENTS,
@@ -26,12 +30,29 @@ from ufmt.machining.response import (
     DEFAULT_TABLE_ROWS,
     DEFAULT_ZETA,
     Response,
+    combine,
     cut_geometry,
     modal_damping,
     periodic_response,
     time_response,
 )
-from ufmt.machining.surface import DEFAULT_SPACING, Surface, machined_surface, surface_metrics
+from ufmt.machining.sources import (
+    GEOMETRIC,
+    SOURCES,
+    check_sources,
+    geometric_z,
+    is_active,
+)
+from ufmt.machining.static import ResidualFlexibility, residual_flexibility
+from ufmt.machining.surface import (
+    DEFAULT_APERTURE_MARGIN,
+    DEFAULT_SPACING,
+    PSD2_PATCH_SPACING,
+    Surface,
+    band_rms,
+    machined_surface,
+    surface_metrics,
+)
 from ufmt.model.machine import Machine, machine_of, read_machine
 
 METHODS = ("periodic", "time")
@@ -41,11 +62,16 @@ METHODS = ("periodic", "time")
 class SimulationResult:
     """Everything one simulation produced.
 
-    metrics [nm, mm/s^2]: pv_nm, pv_tilt_removed_nm, rms_nm, psd1_rms_nm, psd2_rms_nm,
-    grid_spacing_mm (see :func:`ufmt.machining.surface.surface_metrics`), zre_peak_nm (mean over the
-    record window's spindle periods of the largest |z_re| in each; the window sits mid-cut, at
-    :func:`ufmt.machining.response.record_slide`) and tip_acc_peak_mm_s2 (the same for the
-    tool-tip z acceleration, in mm/s^2), force_scale.
+    metrics [nm, mm/s^2, N]: the surface metrics of
+    :func:`ufmt.machining.surface.surface_metrics` (pv_nm, pv_aperture_nm, rms_nm, form and
+    waviness, psd1_rms_nm, psd2_rms_nm: NaN where not resolved, ...), zre_peak_nm (mean over
+    the record window's spindle periods of the largest |z_re| in each; the window sits mid-cut,
+    at :func:`ufmt.machining.response.record_slide`), tip_acc_peak_mm_s2 (the same for the
+    tool-tip z acceleration), force_peak_n (largest cutting-force magnitude in the window),
+    force_scale. pv_by_source_nm: source -> PV [nm] of the surface with that source alone
+    (None where switched off). sources: the switched-on sources. surface: every source
+    (the metrics' surface); smooth_surface: the same without the feed marks, whose scallops
+    (wavelength (v/f) cos(phi), tens of um) the grid only samples (the bands and the map use it).
     """
 
     process: Process
@@ -55,13 +81,81 @@ class SimulationResult:
     force_scale: float
     response: Response
     surface: Surface
+    smooth_surface: Surface
     metrics: dict[str, float]
+    pv_by_source_nm: dict[str, float | None]
+    sources: tuple[str, ...]
 
-    def plot(self, directory) -> list[Path]:
-        """Write the paper's Figs. 6, 7, 13 and 14 for this result as PNGs; returns the paths."""
-        from ufmt.plots.response import plot_simulation
+    def __repr__(self) -> str:
+        p = self.process
+        m = self.metrics
+        by = ", ".join(f"{k}={_short(v)}" for k, v in self.pv_by_source_nm.items())
+        return (
+            f"SimulationResult({p.rpm:g} rpm, {p.feed_mm_min:g} mm/min, {p.depth_um:g} um, "
+            f"{self.method}: pv_nm={_short(m['pv_nm'])}, "
+            f"pv_aperture_nm={_short(m['pv_aperture_nm'])}, rms_nm={_short(m['rms_nm'])}, "
+            f"force_peak_n={_short(m['force_peak_n'])}, pv_by_source_nm={{{by}}})"
+        )
 
-        return plot_simulation(self, directory)
+    def to_dict(self) -> dict:
+        """Inputs, metrics and pv_by_source_nm as plain JSON values (NaN -> None)."""
+        p = self.process
+        out = {
+            "method": self.method,
+            "rpm": p.rpm,
+            "feed_mm_min": p.feed_mm_min,
+            "depth_um": p.depth_um,
+            "sources": list(self.sources),
+            **{k: _json_number(v) for k, v in self.metrics.items()},
+            "pv_by_source_nm": {k: _json_number(v) for k, v in self.pv_by_source_nm.items()},
+        }
+        return out
+
+    def to_frame(self):
+        """One tidy row: the process, the metrics and ``pv_<source>_nm`` per source."""
+        import pandas as pd
+
+        row = {k: v for k, v in self.to_dict().items() if k not in ("pv_by_source_nm", "sources")}
+        for name, value in self.pv_by_source_nm.items():
+            row[f"pv_{name}_nm"] = np.nan if value is None else value
+        return pd.DataFrame([{k: np.nan if v is None else v for k, v in row.items()}])
+
+    def plot(self, ax=None):
+        """The machined surface map (with PV per source); returns the matplotlib Figure."""
+        from ufmt.plots.surface import plot_surface_map
+
+        return plot_surface_map(self, ax=ax)
+
+    def save(self, directory) -> list[Path]:
+        """Write metrics.json (strict JSON), summary.csv, surface.npz and surface.png."""
+        d = Path(directory)
+        d.mkdir(parents=True, exist_ok=True)
+        paths = [d / "metrics.json", d / "summary.csv", d / "surface.npz", d / "surface.png"]
+        paths[0].write_text(json.dumps(self.to_dict(), indent=2, allow_nan=False) + "\n")
+        self.to_frame().to_csv(paths[1], index=False, float_format="%.8g")
+        np.savez_compressed(paths[2], x_m=self.surface.x, y_m=self.surface.y, z_m=self.surface.z)
+        fig = self.plot()
+        fig.savefig(paths[3], dpi=120)
+        import matplotlib.pyplot as plt
+
+        plt.close(fig)
+        return paths
+
+
+def _short(value) -> str:
+    return (
+        "None"
+        if value is None or (isinstance(value, float) and math.isnan(value))
+        else f"{value:.4g}"
+    )
+
+
+def _json_number(value):
+    """A float for JSON: None for NaN or infinity."""
+    if value is None:
+        return None
+    value = float(value)
+    return value if math.isfinite(value) else None
 
 
 def simulate(
@@ -77,15 +171,19 @@ def simulate(
     n_phi: int = DEFAULT_N_PHI,
     table_rows: int = DEFAULT_TABLE_ROWS,
     spacing: float | tuple[float, float] = DEFAULT_SPACING,
-    nose_radius: float | None = None,
     trailing_arc: bool = False,
     record_periods: int = DEFAULT_RECORD_PERIODS,
+    sources=SOURCES,
+    static_correction: bool = True,
+    aperture_margin: float = DEFAULT_APERTURE_MARGIN,
+    psd2_patch: float | None = None,
 ) -> SimulationResult:
     """Machined surface and response of ``model`` under ``process``.
 
     Parameters
     ----------
-    model : :class:`ufmt.model.schema.Model` with a ``[machine]`` table.
+    model : model file path or a loaded :class:`ufmt.model.schema.Model`, with a
+        ``[machine]`` table.
     process : :class:`Process` (rpm, feed_mm_min, depth_um).
     n_modes : modes kept (paper: 30).
     zeta : modal damping ratio, scalar or (n_modes,) array (default 0.03, see
@@ -99,23 +197,32 @@ def simulate(
         (1 when absent).
     coefficients, n_phi, table_rows : force model and discretisation (see
         :func:`ufmt.machining.response.cut_geometry`).
-    spacing, nose_radius, trailing_arc : surface grid step [m] (one value or (x, y)),
-        kinematic marks [m] (off) and back-cutting (off), see
-        :func:`ufmt.machining.surface.machined_surface`. The defaults (grid 1 x 2 mm with
-        refined edge bands, 192 table rows) keep the PV within ~1-3 % of a converged time-domain
-        surface;
-        ``spacing=2e-3, table_rows=96`` is about twice as fast and 1-7 % low.
+    spacing, trailing_arc : surface grid step [m] (one value or (x, y)) and back-cutting (off),
+        see :func:`ufmt.machining.surface.machined_surface`.
     record_periods : spindle periods in the time path's record window.
+    sources : error sources switched on (default all of
+        :data:`ufmt.machining.sources.SOURCES`).
+    static_correction : add the residual flexibility of the modes above the basis
+        (:mod:`ufmt.machining.static`; needs the model's assembled static solve).
+    aperture_margin : clear-aperture edge exclusion [m] (default 5 mm).
+    psd2_patch : side [m] of a square patch at the plate centre, evaluated at 0.05 mm, on
+        which psd2_rms_nm is computed (None: PSD2 is not resolved and reads NaN).
     """
+    if isinstance(model, str | Path):
+        from ufmt.model.load import load_model
+
+        model = load_model(model)
     machine = machine_of(model)
     if basis is None:
         from ufmt.machining.modal import modal_basis
 
         basis = modal_basis(model, n_modes)
+    basis = _truncated(basis, n_modes)
     return _run(
-        _truncated(basis, n_modes),
+        basis,
         machine,
         process,
+        residual=_residual(model, basis, machine) if static_correction else None,
         zeta=zeta,
         method=method,
         force_scale=machine.force_scale if force_scale is None else force_scale,
@@ -123,39 +230,49 @@ def simulate(
         n_phi=n_phi,
         table_rows=table_rows,
         spacing=spacing,
-        nose_radius=nose_radius,
         trailing_arc=trailing_arc,
         record_periods=record_periods,
+        sources=sources,
+        aperture_margin=aperture_margin,
+        psd2_patch=psd2_patch,
     )
 
 
 def fit_force_scale(
     model_or_basis, reference_process: Process, target_pv_nm: float, *, machine=None, **options
 ) -> float:
-    """Force scale factor that makes the surface PV of ``reference_process`` equal the target.
+    """Force scale factor that makes the PV of the cutting-force vibration alone equal the target.
 
-    z_re is linear in the force and, without kinematic marks, the surface is a minimum of
-    z_re values, so PV(s) = s PV(1) for s > 0: the fit is the ratio target / PV(1).
+    z_re is linear in the force and, with the dynamic source alone, the surface is a minimum
+    of z_re values, so PV(s) = s PV(1) for s > 0: the fit is the ratio target / PV(1).
     ``model_or_basis``: a Model (its basis from ``modal_basis``) or a :class:`ModalBasis`
-    together with ``machine`` (a :class:`Machine` or a ``[machine]`` mapping). ``options`` go
-    to :func:`simulate` (``nose_radius`` must stay off); fit the reference value with
-    ``method="time"``.
+    together with ``machine`` (a :class:`Machine` or a ``[machine]`` mapping; no static
+    correction then). ``options`` go to :func:`simulate` (``sources`` is set to the dynamic
+    source); fit the reference value with ``method="time"``.
     """
-    if options.get("nose_radius") is not None:
-        raise ValueError("fit_force_scale needs the kinematic marks off (PV is then linear)")
+    if "sources" in options:
+        raise ValueError("fit_force_scale uses the dynamic source alone (PV is then linear)")
     if not target_pv_nm > 0:
         raise ValueError(f"target_pv_nm must be > 0, got {target_pv_nm!r}")
     options["force_scale"] = 1.0
+    options["sources"] = ("dynamic",)
     if isinstance(model_or_basis, ModalBasis):
         if machine is None:
             raise ValueError("fit_force_scale with a ModalBasis needs machine=")
         if isinstance(machine, Mapping):
             machine = read_machine(machine)
         n_modes = options.pop("n_modes", 30)
+        options.pop("static_correction", None)
         result = _run(_truncated(model_or_basis, n_modes), machine, reference_process, **options)
     else:
         result = simulate(model_or_basis, reference_process, **options)
     return target_pv_nm / result.metrics["pv_nm"]
+
+
+@lru_cache(maxsize=8)
+def _residual(model, basis: ModalBasis, machine: Machine) -> ResidualFlexibility:
+    """The static correction of ``basis`` (cached per model, basis and machine)."""
+    return residual_flexibility(model, basis, machine)
 
 
 @lru_cache(maxsize=16)
@@ -169,6 +286,7 @@ def _run(
     machine: Machine,
     process: Process,
     *,
+    residual: ResidualFlexibility | None = None,
     zeta=DEFAULT_ZETA,
     method: str = "periodic",
     force_scale: float = 1.0,
@@ -176,32 +294,79 @@ def _run(
     n_phi: int = DEFAULT_N_PHI,
     table_rows: int = DEFAULT_TABLE_ROWS,
     spacing: float | tuple[float, float] = DEFAULT_SPACING,
-    nose_radius: float | None = None,
     trailing_arc: bool = False,
     record_periods: int = DEFAULT_RECORD_PERIODS,
+    sources=SOURCES,
+    aperture_margin: float = DEFAULT_APERTURE_MARGIN,
+    psd2_patch: float | None = None,
 ) -> SimulationResult:
     if method not in METHODS:
         raise ValueError(f"method must be one of {METHODS}, got {method!r}")
     if not (np.isfinite(force_scale) and force_scale > 0):
         raise ValueError(f"force_scale must be a finite number > 0, got {force_scale!r}")
+    sources = check_sources(sources)
     zeta = modal_damping(zeta, basis.n_modes)
-    geo = cut_geometry(basis, machine, coefficients, n_phi, table_rows)
+    parts = [p for p in FORCE_PARTS if any(coefficients.vector(p))]
+    geos = [
+        cut_geometry(basis, machine, coefficients, n_phi, table_rows, part, residual)
+        for part in parts
+    ]
     if method == "periodic":
-        response = periodic_response(geo, process, zeta, force_scale)
-    else:
-        response = time_response(geo, process, zeta, force_scale, record_periods)
-    surface = machined_surface(
-        response.table,
-        machine,
-        process.feed_per_rev_m,
-        spacing=spacing,
-        nose_radius=nose_radius,
-        trailing_arc=trailing_arc,
-    )
-    metrics = surface_metrics(surface)
+        response = combine(periodic_response(g, process, zeta, force_scale) for g in geos)
+    else:  # the parts share one pass of the recurrence
+        response = time_response(geos, process, zeta, force_scale, record_periods)
+
+    made = {}  # surfaces by what acts on them: the total, the band surface and a source alone
+    #            are often the same (geometric sources of zero amplitude act on none)
+
+    def surface(srcs, window=None, grid=spacing, marks=True):
+        key = (
+            "dynamic" in srcs,
+            marks and "feed_marks" in srcs,
+            tuple(s for s in srcs if s in GEOMETRIC and is_active(s, machine)),
+            window,
+            grid,
+        )
+        if key not in made:
+            made[key] = _surface(srcs, window, grid, marks)
+        return made[key]
+
+    def _surface(srcs, window, grid, marks):
+        return machined_surface(
+            response.table if "dynamic" in srcs else None,
+            machine,
+            process.feed_per_rev_m,
+            spacing=grid,
+            nose_radius=machine.nose_radius if marks and "feed_marks" in srcs else None,
+            trailing_arc=trailing_arc,
+            geometric=geometric_z(machine, srcs),
+            window=window,
+        )
+
+    total = surface(sources)
+    # the scallop's wavelength (v/f) cos(phi) <= 80 um lies below PSD2 (>= 120 um) for every
+    # Table 1 process; on grids coarser than it, it would only alias into the bands
+    band_surface = surface(sources, marks=False) if "feed_marks" in sources else total
+    metrics = surface_metrics(total, aperture_margin, band_surface)
+    if psd2_patch is not None:
+        half = psd2_patch / 2
+        window = ((-half, half), (-half, half))
+        patch = surface(sources, window, PSD2_PATCH_SPACING, marks=False)
+        metrics["psd2_rms_nm"] = band_rms(patch)["psd2_rms_nm"]
+    pv_by_source = {}
+    for name in SOURCES:
+        if name not in sources:
+            pv_by_source[name] = None
+        elif not is_active(name, machine):
+            pv_by_source[name] = 0.0
+        elif len(sources) == 1:
+            pv_by_source[name] = metrics["pv_nm"]
+        else:
+            pv_by_source[name] = float(np.ptp(surface((name,)).z)) * 1e9
     per = response.periods
     metrics["zre_peak_nm"] = _mean_peak(response.z_re, per) * 1e9
     metrics["tip_acc_peak_mm_s2"] = _mean_peak(response.tip_acc[:, 2], per) * 1e3
+    metrics["force_peak_n"] = float(np.linalg.norm(response.force, axis=1).max())
     metrics["force_scale"] = float(force_scale)
     return SimulationResult(
         process=process,
@@ -210,8 +375,11 @@ def _run(
         zeta=zeta,
         force_scale=float(force_scale),
         response=response,
-        surface=surface,
+        surface=total,
+        smooth_surface=band_surface,
         metrics=metrics,
+        pv_by_source_nm=pv_by_source,
+        sources=sources,
     )
 
 

@@ -13,6 +13,8 @@ DEFAULT_FRF_DIR = Path("results") / "frf"
 def register(subparsers) -> None:
     """Add the ``simulate`` and ``frf`` sub-parsers."""
     from ufmt.cli.common import positive
+    from ufmt.machining.sources import SOURCES
+    from ufmt.machining.surface import DEFAULT_APERTURE_MARGIN, DEFAULT_PSD2_PATCH
 
     p = subparsers.add_parser("simulate", help="cutting response, machined surface and PV")
     p.add_argument("model", nargs="?", help="model TOML (default: packaged UFMT)")
@@ -29,8 +31,29 @@ def register(subparsers) -> None:
     p.add_argument(
         "--zeta", type=positive(float), default=None, help="modal damping ratio (default 0.03)"
     )
-    p.add_argument("--json", action="store_true", help="one JSON object on stdout")
+    p.add_argument(
+        "--sources",
+        default=",".join(SOURCES),
+        help=f"error sources switched on, comma-separated ({','.join(SOURCES)}: all)",
+    )
+    p.add_argument(
+        "--aperture-margin",
+        type=positive(float),
+        default=DEFAULT_APERTURE_MARGIN * 1e3,
+        help=f"clear-aperture edge exclusion [mm] ({DEFAULT_APERTURE_MARGIN * 1e3:g})",
+    )
+    p.add_argument(
+        "--psd2-patch",
+        type=positive(float),
+        default=None,
+        metavar="MM",
+        help="evaluate PSD2 on a centred square patch of this side [mm] at 0.05 mm "
+        f"(e.g. {DEFAULT_PSD2_PATCH * 1e3:g}; default: PSD2 unresolved, null)",
+    )
+    p.add_argument("--no-static", action="store_true", help="modal sum without static correction")
+    p.add_argument("--json", action="store_true", help="one strict JSON object on stdout")
     p.add_argument("--plot", metavar="DIR", help="write Figs. 6, 7, 13, 14 as PNGs to DIR")
+    p.add_argument("--save", metavar="DIR", help="write metrics.json, summary.csv, surface")
     p.set_defaults(func=cmd_simulate)
 
     p = subparsers.add_parser("frf", help="tool-workpiece receptance in z (table and plot)")
@@ -40,45 +63,53 @@ def register(subparsers) -> None:
     p.add_argument("--points", type=positive(int), default=4000, help="log-spaced (4000)")
     p.add_argument("--modes", type=positive(int), default=30, help="modes kept (30)")
     p.add_argument("--zeta", type=positive(float), default=None, help="damping ratio (0.03)")
+    p.add_argument("--no-static", action="store_true", help="modal sum without static correction")
     p.add_argument("--output-dir", default=str(DEFAULT_FRF_DIR), help=f"({DEFAULT_FRF_DIR})")
     p.add_argument("--json", action="store_true", help="summary as one JSON object")
     p.set_defaults(func=cmd_frf)
 
 
 def cmd_simulate(args) -> int:
-    """Run one process on a model and report the surface metrics."""
+    """Run one process on a model and report the surface metrics and the PV per source."""
     from ufmt.cli.common import load
     from ufmt.machining.process import Process
+    from ufmt.plots.response import plot_simulation
     from ufmt.simulate import simulate
 
     model = load(args.model)
     process = Process(args.rpm, args.feed, args.depth)
     options = {} if args.zeta is None else {"zeta": args.zeta}
-    result = simulate(model, process, n_modes=args.modes, method=args.method, **options)
-    metrics = {k: float(v) for k, v in result.metrics.items()}
+    if args.psd2_patch is not None:
+        options["psd2_patch"] = args.psd2_patch * 1e-3
+    result = simulate(
+        model,
+        process,
+        n_modes=args.modes,
+        method=args.method,
+        sources=[s.strip() for s in args.sources.split(",") if s.strip()],
+        static_correction=not args.no_static,
+        aperture_margin=args.aperture_margin * 1e-3,
+        **options,
+    )
     if args.plot:
-        result.plot(args.plot)
+        plot_simulation(result, args.plot)
+    if args.save:
+        result.save(args.save)
+    summary = {"model": model.name, **result.to_dict()}
     if args.json:
-        print(
-            json.dumps(
-                {
-                    "model": model.name,
-                    "method": args.method,
-                    "rpm": args.rpm,
-                    "feed_mm_min": args.feed,
-                    "depth_um": args.depth,
-                    **metrics,
-                }
-            )
-        )
+        print(json.dumps(summary, allow_nan=False))
         return 0
     print(
         f"{model.name}: {args.rpm:g} rpm, {args.feed:g} mm/min, {args.depth:g} um ({args.method})"
     )
-    for key, value in metrics.items():
+    for key, value in result.metrics.items():
         print(f"  {key:<22} {value:12.4f}")
-    if args.plot:
-        print(f"plots in {args.plot}")
+    print("  PV of each source alone [nm]:")
+    for key, value in result.pv_by_source_nm.items():
+        print(f"    {key:<20} " + ("off" if value is None else f"{value:12.4f}"))
+    for flag, where in (("plots", args.plot), ("results", args.save)):
+        if where:
+            print(f"{flag} in {where}")
     return 0
 
 
@@ -90,6 +121,7 @@ def cmd_frf(args) -> int:
     from ufmt.errors import UfmtError
     from ufmt.machining.frf import tool_workpiece_receptance
     from ufmt.machining.modal import modal_basis
+    from ufmt.machining.static import residual_flexibility
     from ufmt.model.machine import machine_of
     from ufmt.plots import save_figure
     from ufmt.plots.response import plot_frf
@@ -100,7 +132,10 @@ def cmd_frf(args) -> int:
     basis = modal_basis(model, args.modes)
     freq = np.geomspace(args.fmin, args.fmax, args.points)
     options = {} if args.zeta is None else {"zeta": args.zeta}
-    h = tool_workpiece_receptance(basis, machine_of(model), freq, **options)
+    machine = machine_of(model)
+    if not args.no_static:
+        options["residual"] = residual_flexibility(model, basis, machine)
+    h = tool_workpiece_receptance(basis, machine, freq, **options)
     out = Path(args.output_dir)
     out.mkdir(parents=True, exist_ok=True)
     table = pd.DataFrame(

@@ -19,12 +19,18 @@ the surface already cut and carries no force (whether it re-cuts is a surface op
 :mod:`ufmt.machining.surface`). The uncut chip is the material between two successive passes:
 thickness (in-plane, normal to the path) h = (v / f) cos phi and width a_p, area A = a_p h.
 
-Force on the tool (specific-force model, F = K A per component):
-cutting  -K_c A t  (t: unit cutting velocity, tangent to the circle; the feed's v/(R 2 pi f)
-                    ~ 3e-5 share of the relative velocity is neglected),
-feed     -K_f A n  (n: outward normal of the circle; the material ahead pushes the tool back),
-thrust   +K_t A z  (the workpiece pushes the tool up, away from the cut).
-The reaction -F acts on the workpiece body at the same point.
+Force on the tool: a cutting (shearing) term proportional to the uncut chip area A = a_p h and
+an edge (ploughing) term proportional to the engaged edge length b, per component
+(F = K_e b + K_c A):
+cutting  -(K_c A + K_ec b) t  (t: unit cutting velocity, tangent to the circle; the feed's
+                               v/(R 2 pi f) ~ 3e-5 share of the relative velocity is neglected),
+feed     -(K_f A + K_ef b) n  (n: outward normal of the circle; the material ahead pushes back),
+thrust   +(K_t A + K_et b) z  (the workpiece pushes the tool up, away from the cut).
+b = sqrt(2 r_n a_p) is the contact arc of a round-nose tool of nose radius r_n at depth a_p
+(feed per revolution << b); it acts wherever the tool engages the plate. The reaction -F acts
+on the workpiece body at the same point. The two terms are the two force *parts* ("area",
+"edge") of the response: each has its own pattern over (phi, Y) (:func:`chip_factor_cells`)
+and its own direction vector (:func:`force_vector`); the response is their sum.
 """
 
 from __future__ import annotations
@@ -35,24 +41,52 @@ import numpy as np
 
 from ufmt.model.machine import Machine
 
+#: The two parts of the force: per unit chip area (cutting) and per unit edge length (ploughing).
+FORCE_PARTS = ("area", "edge")
+
 
 @dataclass(frozen=True)
 class ForceCoefficients:
-    """Specific cutting forces [N/m^2] (force per unit uncut chip area).
+    """Specific cutting forces [N/m^2] and edge (ploughing) forces per unit edge length [N/m].
 
-    Defaults are of literature magnitude for single-point diamond cutting of KDP: at the reference
-    process (300 rpm, 15 mm/min, 4 um: chip 4 um x 50 um) they give a peak cutting force of 0.4 N
-    and thrust of 0.6 N, the order of the 0.1-1 N measured in diamond cutting of KDP (e.g.
-    0.15-0.19 N in diamond turning, Wang et al., Key Eng. Mater. 339, doi:10.4028/
-    www.scientific.net/kem.339.78). Thrust exceeds the cutting force, as usual when the chip is
-    only a few micrometres thick and the edge radius ploughs; the feed force is the smallest.
-    The absolute level is uncertain by a factor of a few, hence one fitted scale factor
-    (:func:`ufmt.simulate.fit_force_scale`).
+    Cutting: specific cutting energy of diamond cutting of KDP 1-5 GPa (docs/ufmt-model.md,
+    'Cutting force'); K_c = 2 GPa, with thrust 1.5 K_c (a few-micrometre chip under a
+    rounded edge: thrust exceeds the cutting force in diamond cutting of KDP) and feed 0.3 K_c.
+    At the reference process (300 rpm, 15 mm/min, 4 um: chip 4 um x 50 um) the peak forces are
+    0.4 N cutting and 0.6 N thrust, the order of the 0.15-0.19 N measured in diamond turning of
+    KDP (Wang et al., Key Eng. Mater. 339, doi:10.4028/www.scientific.net/kem.339.78).
+    Edge: the pressure under the rounded edge is about the hardness of KDP (H ~ 1.5-2 GPa) over
+    a contact width of about the edge radius (~0.1 um for a sharp diamond tool): K_et = 200
+    N/m in thrust, K_ec = mu K_et = 60 N/m with mu ~ 0.3 (diamond on KDP), no feed component.
+    ``force_scale`` ([machine], band 0.3-3) scales both parts.
     """
 
     cutting: float = 2.0e9
     thrust: float = 3.0e9
     feed: float = 0.6e9
+    edge_cutting: float = 60.0
+    edge_thrust: float = 200.0
+    edge_feed: float = 0.0
+
+    def vector(self, part: str) -> tuple[float, float, float]:
+        """(cutting, feed, thrust) coefficients of one force part ("area" or "edge")."""
+        if part == "area":
+            return self.cutting, self.feed, self.thrust
+        if part == "edge":
+            return self.edge_cutting, self.edge_feed, self.edge_thrust
+        raise ValueError(f"force part must be one of {FORCE_PARTS}, got {part!r}")
+
+
+def edge_length(process, machine: Machine) -> float:
+    """Engaged edge length b = sqrt(2 r_n a_p) of a round-nose tool [m]."""
+    return float(np.sqrt(2.0 * machine.nose_radius * process.depth_m))
+
+
+def part_amplitude(process, machine: Machine, part: str) -> float:
+    """Scale of a force part's pattern: a_p v/f [m^2] ("area") or b [m] ("edge")."""
+    if part == "area":
+        return process.depth_m * process.feed_per_rev_m
+    return edge_length(process, machine)
 
 
 def tool_tip(phi, machine: Machine) -> np.ndarray:
@@ -93,11 +127,15 @@ def tool_over_workpiece(phi, slide_y, machine: Machine) -> np.ndarray:
     return (np.abs(x) <= lx / 2) & (np.abs(y) <= ly / 2)
 
 
-def chip_factor(phi, slide_y, machine: Machine) -> np.ndarray:
-    """cos(phi) where the leading arc cuts the workpiece, else 0: the uncut chip thickness
-    h = (v / f) cos(phi) over the feed per revolution v / f."""
+def chip_factor(phi, slide_y, machine: Machine, part: str = "area") -> np.ndarray:
+    """Pattern of a force part where the leading arc cuts the workpiece, else 0.
+
+    "area": cos(phi), the uncut chip thickness h = (v / f) cos(phi) over v / f;
+    "edge": 1 (the edge engages).
+    """
     c = np.cos(np.asarray(phi, dtype=float))
-    return np.where((c > 0) & tool_over_workpiece(phi, slide_y, machine), c, 0.0)
+    value = c if part == "area" else np.ones_like(c)
+    return np.where((c > 0) & tool_over_workpiece(phi, slide_y, machine), value, 0.0)
 
 
 def arc_y_bounds(slide_y, machine: Machine) -> tuple[np.ndarray, np.ndarray]:
@@ -112,8 +150,12 @@ def arc_y_bounds(slide_y, machine: Machine) -> tuple[np.ndarray, np.ndarray]:
     return p1, p2
 
 
-def chip_factor_cells(phi, slide_y, machine: Machine, width: float) -> np.ndarray:
-    """Mean of :func:`chip_factor` over the cell [phi - width/2, phi + width/2] of each sample.
+def chip_factor_cells(
+    phi, slide_y, machine: Machine, width: float, part: str = "area"
+) -> np.ndarray:
+    """Mean of :func:`chip_factor` (of force part ``part``) over each sample's cell.
+
+    The cell of a sample is [phi - width/2, phi + width/2].
 
     The force is sampled at n_phi angles and taken linear between samples; sampling the cell
     means instead of point values keeps the mean force exact and lets the edges of the cut
@@ -133,18 +175,27 @@ def chip_factor_cells(phi, slide_y, machine: Machine, width: float) -> np.ndarra
         (np.maximum(-p2, lo_x), np.minimum(-p1, hi_x)),
     ):
         lo, hi = np.maximum(lo_cell, a), np.minimum(hi_cell, b)
-        total = total + np.where(hi > lo, np.sin(hi) - np.sin(lo), 0.0)
+        if part == "area":
+            total = total + np.where(hi > lo, np.sin(hi) - np.sin(lo), 0.0)
+        else:
+            total = total + np.where(hi > lo, hi - lo, 0.0)
     return total / width
 
 
-def force_per_area(phi, machine: Machine, coefficients: ForceCoefficients) -> np.ndarray:
-    """Force on the tool per unit chip area, -K_c t - K_f n + K_t z: (..., 3) [N/m^2]."""
+def force_vector(
+    phi, machine: Machine, coefficients: ForceCoefficients, part: str = "area"
+) -> np.ndarray:
+    """Force on the tool per unit pattern of a part, -K_c t - K_f n + K_t z: (..., 3).
+
+    [N/m^2] per unit chip area ("area") or [N/m] per unit edge length ("edge").
+    """
     phi = np.asarray(phi, dtype=float)
+    kc, kf, kt = coefficients.vector(part)
     s, c, sense = np.sin(phi), np.cos(phi), machine.sense
     t = np.stack([sense * c, -s, np.zeros(phi.shape)], axis=-1)
     n = np.stack([sense * s, c, np.zeros(phi.shape)], axis=-1)
     z = np.array([0.0, 0.0, 1.0])
-    return -coefficients.cutting * t - coefficients.feed * n + coefficients.thrust * z
+    return -kc * t - kf * n + kt * z
 
 
 def cutting_force(
@@ -155,17 +206,45 @@ def cutting_force(
     coefficients: ForceCoefficients = ForceCoefficients(),
     force_scale: float = 1.0,
     cell: float | None = None,
+    parts=FORCE_PARTS,
 ) -> np.ndarray:
     """Force of the workpiece on the tool [N], (..., 3); the workpiece gets the reaction.
 
-    F = force_scale * a_p * h(phi, Y) * (-K_c t - K_f n + K_t z), with the uncut chip
-    thickness h = (v / f) :func:`chip_factor`; ``phi`` [rad] and ``slide_y`` [m] broadcast.
-    With ``cell`` [rad] the chip factor is the mean over each sample's cell
-    (:func:`chip_factor_cells`), as the response samples it.
+    F = force_scale * sum over parts of amplitude * pattern(phi, Y) * :func:`force_vector`:
+    a_p (v / f) :func:`chip_factor` for the cutting part, b times the engagement for the edge
+    part; ``phi`` [rad] and ``slide_y`` [m] broadcast. With ``cell`` [rad] each pattern is
+    the mean over each sample's cell (:func:`chip_factor_cells`), as the response samples it.
     """
-    if cell is None:
-        chip = chip_factor(phi, slide_y, machine)
-    else:
-        chip = chip_factor_cells(phi, slide_y, machine, cell)
-    area = process.depth_m * process.feed_per_rev_m * chip
-    return force_scale * area[..., None] * force_per_area(phi, machine, coefficients)
+    total = 0.0
+    for part in parts:
+        if cell is None:
+            pattern = chip_factor(phi, slide_y, machine, part)
+        else:
+            pattern = chip_factor_cells(phi, slide_y, machine, cell, part)
+        amp = part_amplitude(process, machine, part) * pattern
+        total = total + amp[..., None] * force_vector(phi, machine, coefficients, part)
+    return force_scale * total
+
+
+def peak_forces(
+    process,
+    machine: Machine,
+    coefficients: ForceCoefficients = ForceCoefficients(),
+    force_scale: float = 1.0,
+) -> dict[str, float]:
+    """Peak force components [N] and effective specific forces [GPa] of a process.
+
+    At phi = 0 with the leading arc fully engaged (largest chip, h = v/f): cutting, feed and
+    thrust force [N] of both parts, and the same per chip area a_p v/f [GPa] (the specific
+    forces a calibration implies; compare with the 1-5 GPa band of docs/ufmt-model.md).
+    """
+    area = process.depth_m * process.feed_per_rev_m
+    edge = edge_length(process, machine)
+    kc, kf, kt = coefficients.vector("area")
+    ec, ef, et = coefficients.vector("edge")
+    out = {}
+    for name, k, e in (("cutting", kc, ec), ("feed", kf, ef), ("thrust", kt, et)):
+        force = force_scale * (k * area + e * edge)
+        out[f"{name}_n"] = force
+        out[f"specific_{name}_gpa"] = force / area * 1e-9
+    return out

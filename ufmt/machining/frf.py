@@ -7,6 +7,7 @@ import numpy as np
 from ufmt.machining.basis import ModalBasis
 from ufmt.machining.cutting import tool_tip
 from ufmt.machining.response import DEFAULT_ZETA, modal_damping
+from ufmt.machining.static import ResidualFlexibility
 from ufmt.model.machine import Machine
 
 
@@ -16,12 +17,15 @@ def tool_workpiece_receptance(
     freq_hz,
     zeta=DEFAULT_ZETA,
     tool_angle: float = 0.0,
+    residual: ResidualFlexibility | None = None,
 ) -> np.ndarray:
     """Relative z displacement per unit force pair in z at the tool tip [m/N].
 
     A force +F z on the tool tip and -F z on the workpiece at the same point give
     z_re(W) = H(W) F with H(W) = sum_s c_s^2 / (M_s (w_s^2 - W^2 + 2 i zeta_s w_s W)),
-    c_s = (V_tool,s - V_work,s)_z at the tip (modal superposition, eqs. 3.9-3.11).
+    c_s = (V_tool,s - V_work,s)_z at the tip (modal superposition, eqs. 3.9-3.11), plus the
+    residual flexibility of the modes above the basis (``residual``, frequency-independent;
+    :mod:`ufmt.machining.static`), so that H(0) is the full static compliance.
 
     Parameters
     ----------
@@ -29,6 +33,8 @@ def tool_workpiece_receptance(
     zeta : modal damping, scalar or (n,).
     tool_angle : spindle angle phi of the tool tip [rad] (0: tip along +y, over the middle of
         the workpiece).
+    residual : static correction (:func:`ufmt.machining.static.residual_flexibility`); none:
+        modal superposition alone.
 
     Returns
     -------
@@ -42,4 +48,8 @@ def tool_workpiece_receptance(
     w = 2 * np.pi * np.asarray(freq_hz, dtype=float)[None, :]
     om = basis.omega[:, None]
     den = basis.modal_mass[:, None] * (om**2 - w**2 + 2j * zeta[:, None] * om * w)
-    return np.sum(c[:, None] ** 2 / den, axis=0)
+    h = np.sum(c[:, None] ** 2 / den, axis=0)
+    if residual is not None:
+        tool, work = residual.relative(tip[0], tip[0], [0.0, 0.0, 1.0])
+        h = h + (tool[2] - work[2])
+    return h

@@ -29,6 +29,13 @@ assumption of (b):
     the default 192 and 0.02-0.7 % with 384 (cost of (b) roughly linear in the rows). Use (a)
     for reference values, (b) for fast studies.
 
+Both paths solve each force part (cutting "area" and ploughing "edge", see
+:mod:`ufmt.machining.cutting`) with its own :class:`CutGeometry`; the response is linear, so
+:func:`combine` adds the parts. With a :class:`~ufmt.machining.static.ResidualFlexibility`
+the quasi-static response of the modes above the basis (the static correction) is added to
+the displacements and to z_re (not to the tool-tip acceleration: those modes respond
+quasi-statically, with accelerations of the order of the force's own rate of change).
+
 Mode shapes are those of the nominal configuration, taken as the halfway point of the cut (see
 :mod:`ufmt.machining.basis`). The workpiece is loaded at the material point under the tool: its
 arm from the workpiece body's centre of mass is p - C + Y y_hat, so the workpiece terms of the
@@ -55,10 +62,12 @@ from ufmt.machining.cutting import (
     arc_y_bounds,
     chip_factor_cells,
     cutting_force,
-    force_per_area,
+    force_vector,
+    part_amplitude,
     tool_tip,
     tool_tip_rates,
 )
+from ufmt.machining.static import ResidualFlexibility
 from ufmt.model.machine import Machine
 
 DEFAULT_ZETA = 0.03
@@ -71,6 +80,10 @@ DEFAULT_TABLE_ROWS = 192
 #: Share of the table rows spread evenly in slide travel; the rest follow the chip pattern.
 UNIFORM_SHARE = 0.1
 DEFAULT_COEFFICIENTS = ForceCoefficients()
+#: Modal state of the time path, relative to the largest modal coordinate so far, below which
+#: a force-free block after the cut is taken as zero (1e-20 of the response: far below any
+#: printed digit, and it stops the decay before it reaches subnormal numbers).
+NEGLIGIBLE_STATE = 1e-20
 #: Spindle periods in the time path's record window (paper Figs. 6-7 show 2 s = 10 periods).
 DEFAULT_RECORD_PERIODS = 10
 
@@ -162,11 +175,18 @@ def real_recurrence(omega, zeta, dt: float) -> tuple[np.ndarray, np.ndarray]:
 
 @dataclass(frozen=True, eq=False)
 class CutGeometry:
-    """Process-independent data of one (basis, machine, force coefficients, n_phi, table_rows).
+    """Process-independent data of one (basis, machine, force coefficients, n_phi, table_rows,
+    force part, static correction).
+
+    part: "area" or "edge" (:data:`~ufmt.machining.cutting.FORCE_PARTS`): the pattern and the
+    force vector below are that part's. static_tool, static_work (3, N, 3) or None: the
+    residual-flexibility displacement of the tool tip and of the workpiece point per unit
+    pattern, as a quadratic in Y (coefficients of Y^0, Y^1, Y^2); static_table (M, N) its z_re
+    at the table rows times the pattern there.
 
     phases (N,) [rad]; tip (N, 3) tool-tip position [m] and dtip, ddtip (N, 3) its first and
     second derivatives in phi [m]; w (n, N) modal force per unit chip area,
-    (V_tool - V_work)(p) . k / M_s with k from :func:`force_per_area` [N/(kg m^2)];
+    (V_tool - V_work)(p) . k / M_s with k from :func:`force_vector` [N/(kg m^2)];
     c (n, N) relative z translation (V_tool - V_work)_z(p) [m], both at slide position Y = 0;
     w_y (n, N) [N/(kg m^3)] and c_y (n,) [m/m] their rates of change with Y (the workpiece's
     rotation times the moving arm). w, w_y and c are trigonometric polynomials in phi (degree
@@ -202,6 +222,20 @@ class CutGeometry:
     row_knots: tuple[float, float, np.ndarray]
     table_a: np.ndarray
     active: np.ndarray
+    part: str = "area"
+    static_tool: np.ndarray | None = None
+    static_work: np.ndarray | None = None
+    static_table: np.ndarray | None = None
+
+    def static_at(self, j, slide_y) -> tuple[np.ndarray, np.ndarray]:
+        """Static-correction displacement of tool tip and workpiece point per unit pattern.
+
+        ``j`` phase indices and ``slide_y`` [m] broadcast; returns two (..., 3) arrays [m].
+        """
+        y = np.asarray(slide_y, dtype=float)[..., None]
+        tool = self.static_tool[0][j] + y * (self.static_tool[1][j] + y * self.static_tool[2][j])
+        work = self.static_work[0][j] + y * (self.static_work[1][j] + y * self.static_work[2][j])
+        return tool, work
 
 
 @lru_cache(maxsize=8)
@@ -211,8 +245,13 @@ def cut_geometry(
     coefficients: ForceCoefficients = DEFAULT_COEFFICIENTS,
     n_phi: int = DEFAULT_N_PHI,
     table_rows: int = DEFAULT_TABLE_ROWS,
+    part: str = "area",
+    residual: ResidualFlexibility | None = None,
 ) -> CutGeometry:
     """Precompute what does not depend on the process (cached per arguments).
+
+    ``part``: the force part ("area" cutting, "edge" ploughing); ``residual``: the static
+    correction of the basis (none: modal superposition alone).
 
     ``n_phi`` force samples per revolution (even, >= 8). ``table_rows`` slide positions of the
     periodic table over the cutting span: half of them evenly spaced, half where the chip
@@ -237,7 +276,7 @@ def cut_geometry(
         tip = tool_tip(ph, machine)
         rel = basis.point_shapes(machine.tool_body, tip)
         rel = rel - basis.point_shapes(machine.workpiece_body, tip)
-        k = force_per_area(ph, machine, coefficients)
+        k = force_vector(ph, machine, coefficients, part)
         return tip, np.einsum("sjc,jc->sj", rel, k) / mass, lever @ k.T / mass, rel[:, :, 2]
 
     def harmonics(values, orders):  # complex Fourier coefficients from 8 exact samples
@@ -258,20 +297,19 @@ def cut_geometry(
     trig = np.stack(
         [np.ones(n_phi), np.cos(phases), np.sin(phases), np.cos(2 * phases), np.sin(2 * phases)]
     )
-    cell = 2 * np.pi / n_phi
-    table_y, row_knots = _table_rows(machine, table_rows)
-    centred = np.mod(phases + np.pi, 2 * np.pi) - np.pi
-    lo, hi = machine.cutting_angles
-    active = (centred + cell / 2 > lo) & (centred - cell / 2 < hi) & (np.abs(centred) < np.pi / 2)
-    pattern = np.zeros((table_y.size, n_phi))
-    pattern[:, active] = chip_factor_cells(phases[active], table_y[:, None], machine, cell)
-    spectra = _extend(np.fft.rfft(pattern, axis=1)).T  # (N/2 + 7, M)
-    half = n_phi // 2 + 1
-    # A[k - d] Y^p for the 3 x 7 kernels of periodic_response, as (N/2 + 1, M, 21)
-    shifted = spectra[np.arange(half)[:, None] + np.arange(6, -1, -1)[None, :]].transpose(0, 2, 1)
-    powers = table_y[:, None] ** np.arange(3)[None, :]
-    table_a = (powers[None, :, :, None] * shifted[:, :, None, :]).reshape(half, -1, 21)
+    table_y, row_knots, pattern, table_a, active = _pattern_tables(machine, n_phi, table_rows, part)
     dtip, ddtip = tool_tip_rates(phases, machine, 1 / (2 * np.pi))  # d/dphi, d^2/dphi^2
+    static_tool = static_work = static_table = None
+    if residual is not None:
+        # quadratic in Y from three exact evaluations (the workpiece point moves with Y)
+        k = force_vector(phases, machine, coefficients, part)
+        samples = [residual.relative(tip, tip + [0.0, y, 0.0], k) for y in (-1.0, 0.0, 1.0)]
+        fit = np.array([[0.0, 1.0, 0.0], [-0.5, 0.0, 0.5], [0.5, -1.0, 0.5]])
+        static_tool = np.einsum("pk,knc->pnc", fit, np.stack([t for t, _ in samples]))
+        static_work = np.einsum("pk,knc->pnc", fit, np.stack([w for _, w in samples]))
+        y = table_y[:, None]
+        rel = static_tool[..., 2] - static_work[..., 2]
+        static_table = pattern * (rel[0] + y * (rel[1] + y * rel[2]))
     return CutGeometry(
         basis=basis,
         machine=machine,
@@ -296,7 +334,37 @@ def cut_geometry(
         row_knots=row_knots,
         table_a=table_a,
         active=active,
+        part=part,
+        static_tool=static_tool,
+        static_work=static_work,
+        static_table=static_table,
     )
+
+
+@lru_cache(maxsize=4)  # ~16 MiB each: both force parts of two machines
+def _pattern_tables(machine: Machine, n_phi: int, table_rows: int, part: str):
+    """Machine-only tables of :func:`cut_geometry` (cached per machine, not per design).
+
+    Returns table_y, row_knots, the chip pattern (M, N) of ``part`` at the table rows, its
+    shifted spectra table_a (N/2 + 1, M, 21) and the active angles (N,); all read-only.
+    """
+    phases = 2 * np.pi * np.arange(n_phi) / n_phi
+    cell = 2 * np.pi / n_phi
+    table_y, row_knots = _table_rows(machine, table_rows)
+    centred = np.mod(phases + np.pi, 2 * np.pi) - np.pi
+    lo, hi = machine.cutting_angles
+    active = (centred + cell / 2 > lo) & (centred - cell / 2 < hi) & (np.abs(centred) < np.pi / 2)
+    pattern = np.zeros((table_y.size, n_phi))
+    pattern[:, active] = chip_factor_cells(phases[active], table_y[:, None], machine, cell, part)
+    spectra = _extend(np.fft.rfft(pattern, axis=1)).T  # (N/2 + 7, M)
+    half = n_phi // 2 + 1
+    # A[k - d] Y^p for the 3 x 7 kernels of periodic_response, as (N/2 + 1, M, 21)
+    shifted = spectra[np.arange(half)[:, None] + np.arange(6, -1, -1)[None, :]].transpose(0, 2, 1)
+    powers = table_y[:, None] ** np.arange(3)[None, :]
+    table_a = (powers[None, :, :, None] * shifted[:, :, None, :]).reshape(half, -1, 21)
+    for a in (table_y, pattern, table_a, active):
+        a.setflags(write=False)
+    return table_y, row_knots, pattern, table_a, active
 
 
 def _table_rows(machine: Machine, rows: int, uniform: float = UNIFORM_SHARE):
@@ -419,7 +487,7 @@ def periodic_response(
     zeta = modal_damping(zeta, geo.basis.n_modes)
     f = process.spindle_hz
     n = geo.n_phi
-    amp = force_scale * process.depth_m * process.feed_per_rev_m
+    amp = force_scale * part_amplitude(process, geo.machine, geo.part)
     values, tip, acc, work, chip = _unit_periodic(geo, f, tuple(zeta.tolist()))
     y_rec = record_slide(geo.machine)
     j = np.arange(n)
@@ -427,7 +495,8 @@ def periodic_response(
         method="periodic",
         t=(j + (y_rec - geo.machine.cut_span[0]) / process.feed_per_rev_m * n) / (f * n),
         slide_y=np.full(n, y_rec),
-        force=(amp * chip)[:, None] * force_per_area(geo.phases, geo.machine, geo.coefficients),
+        force=(amp * chip)[:, None]
+        * force_vector(geo.phases, geo.machine, geo.coefficients, geo.part),
         tip_disp=amp * tip,
         tip_acc=amp * acc,
         work_disp=amp * work,
@@ -460,12 +529,14 @@ def _unit_periodic(geo: CutGeometry, spindle_hz: float, zeta: tuple):
     kern = np.ascontiguousarray(kern.reshape(21, half + 1).T)[:, :, None]
     zk = np.matmul(geo.table_a, kern)[:, :, 0]
     rows = np.fft.irfft(zk, n=n, axis=0).T
+    if geo.static_table is not None:
+        rows = rows + geo.static_table
     values = np.empty((rows.shape[0], n + 3))
     values[:, 1 : n + 1] = rows
     values[:, 0], values[:, n + 1 :] = rows[:, -1], rows[:, :2]
 
     y_rec = record_slide(geo.machine)
-    chip = chip_factor_cells(geo.phases, y_rec, geo.machine, 2 * np.pi / n)
+    chip = chip_factor_cells(geo.phases, y_rec, geo.machine, 2 * np.pi / n, geo.part)
     chip_ext = _extend(np.fft.rfft(chip))
     w_hat = geo.w_hat + y_rec * geo.w_y_hat
     fk = w_hat[:, :1] * chip_ext[None, 5 : 5 + half + 1]
@@ -476,13 +547,16 @@ def _unit_periodic(geo: CutGeometry, spindle_hz: float, zeta: tuple):
     fs = (geo.w + y_rec * geo.w_y) * chip
     qdd = fs - (2 * zeta * b.omega)[:, None] * qd - (b.omega**2)[:, None] * q
     tip, acc, work = _outputs(geo, np.arange(n), np.full(n, y_rec), q, qd, qdd, spindle_hz)
+    if geo.static_tool is not None:
+        s_tool, s_work = geo.static_at(np.arange(n), np.full(n, y_rec))
+        tip, work = tip + chip[:, None] * s_tool, work + chip[:, None] * s_work
     for a in (values, tip, acc, work, chip):
         a.setflags(write=False)
     return values, tip, acc, work, chip
 
 
 def time_response(
-    geo: CutGeometry,
+    geo,
     process,
     zeta=DEFAULT_ZETA,
     force_scale: float = 1.0,
@@ -499,14 +573,20 @@ def time_response(
     window holds ``record_periods`` revolutions centred on :func:`record_slide`; there the
     modal velocities come from the exact complex-pole state recovered from q_{k-1}, q_k.
     Memory: the z_re table takes 8 n_phi bytes per revolution.
+
+    ``geo``: one :class:`CutGeometry` or a sequence of them, the force parts of one force on
+    the same basis, machine and n_phi: their modal forces are summed before the recurrence,
+    so the parts cost one pass.
     """
+    parts = (geo,) if isinstance(geo, CutGeometry) else tuple(geo)
+    geo = parts[0]
     b, mach = geo.basis, geo.machine
     n, nm = geo.n_phi, b.n_modes
     zeta = modal_damping(zeta, nm)
     f = process.spindle_hz
     dt = 1.0 / (f * n)
     delta = process.feed_per_rev_m
-    amp = force_scale * process.depth_m * delta
+    amps = [force_scale * part_amplitude(process, mach, g.part) for g in parts]
     y_start, y_end = mach.cut_span
     n_rev = int(np.ceil((y_end - y_start) / delta)) + 1
     record_periods = max(1, min(record_periods, n_rev))
@@ -522,7 +602,9 @@ def time_response(
     edges = np.flatnonzero(np.diff(np.concatenate([[0], geo.active.astype(int), [0]])))
     runs = [slice(lo, hi) for lo, hi in zip(edges[::2], edges[1::2], strict=True)]
     forces = np.zeros((nm, step, n))
-    w_both = np.concatenate([geo.w_trig, geo.w_y_trig], axis=1)
+    peak = 0.0  # largest |q| so far
+    static = np.zeros((step, n))  # static-correction z_re of a block
+    w_both = [np.concatenate([g.w_trig, g.w_y_trig], axis=1) for g in parts]
     # skinny products over the modes: BLAS threads only add synchronisation here
     with threadpool_limits(limits=1, user_api="blas"):
         for r0 in range(0, n_rev + 1, step):
@@ -530,16 +612,30 @@ def time_response(
             c = r1 - r0
             for run in runs:
                 y = y_start + delta * (np.arange(r0, r1)[:, None] + np.arange(n)[run] / n)
-                a = chip_factor_cells(geo.phases[run], y, mach, 2 * np.pi / n) * amp
-                basis_a = geo.trig[:, None, run] * a
-                inputs = np.concatenate([basis_a, basis_a * y]).reshape(10, -1)
-                forces[:, :c, run] = (w_both @ inputs).reshape(nm, c, -1)
-            q = np.empty((nm, c * n))
-            for s in range(nm):
-                q[s], state[s] = lfilter(num[s], den[s], forces[s, :c].ravel(), zi=state[s])
+                forces[:, :c, run] = 0.0
+                static[:c, run] = 0.0
+                for g, amp, w in zip(parts, amps, w_both, strict=True):
+                    a = chip_factor_cells(g.phases[run], y, mach, 2 * np.pi / n, g.part) * amp
+                    basis_a = g.trig[:, None, run] * a
+                    inputs = np.concatenate([basis_a, basis_a * y]).reshape(10, -1)
+                    forces[:, :c, run] += (w @ inputs).reshape(nm, c, -1)
+                    if g.static_tool is not None:
+                        s_tool, s_work = g.static_at(np.arange(n)[run], y)
+                        static[:c, run] += a * (s_tool[..., 2] - s_work[..., 2])
+            if not forces[:, :c].any() and np.abs(state).max() <= NEGLIGIBLE_STATE * peak:
+                # free decay after the cut below any visible level: lfilter would only grind
+                # through subnormal numbers (issue 9: 20 of 21 s); the response is zero
+                q = np.zeros((nm, c * n))
+                state[:] = 0.0
+            else:
+                q = np.empty((nm, c * n))
+                for s in range(nm):
+                    q[s], state[s] = lfilter(num[s], den[s], forces[s, :c].ravel(), zi=state[s])
+                peak = max(peak, float(np.abs(q).max()))
             zc = (np.vstack([geo.c_trig, geo.c_y]) @ q).reshape(4, c, n)
             y = y_start + delta * (np.arange(r0, r1)[:, None] + np.arange(n) / n)
             rows[r0:r1, 1 : n + 1] = np.einsum("irj,ij->rj", zc[:3], geo.trig[:3]) + y * zc[3]
+            rows[r0:r1, 1 : n + 1] += static[:c]
             lo, hi = max(r0 * n, rec0 * n - 1), min(r1 * n, rec1 * n)
             if lo < hi:
                 rec_q[:, lo - (rec0 * n - 1) : hi - (rec0 * n - 1)] = q[
@@ -554,8 +650,11 @@ def time_response(
     idx = np.arange(rec0 * n - 1, rec1 * n)  # global sample numbers, one before the window
     j = idx % n
     y = y_start + delta * idx / n
-    a = chip_factor_cells(geo.phases[j], y, mach, 2 * np.pi / n) * amp
-    fs = (geo.w[:, j] + y * geo.w_y[:, j]) * a
+    chips = [
+        chip_factor_cells(g.phases[j], y, mach, 2 * np.pi / n, g.part) * amp
+        for g, amp in zip(parts, amps, strict=True)
+    ]
+    fs = sum((g.w[:, j] + y * g.w_y[:, j]) * a for g, a in zip(parts, chips, strict=True))
     lam, e, b0, b1 = (v[:, None] for v in discretise(b.omega, zeta, dt))
     # z_{k-1} = u + i v from q_{k-1} = 2 Re z_{k-1} and q_k = 2 Re(E z_{k-1} + g_k)
     g = b0 * fs[:, 1:] + b1 * fs[:, :-1]
@@ -566,12 +665,23 @@ def time_response(
     qd = 2 * (lam * z).real
     qdd = fs[:, 1:] - (2 * zeta * b.omega)[:, None] * qd - (b.omega**2)[:, None] * q
     tip, acc, work = _outputs(geo, j[1:], y[1:], q, qd, qdd, f)
+    for g, a in zip(parts, chips, strict=True):
+        if g.static_tool is not None:
+            s_tool, s_work = g.static_at(j[1:], y[1:])
+            tip, work = tip + a[1:, None] * s_tool, work + a[1:, None] * s_work
     return Response(
         method="time",
         t=idx[1:] * dt,
         slide_y=y[1:],
         force=cutting_force(
-            geo.phases[j[1:]], y[1:], process, mach, geo.coefficients, force_scale, 2 * np.pi / n
+            geo.phases[j[1:]],
+            y[1:],
+            process,
+            mach,
+            geo.coefficients,
+            force_scale,
+            2 * np.pi / n,
+            parts=tuple(g.part for g in parts),
         ),
         tip_disp=tip,
         tip_acc=acc,
@@ -580,4 +690,38 @@ def time_response(
         period=1.0 / f,
         periods=record_periods,
         table=table,
+    )
+
+
+def combine(responses) -> Response:
+    """Sum of the responses of the force parts of one process (the response is linear).
+
+    All must come from the same path, process and table rows (as :func:`ufmt.simulate.simulate`
+    makes them); the first one's time axis and table layout are kept.
+    """
+    responses = list(responses)
+    first = responses[0]
+    if len(responses) == 1:
+        return first
+
+    def total(name):
+        return sum(getattr(r, name) for r in responses)
+
+    return Response(
+        method=first.method,
+        t=first.t,
+        slide_y=first.slide_y,
+        force=total("force"),
+        tip_disp=total("tip_disp"),
+        tip_acc=total("tip_acc"),
+        work_disp=total("work_disp"),
+        z_re=total("z_re"),
+        period=first.period,
+        periods=first.periods,
+        table=ZreTable(
+            sum(r.table.values for r in responses),
+            first.table.row_y,
+            first.table.drift,
+            first.table.row_knots,
+        ),
     )

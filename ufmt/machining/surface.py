@@ -8,31 +8,32 @@ keeps the lowest z_re of the passes over it ("tool interference", section 4.2):
 z(x, y) = min over passes of z_re(phi, Y), z_re read from the response's
 :class:`~ufmt.machining.response.ZreTable` (cubic in phi, linear in Y).
 
-The tool of eq. 4.1 is a point (no kinematic marks): the passes over a point are the two
-revolutions whose paths bracket it, each read at its own slide position (a time table holds
-every revolution; a periodic table the steady state at that slide position). With
-``nose_radius`` (off by default) the nose adds the kinematic marks, d^2 / (2 r_n) at normal
-distance d from each bracketing path. The trailing arc (phi = pi - phi_f, at Y = y + R cos)
-passes over the finished surface without cutting force; by default it does not re-cut: in
-eq. 4.1's picture the middle of the plate, cut under the largest force, ends up highest (the
-paper's Fig. 14), which a re-cutting trailing arc with the tool unloaded would erase.
-``trailing_arc=True`` adds its passes to the minimum (back-cutting).
+The passes over a point are the two revolutions whose paths bracket it, each read at its own
+slide position (a time table holds every revolution; a periodic table the steady state at
+that slide position). With ``nose_radius`` the round nose adds the feed marks, d^2 / (2 r_n) at
+normal distance d from each bracketing path (scallop (v/f)^2 cos^2(phi) / (8 r_n) between
+them); the geometric error sources (:mod:`ufmt.machining.sources`) add their z(phi, Y) at each
+pass. The trailing arc (phi = pi - phi_f, at Y = y + R cos) passes over the finished surface
+without cutting force; by default it does not re-cut (``trailing_arc=True`` adds its passes to
+the minimum: back-cutting).
 
-Grid: nodes on the plate's edges, at most ``spacing`` apart (default 1 mm in x, 2 mm in y:
-432 x 216 nodes on the 0.41 m plate; counts rounded up to fast FFT lengths), plus rows 8 times
-denser within 6 mm of the entry and exit edges (y = -+ly/2), where the first and last
-revolutions of the cut leave mm-wide features that can set the PV. On the UFMT prior model the
-PV is then within ~1 % of a grid four times finer (tests/test_surface.py checks 1 % on a
-synthetic basis).
+Grid: nodes on the plate's edges, at most ``spacing`` apart (default 1 mm in x, 1.25 mm in y:
+432 x 330 nodes on the 0.41 m plate, counts rounded up to fast FFT lengths; 1.25 mm resolves
+the whole PSD1 band), plus rows 8 times denser within 6 mm of the entry and exit edges
+(y = -+ly/2), where the first and last revolutions of the cut leave mm-wide features that can
+set the PV. ``window`` evaluates an evenly spaced patch instead (the PSD2 patch).
 
-Metrics (nm): PV = max - min over all points (as in the paper); PV with the best-fit plane
-removed; RMS with that plane removed; band RMS = RMS of the plane-removed, Hann-windowed
-surface band-passed to spatial wavelengths in the PSD1 (2.5-33 mm) and PSD2 (0.12-2.5 mm)
-bands of KDP optics (isotropic spatial frequency). The plane, the RMS and the bands use the
-evenly spaced rows. A grid resolves wavelengths down to twice its coarser step only: a band
-reaching below that is evaluated over its resolved part (4-33 mm for PSD1 at the default;
-PSD2 is unresolved and reads 0: it needs steps <= 0.06 mm, and with the point tool of eq. 4.1
-and 30 modes the surface has almost no content there).
+Metrics [nm] (:func:`surface_metrics`): PV = max - min over all points (as in the paper); PV
+and RMS with the best-fit plane removed; PV and RMS over the clear aperture (the plate less
+``DEFAULT_APERTURE_MARGIN`` = 5 mm at every edge); form = PV of the 2nd-order part of a
+least-squares Legendre fit up to 2nd order (power, astigmatism, twist), waviness = what that
+fit leaves (PV, RMS); band RMS = RMS of the plane-removed, Hann-windowed surface band-passed
+to spatial wavelengths in the PSD1 (2.5-33 mm) and PSD2 (0.12-2.5 mm) bands of KDP optics
+(isotropic spatial frequency). The plane, the fits, the RMS and the bands use the evenly spaced
+rows. A band the grid does not resolve completely (2 h > shortest wavelength, or the grid
+shorter than the longest) is NaN, never a partial number: PSD2 needs steps <= 0.06 mm, given
+by a patch (``DEFAULT_PSD2_PATCH`` = 20 mm square at 0.05 mm, ``ufmt.simulate(...,
+psd2_patch=...)``), as a shop measures PSD2 on sub-apertures.
 """
 
 from __future__ import annotations
@@ -49,7 +50,12 @@ from ufmt.model.machine import Machine
 #: Grid spacing (x, y) [m]: x finer, as the x-profile of a pass carries the vibration of the
 #: highest modes (down to ~6 mm wavelength at 200 rpm and 700 Hz); y coarser, as the surface
 #: changes slowly with the slide away from the entry and exit edges (refined separately).
-DEFAULT_SPACING = (1e-3, 2e-3)
+DEFAULT_SPACING = (1e-3, 1.25e-3)
+#: Clear-aperture edge exclusion [m] of the aperture metrics (docs/ufmt-model.md).
+DEFAULT_APERTURE_MARGIN = 5e-3
+#: Grid step [m] and side [m] of the patch that resolves PSD2 (``psd2_patch`` option).
+PSD2_PATCH_SPACING = 0.05e-3
+DEFAULT_PSD2_PATCH = 20e-3
 #: Width [m] of the bands along the entry and exit edges (y = -+ly/2) refined for the PV, and
 #: the refinement of their rows: the cut's first and last revolutions leave mm-wide features.
 EDGE_BAND = 6e-3
@@ -84,25 +90,38 @@ class Surface:
 
 
 @lru_cache(maxsize=16)
-def _grid(machine: Machine, spacing):
-    """Grid, core rows and the two pass angles of every column (cached per machine, spacing)."""
+def _grid(machine: Machine, spacing, window=None):
+    """Grid, core rows and the two pass angles of every column (cached per machine, spacing).
+
+    ``window`` ((x0, x1), (y0, y1)) [m]: a patch of the plate instead of the whole plate
+    (evenly spaced, no refined edge bands).
+    """
     hx, hy = np.broadcast_to(np.asarray(spacing, dtype=float), (2,))
     if not (hx > 0 and hy > 0):
         raise ValueError(f"grid spacing must be > 0, got {spacing!r}")
     lx, ly = machine.workpiece_size
-    # nodes on the plate edges, at most ``spacing`` apart; counts rounded up to fast FFT lengths
+    if window is None:
+        (x0, x1), (y0, y1) = (-lx / 2, lx / 2), (-ly / 2, ly / 2)
+    else:
+        (x0, x1), (y0, y1) = window
+        if not (-lx / 2 <= x0 < x1 <= lx / 2 and -ly / 2 <= y0 < y1 <= ly / 2):
+            raise ValueError(f"window {window!r} must lie inside the plate")
+    # nodes on the edges, at most ``spacing`` apart; counts rounded up to fast FFT lengths
     nx, ny = (
-        next_fast_len(int(np.ceil(v / h - 1e-9)) + 1, real=True) for v, h in ((lx, hx), (ly, hy))
+        next_fast_len(int(np.ceil(v / h - 1e-9)) + 1, real=True)
+        for v, h in ((x1 - x0, hx), (y1 - y0, hy))
     )
-    x = np.linspace(-lx / 2, lx / 2, nx)
-    core_y = np.linspace(-ly / 2, ly / 2, ny)
-    fine = (core_y[1] - core_y[0]) / EDGE_REFINE
-    offsets = np.arange(1, int(min(EDGE_BAND, ly / 4) / fine) + 1) * fine
-    band = np.concatenate([-ly / 2 + offsets, ly / 2 - offsets])
-    gap = np.abs(band[:, None] - core_y[None, :]).min(axis=1)
-    y = np.concatenate([core_y, band[gap > fine / 2]])
-    order = np.argsort(y)
-    y, core = y[order], (np.arange(y.size) < ny)[order]
+    x = np.linspace(x0, x1, nx)
+    core_y = np.linspace(y0, y1, ny)
+    y, core = core_y, np.ones(ny, bool)
+    if window is None:
+        fine = (core_y[1] - core_y[0]) / EDGE_REFINE
+        offsets = np.arange(1, int(min(EDGE_BAND, ly / 4) / fine) + 1) * fine
+        band = np.concatenate([-ly / 2 + offsets, ly / 2 - offsets])
+        gap = np.abs(band[:, None] - core_y[None, :]).min(axis=1)
+        y = np.concatenate([core_y, band[gap > fine / 2]])
+        order = np.argsort(y)
+        y, core = y[order], (np.arange(y.size) < ny)[order]
     s = machine.sense * (x - machine.offset_x) / machine.tool_radius
     lead = np.arcsin(np.clip(s, -1.0, 1.0))
     phi = np.mod(np.stack([lead, np.pi - lead]), 2 * np.pi)  # (2, Nx): leading, trailing arc
@@ -111,40 +130,55 @@ def _grid(machine: Machine, spacing):
 
 
 def machined_surface(
-    table: ZreTable,
+    table: ZreTable | None,
     machine: Machine,
     feed_per_rev: float,
     spacing=DEFAULT_SPACING,
     nose_radius: float | None = None,
     trailing_arc: bool = False,
+    geometric=None,
+    window=None,
 ) -> Surface:
     """The machined surface (eq. 4.1 with tool interference) on a grid of ``spacing`` [m].
 
     ``spacing``: one step or (x, y) steps [m], the largest allowed.
 
-    ``feed_per_rev`` [m] spaces the revolutions; ``nose_radius`` [m] turns on the kinematic
-    marks; ``trailing_arc`` adds the trailing-arc passes to the minimum (back-cutting).
-    Each point takes the lower of the two revolutions whose paths bracket it; a periodic
-    (quasi-static) table gives each of them the steady state at its own slide position.
+    ``table``: the z_re of the cutting-force vibration (None: no vibration, the dynamic source
+    off). ``feed_per_rev`` [m] spaces the revolutions; ``nose_radius`` [m] turns on the feed
+    marks (tool-nose scallops); ``trailing_arc`` adds the trailing-arc passes to the minimum
+    (back-cutting); ``geometric`` z(phi, Y) [m] adds the geometric error sources at each pass's
+    angle and slide position (:func:`ufmt.machining.sources.geometric_z`); ``window``
+    ((x0, x1), (y0, y1)) [m] evaluates a patch only. Each point takes the lower of the two
+    revolutions whose paths bracket it; a periodic (quasi-static) table gives each of them the
+    steady state at its own slide position.
     """
     if not feed_per_rev > 0:
         raise ValueError(f"feed_per_rev must be > 0 [m], got {feed_per_rev!r}")
     if nose_radius is not None and not nose_radius > 0:
         raise ValueError(f"nose_radius must be > 0 [m], got {nose_radius!r}")
     spacing = tuple(np.broadcast_to(np.asarray(spacing, dtype=float), (2,)).tolist())
-    x, y, core, phi, cos = _grid(machine, spacing)
+    if window is not None:
+        window = tuple(tuple(float(v) for v in w) for w in window)
+    x, y, core, phi, cos = _grid(machine, spacing, window)
     arcs = 2 if trailing_arc else 1
     phi, cos = phi[:arcs], cos[:arcs]
-    cols = _columns(table.values, phi)
     turn = phi / (2 * np.pi)
     y_start = machine.cut_span[0]
     # revolutions since Y_start when the arc passes the point; the two bracketing revolutions
     rho = (y[:, None, None] - machine.tool_radius * cos - y_start) / feed_per_rev - turn
     k = np.floor(rho)
-    y_lo = y_start + feed_per_rev * (k + turn) - table.drift * turn
-    columns = np.arange(cols.shape[1]).reshape(arcs, -1)
-    z_lo = _lookup(cols, table.row_knots, y_lo, columns)
-    z_hi = _lookup(cols, table.row_knots, y_lo + feed_per_rev, columns)
+    slide_lo = y_start + feed_per_rev * (k + turn)  # slide position of the earlier pass
+    if table is None:
+        z_lo, z_hi = np.zeros(rho.shape), np.zeros(rho.shape)
+    else:
+        cols = _table_columns(table, machine, spacing, window, arcs)
+        y_lo = slide_lo - table.drift * turn
+        columns = np.arange(cols.shape[1]).reshape(arcs, -1)
+        z_lo = _lookup(cols, table.row_knots, y_lo, columns)
+        z_hi = _lookup(cols, table.row_knots, y_lo + feed_per_rev, columns)
+    if geometric is not None:
+        z_lo = z_lo + geometric(phi, slide_lo)
+        z_hi = z_hi + geometric(phi, slide_lo + feed_per_rev)
     if nose_radius is not None:
         frac = rho - k
         d2 = (feed_per_rev * cos) ** 2 / (2 * nose_radius)
@@ -152,6 +186,13 @@ def machined_surface(
         z_hi += (1 - frac) ** 2 * d2
     z = np.minimum(z_lo, z_hi)
     return Surface(x, y, z.min(axis=1) if arcs > 1 else z[:, 0], core)
+
+
+@lru_cache(maxsize=1)  # one simulation reads its table for the total and each source alone
+def _table_columns(table: ZreTable, machine: Machine, spacing, window, arcs: int) -> np.ndarray:
+    """:func:`_columns` of ``table`` at the pass angles of the grid (cached per table, grid)."""
+    phi = _grid(machine, spacing, window)[3][:arcs]
+    return _columns(table.values, phi)
 
 
 def _columns(values: np.ndarray, phi: np.ndarray) -> np.ndarray:
@@ -213,36 +254,115 @@ def _spectral(nx: int, ny: int, hx: float, hy: float):
     half[0] = 1.0
     if nx % 2 == 0:
         half[-1] = 1.0
-    nyquist = 0.5 / max(hx, hy)
     masks = {}
     for name, (lam_min, lam_max) in BANDS.items():
-        inside = (nu >= 1.0 / lam_max) & (nu <= min(1.0 / lam_min, nyquist))
+        inside = (nu >= 1.0 / lam_max) & (nu <= 1.0 / lam_min)
         masks[name] = inside * half[None, :]
     return win, norm, masks
 
 
-def surface_metrics(surface: Surface) -> dict[str, float]:
-    """PV, PV and RMS with the best-fit plane removed, band RMS of PSD1 and PSD2 [nm].
+def band_resolved(surface: Surface, band: str) -> bool:
+    """True if the evenly spaced grid resolves the whole band (2 h <= shortest wavelength and
+    the grid at least as long as the longest wavelength, in both directions)."""
+    lam_min, lam_max = BANDS[band]
+    hx, hy = surface.spacing
+    y = surface.y[surface.core_rows]
+    extent = min(np.ptp(surface.x), np.ptp(y))
+    return 2 * max(hx, hy) <= lam_min * (1 + 1e-9) and extent >= lam_max
 
-    Keys: pv_nm, pv_tilt_removed_nm, rms_nm, psd1_rms_nm, psd2_rms_nm, grid_spacing_mm.
+
+def band_rms(surface: Surface) -> dict[str, float]:
+    """RMS [nm] of the plane-removed, Hann-windowed surface in each band of :data:`BANDS`.
+
+    NaN where the grid does not resolve the band (:func:`band_resolved`): a number there would
+    look like a measurement of content the grid cannot see. Keys ``psd1_rms_nm``, ...
     """
     core = surface.core_rows
     x, y, z = surface.x, surface.y[core], surface.z[core]
-    # evenly spaced symmetric grid: 1, x and y are orthogonal, so the plane fit is three means
-    xc, yc = x - x.mean(), y - y.mean()
-    bx = (z @ xc).sum() / (y.size * (xc @ xc))
-    by = (yc @ z).sum() / (x.size * (yc @ yc))
-    plane = z.mean() + bx * (surface.x - x.mean())[None, :] + by * (surface.y - y.mean())[:, None]
-    flat = z - plane[core]
+    flat = z - _plane(x, y, z)
     hx, hy = surface.spacing
     win, norm, masks = _spectral(x.size, y.size, hx, hy)
     power = np.abs(np.fft.rfft2(flat * win)) ** 2
+    return {
+        f"{name}_rms_nm": float(np.sqrt(np.sum(power * mask)) * norm) * 1e9
+        if band_resolved(surface, name)
+        else float("nan")
+        for name, mask in masks.items()
+    }
+
+
+def _plane(x: np.ndarray, y: np.ndarray, z: np.ndarray) -> np.ndarray:
+    """Best-fit plane of z (Ny, Nx) on an evenly spaced grid (three means: 1, x, y orthogonal)."""
+    xc, yc = x - x.mean(), y - y.mean()
+    bx = (z @ xc).sum() / (y.size * (xc @ xc))
+    by = (yc @ z).sum() / (x.size * (yc @ yc))
+    return z.mean() + bx * xc[None, :] + by * yc[:, None]
+
+
+def _legendre_fit(x: np.ndarray, y: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Least-squares fit of Legendre polynomials up to 2nd order in (x, y) over the grid.
+
+    Returns (fit, form): the whole fit (piston, tilt, 2nd order) and its 2nd-order part
+    (P2(u), u v, P2(v) with u, v the coordinates scaled to [-1, 1]), both (Ny, Nx). Every term
+    is a product f(u) g(v), so the normal equations are sums over u and v separately.
+    """
+    u = (2 * x - x[0] - x[-1]) / (x[-1] - x[0])
+    v = (2 * y - y[0] - y[-1]) / (y[-1] - y[0])
+    one_u, one_v = np.ones_like(u), np.ones_like(v)
+    fu = np.stack([one_u, u, one_u, 1.5 * u**2 - 0.5, u, one_u])  # (6, Nx)
+    gv = np.stack([one_v, one_v, v, one_v, v, 1.5 * v**2 - 0.5])  # (6, Ny)
+    normal = (fu @ fu.T) * (gv @ gv.T)
+    rhs = np.einsum("kj,ji,ki->k", gv, z, fu)
+    coef = np.linalg.solve(normal, rhs)
+    fit = np.einsum("k,kj,ki->ji", coef, gv, fu)
+    form = np.einsum("k,kj,ki->ji", coef[3:], gv[3:], fu[3:])
+    return fit, form
+
+
+def surface_metrics(
+    surface: Surface,
+    aperture_margin: float = DEFAULT_APERTURE_MARGIN,
+    band_surface: Surface | None = None,
+) -> dict[str, float]:
+    """Metrics of the machined surface [nm] (module docstring).
+
+    Keys: pv_nm (max - min over all points), pv_tilt_removed_nm, rms_nm (best-fit plane
+    removed), pv_aperture_nm and rms_aperture_nm (the same inside the clear aperture, the plate
+    less ``aperture_margin`` [m] at every edge), form_pv_nm (PV of the 2nd-order Legendre
+    part of the least-squares fit), waviness_pv_nm and waviness_rms_nm (what the fit up to 2nd
+    order leaves), psd1_rms_nm and psd2_rms_nm (of ``band_surface`` if given, NaN where not
+    resolved, :func:`band_rms`), grid_spacing_mm.
+    """
+    if not aperture_margin >= 0:
+        raise ValueError(f"aperture_margin must be >= 0 [m], got {aperture_margin!r}")
+    core = surface.core_rows
+    x, y, z = surface.x, surface.y[core], surface.z[core]
+    plane = _plane(x, y, z)
+    # the plane extended to every row (the refined edge rows too)
+    xc, yc = x - x.mean(), surface.y - y.mean()
+    slope_x = (plane[0, -1] - plane[0, 0]) / (x[-1] - x[0])
+    slope_y = (plane[-1, 0] - plane[0, 0]) / (y[-1] - y[0])
+    plane_all = plane.mean() + slope_x * xc[None, :] + slope_y * yc[:, None]
+    flat = z - plane
+    half_x = (x[-1] - x[0]) / 2 - aperture_margin
+    half_y = (y[-1] - y[0]) / 2 - aperture_margin
+    if half_x <= 0 or half_y <= 0:
+        raise ValueError(f"aperture_margin {aperture_margin!r} m leaves no clear aperture")
+    in_x = np.abs(xc) <= half_x + 1e-12
+    in_y = np.abs(yc) <= half_y + 1e-12
+    aperture = surface.z[np.ix_(in_y, in_x)]
+    flat_aperture = flat[np.ix_(in_y[core], in_x)]
+    fit, form = _legendre_fit(x, y, z)
     out = {
         "pv_nm": float(np.ptp(surface.z)) * 1e9,
-        "pv_tilt_removed_nm": float(np.ptp(surface.z - plane)) * 1e9,
+        "pv_tilt_removed_nm": float(np.ptp(surface.z - plane_all)) * 1e9,
         "rms_nm": float(np.sqrt(np.mean(flat**2))) * 1e9,
+        "pv_aperture_nm": float(np.ptp(aperture)) * 1e9,
+        "rms_aperture_nm": float(np.sqrt(np.mean(flat_aperture**2))) * 1e9,
+        "form_pv_nm": float(np.ptp(form)) * 1e9,
+        "waviness_pv_nm": float(np.ptp(z - fit)) * 1e9,
+        "waviness_rms_nm": float(np.sqrt(np.mean((z - fit) ** 2))) * 1e9,
     }
-    for name, mask in masks.items():
-        out[f"{name}_rms_nm"] = float(np.sqrt(np.sum(power * mask)) * norm) * 1e9
-    out["grid_spacing_mm"] = max(hx, hy) * 1e3
+    out.update(band_rms(surface if band_surface is None else band_surface))
+    out["grid_spacing_mm"] = max(surface.spacing) * 1e3
     return out

@@ -1,6 +1,9 @@
 """Machine geometry of a model: the ``[machine]`` table (tool, workpiece, spindle, cut).
 
-Frames and the meaning of every quantity are described in :mod:`ufmt.machining.cutting`.
+Frames and the meaning of every quantity are described in :mod:`ufmt.machining.cutting`; the
+tool geometry and the error sources in :mod:`ufmt.machining.sources` and docs/ufmt-model.md.
+Every optional key has a documented default and a physical band (:data:`OPTIONAL_FIELDS`);
+a value outside its band, a non-finite number or an unknown key is a :class:`ModelError`.
 """
 
 from __future__ import annotations
@@ -11,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ufmt.errors import ModelError
+from ufmt.errors import ModelError, closest_name
 
 
 @dataclass(frozen=True)
@@ -27,8 +30,18 @@ class Machine:
     workpiece_size : (x, y) size of the workpiece [m].
     workpiece_center_xy : workpiece centre when the cut is halfway (under the spindle) [m].
     rotation : "cw" (eq. 4.1 as printed, clockwise seen from +z) or "ccw".
-    force_scale : factor on the force coefficients (optional key, default 1; see
+    force_scale : factor on the force coefficients [-] (default 1, band 0.3-3; see
         :func:`ufmt.simulate.fit_force_scale`).
+    nose_radius : tool nose radius r_n [m] (feed marks, edge length of the ploughing term).
+    rake_angle_deg, clearance_angle_deg : tool rake and clearance angles [deg] (recorded and
+        validated; the force coefficients are those of the default geometry).
+    spindle_tilt_rad : tilt beta of the spindle axis against the feed [rad] (sag
+        beta R (1 - cos phi)).
+    error_motion_m, error_motion_phase_deg : amplitude [m] and phase [deg] of the
+        once-per-revolution axial error motion of the fly-cutting head at the tool radius.
+    straightness_m, straightness_wavelength_m : amplitude [m] and wavelength [m] of the slide's
+        straightness error in z along the feed.
+    Defaults and bands: :data:`OPTIONAL_FIELDS`.
     """
 
     tool_body: str
@@ -40,6 +53,14 @@ class Machine:
     workpiece_center_xy: tuple[float, float]
     rotation: str
     force_scale: float = 1.0
+    nose_radius: float = 5e-3
+    rake_angle_deg: float = 0.0
+    clearance_angle_deg: float = 6.0
+    spindle_tilt_rad: float = 0.0
+    error_motion_m: float = 0.0
+    error_motion_phase_deg: float = 0.0
+    straightness_m: float = 0.0
+    straightness_wavelength_m: float = 0.1
 
     @property
     def sense(self) -> float:
@@ -95,6 +116,20 @@ MACHINE_FIELDS = (
     "rotation",
 )
 
+#: Optional ``[machine]`` keys: (default, low, high, unit); docs/ufmt-model.md gives the
+#: physics and the source of each band.
+OPTIONAL_FIELDS = {
+    "force_scale": (1.0, 0.3, 3.0, "-"),
+    "nose_radius": (5e-3, 0.1e-3, 50e-3, "m"),
+    "rake_angle_deg": (0.0, -45.0, 10.0, "deg"),
+    "clearance_angle_deg": (6.0, 2.0, 20.0, "deg"),
+    "spindle_tilt_rad": (0.0, -50e-6, 50e-6, "rad"),
+    "error_motion_m": (0.0, 0.0, 1e-6, "m"),
+    "error_motion_phase_deg": (0.0, -360.0, 360.0, "deg"),
+    "straightness_m": (0.0, 0.0, 2e-6, "m"),
+    "straightness_wavelength_m": (0.1, 1e-3, 10.0, "m"),
+}
+
 
 def read_machine(machine: Mapping, source: str = "<memory>") -> Machine:
     """Validate a ``[machine]`` table and return the :class:`Machine`.
@@ -106,6 +141,11 @@ def read_machine(machine: Mapping, source: str = "<memory>") -> Machine:
     def fail(field: str, problem: str):
         raise ModelError(f"{source}: machine: field '{field}': {problem}")
 
+    for key in machine:
+        if key not in MACHINE_FIELDS and key not in OPTIONAL_FIELDS:
+            near = closest_name(key, (*MACHINE_FIELDS, *OPTIONAL_FIELDS))
+            hint = f" (did you mean '{near}'?)" if near else ""
+            fail(key, f"unknown key{hint}")
     missing = [f for f in MACHINE_FIELDS if f not in machine]
     if missing:
         raise ModelError(f"{source}: machine: missing field '{missing[0]}' (need {MACHINE_FIELDS})")
@@ -139,6 +179,16 @@ def read_machine(machine: Mapping, source: str = "<memory>") -> Machine:
             fail(field, f"{v!r} must be > 0")
         return float(a[0]), float(a[1])
 
+    def optional(field):
+        default, low, high, unit = OPTIONAL_FIELDS[field]
+        if field not in machine:
+            return default
+        v = number(field)
+        if not low <= v <= high:
+            unit = "" if unit == "-" else f" {unit}"
+            fail(field, f"{v!r} is outside the allowed range [{low:g}, {high:g}]{unit}")
+        return v
+
     rotation = machine["rotation"]
     if rotation not in ("cw", "ccw"):
         fail("rotation", f"{rotation!r} must be 'cw' (eq. 4.1, clockwise seen from +z) or 'ccw'")
@@ -151,7 +201,7 @@ def read_machine(machine: Mapping, source: str = "<memory>") -> Machine:
         workpiece_size=pair("workpiece_size", positive=True),
         workpiece_center_xy=pair("workpiece_center_xy"),
         rotation=rotation,
-        force_scale=number("force_scale", positive=True) if "force_scale" in machine else 1.0,
+        **{field: optional(field) for field in OPTIONAL_FIELDS},
     )
     if abs(m.workpiece_center_xy[1] - m.spindle_axis_xy[1]) > 1e-9:
         fail(
@@ -174,6 +224,11 @@ def machine_of(model) -> Machine:
 
     The tool and workpiece bodies must be bodies of the model (checked when it has bodies).
     """
+    if not model.machine:
+        raise ModelError(
+            f"{model.source}: no [machine] table: add one with {', '.join(MACHINE_FIELDS)} "
+            "(see docs/ufmt-model.md, 'Machine table')"
+        )
     m = read_machine(model.machine, model.source)
     names = [b.name for b in model.bodies]
     for field in ("tool_body", "workpiece_body"):

@@ -1,0 +1,111 @@
+"""Error sources of the surface, each alone against its closed form; superposition, switches."""
+
+import numpy as np
+import pytest
+from machine_table import MACHINE
+from test_response import synthetic_basis
+
+from ufmt.errors import ModelError
+from ufmt.machining.process import Process
+from ufmt.machining.sources import SOURCES
+from ufmt.model.schema import Model
+from ufmt.simulate import simulate
+
+GEOMETRY = {
+    "spindle_tilt_rad": 4e-6,
+    "error_motion_m": 30e-9,
+    "error_motion_phase_deg": 40.0,
+    "straightness_m": 50e-9,
+    "straightness_wavelength_m": 0.15,
+}
+P = Process(300, 13.7, 4)  # feed per revolution incommensurate with the grid
+
+
+def run(machine_extra=None, sources=SOURCES, **options):
+    model = Model("syn", (), (), machine={**MACHINE, **GEOMETRY, **(machine_extra or {})})
+    return simulate(
+        model, P, basis=synthetic_basis(n=6), sources=sources, static_correction=False, **options
+    )
+
+
+def lead_angle(surface):
+    """Leading-arc angle phi_f(x) of each grid column (spindle over the plate's centre)."""
+    return np.arcsin(surface.x / MACHINE["tool_radius"])
+
+
+def test_spindle_tilt_alone_is_the_sag_beta_r_one_minus_cos():
+    r = run(sources=("spindle_tilt",))
+    phi = lead_angle(r.surface)
+    sag = -GEOMETRY["spindle_tilt_rad"] * MACHINE["tool_radius"] * (1 - np.cos(phi))
+    np.testing.assert_allclose(r.surface.z, np.broadcast_to(sag, r.surface.z.shape), atol=1e-18)
+    edge = np.arcsin(0.205 / MACHINE["tool_radius"])
+    expected = GEOMETRY["spindle_tilt_rad"] * MACHINE["tool_radius"] * (1 - np.cos(edge)) * 1e9
+    # the grid has nodes on the plate edges; its middle node is within half a step of x = 0
+    assert r.pv_by_source_nm["spindle_tilt"] == pytest.approx(expected, rel=1e-4)
+    assert r.metrics["pv_nm"] == pytest.approx(np.ptp(sag) * 1e9, rel=1e-12)
+
+
+def test_error_motion_alone_is_the_once_per_revolution_cosine():
+    r = run(sources=("error_motion",))
+    phi = lead_angle(r.surface)
+    wave = GEOMETRY["error_motion_m"] * np.cos(phi - np.radians(40.0))
+    np.testing.assert_allclose(r.surface.z, np.broadcast_to(wave, r.surface.z.shape), atol=1e-18)
+
+
+def test_straightness_alone_follows_the_slide_position_of_the_pass():
+    """z = -s sin(2 pi Y / L) at the pass's slide Y = y - R cos(phi_f), to within the slope
+    times one feed step (the deeper of the two bracketing passes is kept)."""
+    r = run(sources=("straightness",))
+    s, wavelength = GEOMETRY["straightness_m"], GEOMETRY["straightness_wavelength_m"]
+    phi = lead_angle(r.surface)
+    slide = r.surface.y[:, None] - MACHINE["tool_radius"] * np.cos(phi)[None, :]
+    exact = -s * np.sin(2 * np.pi * slide / wavelength)
+    step = 2 * np.pi * s / wavelength * P.feed_per_rev_m
+    assert np.abs(r.surface.z - exact).max() <= step
+    assert r.surface.z.max() - r.surface.z.min() > 1.9 * s  # both crests lie on the plate
+
+
+def test_feed_marks_alone_are_the_nose_scallop():
+    """PV = (v/f)^2 / (8 r_n) (the scallop at the plate's middle, cos(phi) = 1)."""
+    nose = 2e-3
+    r = run({"nose_radius": nose}, sources=("feed_marks",))
+    bound = (P.feed_per_rev_m * np.cos(lead_angle(r.surface))) ** 2 / (8 * nose)
+    assert np.all(r.surface.z <= bound[None, :] * (1 + 1e-9))
+    scallop = P.feed_per_rev_m**2 / (8 * nose) * 1e9
+    assert r.pv_by_source_nm["feed_marks"] == pytest.approx(scallop, rel=0.03)
+
+
+def test_sources_that_depend_on_the_angle_only_superpose_exactly():
+    """Tilt and error motion are the same on both bracketing passes: the surface is the
+    dynamic surface plus their closed forms, exactly; all sources scale linearly."""
+    alone = run(sources=("dynamic",)).surface.z
+    both = run(sources=("dynamic", "spindle_tilt", "error_motion"))
+    geo = run(sources=("spindle_tilt", "error_motion")).surface.z
+    np.testing.assert_allclose(both.surface.z, alone + geo, atol=1e-12 * np.abs(geo).max())
+    doubled = {
+        k: 2 * v if k != "error_motion_phase_deg" and not k.endswith("_wavelength_m") else v
+        for k, v in GEOMETRY.items()
+    }
+    twice = run(doubled, sources=("spindle_tilt", "error_motion", "straightness")).surface.z
+    once = run(sources=("spindle_tilt", "error_motion", "straightness")).surface.z
+    np.testing.assert_allclose(twice, 2 * once, atol=1e-12 * np.abs(once).max())
+
+
+def test_total_pv_is_bounded_by_the_sum_of_the_sources():
+    """Superposition of the sources before the minimum over passes: PV(total) <= sum of PVs."""
+    r = run()
+    assert set(r.pv_by_source_nm) == set(SOURCES)
+    parts = [v for v in r.pv_by_source_nm.values()]
+    assert all(v > 0 for v in parts)
+    assert r.metrics["pv_nm"] <= sum(parts) * (1 + 1e-9)
+    assert r.metrics["pv_nm"] >= max(parts) * 0.5
+
+
+def test_switched_off_sources_report_none_and_unknown_names_fail():
+    r = run(sources=("dynamic", "feed_marks"))
+    assert r.pv_by_source_nm["spindle_tilt"] is None
+    assert r.pv_by_source_nm["dynamic"] > 0
+    off = run({"spindle_tilt_rad": 0.0}, sources=SOURCES)
+    assert off.pv_by_source_nm["spindle_tilt"] == 0.0
+    with pytest.raises(ModelError, match="did you mean 'straightness'"):
+        run(sources=("straightnes",))

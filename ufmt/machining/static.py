@@ -1,0 +1,140 @@
+"""Static (residual-flexibility) correction for the modes above the modal basis.
+
+A modal basis of n modes represents the flexibility of the structure only up to its highest
+mode: the static deflection under a force is sum_s v_s v_s^T / (M_s w_s^2) over *all* modes,
+and the modes above the basis carry a share of it (18 % of the tool-workpiece compliance in z
+of the UFMT with 30 modes). Those modes respond quasi-statically to the cutting force (their
+frequencies are far above its harmonics), so their contribution is the residual flexibility
+
+    G_res = G_static - sum_{s <= n} v_s v_s^T / (M_s w_s^2)
+
+times the instantaneous force (the classical static correction of mode superposition, e.g.
+Craig & Kurdila, *Fundamentals of Structural Dynamics*, 2006, section 13.3). G_static is the
+flexibility of the tool and workpiece bodies' 6 + 6 rigid-body coordinates from a static solve of
+the assembled mass-stiffness model of the same file (:mod:`ufmt.assembled`): u = N (N^T K N)^-1
+N^T f with N a basis of the motions the rigid hinges allow.
+
+For a force F on the tool at point p and -F on the workpiece at its material point q = p + Y y
+(:mod:`ufmt.machining.response`), the relative displacement is P(p, q) G_res P(p, q)^T F with
+P = [T_tool(p), -T_work(q)], T(x) = [I, -[(x - C)]x] the translation of point x of a rigid body.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg as sla
+from threadpoolctl import threadpool_limits
+
+from ufmt.errors import ModelError
+from ufmt.machining.basis import ModalBasis
+from ufmt.model.machine import Machine
+
+
+@dataclass(frozen=True, eq=False)
+class ResidualFlexibility:
+    """Residual flexibility of the tool and workpiece bodies' rigid-body coordinates.
+
+    Attributes
+    ----------
+    matrix : (12, 12) [m/N, m/(N m), rad/(N m)]: rows and columns [r_tool, theta_tool,
+        r_work, theta_work] at the bodies' centres of mass (global frame).
+    centers : (2, 3) centres of mass of the tool and the workpiece body [m].
+    static : (12, 12) the full static flexibility it was made from (for reports and tests).
+    """
+
+    matrix: np.ndarray
+    centers: np.ndarray
+    static: np.ndarray
+
+    def relative(self, tool_points, work_points, forces) -> tuple[np.ndarray, np.ndarray]:
+        """Tool and workpiece point displacements [m] under the residual flexibility.
+
+        ``forces`` (..., 3) [N] act on the tool at ``tool_points`` and, reversed, on the
+        workpiece at ``work_points`` (both (..., 3) [m], broadcast). Returns the displacement
+        of the tool point and of the workpiece point, each (..., 3).
+        """
+        t_tool = _point_map(np.asarray(tool_points, float) - self.centers[0])
+        t_work = _point_map(np.asarray(work_points, float) - self.centers[1])
+        forces = np.asarray(forces, dtype=float)
+        wrench = np.concatenate(
+            [
+                np.einsum("...ji,...j->...i", t_tool, forces),
+                -np.einsum("...ji,...j->...i", t_work, forces),
+            ],
+            axis=-1,
+        )
+        u = wrench @ self.matrix.T
+        return (
+            np.einsum("...ij,...j->...i", t_tool, u[..., :6]),
+            np.einsum("...ij,...j->...i", t_work, u[..., 6:]),
+        )
+
+
+def _point_map(arm: np.ndarray) -> np.ndarray:
+    """T (..., 3, 6): translation r + theta x arm = [I, -[arm]x] [r; theta] of a point."""
+    arm = np.asarray(arm, dtype=float)
+    out = np.zeros((*arm.shape[:-1], 3, 6))
+    out[..., [0, 1, 2], [0, 1, 2]] = 1.0
+    ax, ay, az = arm[..., 0], arm[..., 1], arm[..., 2]
+    # theta x arm = -[arm]x theta
+    out[..., 0, 4], out[..., 0, 5] = az, -ay
+    out[..., 1, 3], out[..., 1, 5] = -az, ax
+    out[..., 2, 3], out[..., 2, 4] = ay, -ax
+    return out
+
+
+def static_flexibility(model, bodies: tuple[str, ...]) -> np.ndarray:
+    """Static flexibility of the listed bodies' 6 coordinates each, (6B, 6B) (assembled model).
+
+    The bodies must be rigid or virtual (one node of 6 dofs). Raises ModelError if the model is
+    not restrained (a stiffness matrix that is singular on the allowed motions).
+    """
+    from ufmt.assembled import assemble
+
+    # one cubic frame element per beam is exact in statics (no load between the nodes)
+    am = assemble(model, elements_per_beam=1)
+    dofs = []
+    for name in bodies:
+        d = am.body_dofs[name]
+        if d.shape[0] != 1:
+            raise ModelError(
+                f"{model.source}: machine: body {name!r} is a beam; the static correction "
+                "needs rigid tool and workpiece bodies"
+            )
+        dofs.append(d[0])
+    dofs = np.concatenate(dofs)
+    n = am.K.shape[0]
+    if len(am.constraints):
+        rows = am.constraints / np.linalg.norm(am.constraints, axis=1, keepdims=True)
+        basis = sla.null_space(rows, rcond=1e-9)
+    else:
+        basis = np.eye(n)
+    k_red = basis.T @ am.K @ basis
+    with threadpool_limits(limits=1, user_api="blas"):  # small matrices: threads only wait
+        try:
+            chol = sla.cho_factor(k_red)
+        except np.linalg.LinAlgError:
+            raise ModelError(
+                f"{model.source}: the structure is not restrained (no static solution)"
+            ) from None
+        loads = basis[dofs].T  # N^T e_j for each listed dof
+        return basis[dofs] @ sla.cho_solve(chol, loads)
+
+
+def residual_flexibility(model, basis: ModalBasis, machine: Machine) -> ResidualFlexibility:
+    """The static correction of ``basis`` for the tool and workpiece bodies of ``machine``.
+
+    G_res = G_static - sum_s v_s v_s^T / (M_s w_s^2), v_s the bodies' rigid motions in mode s.
+    """
+    bodies = (machine.tool_body, machine.workpiece_body)
+    static = static_flexibility(model, bodies)
+    v = np.concatenate([basis.body_shapes[b] for b in bodies], axis=1)  # (n, 12)
+    modal = (v.T / (basis.modal_mass * basis.omega**2)) @ v
+    centers = np.stack([basis.body_centers[b] for b in bodies])
+    res = static - modal
+    res = 0.5 * (res + res.T)
+    for a in (res, centers, static):
+        a.setflags(write=False)
+    return ResidualFlexibility(matrix=res, centers=centers, static=static)
