@@ -32,13 +32,14 @@ when modes of different classes (e.g. Table 3 modes 12 and 13, 0.4 % apart) chan
 Pairing by order is enforced through the penalty and checked again on the final MSTMM solution.
 
 Cheap model. Hinge stiffness enters the assembled model linearly, so its stiffness matrix is
-``K(s) = K_fixed + sum_p s_p K_p`` exactly (:class:`ReducedModel`): K_p are assembled once, the
-rigid (inf) directions are removed by a null-space basis and the massless dofs condensed, and
-each evaluation is one dense symmetric eigenproblem (about 10 ms for the UFMT; the lowest
-roots carry up to eps * cond(K) ~ 1e-5 relative rounding, so the result is checked by the
-MSTMM at the end, ``ufmt calibrate`` reports the difference). With
-mass-normalised shapes phi the sensitivity is exact (Rayleigh quotient stationarity; distinct
-roots): ``d ln f_m / d u_p = s_p phi_m^T K_p phi_m / (2 omega_m^2)``.
+``K(s) = K_fixed + sum_p s_p K_p`` exactly, and its square root ``F`` (``K = F^T F``) has one
+row per spring scaled by ``sqrt(s_p)`` (:class:`ReducedModel`): the prior is assembled once,
+and each evaluation is one QR (static condensation of the massless directions) and one SVD of
+a dense (springs x dofs) matrix, like :func:`ufmt.assembled.assembled_modes` (a few ms for the
+UFMT; it agrees with the assembled model to ~1e-13 and the result is checked by the MSTMM at
+the end, ``ufmt calibrate`` reports the difference). With mass-normalised shapes phi the
+sensitivity is exact (Rayleigh quotient stationarity; distinct roots):
+``d ln f_m / d u_p = s_p phi_m^T K_p phi_m / (2 omega_m^2)``.
 """
 
 from __future__ import annotations
@@ -56,7 +57,14 @@ import scipy.linalg as sla
 from scipy.optimize import differential_evolution
 from threadpoolctl import threadpool_limits
 
-from ufmt.assembled import AssembledModel, assemble, assembled_modes
+from ufmt.assembled import (
+    AssembledModel,
+    _constraint_basis,
+    _split_massless,
+    _svd,
+    _zero_mode_count,
+    assemble,
+)
 from ufmt.calibration.frequencies import (
     ModeSet,
     Reference,
@@ -78,7 +86,6 @@ COLUMNS = ("modal_test_hz", "mstmm_hz", "fem_hz")
 TOP_KEYS = ("prior", "reference", "output", "output_name", "targets", "settings", "parameter")
 TARGET_KEYS = ("modes", "column", "source")
 PARAMETER_KEYS = ("name", "hinges", "field", "components", "band", "reason")
-MASS_RTOL = 1e-10  # massless directions: eigenvalues of the reduced mass below this * largest
 UNPAIRED_RESIDUAL = 1.0  # ln-frequency residual of a Table 3 mode with no model partner
 
 
@@ -367,90 +374,117 @@ def apply_parameters(model: Model, parameters, u) -> Model:
     return model
 
 
-def _zeroed(model: Model, parameters) -> Model:
-    """``model`` with every parameter's components released (stiffness 0)."""
-    for p in parameters:
+def _spring_owners(model: Model, parameters) -> np.ndarray:
+    """Parameter index of each finite spring direction, in :func:`ufmt.assembled.assemble`'s
+    order (hinge by hinge, components x, y, z, rx, ry, rz with 0 < k < inf); -1: none."""
+    owner = {}
+    for i, p in enumerate(parameters):
+        offset = 0 if p.field == "stiffness" else 3
         for h in p.hinges:
-            values = np.array(getattr(model.hinge(h), p.field), dtype=float)
-            values[list(p.components)] = 0.0
-            model = model.with_hinge(h, **{p.field: values})
-    return model
+            for c in p.components:
+                owner[(h, offset + c)] = i
+    return np.array(
+        [
+            owner.get((h.name, j), -1)
+            for h in model.hinges
+            for j, k in enumerate(h.stiffness6)
+            if 0.0 < k < math.inf
+        ],
+        dtype=int,
+    )
 
 
 @dataclass(frozen=True, eq=False)
 class ReducedModel:
     """Assembled model of ``model`` whose stiffness is affine in the parameters' factors.
 
-    ``K(s) = K_fixed + sum_p s_p K_p`` on all dofs (K_p: parameter p's springs at their prior
-    value). The basis ``[T_a T_b]`` spans the motions the rigid (inf) directions allow; T_a is
-    mass-orthonormal (``T_a^T M T_a = I``) and T_b massless, condensed statically in
-    :meth:`solve`.
+    The assembled stiffness is ``K = F^T F`` with one row of F per spring direction,
+    ``sqrt(k) d_j`` (:class:`~ufmt.assembled.AssembledModel`), so a factor s_p on parameter p's
+    springs scales their rows by ``sqrt(s_p)``: ``F(s) = W(s) F_prior`` with W diagonal, and
+    ``K(s) = K_fixed + sum_p s_p K_p`` exactly. Each evaluation repeats the assembled model's
+    well-conditioned solution (:func:`ufmt.assembled._solve`) with the prior's constraint basis
+    and mass factor fixed: static condensation of the massless directions by a QR of their
+    rows of F, then the singular values of ``F_red S L^-T`` (S: Jacobi scaling of the mass,
+    ``S M_a S = L L^T``), which are the angular frequencies. Working on the square root keeps
+    the relative accuracy of the lowest roots near machine precision although cond(K) ~ 1e11:
+    the eigenvalues of K itself carry an absolute error eps * ||K||, i.e. ~1e-5 of ln f for the
+    lowest modes, which made finite differences of ln f noisy.
     """
 
     model: Model
     parameters: tuple[Parameter, ...]
-    assembled: AssembledModel  # K_fixed's assembly: dof layout and M
-    k_fixed: np.ndarray  # [T_a T_b]^T K_fixed [T_a T_b]
-    k_parts: np.ndarray  # (P, r, r) likewise
-    k_parts_full: np.ndarray  # (P, n, n) on all dofs
-    t_a: np.ndarray
+    assembled: AssembledModel  # the prior's assembly: dof layout, M, F
+    owner: np.ndarray  # (rows of F,) index of the parameter scaling each row, -1: none
+    f_a: np.ndarray  # F_prior T_a S L^-T: motions with mass, mass-normalised coordinates
+    f_b: np.ndarray  # F_prior T_b: massless motions
+    t_a: np.ndarray  # T_a S L^-T: mass-normalised coordinates -> all dofs
     t_b: np.ndarray
     zero_modes: int
 
     @classmethod
     def build(cls, model: Model, parameters, elements_per_beam: int = 8) -> ReducedModel:
-        """Assemble K_fixed and each K_p (stiffness is linear in each hinge component)."""
+        """Assemble the prior once and note which rows of F each parameter scales."""
         parameters = tuple(parameters)
-        fixed = assemble(_zeroed(model, parameters), elements_per_beam=elements_per_beam)
-        parts = np.array(
-            [
-                assemble(
-                    _zeroed(model, parameters[:i] + parameters[i + 1 :]),
-                    elements_per_beam=elements_per_beam,
-                ).K
-                - fixed.K
-                for i in range(len(parameters))
-            ]
-        ).reshape(len(parameters), *fixed.K.shape)
-        n = fixed.K.shape[0]
-        null = sla.null_space(fixed.constraints) if len(fixed.constraints) else np.eye(n)
-        w, v = np.linalg.eigh(null.T @ fixed.M @ null)
-        massive = w > MASS_RTOL * w.max()
-        t_a = null @ (v[:, massive] / np.sqrt(w[massive]))
-        t_b = null @ v[:, ~massive]
-        t = np.hstack([t_a, t_b])
-        zero = assembled_modes(model, count=1, elements_per_beam=elements_per_beam)
+        am = assemble(model, elements_per_beam=elements_per_beam)
+        owner = np.full(am.deformation.shape[0], -1)
+        owner[am.deformation.shape[0] - am.spring_directions.shape[0] :] = _spring_owners(
+            model, parameters
+        )
+        basis, independent = _constraint_basis(am.constraints, am.massless)
+        t_a, t_b = _split_massless(am, basis, independent)
+        m_a = t_a.T @ am.M @ t_a
+        scale = 1.0 / np.sqrt(np.diag(m_a))
+        chol = np.linalg.cholesky(scale[:, None] * m_a * scale[None, :])
+        normalise = scale[:, None] * sla.solve_triangular(chol.T, np.eye(len(scale)), lower=False)
         return cls(
             model=model,
             parameters=parameters,
-            assembled=fixed,
-            k_fixed=t.T @ fixed.K @ t,
-            k_parts=t.T @ parts @ t,
-            k_parts_full=parts,
-            t_a=t_a,
+            assembled=am,
+            owner=owner,
+            f_a=am.deformation @ t_a @ normalise,
+            f_b=am.deformation @ t_b,
+            t_a=t_a @ normalise,
             t_b=t_b,
-            zero_modes=zero.rigid_body_modes,
+            zero_modes=_zero_mode_count(am),
         )
+
+    def row_weights(self, u) -> np.ndarray:
+        """sqrt(s) of each row of F: 1 for rows no parameter scales."""
+        root = np.exp(0.5 * np.asarray(u, dtype=float))
+        return np.where(self.owner >= 0, root[self.owner], 1.0)
 
     def solve(self, u, n_modes: int) -> tuple[np.ndarray, np.ndarray]:
         """Lowest ``n_modes`` nonzero frequencies [Hz] and mass-normalised shapes (n, dofs)."""
-        k = self.k_fixed + np.tensordot(np.exp(np.asarray(u, dtype=float)), self.k_parts, 1)
-        na = self.t_a.shape[1]
-        k_ab, k_bb = k[:na, na:], k[na:, na:]
-        condense = np.linalg.solve(k_bb, k_ab.T) if k_bb.size else np.zeros((0, na))
-        first = self.zero_modes
-        lam, y = sla.eigh(
-            k[:na, :na] - k_ab @ condense, subset_by_index=[first, first + n_modes - 1]
-        )
-        shapes = (self.t_a @ y - self.t_b @ (condense @ y)).T
-        return np.sqrt(np.clip(lam, 0.0, None)) / (2.0 * math.pi), shapes
+        w = self.row_weights(u)[:, None]
+        f_a, f_b = w * self.f_a, w * self.f_b
+        if f_b.shape[1]:
+            scale_b = np.linalg.norm(f_b, axis=0)
+            q_b, r_b = np.linalg.qr(f_b / scale_b)
+            f_red = f_a - q_b @ (q_b.T @ f_a)
+        else:
+            f_red = f_a
+        sigma, vh = _svd(f_red)
+        n_total = f_red.shape[1] - self.zero_modes
+        keep = np.arange(n_total - 1, n_total - 1 - n_modes, -1)  # ascending from the lowest
+        coords = vh[keep].T
+        shapes = self.t_a @ coords
+        if f_b.shape[1]:
+            shapes -= self.t_b @ (
+                sla.solve_triangular(r_b, q_b.T @ (f_a @ coords)) / scale_b[:, None]
+            )
+        return sigma[keep] / (2.0 * math.pi), shapes.T
 
     def sensitivities(self, u, frequencies_hz, shapes) -> np.ndarray:
-        """d ln f_m / d u_p (n, P) = s_p phi_m^T K_p phi_m / (2 omega_m^2)."""
-        s = np.exp(np.asarray(u, dtype=float))
-        energy = np.sum((shapes @ self.k_parts_full) * shapes[None], axis=2).T
+        """d ln f_m / d u_p (n, P) = s_p phi_m^T K_p phi_m / (2 omega_m^2).
+
+        ``phi^T s_p K_p phi`` is the strain energy (times 2) in parameter p's rows of F(s).
+        """
+        strain = (self.row_weights(u)[:, None] * (self.assembled.deformation @ shapes.T)) ** 2
+        energy = np.zeros((len(self.parameters), strain.shape[1]))
+        mine = self.owner >= 0
+        np.add.at(energy, self.owner[mine], strain[mine])
         omega2 = (2.0 * math.pi * np.asarray(frequencies_hz)) ** 2
-        return energy * s[None, :] / (2.0 * omega2[:, None])
+        return energy.T / (2.0 * omega2[:, None])
 
     def modeset(self, frequencies_hz, shapes) -> ModeSet:
         """The modes as a :class:`~ufmt.calibration.frequencies.ModeSet` (pairing, tag checks)."""
