@@ -13,7 +13,8 @@ The ``[response]`` table of ``calibration.toml`` declares
   (one-sided: residual ``max(0, -ours) / scale_nm``, for a shape the paper states in words).
 
 and the fit is a bounded nonlinear least squares (scipy ``least_squares``, trust-region
-reflective, bounds = bands) of the weighted residuals at the reference process (sections 3.3,
+reflective, in coordinates that map each band onto [0, 1], so ``diff_step`` is a fraction of
+the band) of the weighted residuals at the reference process (sections 3.3,
 4.2: 300 rpm, 15 mm/min, 4 um). The fitted values are rounded to
 :data:`ufmt.calibration.identify.SIGNIFICANT` digits. A value at a band's edge means the
 measurements ask for more than the band allows: it is reported (``at_bound``), not widened.
@@ -54,11 +55,18 @@ class FitParameter:
     unit: str = ""
     reason: str = ""
 
-    def to_x(self, value: float) -> float:
+    def _map(self, value: float) -> float:
         return math.log(value) if self.scale == "log" else value
 
+    def to_x(self, value: float) -> float:
+        """Search coordinate: 0 at the band's lower edge, 1 at its upper (log or linear)."""
+        lo, hi = map(self._map, self.band)
+        return (self._map(value) - lo) / (hi - lo)
+
     def from_x(self, x: float) -> float:
-        return math.exp(x) if self.scale == "log" else x
+        lo, hi = map(self._map, self.band)
+        v = lo + float(x) * (hi - lo)
+        return math.exp(v) if self.scale == "log" else v
 
 
 @dataclass(frozen=True)
@@ -87,7 +95,7 @@ class ResponseSettings:
     skipped: tuple[str, ...]
     targets: tuple[FitTarget, ...]
     method: str = "periodic"
-    diff_step: float = 1e-3
+    diff_step: float = 1e-2
     max_evaluations: int = 200
 
 
@@ -206,7 +214,7 @@ def read_response_settings(table, reference: Mapping, where: str) -> ResponseSet
         tuple(skipped),
         tuple(targets),
         method,
-        _number(where, table, "diff_step", 1e-3, positive=True),
+        _number(where, table, "diff_step", 1e-2, positive=True),
         int(_number(where, table, "max_evaluations", 200, positive=True)),
     )
 
@@ -255,6 +263,7 @@ class ResponseFit:
     residuals: np.ndarray
     at_bound: tuple[str, ...]
     evaluations: int
+    process: object = None  # the reference Process
 
     def __repr__(self) -> str:
         values = ", ".join(f"{k}={v:.6g}" for k, v in self.values.items())
@@ -318,7 +327,6 @@ def fit_response(
                 method="trf",
                 diff_step=settings.diff_step,
                 max_nfev=settings.max_evaluations,
-                x_scale="jac",
             )
         finally:
             bar.close()
@@ -336,4 +344,4 @@ def fit_response(
         for p in params
         if min(abs(values[p.key] - b) for b in p.band) <= BOUND_RTOL * max(map(abs, p.band))
     )
-    return ResponseFit(settings, values, final, res, at_bound, evaluations)
+    return ResponseFit(settings, values, final, res, at_bound, evaluations, process)

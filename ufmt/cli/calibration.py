@@ -68,12 +68,16 @@ def register(subparsers) -> None:
 
 
 def cmd_calibrate(args) -> int:
-    """Identify, write the model and the log, print the result."""
+    """Identify, fit the response parameters, write the model and the log, print the result."""
     from ufmt.calibration.identify import calibrate
 
     t0 = time.perf_counter()
     run = calibrate(
-        args.settings or packaged_path("calibration.toml"), args.prior, args.output, args.log
+        args.settings or packaged_path("calibration.toml"),
+        args.prior,
+        args.output,
+        args.log,
+        progress=True,
     )
     result = run.identification
     print(
@@ -82,9 +86,37 @@ def cmd_calibrate(args) -> int:
     )
     for p, s in zip(result.parameters, result.scales, strict=True):
         print(f"  {p.name:<24} s = {s:8.4f}   band [{p.band[0]:g}, {p.band[1]:g}]")
+    shares = result.evaluation.shares
+    if shares.size:
+        print(
+            f"spindle-bearing constraint: largest strain-energy share {shares.max():.3f}, "
+            f"violation {result.evaluation.constraint.max():.2e} (ln f)"
+        )
     _print_summary(run.model, run.validation.summary)
+    if run.response is not None:
+        _print_response(run)
     print(f"wrote {run.output} and {args.log}")
     return 0
+
+
+def _print_response(run) -> None:
+    from ufmt.calibration.response import implied_forces
+
+    fit = run.response
+    print(f"response fit ({fit.settings.method} path, {fit.evaluations} simulations):")
+    for p in fit.settings.parameters:
+        flag = "  AT BOUND: the measurements ask for more" if p.key in fit.at_bound else ""
+        print(f"  {p.key:<26} = {fit.values[p.key]:.6g} {p.unit}  band {list(p.band)}{flag}")
+    for key in fit.settings.skipped:
+        print(f"  {key:<26}   skipped: not a [machine] field of this version")
+    print(fit.to_frame().to_string(index=False, float_format=lambda v: f"{v:.4g}"))
+    forces = implied_forces(run.model, fit.metrics, fit.process)
+    print(
+        "implied peak forces at the reference cut: "
+        + ", ".join(
+            f"{k} {v['force_n']:.3g} N ({v['specific_gpa']:.3g} GPa)" for k, v in forces.items()
+        )
+    )
 
 
 def _print_summary(model, s: dict) -> None:
@@ -130,7 +162,7 @@ def cmd_validate(args) -> int:
         basis = basis_from_shapes(result.solution.shapes)  # the modes just validated
         table = response_table(model, packaged_path("paper_reference.toml"), basis)
         table.to_csv(out / "response.csv", index=False, float_format="%.6g")
-        print(table.drop(columns=["note"]).to_string(index=False))
+        print(table.drop(columns=["source"]).to_string(index=False))
         print(f"wrote response.csv in {out}")
     return 0
 
