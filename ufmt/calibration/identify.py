@@ -95,7 +95,7 @@ TOP_KEYS = (
     "constraint",
     "response",
 )
-CONSTRAINT_KEYS = ("hinges", "factor", "max_change_percent", "weight", "source")
+CONSTRAINT_KEYS = ("hinges", "modes", "factor", "max_change_percent", "weight", "source")
 SIGNIFICANT = 6  # digits of every identified factor written to the model (deterministic files)
 TARGET_KEYS = ("modes", "column", "source")
 PARAMETER_KEYS = ("name", "hinges", "field", "components", "band", "reason")
@@ -187,6 +187,7 @@ class Constraint:
     max_change_percent: float
     weight: float = 1.0
     source: str = ""
+    modes: tuple[int, ...] = ()  # Table 3 modes it applies to (empty: every tested mode)
 
     @property
     def limit(self) -> float:
@@ -405,7 +406,12 @@ def _constraint(where: str, table, model: Model) -> Constraint | None:
         ):
             _fail(label, f"field {key!r}: {v!r} must be a number > {low:g}")
         values[key] = float(v)
-    return Constraint(tuple(hinges), source=str(table.get("source", "")), **values)
+    modes = table.get("modes", [])
+    if not isinstance(modes, list) or not all(isinstance(k, int) for k in modes):
+        _fail(label, f"field 'modes': {modes!r} must list Table 3 mode numbers")
+    return Constraint(
+        tuple(hinges), source=str(table.get("source", "")), modes=tuple(modes), **values
+    )
 
 
 def _targets(where: str, table, reference: Reference, settings: Settings, ref_path) -> Targets:
@@ -653,6 +659,8 @@ class Problem:
         if self.constraint is None:
             return np.zeros(0)
         ok = paired >= 0
+        if self.constraint.modes:
+            ok &= np.isin(self.targets.modes, self.constraint.modes)
         out = np.zeros(len(paired))
         out[ok] = self.reduced.energy_shares(
             u, frequencies_hz[paired[ok]], shapes[paired[ok]], self.constraint.hinges
