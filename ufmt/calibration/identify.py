@@ -991,10 +991,12 @@ def provenance_header(
     c = calibration.constraint
     if c is not None:
         shares = result.evaluation.shares
+        modes = ", ".join(map(str, c.modes or calibration.targets.modes))
         lines.append(
-            f"# Constraint: {', '.join(c.hinges)} x{c.factor:g} moves no tested frequency by more "
-            f"than {c.max_change_percent:g} % (strain-energy share <= {c.limit:.3f}); largest "
-            f"share {shares.max():.3f} (mode {calibration.targets.modes[int(shares.argmax())]})."
+            f"# Constraint: {', '.join(c.hinges)} x{c.factor:g} moves none of modes {modes} by "
+            f"more than {c.max_change_percent:g} % (strain-energy share <= {c.limit:.3f}); "
+            f"largest share {shares.max():.3f} "
+            f"(mode {calibration.targets.modes[int(shares.argmax())]})."
         )
     lines.append("# Identified factors (k = s * k_prior; band in brackets):")
     width = max(len(p.name) for p in result.parameters)
