@@ -109,7 +109,7 @@ def response_table(
                 "error_percent": error,
                 "reproduced": reproduced,
                 "fitted": fitted,
-                "source": f"{source}; {t.note}" if t.note else source,
+                "source": t.note or source,
             }
         )
     return pd.DataFrame(rows)
