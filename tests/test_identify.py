@@ -335,3 +335,28 @@ def test_calibrate_regenerates_the_packaged_model(tmp_path):
     err = np.abs(run.validation.table.dropna(subset=["test_hz"])["mstmm_error_percent"])
     assert err.max() <= 3.0 and err.mean() <= 1.0
     assert math.isfinite(run.identification.seconds)
+
+
+def test_cli_calibrate_is_deterministic_and_reports_the_response_fit(tmp_path, capsys):
+    """Issue 10: rerunning `ufmt calibrate` on an unchanged prior rewrites the same bytes; the
+    command prints every response residual and the implied forces (small settings)."""
+    text = CALIBRATION.read_text()
+    for old, new in (
+        ("max_iterations = 60", "max_iterations = 2"),
+        ("global_start = true", "global_start = false"),
+        ("max_evaluations = 200", "max_evaluations = 4"),
+    ):
+        assert old in text
+        text = text.replace(old, new)
+    path = _write(tmp_path, text)
+    outputs = []
+    for run in (1, 2):
+        log = tmp_path / f"log{run}.csv"
+        assert main(["calibrate", "--settings", str(path), "--log", str(log)]) == 0
+        outputs.append(((tmp_path / "out.toml").read_bytes(), log.read_bytes()))
+    assert outputs[0] == outputs[1]
+    out = capsys.readouterr().out
+    for needle in ("pv_nm", "zre_peak_nm", "tip_acc_peak_mm_s2", "centre_rise_nm", "GPa"):
+        assert needle in out
+    model = load_model(tmp_path / "out.toml")
+    assert 0.3 <= model.machine["force_scale"] <= 3.0

@@ -1,9 +1,12 @@
 """CLI sub-commands ``calibrate``, ``validate`` and ``plot-mode`` (registered by ufmt.cli).
 
 * ``ufmt calibrate [--prior PATH] [--settings PATH] [--output PATH] [--log PATH]``: identify the
-  hinge stiffnesses (:mod:`ufmt.calibration.identify`) and write the packaged model and the log.
+  hinge stiffnesses against Table 3 (:mod:`ufmt.calibration.identify`), fit the uncertain
+  ``[machine]`` parameters to the response measurements (:mod:`ufmt.calibration.response_fit`),
+  write the packaged model and the log; tqdm progress on stderr.
 * ``ufmt validate [MODEL] [--output-dir DIR] [--modes LIST]``: the validation table
-  ``frequencies.csv``, the chart ``frequencies.png`` and ``mode-N.png`` for the listed modes.
+  ``frequencies.csv``, the chart ``frequencies.png``, ``mode-N.png`` for the listed modes and,
+  for a model with ``[machine]``, ``response.csv`` (one row per paper response quantity).
 * ``ufmt plot-mode N [MODEL] [--output PNG] [--scale S]``: one mode shape in 3-D.
 
 User errors raise :class:`~ufmt.errors.UfmtError`; the CLI prints one line and exits 2.
@@ -41,7 +44,9 @@ def _mode_list(text: str) -> list[int]:
 
 def register(subparsers) -> None:
     """Add the ``calibrate``, ``validate`` and ``plot-mode`` sub-parsers."""
-    p = subparsers.add_parser("calibrate", help="identify hinge stiffness against Table 3")
+    p = subparsers.add_parser(
+        "calibrate", help="identify hinge stiffness (Table 3), fit the response (Table 4)"
+    )
     p.add_argument("--prior", help="prior model (default: the calibration file's)")
     p.add_argument("--settings", help="calibration file (default: packaged calibration.toml)")
     p.add_argument("--output", help="identified model (default: the calibration file's)")
