@@ -3,7 +3,9 @@
 Oracles: an independent eigen-solution (``ufmt.assembled.assembled_modes`` on the model with the
 stiffnesses written in) for the cheap affine model and for the "measured" frequencies of a
 perturbed model whose stiffnesses are therefore known; central finite differences for the exact
-sensitivities; the packaged files for the error messages (file and field named).
+sensitivities (the sum of a hinge's sensitivities is half its strain-energy share); a feasible
+constraint that must move a known amount of load; the packaged files for the error messages
+(file and field named).
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ import pytest
 from ufmt.assembled import assembled_modes
 from ufmt.calibration.frequencies import Reference, ReferenceMode, Tag, modeset_from_dofs
 from ufmt.calibration.identify import (
+    Constraint,
     Parameter,
     ReducedModel,
     Settings,
@@ -64,8 +67,9 @@ def test_affine_model_matches_the_assembled_model(prior, reduced):
     truth = assembled_modes(
         apply_parameters(prior, PARAMETERS, u), count=N_MODES, elements_per_beam=ELEMENTS
     ).frequencies_hz
-    # eigh on the reduced K (condition ~1e11) loses up to eps * cond ~ 1e-5 of the lowest roots
-    np.testing.assert_allclose(f, truth, rtol=1e-5)
+    # both solve the square-root form K = F^T F by an SVD: relative accuracy near eps even for
+    # the lowest roots of a K with condition ~1e11
+    np.testing.assert_allclose(f, truth, rtol=1e-9)
 
 
 def test_sensitivities_are_the_derivatives_of_ln_f(reduced):
@@ -79,8 +83,8 @@ def test_sensitivities_are_the_derivatives_of_ln_f(reduced):
         up, _ = reduced.solve(u + du, N_MODES)
         down, _ = reduced.solve(u - du, N_MODES)
         central = (np.log(up) - np.log(down)) / (2 * step)
-        # central difference: step^2 * d3(ln f)/du3 / 6 <~ 2e-5, plus the eigen-solver's
-        # rounding (~1e-6 of ln f, see above) / step ~ 1e-4
+        # central difference: step^2 * d3(ln f)/du3 / 6 <~ 2e-5, plus the solver's rounding
+        # (~1e-13 of ln f, see above) / step
         np.testing.assert_allclose(exact[:, p], central, atol=1e-4, err_msg=PARAMETERS[p].name)
     # each frequency's sensitivities to all stiffness sum to 1/2 at most (f ~ sqrt(k))
     assert np.all(exact >= -1e-12) and np.all(exact.sum(axis=1) <= 0.5 + 1e-9)
@@ -164,6 +168,56 @@ def test_global_start_takes_over_where_the_local_iteration_stalls(prior):
     np.testing.assert_allclose(result.scales, true_scales, rtol=5e-3)
     again = identify(prior, params, targets, settings, u0=start)
     np.testing.assert_array_equal(result.u, again.u)  # deterministic (seeded)
+
+
+# ---------------------------------------------------------------------------------------------
+# the spindle-bearing constraint (section 4.2)
+
+
+def test_bearing_energy_share_is_twice_the_sum_of_its_sensitivities():
+    prior = load_model(PRIOR)
+    params = (
+        Parameter("h25.t", ("h25",), "stiffness", (0, 1, 2), (0.5, 2.0)),
+        Parameter("h25.r", ("h25",), "rotational_stiffness", (0, 1), (0.5, 2.0)),
+        Parameter("h31.z", ("h31",), "stiffness", (2,), (0.5, 2.0)),
+    )
+    reduced = ReducedModel.build(prior, params, 4)
+    u = np.log([1.3, 0.8, 1.1])
+    f, shapes = reduced.solve(u, 20)
+    sens = reduced.sensitivities(u, f, shapes)
+    share = reduced.energy_shares(u, f, shapes, ["h25"])
+    np.testing.assert_allclose(share, 2.0 * sens[:, :2].sum(axis=1), rtol=1e-9, atol=1e-15)
+    assert np.all((share >= 0.0) & (share <= 1.0))
+
+
+def test_bearing_constraint_moves_the_axial_load_to_the_head_bearing():
+    """Mode 18 (spindle + head axial) is matched at the prior with 43 % of its strain energy in
+    h25; with the constraint (x2 on h25 moves it by <= 5 %, i.e. share <= 0.141) the
+    identification must trade h25.z for h31.z, keeping the frequency."""
+    prior = load_model(PRIOR)
+    params = (
+        Parameter("h25.z", ("h25",), "stiffness", (2,), (0.1, 10.0)),
+        Parameter("h31.z", ("h31",), "stiffness", (2,), (0.1, 10.0)),
+    )
+    f, shapes = ReducedModel.build(prior, params, 4).solve(np.zeros(2), 20)
+    targets = Targets((18,), f[17:18])
+    settings = Settings(
+        regularisation=0.0,
+        tolerance_percent=1e-6,
+        max_iterations=40,
+        shape_penalty=0.0,
+        global_start=False,
+        n_modes=20,
+        elements_per_beam=4,
+    )
+    free = identify(prior, params, targets, settings)
+    assert free.scales == pytest.approx([1.0, 1.0])  # the prior already matches
+    constraint = Constraint(("h25",), factor=2.0, max_change_percent=5.0, modes=(18,))
+    tied = identify(prior, params, targets, settings, constraint=constraint)
+    assert constraint.limit == pytest.approx(2 * np.log(1.05) / np.log(2.0))
+    assert tied.evaluation.shares[0] <= constraint.limit + 1e-3
+    assert tied.scales[0] < 1.0 < tied.scales[1]
+    assert abs(tied.evaluation.errors_percent[0]) < 0.05
 
 
 # ---------------------------------------------------------------------------------------------
@@ -281,3 +335,28 @@ def test_calibrate_regenerates_the_packaged_model(tmp_path):
     err = np.abs(run.validation.table.dropna(subset=["test_hz"])["mstmm_error_percent"])
     assert err.max() <= 3.0 and err.mean() <= 1.0
     assert math.isfinite(run.identification.seconds)
+
+
+def test_cli_calibrate_is_deterministic_and_reports_the_response_fit(tmp_path, capsys):
+    """Issue 10: rerunning `ufmt calibrate` on an unchanged prior rewrites the same bytes; the
+    command prints every response residual and the implied forces (small settings)."""
+    text = CALIBRATION.read_text()
+    for old, new in (
+        ("max_iterations = 60", "max_iterations = 2"),
+        ("global_start = true", "global_start = false"),
+        ("max_evaluations = 200", "max_evaluations = 4"),
+    ):
+        assert old in text
+        text = text.replace(old, new)
+    path = _write(tmp_path, text)
+    outputs = []
+    for run in (1, 2):
+        log = tmp_path / f"log{run}.csv"
+        assert main(["calibrate", "--settings", str(path), "--log", str(log)]) == 0
+        outputs.append(((tmp_path / "out.toml").read_bytes(), log.read_bytes()))
+    assert outputs[0] == outputs[1]
+    out = capsys.readouterr().out
+    for needle in ("pv_nm", "zre_peak_nm", "tip_acc_peak_mm_s2", "centre_rise_nm", "GPa"):
+        assert needle in out
+    model = load_model(tmp_path / "out.toml")
+    assert 0.3 <= model.machine["force_scale"] <= 3.0

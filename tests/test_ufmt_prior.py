@@ -198,12 +198,25 @@ def test_only_the_split_shaft_is_rigid(model):
         assert np.all(model.hinge(name).rigid)
 
 
+HEAD_THRUST_RADII_M = (0.32, 0.15)  # docs/ufmt-model.md: annular thrust land on the head's top
+
+
 def test_air_bearings_are_in_the_aerostatic_class(model):
     for name in ("h25", "h31"):
         hinge = model.hinge(name)
         assert np.all((hinge.stiffness >= 1e7) & (hinge.stiffness <= 1e9)), name
-        tilt = hinge.rotational_stiffness[:2]
-        assert np.all((tilt >= 1e6) & (tilt <= 1e7)), name
+    tilt = model.hinge("h25").rotational_stiffness[:2]
+    assert np.all((tilt >= 1e6) & (tilt <= 1e7))
+
+
+def test_head_thrust_bearing_tilt_stiffness_is_its_geometric_value(model):
+    """An annular thrust film of uniform stiffness per area k_a / A resists a tilt theta with
+    the moment k_a / A * integral(r^2 cos^2) dA = k_a (r_o^2 + r_i^2) / 4 * theta."""
+    r_o, r_i = HEAD_THRUST_RADII_M
+    hinge = model.hinge("h31")
+    expected = hinge.stiffness[2] * (r_o**2 + r_i**2) / 4.0
+    np.testing.assert_allclose(hinge.rotational_stiffness[:2], expected, rtol=1e-12)
+    assert r_o < 0.34 and r_i > 0.11  # inside the head disc, outside the 0.22 m shaft
 
 
 def test_machine_is_mirror_symmetric_about_x0(model):

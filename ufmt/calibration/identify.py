@@ -32,13 +32,14 @@ when modes of different classes (e.g. Table 3 modes 12 and 13, 0.4 % apart) chan
 Pairing by order is enforced through the penalty and checked again on the final MSTMM solution.
 
 Cheap model. Hinge stiffness enters the assembled model linearly, so its stiffness matrix is
-``K(s) = K_fixed + sum_p s_p K_p`` exactly (:class:`ReducedModel`): K_p are assembled once, the
-rigid (inf) directions are removed by a null-space basis and the massless dofs condensed, and
-each evaluation is one dense symmetric eigenproblem (about 10 ms for the UFMT; the lowest
-roots carry up to eps * cond(K) ~ 1e-5 relative rounding, so the result is checked by the
-MSTMM at the end, ``ufmt calibrate`` reports the difference). With
-mass-normalised shapes phi the sensitivity is exact (Rayleigh quotient stationarity; distinct
-roots): ``d ln f_m / d u_p = s_p phi_m^T K_p phi_m / (2 omega_m^2)``.
+``K(s) = K_fixed + sum_p s_p K_p`` exactly, and its square root ``F`` (``K = F^T F``) has one
+row per spring scaled by ``sqrt(s_p)`` (:class:`ReducedModel`): the prior is assembled once,
+and each evaluation is one QR (static condensation of the massless directions) and one SVD of
+a dense (springs x dofs) matrix, like :func:`ufmt.assembled.assembled_modes` (a few ms for the
+UFMT; it agrees with the assembled model to ~1e-13 and the result is checked by the MSTMM at
+the end, ``ufmt calibrate`` reports the difference). With mass-normalised shapes phi the
+sensitivity is exact (Rayleigh quotient stationarity; distinct roots):
+``d ln f_m / d u_p = s_p phi_m^T K_p phi_m / (2 omega_m^2)``.
 """
 
 from __future__ import annotations
@@ -55,8 +56,16 @@ import pandas as pd
 import scipy.linalg as sla
 from scipy.optimize import differential_evolution
 from threadpoolctl import threadpool_limits
+from tqdm import tqdm
 
-from ufmt.assembled import AssembledModel, assemble, assembled_modes
+from ufmt.assembled import (
+    AssembledModel,
+    _constraint_basis,
+    _split_massless,
+    _svd,
+    _zero_mode_count,
+    assemble,
+)
 from ufmt.calibration.frequencies import (
     ModeSet,
     Reference,
@@ -75,10 +84,21 @@ from ufmt.tomlfile import read_toml
 
 FIELDS = ("stiffness", "rotational_stiffness")
 COLUMNS = ("modal_test_hz", "mstmm_hz", "fem_hz")
-TOP_KEYS = ("prior", "reference", "output", "output_name", "targets", "settings", "parameter")
+TOP_KEYS = (
+    "prior",
+    "reference",
+    "output",
+    "output_name",
+    "targets",
+    "settings",
+    "parameter",
+    "constraint",
+    "response",
+)
+CONSTRAINT_KEYS = ("hinges", "modes", "factor", "max_change_percent", "weight", "source")
+SIGNIFICANT = 6  # digits of every identified factor written to the model (deterministic files)
 TARGET_KEYS = ("modes", "column", "source")
 PARAMETER_KEYS = ("name", "hinges", "field", "components", "band", "reason")
-MASS_RTOL = 1e-10  # massless directions: eigenvalues of the reduced mass below this * largest
 UNPAIRED_RESIDUAL = 1.0  # ln-frequency residual of a Table 3 mode with no model partner
 
 
@@ -153,6 +173,33 @@ _KIND_NAMES = {float: "a number", int: "an integer"}
 
 
 @dataclass(frozen=True)
+class Constraint:
+    """A statement that the springs of ``hinges`` barely move the natural frequencies.
+
+    Scaling all of them by ``factor`` (or 1/factor) may change no tested frequency by more than
+    ``max_change_percent``, linearised: ``share_m ln(factor) / 2 <= ln(1 + max/100)`` with
+    share_m the mode's strain-energy share in those springs. The violation enters J with
+    ``weight`` (1: as much as the same ln-frequency error).
+    """
+
+    hinges: tuple[str, ...]
+    factor: float
+    max_change_percent: float
+    weight: float = 1.0
+    source: str = ""
+    modes: tuple[int, ...] = ()  # Table 3 modes it applies to (empty: every tested mode)
+
+    @property
+    def limit(self) -> float:
+        """Largest allowed strain-energy share [-]."""
+        return 2.0 * math.log1p(self.max_change_percent / 100.0) / math.log(self.factor)
+
+    def violation(self, shares: np.ndarray) -> np.ndarray:
+        """ln-frequency change beyond the allowed one, per mode (>= 0)."""
+        return np.maximum(0.0, 0.5 * math.log(self.factor) * (shares - self.limit))
+
+
+@dataclass(frozen=True)
 class Targets:
     """Table 3 modes to match: numbers (model mode N is paired with Table 3 mode N) and [Hz]."""
 
@@ -174,6 +221,8 @@ class Calibration:
     parameters: tuple[Parameter, ...]
     targets: Targets
     settings: Settings
+    constraint: Constraint | None = None
+    response: dict | None = None  # the [response] table (ufmt.calibration.response_fit)
 
 
 def _fail(where: str, problem: str):
@@ -218,8 +267,18 @@ def load_calibration(
     name = data.get("output_name", "UFMT")
     if not isinstance(name, str) or not name:
         _fail(where, f"field 'output_name': {name!r} must be a non-empty string")
+    constraint = _constraint(where, data.get("constraint"), model)
     calibration = Calibration(
-        where, prior_path, reference_path, out_path, name, parameters, targets, settings
+        where,
+        prior_path,
+        reference_path,
+        out_path,
+        name,
+        parameters,
+        targets,
+        settings,
+        constraint,
+        data.get("response"),
     )
     return calibration, model, reference
 
@@ -325,6 +384,36 @@ def _parameters(where: str, tables, model: Model) -> tuple[Parameter, ...]:
     return tuple(out)
 
 
+def _constraint(where: str, table, model: Model) -> Constraint | None:
+    if table is None:
+        return None
+    label = f"{where}: [constraint]"
+    if not isinstance(table, dict):
+        _fail(where, "[constraint] must be a table")
+    _check_keys(label, table, CONSTRAINT_KEYS)
+    names = [h.name for h in model.hinges]
+    hinges = table.get("hinges")
+    if not isinstance(hinges, list) or not hinges or any(h not in names for h in hinges):
+        _fail(label, f"field 'hinges': {hinges!r} must list hinges of {model.source}")
+    values = {}
+    for key, low in (("factor", 1.0), ("max_change_percent", 0.0), ("weight", 0.0)):
+        v = table.get(key, 1.0 if key == "weight" else None)
+        if (
+            isinstance(v, bool)
+            or not isinstance(v, int | float)
+            or not math.isfinite(v)
+            or v <= low
+        ):
+            _fail(label, f"field {key!r}: {v!r} must be a number > {low:g}")
+        values[key] = float(v)
+    modes = table.get("modes", [])
+    if not isinstance(modes, list) or not all(isinstance(k, int) for k in modes):
+        _fail(label, f"field 'modes': {modes!r} must list Table 3 mode numbers")
+    return Constraint(
+        tuple(hinges), source=str(table.get("source", "")), modes=tuple(modes), **values
+    )
+
+
 def _targets(where: str, table, reference: Reference, settings: Settings, ref_path) -> Targets:
     label = f"{where}: [targets]"
     if not isinstance(table, dict):
@@ -367,90 +456,130 @@ def apply_parameters(model: Model, parameters, u) -> Model:
     return model
 
 
-def _zeroed(model: Model, parameters) -> Model:
-    """``model`` with every parameter's components released (stiffness 0)."""
-    for p in parameters:
+def _spring_labels(model: Model) -> list[tuple[str, int]]:
+    """(hinge name, component) of each finite spring direction, in
+    :func:`ufmt.assembled.assemble`'s order (hinge by hinge, x, y, z, rx, ry, rz; 0 < k < inf)."""
+    return [
+        (h.name, j) for h in model.hinges for j, k in enumerate(h.stiffness6) if 0.0 < k < math.inf
+    ]
+
+
+def _spring_owners(labels, parameters) -> np.ndarray:
+    """Index of the parameter that scales each spring direction (-1: none)."""
+    owner = {}
+    for i, p in enumerate(parameters):
+        offset = 0 if p.field == "stiffness" else 3
         for h in p.hinges:
-            values = np.array(getattr(model.hinge(h), p.field), dtype=float)
-            values[list(p.components)] = 0.0
-            model = model.with_hinge(h, **{p.field: values})
-    return model
+            for c in p.components:
+                owner[(h, offset + c)] = i
+    return np.array([owner.get(label, -1) for label in labels], dtype=int)
 
 
 @dataclass(frozen=True, eq=False)
 class ReducedModel:
     """Assembled model of ``model`` whose stiffness is affine in the parameters' factors.
 
-    ``K(s) = K_fixed + sum_p s_p K_p`` on all dofs (K_p: parameter p's springs at their prior
-    value). The basis ``[T_a T_b]`` spans the motions the rigid (inf) directions allow; T_a is
-    mass-orthonormal (``T_a^T M T_a = I``) and T_b massless, condensed statically in
-    :meth:`solve`.
+    The assembled stiffness is ``K = F^T F`` with one row of F per spring direction,
+    ``sqrt(k) d_j`` (:class:`~ufmt.assembled.AssembledModel`), so a factor s_p on parameter p's
+    springs scales their rows by ``sqrt(s_p)``: ``F(s) = W(s) F_prior`` with W diagonal, and
+    ``K(s) = K_fixed + sum_p s_p K_p`` exactly. Each evaluation repeats the assembled model's
+    well-conditioned solution (:func:`ufmt.assembled._solve`) with the prior's constraint basis
+    and mass factor fixed: static condensation of the massless directions by a QR of their
+    rows of F, then the singular values of ``F_red S L^-T`` (S: Jacobi scaling of the mass,
+    ``S M_a S = L L^T``), which are the angular frequencies. Working on the square root keeps
+    the relative accuracy of the lowest roots near machine precision although cond(K) ~ 1e11:
+    the eigenvalues of K itself carry an absolute error eps * ||K||, i.e. ~1e-5 of ln f for the
+    lowest modes, which made finite differences of ln f noisy.
     """
 
     model: Model
     parameters: tuple[Parameter, ...]
-    assembled: AssembledModel  # K_fixed's assembly: dof layout and M
-    k_fixed: np.ndarray  # [T_a T_b]^T K_fixed [T_a T_b]
-    k_parts: np.ndarray  # (P, r, r) likewise
-    k_parts_full: np.ndarray  # (P, n, n) on all dofs
-    t_a: np.ndarray
+    assembled: AssembledModel  # the prior's assembly: dof layout, M, F
+    owner: np.ndarray  # (rows of F,) index of the parameter scaling each row, -1: none
+    row_hinges: np.ndarray  # (rows of F,) hinge name of each row, "" for beam elements
+    f_a: np.ndarray  # F_prior T_a S L^-T: motions with mass, mass-normalised coordinates
+    f_b: np.ndarray  # F_prior T_b: massless motions
+    t_a: np.ndarray  # T_a S L^-T: mass-normalised coordinates -> all dofs
     t_b: np.ndarray
     zero_modes: int
 
     @classmethod
     def build(cls, model: Model, parameters, elements_per_beam: int = 8) -> ReducedModel:
-        """Assemble K_fixed and each K_p (stiffness is linear in each hinge component)."""
+        """Assemble the prior once and note which rows of F each parameter scales."""
         parameters = tuple(parameters)
-        fixed = assemble(_zeroed(model, parameters), elements_per_beam=elements_per_beam)
-        parts = np.array(
-            [
-                assemble(
-                    _zeroed(model, parameters[:i] + parameters[i + 1 :]),
-                    elements_per_beam=elements_per_beam,
-                ).K
-                - fixed.K
-                for i in range(len(parameters))
-            ]
-        ).reshape(len(parameters), *fixed.K.shape)
-        n = fixed.K.shape[0]
-        null = sla.null_space(fixed.constraints) if len(fixed.constraints) else np.eye(n)
-        w, v = np.linalg.eigh(null.T @ fixed.M @ null)
-        massive = w > MASS_RTOL * w.max()
-        t_a = null @ (v[:, massive] / np.sqrt(w[massive]))
-        t_b = null @ v[:, ~massive]
-        t = np.hstack([t_a, t_b])
-        zero = assembled_modes(model, count=1, elements_per_beam=elements_per_beam)
+        am = assemble(model, elements_per_beam=elements_per_beam)
+        labels = _spring_labels(model)
+        beams = am.deformation.shape[0] - len(labels)
+        owner = np.concatenate([np.full(beams, -1), _spring_owners(labels, parameters)])
+        row_hinges = np.array([""] * beams + [h for h, _ in labels])
+        basis, independent = _constraint_basis(am.constraints, am.massless)
+        t_a, t_b = _split_massless(am, basis, independent)
+        m_a = t_a.T @ am.M @ t_a
+        scale = 1.0 / np.sqrt(np.diag(m_a))
+        chol = np.linalg.cholesky(scale[:, None] * m_a * scale[None, :])
+        normalise = scale[:, None] * sla.solve_triangular(chol.T, np.eye(len(scale)), lower=False)
         return cls(
             model=model,
             parameters=parameters,
-            assembled=fixed,
-            k_fixed=t.T @ fixed.K @ t,
-            k_parts=t.T @ parts @ t,
-            k_parts_full=parts,
-            t_a=t_a,
+            assembled=am,
+            owner=owner,
+            row_hinges=row_hinges,
+            f_a=am.deformation @ t_a @ normalise,
+            f_b=am.deformation @ t_b,
+            t_a=t_a @ normalise,
             t_b=t_b,
-            zero_modes=zero.rigid_body_modes,
+            zero_modes=_zero_mode_count(am),
         )
+
+    def row_weights(self, u) -> np.ndarray:
+        """sqrt(s) of each row of F: 1 for rows no parameter scales."""
+        root = np.exp(0.5 * np.asarray(u, dtype=float))
+        return np.where(self.owner >= 0, root[self.owner], 1.0)
 
     def solve(self, u, n_modes: int) -> tuple[np.ndarray, np.ndarray]:
         """Lowest ``n_modes`` nonzero frequencies [Hz] and mass-normalised shapes (n, dofs)."""
-        k = self.k_fixed + np.tensordot(np.exp(np.asarray(u, dtype=float)), self.k_parts, 1)
-        na = self.t_a.shape[1]
-        k_ab, k_bb = k[:na, na:], k[na:, na:]
-        condense = np.linalg.solve(k_bb, k_ab.T) if k_bb.size else np.zeros((0, na))
-        first = self.zero_modes
-        lam, y = sla.eigh(
-            k[:na, :na] - k_ab @ condense, subset_by_index=[first, first + n_modes - 1]
-        )
-        shapes = (self.t_a @ y - self.t_b @ (condense @ y)).T
-        return np.sqrt(np.clip(lam, 0.0, None)) / (2.0 * math.pi), shapes
+        w = self.row_weights(u)[:, None]
+        f_a, f_b = w * self.f_a, w * self.f_b
+        if f_b.shape[1]:
+            scale_b = np.linalg.norm(f_b, axis=0)
+            q_b, r_b = np.linalg.qr(f_b / scale_b)
+            f_red = f_a - q_b @ (q_b.T @ f_a)
+        else:
+            f_red = f_a
+        sigma, vh = _svd(f_red)
+        n_total = f_red.shape[1] - self.zero_modes
+        keep = np.arange(n_total - 1, n_total - 1 - n_modes, -1)  # ascending from the lowest
+        coords = vh[keep].T
+        shapes = self.t_a @ coords
+        if f_b.shape[1]:
+            shapes -= self.t_b @ (
+                sla.solve_triangular(r_b, q_b.T @ (f_a @ coords)) / scale_b[:, None]
+            )
+        return sigma[keep] / (2.0 * math.pi), shapes.T
 
     def sensitivities(self, u, frequencies_hz, shapes) -> np.ndarray:
-        """d ln f_m / d u_p (n, P) = s_p phi_m^T K_p phi_m / (2 omega_m^2)."""
-        s = np.exp(np.asarray(u, dtype=float))
-        energy = np.sum((shapes @ self.k_parts_full) * shapes[None], axis=2).T
+        """d ln f_m / d u_p (n, P) = s_p phi_m^T K_p phi_m / (2 omega_m^2).
+
+        ``phi^T s_p K_p phi`` is the strain energy (times 2) in parameter p's rows of F(s).
+        """
+        strain = (self.row_weights(u)[:, None] * (self.assembled.deformation @ shapes.T)) ** 2
+        energy = np.zeros((len(self.parameters), strain.shape[1]))
+        mine = self.owner >= 0
+        np.add.at(energy, self.owner[mine], strain[mine])
         omega2 = (2.0 * math.pi * np.asarray(frequencies_hz)) ** 2
-        return energy * s[None, :] / (2.0 * omega2[:, None])
+        return energy.T / (2.0 * omega2[:, None])
+
+    def energy_shares(self, u, frequencies_hz, shapes, hinges) -> np.ndarray:
+        """Share of each mode's strain energy in the springs of ``hinges`` [-] (n,).
+
+        Scaling all of those springs by a factor c changes ln f_m by about
+        ``share_m ln(c) / 2`` (the sum of their parameters' sensitivities).
+        """
+        rows = np.isin(self.row_hinges, list(hinges))
+        strain = (
+            self.row_weights(u)[rows, None] * (self.assembled.deformation[rows] @ shapes.T)
+        ) ** 2
+        return strain.sum(axis=0) / (2.0 * math.pi * np.asarray(frequencies_hz)) ** 2
 
     def modeset(self, frequencies_hz, shapes) -> ModeSet:
         """The modes as a :class:`~ufmt.calibration.frequencies.ModeSet` (pairing, tag checks)."""
@@ -472,6 +601,8 @@ class Evaluation:
     paired: np.ndarray  # model mode index per target (-1: none)
     residual: np.ndarray  # ln f_model - ln f_target per target
     mismatches: dict[int, str]  # target mode -> reason
+    shares: np.ndarray  # strain-energy share of the constrained hinges per target (0: none)
+    constraint: np.ndarray  # its violation per target [ln f] (>= 0)
     cost: float
 
     @property
@@ -488,6 +619,7 @@ class Problem:
     targets: Targets
     reference: Reference | None
     settings: Settings
+    constraint: Constraint | None = None
     lower: np.ndarray = field(init=False)
     upper: np.ndarray = field(init=False)
 
@@ -509,12 +641,41 @@ class Problem:
         residual = np.full(len(numbers), UNPAIRED_RESIDUAL)
         residual[ok] = np.log(f[paired[ok]] / self.targets.frequencies_hz[ok])
         mismatches = self._mismatches(modes, paired)
+        shares = self.shares(u, f, shapes, paired)
+        violation = self.constraint.violation(shares) if self.constraint else np.zeros(0)
+        weight = self.constraint.weight if self.constraint else 0.0
         cost = (
             float(residual @ residual)
             + self.settings.regularisation**2 * float(u @ u)
             + self.settings.shape_penalty * len(mismatches)
+            + weight**2 * float(violation @ violation)
         )
-        return Evaluation(u, f, shapes, modes, paired, residual, mismatches, cost)
+        return Evaluation(
+            u, f, shapes, modes, paired, residual, mismatches, shares, violation, cost
+        )
+
+    def shares(self, u, frequencies_hz, shapes, paired) -> np.ndarray:
+        """Strain-energy share of the constrained hinges in each paired target mode."""
+        if self.constraint is None:
+            return np.zeros(0)
+        ok = paired >= 0
+        if self.constraint.modes:
+            ok &= np.isin(self.targets.modes, self.constraint.modes)
+        out = np.zeros(len(paired))
+        out[ok] = self.reduced.energy_shares(
+            u, frequencies_hz[paired[ok]], shapes[paired[ok]], self.constraint.hinges
+        )
+        return out
+
+    def constraint_jacobian(self, e: Evaluation, step: float = 1e-5) -> np.ndarray:
+        """d share / d u (targets, P) by forward differences (same pairing as ``e``)."""
+        cols = []
+        for p in range(e.u.size):
+            u = e.u.copy()
+            u[p] += step
+            f, shapes = self.reduced.solve(u, self.settings.n_modes)
+            cols.append((self.shares(u, f, shapes, e.paired) - e.shares) / step)
+        return np.array(cols).T
 
     def _mismatches(self, modes: ModeSet, paired: np.ndarray) -> dict[int, str]:
         out = {}
@@ -544,9 +705,13 @@ class Problem:
 
 
 class _StepProblem:
-    """The cvxpy bounded, regularised least-squares step (built once, re-solved per step)."""
+    """The cvxpy bounded, regularised least-squares step (built once, re-solved per step).
 
-    def __init__(self, n_targets: int, n_params: int, rho: float):
+    With a constraint, its linearised violation ``w pos(a + G d)`` (a: share - limit times
+    ln(factor)/2, G its gradient) joins the squared residuals.
+    """
+
+    def __init__(self, n_targets: int, n_params: int, rho: float, constraint=None):
         self.d = cp.Variable(n_params)
         self.sens = cp.Parameter((n_targets, n_params))
         self.res = cp.Parameter(n_targets)
@@ -557,6 +722,13 @@ class _StepProblem:
         objective = cp.sum_squares(self.res + self.sens @ self.d) + rho**2 * cp.sum_squares(
             self.u + self.d
         )
+        self.constraint = constraint
+        if constraint is not None:
+            self.excess = cp.Parameter(n_targets)
+            self.gradient = cp.Parameter((n_targets, n_params))
+            objective += constraint.weight**2 * cp.sum_squares(
+                cp.pos(self.excess + self.gradient @ self.d)
+            )
         constraints = [
             cp.abs(self.d) <= self.trust,
             self.u + self.d >= self.low,
@@ -564,55 +736,70 @@ class _StepProblem:
         ]
         self.problem = cp.Problem(cp.Minimize(objective), constraints)
 
-    def step(self, sens, res, u, low, high, trust) -> np.ndarray:
+    def step(self, sens, res, u, low, high, trust, shares=None, gradient=None) -> np.ndarray:
         self.sens.value, self.res.value, self.u.value = sens, res, u
         self.low.value, self.high.value, self.trust.value = low, high, trust
+        if self.constraint is not None:
+            half = 0.5 * math.log(self.constraint.factor)
+            self.excess.value = half * (shares - self.constraint.limit)
+            self.gradient.value = half * gradient
         self.problem.solve(solver=cp.CLARABEL)
         if self.d.value is None:
             raise RuntimeError(f"least-squares step failed: {self.problem.status}")
         return np.clip(u + self.d.value, low, high) - u
 
 
-def local_iteration(problem: Problem, u0, stage: str, log: list) -> Evaluation:
+def local_iteration(problem: Problem, u0, stage: str, log: _Log) -> Evaluation:
     """Trust-region iteration of bounded least-squares steps from u0 (module docstring)."""
     s = problem.settings
     current = problem.evaluate(u0)
-    stepper = _StepProblem(len(problem.targets.modes), len(u0), s.regularisation)
+    stepper = _StepProblem(
+        len(problem.targets.modes), len(u0), s.regularisation, problem.constraint
+    )
     trust = s.trust_region
-    _log(log, stage, 0, current, 0.0, trust)
+    log.add(stage, 0, current, 0.0, trust)
     for it in range(1, s.max_iterations + 1):
         ok = current.paired >= 0
         sens = np.zeros((len(ok), len(u0)))
         sens[ok] = problem.reduced.sensitivities(current.u, current.frequencies_hz, current.shapes)[
             current.paired[ok]
         ]
+        gradient = problem.constraint_jacobian(current) if problem.constraint else None
         while True:
-            d = stepper.step(sens, current.residual, current.u, problem.lower, problem.upper, trust)
+            d = stepper.step(
+                sens,
+                current.residual,
+                current.u,
+                problem.lower,
+                problem.upper,
+                trust,
+                current.shares,
+                gradient,
+            )
             trial = problem.evaluate(current.u + d)
             if trial.cost < current.cost or trust < s.min_trust_region:
                 break
             trust /= 2.0
         if trial.cost >= current.cost:
-            _log(log, stage, it, current, 0.0, trust)
+            log.add(stage, it, current, 0.0, trust)
             break
         change = 100.0 * np.max(np.abs(trial.residual - current.residual))
         current = trial
-        _log(log, stage, it, current, change, trust)
+        log.add(stage, it, current, change, trust)
         trust = min(2.0 * trust, s.trust_region) if np.max(np.abs(d)) >= 0.99 * trust else trust
         if change < s.tolerance_percent:
             break
     return current
 
 
-def global_start(problem: Problem, x0, log: list) -> np.ndarray:
+def global_start(problem: Problem, x0, log: _Log) -> np.ndarray:
     """Differential evolution over ln band for the lowest J; its best point (deterministic)."""
     s = problem.settings
     generation = [0]
 
     def record(intermediate_result):
         generation[0] += 1
-        _log(
-            log,
+        log.add(
             "global",
             generation[0],
             problem.evaluate(intermediate_result.x),
@@ -637,33 +824,64 @@ def _meets(e: Evaluation, s: Settings) -> bool:
     err = np.abs(e.errors_percent)
     return (
         not e.mismatches
+        and not np.any(e.constraint > 0.0)
         and err.max() <= s.accept_max_percent
         and err.mean() <= s.accept_mean_percent
     )
 
 
-def _log(log: list, stage: str, it: int, e: Evaluation, change: float, trust: float) -> None:
-    err = np.abs(e.errors_percent)
-    row = {
-        "stage": stage,
-        "iteration": it,
-        "cost": e.cost,
-        "max_abs_error_percent": err.max(),
-        "mean_abs_error_percent": err.mean(),
-        "max_change_percent": change,
-        "trust_region": trust,
-        "shape_mismatches": len(e.mismatches),
-        "mismatched_modes": " ".join(str(k) for k in sorted(e.mismatches)),
-    }
-    log.append((row, e.u.copy()))
+class _Log:
+    """The iteration log (one row per step) and, optionally, a tqdm bar per stage on stderr
+    showing the current max and mean |frequency error|."""
 
+    def __init__(self, settings: Settings, progress: bool):
+        self.rows: list = []
+        self.settings = settings
+        self.progress = progress
+        self.bar = None
+        self.stage = None
 
-def _log_frame(log: list, parameters) -> pd.DataFrame:
-    """The iteration log as a table: one row per iteration, then the factor s of each parameter."""
-    rows = []
-    for row, u in log:
-        rows.append(row | {f"s[{p.name}]": math.exp(v) for p, v in zip(parameters, u, strict=True)})
-    return pd.DataFrame(rows)
+    def add(self, stage: str, it: int, e: Evaluation, change: float, trust: float) -> None:
+        err = np.abs(e.errors_percent)
+        row = {
+            "stage": stage,
+            "iteration": it,
+            "cost": e.cost,
+            "max_abs_error_percent": err.max(),
+            "mean_abs_error_percent": err.mean(),
+            "max_change_percent": change,
+            "trust_region": trust,
+            "shape_mismatches": len(e.mismatches),
+            "mismatched_modes": " ".join(str(k) for k in sorted(e.mismatches)),
+            "constraint_violation": float(np.max(e.constraint, initial=0.0)),
+        }
+        self.rows.append((row, e.u.copy()))
+        if self.progress:
+            if stage != self.stage:
+                self.close()
+                total = (
+                    self.settings.generations if stage == "global" else self.settings.max_iterations
+                )
+                self.bar = tqdm(total=total, desc=stage, unit="step", dynamic_ncols=True)
+                self.stage = stage
+            self.bar.n = it
+            self.bar.set_postfix_str(
+                f"max {err.max():.3f} %, mean {err.mean():.3f} %, mismatches {len(e.mismatches)}"
+            )
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
+            self.bar = None
+
+    def frame(self, parameters) -> pd.DataFrame:
+        """One row per iteration, then the factor s of each parameter."""
+        rows = []
+        for row, u in self.rows:
+            rows.append(
+                row | {f"s[{p.name}]": math.exp(v) for p, v in zip(parameters, u, strict=True)}
+            )
+        return pd.DataFrame(rows)
 
 
 @dataclass(frozen=True, eq=False)
@@ -690,38 +908,56 @@ def identify(
     settings: Settings,
     reference: Reference | None = None,
     u0=None,
+    constraint: Constraint | None = None,
+    progress: bool = False,
 ) -> Identification:
     """Identify the parameters' factors so the model's modes match ``targets``.
 
     Runs the local iteration from ``u0`` (default the prior, u = 0); if it stalls and
     ``settings.global_start``, differential evolution and a second local iteration (module
     docstring). ``reference`` supplies the tags and tool-tip modes (None: order pairing only,
-    no shape checks).
+    no shape checks); ``constraint`` adds its violation to J; ``progress`` shows a tqdm bar per
+    stage on stderr. The factors are rounded to SIGNIFICANT digits (the written model does not
+    depend on the last bits of the arithmetic).
     """
     with threadpool_limits(limits=1):  # small dense matrices: one BLAS thread is fastest
-        return _identify(prior, tuple(parameters), targets, settings, reference, u0)
+        return _identify(
+            prior, tuple(parameters), targets, settings, reference, u0, constraint, progress
+        )
 
 
-def _identify(prior, parameters, targets, settings, reference, u0) -> Identification:
+def rounded(values) -> np.ndarray:
+    """``values`` rounded to SIGNIFICANT significant digits."""
+    return np.array([float(f"{v:.{SIGNIFICANT}g}") for v in np.atleast_1d(values)])
+
+
+def _identify(
+    prior, parameters, targets, settings, reference, u0, constraint, progress
+) -> Identification:
     t0 = time.perf_counter()
     problem = Problem(
         ReducedModel.build(prior, parameters, settings.elements_per_beam),
         targets,
         reference,
         settings,
+        constraint,
     )
-    log: list = []
+    log = _Log(settings, progress)
     start = np.zeros(len(parameters)) if u0 is None else np.asarray(u0, dtype=float)
-    best = local_iteration(problem, start, "local", log)
-    used = False
-    if settings.global_start and not _meets(best, settings):
-        used = True
-        x = global_start(problem, best.u, log)
-        second = local_iteration(problem, x, "local after global start", log)
-        if second.cost < best.cost:
-            best = second
+    try:
+        best = local_iteration(problem, start, "local", log)
+        used = False
+        if settings.global_start and not _meets(best, settings):
+            used = True
+            x = global_start(problem, best.u, log)
+            second = local_iteration(problem, x, "local after global start", log)
+            if second.cost < best.cost:
+                best = second
+    finally:
+        log.close()
+    best = problem.evaluate(np.log(rounded(np.exp(best.u))))
     return Identification(
-        parameters, best.u, best, _log_frame(log, parameters), used, time.perf_counter() - t0
+        parameters, best.u, best, log.frame(parameters), used, time.perf_counter() - t0
     )
 
 
@@ -734,7 +970,10 @@ def _sha256(path: Path) -> str:
 
 
 def provenance_header(
-    calibration: Calibration, result: Identification, mstmm_errors: np.ndarray
+    calibration: Calibration,
+    result: Identification,
+    mstmm_errors: np.ndarray,
+    response=None,
 ) -> str:
     """Comment block on top of the generated model file: how it was made and how to remake it."""
     err = np.abs(mstmm_errors)
@@ -748,38 +987,53 @@ def provenance_header(
         f"{calibration.targets.column!r} of {calibration.reference.name}.",
         f"# MSTMM result: max |error| {err.max():.3f} %, mean |error| {err.mean():.3f} %; "
         f"global start used: {'yes' if result.used_global_start else 'no'}.",
-        "# Identified factors (k = s * k_prior; band in brackets):",
     ]
+    c = calibration.constraint
+    if c is not None:
+        shares = result.evaluation.shares
+        modes = ", ".join(map(str, c.modes or calibration.targets.modes))
+        lines.append(
+            f"# Constraint: {', '.join(c.hinges)} x{c.factor:g} moves none of modes {modes} by "
+            f"more than {c.max_change_percent:g} % (strain-energy share <= {c.limit:.3f}); "
+            f"largest share {shares.max():.3f} "
+            f"(mode {calibration.targets.modes[int(shares.argmax())]})."
+        )
+    lines.append("# Identified factors (k = s * k_prior; band in brackets):")
     width = max(len(p.name) for p in result.parameters)
     for p, s in zip(result.parameters, result.scales, strict=True):
         lines.append(f"#   {p.name:<{width}}  s = {s:.6g}  [{p.band[0]:g}, {p.band[1]:g}]")
+    if response is not None:
+        lines.append(
+            f"# Response fit ({response.settings.method} path, reference process; "
+            "[machine] values, band in brackets):"
+        )
+        for p in response.settings.parameters:
+            flag = "  AT BOUND" if p.key in response.at_bound else ""
+            lines.append(
+                f"#   {p.key} = {response.values[p.key]:.6g} {p.unit}  "
+                f"[{p.band[0]:g}, {p.band[1]:g}]{flag}"
+            )
+        for key in response.settings.skipped:
+            lines.append(f"#   {key}: not a [machine] field of this version, skipped")
+        for t, r in zip(response.settings.targets, response.residuals, strict=True):
+            paper = "> 0" if t.kind == "positive" else f"{t.paper:.6g}"
+            lines.append(
+                f"#   {t.metric}: ours {response.metrics[t.metric]:.4g}, paper {paper} {t.unit}, "
+                f"residual {r:+.3f}"
+            )
     return "\n".join(lines) + "\n"
 
 
 @dataclass(frozen=True, eq=False)
 class CalibrationRun:
-    """What ``ufmt calibrate`` did: the identification, the model, its MSTMM check, the file."""
+    """What ``ufmt calibrate`` did: the identification, the model, its MSTMM check, the
+    response fit (None without a ``[response]`` table) and the file written."""
 
     identification: Identification
     model: Model
     validation: Validation
     output: Path
-
-
-def with_fitted_force_scale(model: Model, reference_path: str | Path) -> Model:
-    """The model with ``[machine] force_scale`` fitted to the measured PV (Table 4).
-
-    One scale factor on the cutting-force coefficients makes the reference process (section
-    3.3: 300 rpm, 15 mm/min, 4 um) give the measured surface PV, on the exact time-domain
-    path (issue 4, item 5). PV is linear in the force, so the fit is a ratio.
-    """
-    from ufmt.calibration.response import reference_process
-    from ufmt.simulate import fit_force_scale
-
-    ref = read_toml(reference_path)
-    target = ref["surface_pv"]["measured_nm"]
-    scale = fit_force_scale(model, reference_process(ref), target, method="time")
-    return replace(model, machine={**model.machine, "force_scale": float(scale)})
+    response: object = None
 
 
 def calibrate(
@@ -787,17 +1041,39 @@ def calibrate(
     prior: str | Path | None = None,
     output: str | Path | None = None,
     log_path: str | Path | None = None,
+    progress: bool = False,
 ) -> CalibrationRun:
-    """Run the identification of a calibration file, check it by the MSTMM, write model and log."""
+    """Identify the stiffnesses of a calibration file, check them by the MSTMM, fit the
+    ``[response]`` parameters, write the model and the log."""
     calibration, model, reference = load_calibration(settings_path, prior, output)
     result = identify(
-        model, calibration.parameters, calibration.targets, calibration.settings, reference
+        model,
+        calibration.parameters,
+        calibration.targets,
+        calibration.settings,
+        reference,
+        constraint=calibration.constraint,
+        progress=progress,
     )
     identified = replace(
         apply_parameters(model, calibration.parameters, result.u), name=calibration.output_name
     )
-    identified = with_fitted_force_scale(identified, calibration.reference)
     check = validate(identified, reference, calibration.settings.n_modes)
+    fit = None
+    if calibration.response is not None:
+        from ufmt.calibration.response import reference_process
+        from ufmt.calibration.response_fit import fit_response, read_response_settings, with_values
+        from ufmt.machining.modal import basis_from_shapes
+
+        paper = read_toml(calibration.reference)
+        fit = fit_response(
+            identified,
+            read_response_settings(calibration.response, paper, calibration.source),
+            reference_process(paper),
+            basis_from_shapes(check.solution.shapes),
+            progress=progress,
+        )
+        identified = with_values(identified, fit.values)
     tested = check.table.set_index("mode").loc[list(calibration.targets.modes)]
     errors = 100.0 * (tested["mstmm_hz"].to_numpy() / calibration.targets.frequencies_hz - 1.0)
     tip = check.summary["tool_tip_z_modes_above_neighbours"]
@@ -821,9 +1097,9 @@ def calibrate(
     log = pd.concat([result.log, pd.DataFrame([final])], ignore_index=True)
     calibration.output.parent.mkdir(parents=True, exist_ok=True)
     calibration.output.write_text(
-        provenance_header(calibration, result, errors) + model_to_toml(identified)
+        provenance_header(calibration, result, errors, fit) + model_to_toml(identified)
     )
     if log_path is not None:
         Path(log_path).parent.mkdir(parents=True, exist_ok=True)
         log.to_csv(log_path, index=False, float_format="%.8g")
-    return CalibrationRun(replace(result, log=log), identified, check, calibration.output)
+    return CalibrationRun(replace(result, log=log), identified, check, calibration.output, fit)

@@ -1,9 +1,12 @@
 """CLI sub-commands ``calibrate``, ``validate`` and ``plot-mode`` (registered by ufmt.cli).
 
 * ``ufmt calibrate [--prior PATH] [--settings PATH] [--output PATH] [--log PATH]``: identify the
-  hinge stiffnesses (:mod:`ufmt.calibration.identify`) and write the packaged model and the log.
+  hinge stiffnesses against Table 3 (:mod:`ufmt.calibration.identify`), fit the uncertain
+  ``[machine]`` parameters to the response measurements (:mod:`ufmt.calibration.response_fit`),
+  write the packaged model and the log; tqdm progress on stderr.
 * ``ufmt validate [MODEL] [--output-dir DIR] [--modes LIST]``: the validation table
-  ``frequencies.csv``, the chart ``frequencies.png`` and ``mode-N.png`` for the listed modes.
+  ``frequencies.csv``, the chart ``frequencies.png``, ``mode-N.png`` for the listed modes and,
+  for a model with ``[machine]``, ``response.csv`` (one row per paper response quantity).
 * ``ufmt plot-mode N [MODEL] [--output PNG] [--scale S]``: one mode shape in 3-D.
 
 User errors raise :class:`~ufmt.errors.UfmtError`; the CLI prints one line and exits 2.
@@ -41,7 +44,9 @@ def _mode_list(text: str) -> list[int]:
 
 def register(subparsers) -> None:
     """Add the ``calibrate``, ``validate`` and ``plot-mode`` sub-parsers."""
-    p = subparsers.add_parser("calibrate", help="identify hinge stiffness against Table 3")
+    p = subparsers.add_parser(
+        "calibrate", help="identify hinge stiffness (Table 3), fit the response (Table 4)"
+    )
     p.add_argument("--prior", help="prior model (default: the calibration file's)")
     p.add_argument("--settings", help="calibration file (default: packaged calibration.toml)")
     p.add_argument("--output", help="identified model (default: the calibration file's)")
@@ -71,12 +76,16 @@ def register(subparsers) -> None:
 
 
 def cmd_calibrate(args) -> int:
-    """Identify, write the model and the log, print the result."""
+    """Identify, fit the response parameters, write the model and the log, print the result."""
     from ufmt.calibration.identify import calibrate
 
     t0 = time.perf_counter()
     run = calibrate(
-        args.settings or packaged_path("calibration.toml"), args.prior, args.output, args.log
+        args.settings or packaged_path("calibration.toml"),
+        args.prior,
+        args.output,
+        args.log,
+        progress=True,
     )
     result = run.identification
     print(
@@ -85,9 +94,37 @@ def cmd_calibrate(args) -> int:
     )
     for p, s in zip(result.parameters, result.scales, strict=True):
         print(f"  {p.name:<24} s = {s:8.4f}   band [{p.band[0]:g}, {p.band[1]:g}]")
+    shares = result.evaluation.shares
+    if shares.size:
+        print(
+            f"spindle-bearing constraint: largest strain-energy share {shares.max():.3f}, "
+            f"violation {result.evaluation.constraint.max():.2e} (ln f)"
+        )
     _print_summary(run.model, run.validation.summary)
+    if run.response is not None:
+        _print_response(run)
     print(f"wrote {run.output} and {args.log}")
     return 0
+
+
+def _print_response(run) -> None:
+    from ufmt.calibration.response import implied_forces
+
+    fit = run.response
+    print(f"response fit ({fit.settings.method} path, {fit.evaluations} simulations):")
+    for p in fit.settings.parameters:
+        flag = "  AT BOUND: the measurements ask for more" if p.key in fit.at_bound else ""
+        print(f"  {p.key:<26} = {fit.values[p.key]:.6g} {p.unit}  band {list(p.band)}{flag}")
+    for key in fit.settings.skipped:
+        print(f"  {key:<26}   skipped: not a [machine] field of this version")
+    print(fit.to_frame().to_string(index=False, float_format=lambda v: f"{v:.4g}"))
+    forces = implied_forces(run.model, fit.metrics, fit.process)
+    print(
+        "implied peak forces at the reference cut: "
+        + ", ".join(
+            f"{k} {v['force_n']:.3g} N ({v['specific_gpa']:.3g} GPa)" for k, v in forces.items()
+        )
+    )
 
 
 def _print_summary(model, s: dict) -> None:
@@ -135,7 +172,7 @@ def cmd_validate(args) -> int:
         basis = basis_from_shapes(result.solution.shapes)  # the modes just validated
         table = response_table(model, packaged_path("paper_reference.toml"), basis)
         table.to_csv(out / "response.csv", index=False, float_format="%.6g")
-        print(table.drop(columns=["note"]).to_string(index=False))
+        print(table.drop(columns=["source"]).to_string(index=False))
         print(f"wrote response.csv in {out}")
     return 0
 

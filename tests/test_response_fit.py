@@ -1,0 +1,134 @@
+"""Fit of uncertain [machine] parameters to response measurements (ufmt.calibration.response_fit).
+
+Oracles: a synthetic "paper" made by simulating the model at known parameter values (the fit
+must recover them); closed-form surfaces for the Fig. 14 shape measure; the model loader's own
+field list for the skipped keys.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from ufmt.calibration.response import implied_forces
+from ufmt.calibration.response_fit import (
+    centre_rise_nm,
+    fit_response,
+    read_response_settings,
+    response_metrics,
+    with_values,
+)
+from ufmt.errors import StudyError
+from ufmt.machining.modal import modal_basis
+from ufmt.machining.process import Process
+from ufmt.machining.surface import Surface
+from ufmt.model.load import load_model, packaged_path
+from ufmt.tomlfile import read_toml
+
+REFERENCE = Process(300.0, 15.0, 4.0)
+TRUTH = {"force_scale": 1.7, "tool_radius": 0.31}
+
+
+@pytest.fixture(scope="module")
+def model():
+    return with_values(load_model(packaged_path()), {"force_scale": 1.0, "workpiece_size": 0.05})
+
+
+@pytest.fixture(scope="module")
+def basis(model):
+    return modal_basis(model)
+
+
+def _settings(parameters, targets, reference, **options):
+    table = {"parameter": parameters, "target": targets, **options}
+    return read_response_settings(table, reference, "t")
+
+
+def test_fit_recovers_known_force_scale_and_tool_radius(model, basis):
+    """Two [machine] keys, two metrics, truth inside the bands: recovered to the written digits.
+
+    (The plate size is not used here: the surface grid is laid out anew for each plate size,
+    so the metrics step by ~1 % along it and a local fit stalls between steps.)
+    """
+    truth = response_metrics(with_values(model, TRUTH), REFERENCE, basis, "periodic")
+    reference = {"truth": {k: truth[k] for k in ("pv_nm", "centre_rise_nm")}}
+    settings = _settings(
+        [
+            {"key": "force_scale", "band": [0.3, 3.0], "start": 1.0},
+            {"key": "tool_radius", "band": [0.25, 0.35], "start": 0.29, "scale": "linear"},
+            {"key": "no_such_key_yet", "band": [0.0, 1.0], "start": 0.0, "scale": "linear"},
+        ],
+        [
+            {"metric": "pv_nm", "reference": "truth.pv_nm"},
+            {"metric": "centre_rise_nm", "reference": "truth.centre_rise_nm"},
+        ],
+        reference,
+    )
+    assert settings.skipped == ("no_such_key_yet",)  # not a field of ufmt.model.machine.Machine
+    fit = fit_response(model, settings, REFERENCE, basis)
+    assert fit.values["force_scale"] == pytest.approx(TRUTH["force_scale"], rel=1e-5)
+    assert fit.values["tool_radius"] == pytest.approx(TRUTH["tool_radius"], rel=1e-5)
+    assert np.abs(fit.residuals).max() < 1e-5
+    assert fit.at_bound == ()
+    again = fit_response(model, settings, REFERENCE, basis)
+    assert again.values == fit.values  # deterministic to the written digits
+    assert len(repr(fit)) < 1000
+
+
+def test_a_target_beyond_the_band_is_reported_at_the_bound(model, basis):
+    """PV is linear in the force scale: asking for 5x the PV of scale 1 needs 5 > 3."""
+    pv1 = response_metrics(model, REFERENCE, basis, "periodic")["pv_nm"]
+    settings = _settings(
+        [{"key": "force_scale", "band": [0.3, 3.0], "start": 1.0}],
+        [{"metric": "pv_nm", "reference": "paper.pv", "factor": 5.0}],
+        {"paper": {"pv": pv1}},
+    )
+    fit = fit_response(model, settings, REFERENCE, basis)
+    assert fit.at_bound == ("force_scale",)
+    assert fit.values["force_scale"] == pytest.approx(3.0, rel=1e-3)
+    assert fit.residuals[0] == pytest.approx(3.0 / 5.0 - 1.0, rel=1e-2)
+
+
+def test_centre_rise_of_closed_form_surfaces():
+    x = np.linspace(-0.02, 0.02, 41)
+    y = np.linspace(-0.02, 0.02, 41)
+    middle = (np.abs(y)[:, None] <= 0.01) & (np.abs(x)[None, :] <= 0.01)
+    step = Surface(x, y, np.where(middle, 3e-9, -1e-9))
+    assert centre_rise_nm(step) == pytest.approx(4.0)
+    tilted = Surface(x, y, 1e-6 * np.broadcast_to(x, (41, 41)))  # a plane: no rise
+    assert centre_rise_nm(tilted) == pytest.approx(0.0, abs=1e-9)
+
+
+@pytest.mark.parametrize(
+    ("parameter", "message"),
+    [
+        ({"key": "force_scale", "band": [3.0, 0.3], "start": 1.0}, "field 'band'"),
+        ({"key": "force_scale", "band": [0.3, 3.0], "start": 5.0}, "field 'start'"),
+        ({"key": "force_scale", "band": [0.0, 3.0], "start": 1.0}, "> 0 for scale 'log'"),
+        ({"key": "force_scale", "band": [0.3, 3.0], "start": 1.0, "bnd": 1}, "unknown field"),
+    ],
+)
+def test_bad_response_parameter_names_the_field(parameter, message):
+    with pytest.raises(StudyError, match=message):
+        _settings([parameter], [{"metric": "pv_nm", "reference": "a"}], {"a": 1.0})
+
+
+def test_packaged_response_targets_read_the_paper():
+    ref = read_toml(packaged_path("paper_reference.toml"))
+    settings = read_response_settings(
+        read_toml(packaged_path("calibration.toml"))["response"], ref, "calibration.toml"
+    )
+    paper = {t.metric: t.paper for t in settings.targets}
+    assert paper["pv_nm"] == 142.91 and paper["zre_peak_nm"] == 34.0
+    assert paper["tip_acc_peak_mm_s2"] == pytest.approx(66.0)  # 0.066 read as m/s^2
+    assert {p.key for p in settings.parameters} >= {"force_scale", "workpiece_size"}
+    for p in settings.parameters:
+        if p.key == "force_scale":
+            assert p.band == (0.3, 3.0)
+
+
+def test_implied_forces_are_coefficients_times_chip(model):
+    forces = implied_forces(with_values(model, {"force_scale": 2.0}), {}, REFERENCE)
+    area = 4e-6 * 15e-3 / 300.0  # depth x feed per revolution [m^2]
+    assert forces["cutting"]["force_n"] == pytest.approx(2.0 * 2.0e9 * area)
+    assert forces["cutting"]["specific_gpa"] == pytest.approx(4.0)
