@@ -91,8 +91,10 @@ def _assemble(blocks: list[State], n_omega: int, n: int) -> np.ndarray:
     if r0 != n:  # pragma: no cover - guarded by the counting argument
         raise AssertionError(f"U_all has {r0} rows for {n} unknowns")
     vals = np.concatenate(values, axis=1)
-    u = np.zeros((n_omega, n * n), dtype=vals.dtype)
-    u[:, np.concatenate(flat)] = vals
+    # one flat scatter (a 1-D fancy index is several times faster than one per row)
+    index = (np.arange(n_omega)[:, None] * (n * n) + np.concatenate(flat)[None, :]).ravel()
+    u = np.zeros(n_omega * n * n, dtype=vals.dtype)
+    u[index] = vals.ravel()
     return u.reshape(n_omega, n, n)
 
 

@@ -1,17 +1,23 @@
 """Natural frequencies: every root of det U_all(ω) = 0 in (0, f_max] (paper eq. 2.23).
 
-det U_all has no poles for these elements, so it changes sign only at roots of odd
-multiplicity. The assembled mass-stiffness model of the same file (``ufmt.assembled``) counts
-the roots and says where they are; the MSTMM then finds each one on its own:
+The assembled mass-stiffness model of the same file (``ufmt.assembled``) counts the roots and
+says where they are (within ~1e-5 on the packaged model); the MSTMM then finds each one on its
+own:
 
-1. sign of det on a grid refined around every estimate (geometric steps down to 1e-7) and at
-   the midpoints between neighbouring estimates, plus a uniform background grid;
-2. every sign change is refined by a vectorised Illinois (regula falsi) iteration on det of
-   the row/column-equilibrated U_all (positive scaling, so the sign is unchanged);
-3. where fewer roots than estimates were found (a repeated root of a symmetric structure, or an
-   even-multiplicity cluster) the smallest singular values of U_all are minimised by golden
-   section; a root is accepted when they fall by many orders of magnitude, and its multiplicity
-   is the number of singular values that vanish together.
+1. **Newton on det, batched over all roots.** Estimates closer than 1e-6 form a cluster of
+   multiplicity m (a repeated root of a symmetric structure). From the cluster's estimate,
+   ω ← ω - m / tr(U_all⁻¹ dU_all/dω), the multiplicity-corrected Newton step on det U_all
+   (d ln det U/dω = tr(U⁻¹ U')), converges quadratically for simple and semisimple repeated
+   roots alike. dU/dω is a forward difference of U_all (its entries are smooth in ω).
+   A cluster is certified when its steps contract superlinearly (a wrong multiplicity
+   converges linearly or oscillates), every iterate stays inside the cluster's window
+   (half-way, geometrically, to the neighbouring estimates) and no two clusters meet.
+2. **Fallback scan, only for the clusters Newton could not certify:** the sign of det on a
+   grid refined around every estimate, Illinois refinement of each sign change, and a golden
+   section on the smallest singular values for even-multiplicity roots the sign cannot see.
+3. **Never lose a root.** A cluster whose roots neither method finds is reported in
+   :attr:`Roots.missing_hz`; :func:`ufmt.mstmm.solve.solve_modes` then raises
+   :class:`RootsLostError` naming the missing frequencies.
 """
 
 from __future__ import annotations
@@ -20,12 +26,18 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ufmt.errors import UfmtError
 from ufmt.mstmm.overall import TransferSystem, equilibrate
 
 TWO_PI = 2.0 * np.pi
 STEPS = np.array([3e-2, 1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7])
 NOISE_RTOL = 1e-5  # sign flips of det closer than this (relative) are rounding noise
 OFF_ROOT = 1.0 + 3.7e-3  # a generic point near a root, where the scaling of U_all is taken
+NEWTON_ITERATIONS = 8
+DERIVATIVE_STEP = 1e-7  # relative forward-difference step for dU/dω
+ACCEPT_STEP = 1e-8  # a contracting Newton step this small (relative) ends the iteration
+CONTRACTION = 0.1  # |step_k| <= CONTRACTION |step_k-1|: superlinear, right multiplicity
+CLUSTER_RTOL = 1e-6  # estimates closer than this (relative) are one repeated root
 
 
 @dataclass(frozen=True)
@@ -34,6 +46,12 @@ class Roots:
 
     frequencies_hz: np.ndarray
     expected: int  # how many the assembled model counts in (0, f_max]
+    missing_hz: np.ndarray  # assembled estimates in (0, f_max] whose root was not found
+    newton: int = 0  # roots certified by Newton (the rest came from the fallback scan)
+
+
+class RootsLostError(UfmtError):
+    """Fewer MSTMM roots than the assembled model counts: never returned silently."""
 
 
 def _sign_det(system: TransferSystem, omega: np.ndarray) -> np.ndarray:
@@ -135,20 +153,8 @@ def _golden_nullity(system, centre, lo, hi, k, iters=48):
     return w, s_min, s_ends
 
 
-def natural_frequencies(
-    system: TransferSystem, fmax_hz: float, estimates_hz, rtol: float = 1e-12
-) -> Roots:
-    """Every natural frequency in (0, fmax_hz] [Hz], to relative precision ``rtol``.
-
-    ``estimates_hz`` are the assembled model's nonzero frequencies (ascending, repeated roots
-    repeated); they bracket and count the roots, the MSTMM values are computed independently.
-    """
-    system.segment_for(fmax_hz)
-    est = np.sort(np.asarray(estimates_hz, dtype=float))
-    est = est[est > 0]
-    expected = int(np.sum(est <= fmax_hz))
-    if est.size == 0:
-        return Roots(np.zeros(0), 0)
+def _scan(system: TransferSystem, fmax_hz: float, est: np.ndarray, rtol: float) -> np.ndarray:
+    """Fallback: roots [Hz] from the sign of det on a refined grid (module docstring, 2.)."""
     f_lo = 0.5 * est[0]
     near = est[est <= fmax_hz * 1.05]
     grid = [np.linspace(f_lo, fmax_hz, 64), near, np.sqrt(near[1:] * near[:-1])]
@@ -163,8 +169,7 @@ def natural_frequencies(
     found = np.sort(np.concatenate([roots_w, exact])) / TWO_PI
     windows = _windows(near, f_lo, fmax_hz)
     found = _merge_noise_roots(found, windows)
-    found = _add_even_roots(system, found, windows, fmax_hz)
-    return Roots(found, expected)
+    return _add_even_roots(system, found, windows, fmax_hz)
 
 
 def _add_even_roots(system, found, windows, fmax_hz):
@@ -231,9 +236,111 @@ def _merge_noise_roots(found: np.ndarray, windows) -> np.ndarray:
     return out
 
 
-def _clusters(est: np.ndarray, rel: float = 1e-6) -> list[np.ndarray]:
+def _clusters(est: np.ndarray, rel: float = CLUSTER_RTOL) -> list[np.ndarray]:
     """Group estimates closer than ``rel`` (relative) into clusters of repeated roots."""
     if est.size == 0:
         return []
     breaks = np.flatnonzero(np.diff(est) > rel * est[1:]) + 1
     return np.split(np.arange(est.size), breaks)
+
+
+def natural_frequencies(
+    system: TransferSystem, fmax_hz: float, estimates_hz, rtol: float = 1e-12
+) -> Roots:
+    """Every natural frequency in (0, fmax_hz] [Hz], to relative precision ``rtol``.
+
+    ``estimates_hz`` are the assembled model's nonzero frequencies (ascending, repeated roots
+    repeated); they bracket and count the roots, the MSTMM values are computed independently.
+    A root the assembled model counts but neither Newton nor the fallback scan finds is
+    listed in ``missing_hz`` (never dropped silently).
+    """
+    system.segment_for(fmax_hz)
+    est = np.sort(np.asarray(estimates_hz, dtype=float))
+    est = est[est > 0]
+    expected = int(np.sum(est <= fmax_hz))
+    if est.size == 0:
+        return Roots(np.zeros(0), 0, np.zeros(0))
+    near = est[est <= fmax_hz * 1.05]
+    windows = _windows(near, 0.5 * est[0], fmax_hz)
+    centre = np.array([c for _, c, _, _ in windows])
+    lo = np.array([a for _, _, a, _ in windows])
+    hi = np.array([b for _, _, _, b in windows])
+    mult = np.array([len(idx) for idx, _, _, _ in windows])
+    root, ok = _newton(system, TWO_PI * centre, TWO_PI * lo, TWO_PI * hi, mult, rtol)
+    root /= TWO_PI
+    found = np.repeat(root[ok], mult[ok])
+    if not ok.all():
+        scanned = _scan(system, fmax_hz, est, rtol)
+        inside = np.zeros(scanned.size, dtype=bool)
+        for j in np.flatnonzero(~ok):
+            inside |= (scanned >= lo[j]) & (scanned <= hi[j])
+        found = np.concatenate([found, scanned[inside]])
+    found = np.sort(found[found <= fmax_hz])
+    missing = [
+        np.full(m - np.sum((found >= a) & (found <= b)), c)
+        for c, a, b, m in zip(centre, lo, hi, mult, strict=True)
+        if c <= fmax_hz and np.sum((found >= a) & (found <= b)) < m
+    ]
+    missing_hz = np.concatenate(missing) if missing else np.zeros(0)
+    return Roots(found, expected, missing_hz, int(mult[ok].sum()))
+
+
+def _newton(system, omega, lo, hi, mult, rtol):
+    """Multiplicity-corrected Newton on det U_all, batched over clusters [rad/s].
+
+    Returns (roots, certified): a cluster is certified when its last step is below ``rtol``
+    or, being below ACCEPT_STEP, contracted superlinearly from the previous one, and every
+    iterate stayed within [lo, hi]. Rows and columns are scaled once per cluster, off the
+    root, so that the LU solves see O(1) entries (the scaling cancels in tr(U⁻¹ dU)).
+    """
+    w = omega.astype(float).copy()
+    n = w.size
+    r, c = equilibrate(system.evaluate(w * OFF_ROOT))
+    previous = np.full(n, np.inf)
+    done = np.zeros(n, dtype=bool)
+    alive = np.ones(n, dtype=bool)
+    for _ in range(NEWTON_ITERATIONS):
+        act = np.flatnonzero(alive & ~done)
+        if act.size == 0:
+            break
+        wa = w[act]
+        h = DERIVATIVE_STEP * wa
+        u = system.evaluate(np.concatenate([wa, wa + h])) * np.tile(r[act] * c[act], (2, 1, 1))
+        u0, du = u[: act.size], (u[act.size :] - u[: act.size]) / h[:, None, None]
+        with np.errstate(all="ignore"):
+            trace = np.einsum("nii->n", batched_solve(u0, du))
+            step = mult[act] / trace
+        finite = np.isfinite(step)
+        step = np.where(finite, step, 0.0)  # exactly singular: ω is the root
+        new = wa - step
+        size = np.abs(step)
+        converged = (size <= rtol * wa) | (
+            (size <= ACCEPT_STEP * wa) & (size <= CONTRACTION * previous[act])
+        )
+        inside = (new >= lo[act]) & (new <= hi[act])
+        w[act] = np.where(inside, new, wa)
+        previous[act] = size
+        done[act] = converged & inside
+        alive[act] = inside
+    ok = done & alive
+    order = np.flatnonzero(ok)[np.argsort(w[ok])]  # two clusters on one root: both fail
+    close = np.flatnonzero(np.diff(w[order]) <= 1e-9 * w[order][1:])
+    ok[order[close]] = ok[order[close + 1]] = False
+    return w, ok
+
+
+def batched_solve(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Batched a⁻¹ b. A matrix that is exactly singular (ω on a root to the last bit) is
+    shifted by 1e-14 of its largest entry on the diagonal, below its rounding noise."""
+    try:
+        return np.linalg.solve(a, b)
+    except np.linalg.LinAlgError:
+        b = np.broadcast_to(b, (*a.shape[:-1], b.shape[-1]))
+        out = np.empty(b.shape, dtype=np.result_type(a, b))
+        eye = np.eye(a.shape[-1])
+        for k in range(a.shape[0]):
+            try:
+                out[k] = np.linalg.solve(a[k], b[k])
+            except np.linalg.LinAlgError:
+                out[k] = np.linalg.solve(a[k] + 1e-14 * np.abs(a[k]).max() * eye, b[k])
+        return out

@@ -2,6 +2,8 @@
 
 The assembled mass-stiffness model of the same file counts and brackets the roots; the MSTMM
 finds each one from det U_all(ω) = 0 and builds its shape from the null vector of U_all.
+A root the assembled model counts but the MSTMM cannot find raises :class:`RootsLostError`
+(the CLI prints one line naming the missing frequencies and exits non-zero).
 """
 
 from __future__ import annotations
@@ -17,7 +19,7 @@ from ufmt.errors import UfmtError
 from ufmt.model.schema import Model
 from ufmt.mstmm.modes import ModeShapes, kinetic_terms, mode_shapes
 from ufmt.mstmm.overall import TransferSystem
-from ufmt.mstmm.roots import natural_frequencies
+from ufmt.mstmm.roots import RootsLostError, natural_frequencies
 
 DEFAULT_FMAX_HZ = 1000.0
 BRACKETING_ELEMENTS = 8  # beam elements of the assembled model that only counts and brackets
@@ -97,6 +99,14 @@ def _solve_modes(model, fmax_hz, count, method, shapes) -> ModalSolution:
         )
     system = TransferSystem(model)
     roots = natural_frequencies(system, fmax, est)
+    if roots.missing_hz.size:
+        raise RootsLostError(
+            f"{model.source}: the MSTMM found {roots.frequencies_hz.size} of the "
+            f"{roots.expected} natural frequencies the assembled model counts below "
+            f"{fmax:.6g} Hz; missing near "
+            + ", ".join(f"{x:.6g}" for x in roots.missing_hz)
+            + " Hz"
+        )
     f = roots.frequencies_hz
     if count is not None:
         f = f[:count]
