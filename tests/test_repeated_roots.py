@@ -209,3 +209,22 @@ def test_cli_rotor_json_count_matches(tmp_path, capsys):
     assert main(["modes", str(path), "--fmax", "5000", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["count"] == out["expected_count"] >= 21
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_newton_null_space_matches_inverse_iteration(seed):
+    """The null bases that come with the Newton steps span the same space as the batched
+    inverse iteration at the converged roots (principal angles below 1e-8)."""
+    model = model_from_dict(axisymmetric_chain(seed))
+    exact = assembled_modes(model).frequencies_hz
+    system = TransferSystem(model)
+    roots = natural_frequencies(system, exact[-1] * 1.01, exact)
+    f = roots.frequencies_hz
+    from_newton = mode_shapes(system, f, roots.null_vectors).z_all
+    from_inverse = mode_shapes(system, f).z_all
+    first = np.flatnonzero(np.r_[True, np.diff(f) > 1e-9 * f[1:]])
+    for a, b in zip(first, np.r_[first[1:], f.size], strict=True):
+        qa = np.linalg.qr(from_newton[a:b].T)[0]
+        qb = np.linalg.qr(from_inverse[a:b].T)[0]
+        cosines = np.linalg.svd(qa.T @ qb, compute_uv=False)
+        np.testing.assert_allclose(cosines, 1.0, atol=1e-8)

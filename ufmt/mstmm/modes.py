@@ -79,21 +79,27 @@ def _rigid_motion_from_state(s: np.ndarray, point, com) -> np.ndarray:
     return np.concatenate([r, s[:, 3:6]], axis=1)
 
 
-def mode_shapes(system: TransferSystem, frequencies_hz) -> ModeShapes:
-    """Mass-normalised mode shapes at the given natural frequencies [Hz] (ascending)."""
+def mode_shapes(system: TransferSystem, frequencies_hz, null_space=None) -> ModeShapes:
+    """Mass-normalised mode shapes at the given natural frequencies [Hz] (ascending).
+
+    ``null_space`` (n, size): null vectors of U_all already known per root (from the Newton
+    iteration, :attr:`ufmt.mstmm.roots.Roots.null_vectors`); rows of NaN, or None, are
+    computed here by :func:`null_vectors`.
+    """
     f = np.asarray(frequencies_hz, dtype=float)
     topo = system.topology
     model = system.model
     omega = 2 * np.pi * f
     u_all, states = system.evaluate(omega, keep_states=True)
-    u_near = system.evaluate(omega * OFF_ROOT)
-    z = np.zeros((f.size, system.size))
+    z = np.full((f.size, system.size), np.nan) if null_space is None else np.array(null_space)
     # groups of repeated roots share a null space; one batched solve per multiplicity
     first = np.flatnonzero(np.r_[True, np.abs(np.diff(f)) > 1e-9 * f[1:]])
     size = np.diff(np.r_[first, f.size])
-    for m in np.unique(size):
-        starts = first[size == m]
-        vecs = null_vectors(u_all[starts], u_near[starts], int(m))
+    unknown = np.isnan(z[first]).any(axis=1)
+    for m in np.unique(size[unknown]):
+        starts = first[unknown & (size == m)]
+        u_near = system.evaluate(omega[starts] * OFF_ROOT)
+        vecs = null_vectors(u_all[starts], u_near, int(m))
         for k in range(m):
             z[starts + k] = np.real(vecs[:, :, k])
     rigid, virtual, centers, beams = {}, {}, {}, {}
@@ -147,10 +153,9 @@ def _beam_field(system, beam: Beam, states, z, omega, fractions=None):
         reversed_ = e.input_node.endswith("@end")
         s = (1.0 - f if reversed_ else f) * length
         wts = np.full(s.size, np.nan)
-    motion = np.empty((omega.size, s.size, 6))
-    for g, sg in enumerate(s):  # a handful of points, each batched over all modes
-        u = elements.beam(omega, beam, p_in, p_out, length=sg)
-        motion[:, g, :] = np.einsum("nij,nj->ni", u, z_in)[:, :6]
+    n = omega.size  # one batch over every (point, mode) pair
+    u = elements.beam(np.tile(omega, s.size), beam, p_in, p_out, length=np.repeat(s, n))
+    motion = np.einsum("gnij,nj->ngi", u.reshape(s.size, n, 12, 12)[:, :, :6], z_in)
     positions = p_in + np.outer(s / length, p_out - p_in)
     return positions, wts, motion
 

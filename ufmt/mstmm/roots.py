@@ -48,6 +48,9 @@ class Roots:
     expected: int  # how many the assembled model counts in (0, f_max]
     missing_hz: np.ndarray  # assembled estimates in (0, f_max] whose root was not found
     newton: int = 0  # roots certified by Newton (the rest came from the fallback scan)
+    # (n, size) null vectors of U_all per root, an orthonormal basis over a repeated root
+    # (NaN rows for roots of the fallback scan: see ufmt.mstmm.modes.null_vectors)
+    null_vectors: np.ndarray | None = None
 
 
 class RootsLostError(UfmtError):
@@ -259,44 +262,55 @@ def natural_frequencies(
     est = est[est > 0]
     expected = int(np.sum(est <= fmax_hz))
     if est.size == 0:
-        return Roots(np.zeros(0), 0, np.zeros(0))
+        return Roots(np.zeros(0), 0, np.zeros(0), 0, np.zeros((0, system.size)))
     near = est[est <= fmax_hz * 1.05]
     windows = _windows(near, 0.5 * est[0], fmax_hz)
     centre = np.array([c for _, c, _, _ in windows])
     lo = np.array([a for _, _, a, _ in windows])
     hi = np.array([b for _, _, _, b in windows])
     mult = np.array([len(idx) for idx, _, _, _ in windows])
-    root, ok = _newton(system, TWO_PI * centre, TWO_PI * lo, TWO_PI * hi, mult, rtol)
+    root, ok, basis = _newton(system, TWO_PI * centre, TWO_PI * lo, TWO_PI * hi, mult, rtol)
     root /= TWO_PI
     found = np.repeat(root[ok], mult[ok])
+    vectors = [basis[j].T for j in np.flatnonzero(ok)]
     if not ok.all():
         scanned = _scan(system, fmax_hz, est, rtol)
         inside = np.zeros(scanned.size, dtype=bool)
         for j in np.flatnonzero(~ok):
             inside |= (scanned >= lo[j]) & (scanned <= hi[j])
         found = np.concatenate([found, scanned[inside]])
-    found = np.sort(found[found <= fmax_hz])
+        vectors.append(np.full((int(inside.sum()), system.size), np.nan))
+    vectors = np.concatenate(vectors) if vectors else np.zeros((0, system.size))
+    keep = np.flatnonzero(found <= fmax_hz)
+    order = keep[np.argsort(found[keep], kind="stable")]
+    found, vectors = found[order], vectors[order]
     missing = [
         np.full(m - np.sum((found >= a) & (found <= b)), c)
         for c, a, b, m in zip(centre, lo, hi, mult, strict=True)
         if c <= fmax_hz and np.sum((found >= a) & (found <= b)) < m
     ]
     missing_hz = np.concatenate(missing) if missing else np.zeros(0)
-    return Roots(found, expected, missing_hz, int(mult[ok].sum()))
+    return Roots(found, expected, missing_hz, int(mult[ok].sum()), vectors)
 
 
 def _newton(system, omega, lo, hi, mult, rtol):
     """Multiplicity-corrected Newton on det U_all, batched over clusters [rad/s].
 
-    Returns (roots, certified): a cluster is certified when its last step is below ``rtol``
-    or, being below ACCEPT_STEP, contracted superlinearly from the previous one, and every
-    iterate stayed within [lo, hi]. Rows and columns are scaled once per cluster, off the
-    root, so that the LU solves see O(1) entries (the scaling cancels in tr(U⁻¹ dU)).
+    Returns (roots, certified, null bases): a cluster is certified when its last step is
+    below ``rtol`` or, being below ACCEPT_STEP, contracted superlinearly from the previous
+    one, and every iterate stayed within [lo, hi]. Rows and columns are scaled once per
+    cluster, off the root, so that the LU solves see O(1) entries (the scaling cancels in
+    tr(U⁻¹ dU)). The null space comes with the last step for free: near a root of
+    multiplicity m, U⁻¹ dU/dω has m eigenvalues ≈ 1/(ω - ω_k), all others O(1), so two
+    products with an m-column block (QR after each) give an orthonormal basis (size, m) of
+    the null space, accurate to the relative distance of the last iterate from the root.
     """
     w = omega.astype(float).copy()
     n = w.size
     r, c = equilibrate(system.evaluate(w * OFF_ROOT))
     previous = np.full(n, np.inf)
+    start = np.random.default_rng(0).standard_normal((system.size, int(mult.max())))
+    basis: dict[int, np.ndarray] = {}
     done = np.zeros(n, dtype=bool)
     alive = np.ones(n, dtype=bool)
     for _ in range(NEWTON_ITERATIONS):
@@ -308,8 +322,8 @@ def _newton(system, omega, lo, hi, mult, rtol):
         u = system.evaluate(np.concatenate([wa, wa + h])) * np.tile(r[act] * c[act], (2, 1, 1))
         u0, du = u[: act.size], (u[act.size :] - u[: act.size]) / h[:, None, None]
         with np.errstate(all="ignore"):
-            trace = np.einsum("nii->n", batched_solve(u0, du))
-            step = mult[act] / trace
+            product = batched_solve(u0, du)
+            step = mult[act] / np.einsum("nii->n", product)
         finite = np.isfinite(step)
         step = np.where(finite, step, 0.0)  # exactly singular: ω is the root
         new = wa - step
@@ -322,11 +336,19 @@ def _newton(system, omega, lo, hi, mult, rtol):
         previous[act] = size
         done[act] = converged & inside
         alive[act] = inside
+        for m in np.unique(mult[act[done[act]]]):
+            sel = np.flatnonzero(done[act] & (mult[act] == m))
+            x = np.broadcast_to(start[:, :m], (sel.size, start.shape[0], m))
+            with np.errstate(all="ignore"):
+                for _ in range(2):
+                    x, _ = np.linalg.qr(product[sel] @ x)
+            for k, j in enumerate(act[sel]):
+                basis[j] = c[j, 0, :, None] * np.real(x[k])
     ok = done & alive
     order = np.flatnonzero(ok)[np.argsort(w[ok])]  # two clusters on one root: both fail
     close = np.flatnonzero(np.diff(w[order]) <= 1e-9 * w[order][1:])
     ok[order[close]] = ok[order[close + 1]] = False
-    return w, ok
+    return w, ok, basis
 
 
 def batched_solve(a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -107,10 +107,8 @@ def _solve_modes(model, fmax_hz, count, method, shapes) -> ModalSolution:
             + ", ".join(f"{x:.6g}" for x in roots.missing_hz)
             + " Hz"
         )
-    f = roots.frequencies_hz
-    if count is not None:
-        f = f[:count]
-    modes = mode_shapes(system, f) if shapes and f.size else None
+    f, z = roots.frequencies_hz[:count], roots.null_vectors[:count]
+    modes = mode_shapes(system, f, z) if shapes and f.size else None
     return ModalSolution(
         f,
         system.order,
