@@ -366,3 +366,33 @@ def batched_solve(a: np.ndarray, b: np.ndarray) -> np.ndarray:
             except np.linalg.LinAlgError:
                 out[k] = np.linalg.solve(a[k] + 1e-14 * np.abs(a[k]).max() * eye, b[k])
         return out
+
+
+def continued_roots(system: TransferSystem, start_hz, rtol: float = 1e-12) -> Roots | None:
+    """The roots next to ``start_hz`` (a neighbouring design's roots, ascending, repeated
+    roots repeated), or None if they cannot be certified without the assembled count.
+
+    Newton runs from the start values (windows as for assembled estimates); every cluster
+    must be certified, and the sign of det U_all below the first root and between
+    consecutive roots must flip exactly with each root's multiplicity parity: a root the
+    start values do not track (of odd multiplicity) below the last one breaks the pattern.
+    """
+    start = np.sort(np.asarray(start_hz, dtype=float))
+    top = float(start[-1])
+    system.segment_for(top * 1.05)
+    windows = _windows(start, 0.5 * start[0], top)
+    centre = np.array([c for _, c, _, _ in windows])
+    lo = np.array([a for _, _, a, _ in windows])
+    hi = np.array([b for _, _, _, b in windows])
+    mult = np.array([len(idx) for idx, _, _, _ in windows])
+    root, ok, basis = _newton(system, TWO_PI * centre, TWO_PI * lo, TWO_PI * hi, mult, rtol)
+    if not ok.all():
+        return None
+    gaps = np.r_[0.5 * root[0], np.sqrt(root[1:] * root[:-1])]
+    sign = _sign_det(system, gaps)
+    flips = sign[1:] * sign[:-1]
+    if np.any(sign == 0) or np.any(flips != (-1.0) ** mult[:-1]):
+        return None
+    found = np.repeat(root / TWO_PI, mult)
+    vectors = np.concatenate([basis[j].T for j in range(root.size)])
+    return Roots(found, found.size, np.zeros(0), found.size, vectors)

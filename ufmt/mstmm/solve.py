@@ -8,6 +8,8 @@ A root the assembled model counts but the MSTMM cannot find raises :class:`Roots
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import time
 from dataclasses import dataclass
 
@@ -19,7 +21,7 @@ from ufmt.errors import UfmtError
 from ufmt.model.schema import Model
 from ufmt.mstmm.modes import ModeShapes, kinetic_terms, mode_shapes
 from ufmt.mstmm.overall import TransferSystem
-from ufmt.mstmm.roots import RootsLostError, natural_frequencies
+from ufmt.mstmm.roots import RootsLostError, continued_roots, natural_frequencies
 
 DEFAULT_FMAX_HZ = 1000.0
 BRACKETING_ELEMENTS = 8  # beam elements of the assembled model that only counts and brackets
@@ -77,12 +79,69 @@ def solve_modes(
         return _solve_modes(model, fmax_hz, count, method, shapes)
 
 
+@contextlib.contextmanager
+def continuation(key):
+    """Within this block, ``solve_modes(model, count=n)`` starts from the roots of the last
+    design solved under the same ``key`` (a sweep of one model file over hinge stiffnesses).
+
+    Consecutive designs of a study are close: their n + 1 lowest roots are tracked by the
+    batched Newton iteration from the neighbour's roots, with no assembled solve. The result
+    is accepted only if every root is certified (contracting Newton steps inside its window,
+    no two on one root) and det U_all changes sign between the tracked roots exactly as
+    their multiplicities say (an untracked root of odd multiplicity between them, or below
+    the first, breaks the pattern); otherwise the assembled estimates are used as usual.
+    """
+    token = _CONTINUATION.set(key)
+    try:
+        yield
+    finally:
+        _CONTINUATION.reset(token)
+
+
+_CONTINUATION: contextvars.ContextVar = contextvars.ContextVar("continuation", default=None)
+_LAST_ROOTS: dict = {}  # continuation key -> (hinge pattern, roots [Hz], rigid-body modes)
+LAST_ROOTS_KEPT = 8
+
+
+def _hinge_pattern(model: Model) -> tuple:
+    """Which hinge directions are released, elastic or rigid: the topology of U_all."""
+    return tuple(tuple(np.sign(h.stiffness6) * np.isfinite(h.stiffness6)) for h in model.hinges)
+
+
+def _continued(model, count, shapes, t0) -> ModalSolution | None:
+    """The first ``count`` modes tracked from the last design's roots, or None (see
+    :func:`continuation`)."""
+    key = _CONTINUATION.get()
+    last = _LAST_ROOTS.get(key) if key is not None else None
+    if last is None or last[0] != _hinge_pattern(model) or last[1].size < count + 1:
+        return None
+    system = TransferSystem(model)
+    roots = continued_roots(system, last[1][: count + 1])
+    if roots is None:
+        return None
+    f, z = roots.frequencies_hz[:count], roots.null_vectors[:count]
+    modes = mode_shapes(system, f, z) if shapes else None
+    _remember(key, model, roots.frequencies_hz, last[2])
+    return ModalSolution(f, system.order, "mstmm", count, last[2], modes, time.perf_counter() - t0)
+
+
+def _remember(key, model, roots_hz, rigid_body_modes) -> None:
+    _LAST_ROOTS.pop(key, None)
+    _LAST_ROOTS[key] = (_hinge_pattern(model), np.array(roots_hz), rigid_body_modes)
+    while len(_LAST_ROOTS) > LAST_ROOTS_KEPT:
+        del _LAST_ROOTS[next(iter(_LAST_ROOTS))]
+
+
 def _solve_modes(model, fmax_hz, count, method, shapes) -> ModalSolution:
     if fmax_hz is not None and not (np.isfinite(fmax_hz) and fmax_hz > 0):
         raise UfmtError(f"--fmax: {fmax_hz} must be a positive number of Hz")
     if method not in ("mstmm", "assembled"):
         raise UfmtError(f"--method: {method!r} is not one of 'mstmm', 'assembled'")
     t0 = time.perf_counter()
+    tracking = method == "mstmm" and fmax_hz is None and count is not None and count >= 1
+    tracking = tracking and _CONTINUATION.get() is not None
+    if tracking and (solution := _continued(model, count, shapes, t0)) is not None:
+        return solution
     guess_fmax = (DEFAULT_FMAX_HZ if fmax_hz is None else fmax_hz) if count is None else None
     asm = assembled_modes(
         model,
@@ -92,6 +151,8 @@ def _solve_modes(model, fmax_hz, count, method, shapes) -> ModalSolution:
     )
     est = np.asarray(asm.frequencies_hz)
     fmax = _range(fmax_hz, count, est)
+    if tracking and est.size > count:  # the next design tracks count + 1 roots
+        fmax = float(est[count]) * (1 + 1e-6)
     if method == "assembled":
         f = est[est <= fmax]
         return ModalSolution(
@@ -109,6 +170,8 @@ def _solve_modes(model, fmax_hz, count, method, shapes) -> ModalSolution:
         )
     f, z = roots.frequencies_hz[:count], roots.null_vectors[:count]
     modes = mode_shapes(system, f, z) if shapes and f.size else None
+    if tracking:
+        _remember(_CONTINUATION.get(), model, roots.frequencies_hz, asm.rigid_body_modes)
     return ModalSolution(
         f,
         system.order,
