@@ -18,13 +18,15 @@ from threadpoolctl import threadpool_limits
 
 from ufmt.assembled import assembled_modes
 from ufmt.errors import UfmtError
-from ufmt.model.schema import Model
+from ufmt.model.schema import Beam, Model
 from ufmt.mstmm.modes import ModeShapes, kinetic_terms, mode_shapes
 from ufmt.mstmm.overall import TransferSystem
 from ufmt.mstmm.roots import RootsLostError, continued_roots, natural_frequencies
 
 DEFAULT_FMAX_HZ = 1000.0
-BRACKETING_ELEMENTS = 8  # beam elements of the assembled model that only counts and brackets
+# beam elements of the assembled model that only counts and brackets; the finer meshes are
+# tried in turn only when a counted root was not found (estimates too far from the roots)
+BRACKETING_MESHES = (8, 24, 64)
 DIRECTIONS = ("x", "y", "z", "rx", "ry", "rz")
 
 
@@ -143,23 +145,26 @@ def _solve_modes(model, fmax_hz, count, method, shapes) -> ModalSolution:
     if tracking and (solution := _continued(model, count, shapes, t0)) is not None:
         return solution
     guess_fmax = (DEFAULT_FMAX_HZ if fmax_hz is None else fmax_hz) if count is None else None
-    asm = assembled_modes(
-        model,
-        fmax_hz=_pad(guess_fmax),
-        count=None if count is None else count + 1,
-        elements_per_beam=None if method == "assembled" else BRACKETING_ELEMENTS,
-    )
-    est = np.asarray(asm.frequencies_hz)
-    fmax = _range(fmax_hz, count, est)
-    if tracking and est.size > count:  # the next design tracks count + 1 roots
-        fmax = float(est[count]) * (1 + 1e-6)
-    if method == "assembled":
-        f = est[est <= fmax]
-        return ModalSolution(
-            f, 0, "assembled", f.size, asm.rigid_body_modes, None, time.perf_counter() - t0
+    system = TransferSystem(model) if method == "mstmm" else None
+    for elements in BRACKETING_MESHES:  # a finer mesh only if a root was not found
+        asm = assembled_modes(
+            model,
+            fmax_hz=_pad(guess_fmax),
+            count=None if count is None else count + 1,
+            elements_per_beam=None if method == "assembled" else elements,
         )
-    system = TransferSystem(model)
-    roots = natural_frequencies(system, fmax, est)
+        est = np.asarray(asm.frequencies_hz)
+        fmax = _range(fmax_hz, count, est)
+        if tracking and est.size > count:  # the next design tracks count + 1 roots
+            fmax = float(est[count]) * (1 + 1e-6)
+        if method == "assembled":
+            f = est[est <= fmax]
+            return ModalSolution(
+                f, 0, "assembled", f.size, asm.rigid_body_modes, None, time.perf_counter() - t0
+            )
+        roots = natural_frequencies(system, fmax, est)
+        if roots.missing_hz.size == 0 or not _has_beams(model):
+            break
     if roots.missing_hz.size:
         raise RootsLostError(
             f"{model.source}: the MSTMM found {roots.frequencies_hz.size} of the "
@@ -181,6 +186,10 @@ def _solve_modes(model, fmax_hz, count, method, shapes) -> ModalSolution:
         modes,
         time.perf_counter() - t0,
     )
+
+
+def _has_beams(model: Model) -> bool:
+    return any(isinstance(b, Beam) for b in model.bodies)
 
 
 def _pad(fmax_hz):
