@@ -293,7 +293,7 @@ def natural_frequencies(
     return Roots(found, expected, missing_hz, int(mult[ok].sum()), vectors)
 
 
-def _newton(system, omega, lo, hi, mult, rtol):
+def _newton(system, omega, lo, hi, mult, rtol, all_or_nothing=False):
     """Multiplicity-corrected Newton on det U_all, batched over clusters [rad/s].
 
     Returns (roots, certified, null bases): a cluster is certified when its last step is
@@ -304,23 +304,29 @@ def _newton(system, omega, lo, hi, mult, rtol):
     multiplicity m, U⁻¹ dU/dω has m eigenvalues ≈ 1/(ω - ω_k), all others O(1), so two
     products with an m-column block (QR after each) give an orthonormal basis (size, m) of
     the null space, accurate to the relative distance of the last iterate from the root.
+    ``all_or_nothing`` stops as soon as one cluster leaves its window (continuation).
     """
     w = omega.astype(float).copy()
     n = w.size
-    r, c = equilibrate(system.evaluate(w * OFF_ROOT))
+    r = c = None  # the scaling, from the first evaluation (one walk of the transfer graph)
     previous = np.full(n, np.inf)
     start = np.random.default_rng(0).standard_normal((system.size, int(mult.max())))
+    matrix_shape = (system.size, system.size)
     basis: dict[int, np.ndarray] = {}
     done = np.zeros(n, dtype=bool)
     alive = np.ones(n, dtype=bool)
     for _ in range(NEWTON_ITERATIONS):
         act = np.flatnonzero(alive & ~done)
-        if act.size == 0:
+        if act.size == 0 or (all_or_nothing and not alive.all()):
             break
         wa = w[act]
         h = DERIVATIVE_STEP * wa
-        u = system.evaluate(np.concatenate([wa, wa + h])) * np.tile(r[act] * c[act], (2, 1, 1))
-        u0, du = u[: act.size], (u[act.size :] - u[: act.size]) / h[:, None, None]
+        points = [wa, wa + h] if r is not None else [wa, wa + h, wa * OFF_ROOT]
+        u = system.evaluate(np.concatenate(points)).reshape(len(points), act.size, *matrix_shape)
+        if r is None:
+            r, c = equilibrate(u[2])
+        u = u[:2] * r[act] * c[act]
+        u0, du = u[0], (u[1] - u[0]) / h[:, None, None]
         with np.errstate(all="ignore"):
             product = batched_solve(u0, du)
             step = mult[act] / np.einsum("nii->n", product)
@@ -385,7 +391,9 @@ def continued_roots(system: TransferSystem, start_hz, rtol: float = 1e-12) -> Ro
     lo = np.array([a for _, _, a, _ in windows])
     hi = np.array([b for _, _, _, b in windows])
     mult = np.array([len(idx) for idx, _, _, _ in windows])
-    root, ok, basis = _newton(system, TWO_PI * centre, TWO_PI * lo, TWO_PI * hi, mult, rtol)
+    root, ok, basis = _newton(
+        system, TWO_PI * centre, TWO_PI * lo, TWO_PI * hi, mult, rtol, all_or_nothing=True
+    )
     if not ok.all():
         return None
     gaps = np.r_[0.5 * root[0], np.sqrt(root[1:] * root[:-1])]
