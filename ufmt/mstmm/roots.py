@@ -15,7 +15,10 @@ own:
 2. **Fallback scan, only for the clusters Newton could not certify:** the sign of det on a
    grid refined around every estimate, Illinois refinement of each sign change, and a golden
    section on the smallest singular values for even-multiplicity roots the sign cannot see.
-3. **Never lose a root.** A cluster whose roots neither method finds is reported in
+3. **Continuation** (:func:`continued_roots`): in a sweep over hinge stiffnesses the roots
+   are tracked from the neighbouring design's inside Courant-Fischer brackets, without the
+   assembled model (see :func:`ufmt.mstmm.solve.continuation`).
+4. **Never lose a root.** A cluster whose roots neither method finds is reported in
    :attr:`Roots.missing_hz`; :func:`ufmt.mstmm.solve.solve_modes` then raises
    :class:`RootsLostError` naming the missing frequencies.
 """
@@ -374,33 +377,48 @@ def batched_solve(a: np.ndarray, b: np.ndarray) -> np.ndarray:
         return out
 
 
-def continued_roots(system: TransferSystem, start_hz, rtol: float = 1e-12) -> Roots | None:
-    """The roots next to ``start_hz`` (a neighbouring design's roots, ascending, repeated
-    roots repeated), or None if they cannot be certified without the assembled count.
+def continued_roots(
+    system: TransferSystem, start_hz, lo_hz, hi_hz, rtol: float = 1e-12
+) -> Roots | None:
+    """The roots of ``system`` tracked from a neighbouring design's, or None if they cannot
+    be certified without the assembled count.
 
-    Newton runs from the start values (windows as for assembled estimates); every cluster
-    must be certified, and the sign of det U_all below the first root and between
-    consecutive roots must flip exactly with each root's multiplicity parity: a root the
-    start values do not track (of odd multiplicity) below the last one breaks the pattern.
+    ``start_hz``: the neighbour's lowest roots (ascending, repeated roots repeated);
+    [lo_hz, hi_hz]: where each of them is now (Courant-Fischer bounds, see
+    :func:`ufmt.mstmm.solve.continuation`). The brackets of distinct roots must not overlap;
+    Newton starts from the neighbour's roots and must be certified inside them; the sign of
+    det U_all below the first root and between consecutive roots must flip exactly with
+    each root's multiplicity parity (a root the start values miss breaks the pattern).
     """
-    start = np.sort(np.asarray(start_hz, dtype=float))
-    top = float(start[-1])
-    system.segment_for(top * 1.05)
-    windows = _windows(start, 0.5 * start[0], top)
-    centre = np.array([c for _, c, _, _ in windows])
-    lo = np.array([a for _, _, a, _ in windows])
-    hi = np.array([b for _, _, _, b in windows])
-    mult = np.array([len(idx) for idx, _, _, _ in windows])
+    start = np.asarray(start_hz, dtype=float)
+    idx = _clusters(start)
+    first = np.array([i[0] for i in idx])
+    lo, hi = np.asarray(lo_hz, dtype=float)[first], np.asarray(hi_hz, dtype=float)[first]
+    lo, hi = lo * (1 - 1e-9), hi * (1 + 1e-9)  # the bounds are exact: widen by rounding only
+    if np.any(hi[:-1] >= lo[1:]):
+        return None
+    mult = np.array([i.size for i in idx])
+    system.segment_for(float(hi[-1]))
+    # iterates may overshoot a bracket's end (the root on it, e.g. a mode the changed hinge
+    # does not move); they stay between the neighbouring brackets, the root must be inside
+    middle = np.sqrt(hi[:-1] * lo[1:])
     root, ok, basis = _newton(
-        system, TWO_PI * centre, TWO_PI * lo, TWO_PI * hi, mult, rtol, all_or_nothing=True
+        system,
+        TWO_PI * start[first],
+        TWO_PI * np.r_[0.5 * lo[0], middle],
+        TWO_PI * np.r_[middle, 2 * hi[-1]],
+        mult,
+        rtol,
+        all_or_nothing=True,
     )
-    if not ok.all():
+    root_hz = root / TWO_PI
+    if not (ok.all() and np.all((root_hz >= lo) & (root_hz <= hi))):
         return None
     gaps = np.r_[0.5 * root[0], np.sqrt(root[1:] * root[:-1])]
     sign = _sign_det(system, gaps)
     flips = sign[1:] * sign[:-1]
     if np.any(sign == 0) or np.any(flips != (-1.0) ** mult[:-1]):
         return None
-    found = np.repeat(root / TWO_PI, mult)
+    found = np.repeat(root_hz, mult)
     vectors = np.concatenate([basis[j].T for j in range(root.size)])
     return Roots(found, found.size, np.zeros(0), found.size, vectors)

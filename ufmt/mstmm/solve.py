@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import contextlib
 import contextvars
+import hashlib
+import pickle
 import time
 from dataclasses import dataclass
 
@@ -86,12 +88,15 @@ def continuation(key):
     """Within this block, ``solve_modes(model, count=n)`` starts from the roots of the last
     design solved under the same ``key`` (a sweep of one model file over hinge stiffnesses).
 
-    Consecutive designs of a study are close: their n + 1 lowest roots are tracked by the
-    batched Newton iteration from the neighbour's roots, with no assembled solve. The result
-    is accepted only if every root is certified (contracting Newton steps inside its window,
-    no two on one root) and det U_all changes sign between the tracked roots exactly as
-    their multiplicities say (an untracked root of odd multiplicity between them, or below
-    the first, breaks the pattern); otherwise the assembled estimates are used as usual.
+    A design that differs from the last one only in hinge stiffness values (same masses, same
+    released and rigid directions), each scaled by s_i, has K_new between min(1, s_i) K_old
+    and max(1, s_i) K_old, so by Courant-Fischer its k-th natural frequency lies in
+    [f_k √min(1, s_i), f_k √max(1, s_i)] around the last design's k-th one. When those
+    brackets of the n + 1 lowest roots do not overlap, each holds exactly its own roots:
+    Newton tracks them from the last design with no assembled solve, each certified inside
+    its bracket as usual (contracting steps, right multiplicity), and det U_all must change
+    sign between them as their multiplicities say. Otherwise (large steps, a split repeated
+    root) the assembled estimates are used as usual.
     """
     token = _CONTINUATION.set(key)
     try:
@@ -101,7 +106,8 @@ def continuation(key):
 
 
 _CONTINUATION: contextvars.ContextVar = contextvars.ContextVar("continuation", default=None)
-_LAST_ROOTS: dict = {}  # continuation key -> (hinge pattern, roots [Hz], rigid-body modes)
+# continuation key -> (masses, hinge pattern, hinge stiffness, roots [Hz], rigid-body modes)
+_LAST_ROOTS: dict = {}
 LAST_ROOTS_KEPT = 8
 
 
@@ -110,26 +116,49 @@ def _hinge_pattern(model: Model) -> tuple:
     return tuple(tuple(np.sign(h.stiffness6) * np.isfinite(h.stiffness6)) for h in model.hinges)
 
 
+def _masses(model: Model) -> str:
+    """Digest of every body (mass, inertia, beam data): the mass matrix of the design."""
+    return hashlib.sha256(pickle.dumps(model.bodies)).hexdigest()
+
+
+def _stiffness_bounds(model: Model, stiffness_before) -> tuple[float, float]:
+    """(min(1, s_i), max(1, s_i)) over the finite nonzero hinge stiffness ratios s_i."""
+    now = np.concatenate([h.stiffness6 for h in model.hinges])
+    before = np.concatenate(stiffness_before)
+    elastic = np.isfinite(now) & (now > 0)
+    ratio = now[elastic] / before[elastic]
+    return min(1.0, float(ratio.min(initial=1.0))), max(1.0, float(ratio.max(initial=1.0)))
+
+
 def _continued(model, count, shapes, t0) -> ModalSolution | None:
     """The first ``count`` modes tracked from the last design's roots, or None (see
     :func:`continuation`)."""
     key = _CONTINUATION.get()
     last = _LAST_ROOTS.get(key) if key is not None else None
-    if last is None or last[0] != _hinge_pattern(model) or last[1].size < count + 1:
+    if (
+        last is None
+        or last[0] != _masses(model)
+        or last[1] != _hinge_pattern(model)
+        or last[3].size < count + 1
+    ):
         return None
+    low, high = _stiffness_bounds(model, last[2])
+    start = last[3][: count + 1]
     system = TransferSystem(model)
-    roots = continued_roots(system, last[1][: count + 1])
+    roots = continued_roots(system, start, start * np.sqrt(low), start * np.sqrt(high))
     if roots is None:
         return None
     f, z = roots.frequencies_hz[:count], roots.null_vectors[:count]
     modes = mode_shapes(system, f, z) if shapes else None
-    _remember(key, model, roots.frequencies_hz, last[2])
-    return ModalSolution(f, system.order, "mstmm", count, last[2], modes, time.perf_counter() - t0)
+    _remember(key, model, roots.frequencies_hz, last[4])
+    return ModalSolution(f, system.order, "mstmm", count, last[4], modes, time.perf_counter() - t0)
 
 
 def _remember(key, model, roots_hz, rigid_body_modes) -> None:
     _LAST_ROOTS.pop(key, None)
-    _LAST_ROOTS[key] = (_hinge_pattern(model), np.array(roots_hz), rigid_body_modes)
+    stiffness = [h.stiffness6.copy() for h in model.hinges]
+    entry = (_masses(model), _hinge_pattern(model), stiffness, np.array(roots_hz))
+    _LAST_ROOTS[key] = (*entry, rigid_body_modes)
     while len(_LAST_ROOTS) > LAST_ROOTS_KEPT:
         del _LAST_ROOTS[next(iter(_LAST_ROOTS))]
 
