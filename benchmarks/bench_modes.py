@@ -10,9 +10,15 @@ model at equal accuracy and equal BLAS threads (issue 9).
   at its matching mesh too: eigh on (K, M) loses eps * lambda_max and may never reach the
   target.
 * Both sides run with one BLAS thread (threadpoolctl), timed in the same run (median).
-Targets: MSTMM / (build + eigh) <= 2 at equal accuracy; printed, never asserted.
+* Sweeps: 30 modes of consecutive designs (head radial air-bearing stiffness in 1 % steps
+  and in the 1.47x steps of studies/sweep-stiffness.toml) with and without continuation;
+  ``ufmt.evaluate`` of new designs (no disk cache) and the share of its modal solve.
+Targets: MSTMM / (build + eigh) <= 2 at equal accuracy, stretch <= 1 with continuation in a
+sweep; new-design evaluate <= 50 ms. Printed, never asserted.
 """
 
+import importlib
+import os
 import statistics
 import time
 
@@ -22,12 +28,15 @@ from threadpoolctl import threadpool_limits
 
 from ufmt.assembled import assemble, assembled_modes, reduced_matrices
 from ufmt.model.load import load_model, packaged_path
-from ufmt.mstmm.solve import solve_modes
+from ufmt.mstmm.solve import continuation, solve_modes
 
 MODES = 30
 REPEATS = 9
 TARGETS = (1e-5, 1e-6)
 MESHES = (2, 3, 4, 5, 6, 8, 10, 12, 15, 20, 25, 30, 40, 48, 64)
+SWEEP_PARAMETER = "head_radial_stiffness_N_m"
+SWEEP_STEPS = {"1 % steps": 1.01, "1.47x steps": 100 ** (1 / 12)}
+SWEEP_DESIGNS = 12
 
 
 def median_seconds(fn) -> float:
@@ -96,6 +105,68 @@ def main() -> None:
             print(
                 f"               build + SVD solve at {e_svd:2d} el/beam {1e3 * t_svd:7.1f} ms;"
                 f" ratio MSTMM / (build + SVD) = {t_mst / t_svd:5.2f}"
+            )
+    reachable = [(target, t) for target, _, t, _, _ in rows if t is not None]
+    sweeps(model, *(reachable[-1] if reachable else (None, None)))
+
+
+def sweep_ms(model, step: float, tracked: bool) -> float:
+    """Mean time per design [ms] of 30 modes with shapes over a stiffness sweep."""
+    from ufmt.evaluate import apply_design, design_value
+
+    value = design_value(model, SWEEP_PARAMETER)
+    designs = [
+        apply_design(model, {SWEEP_PARAMETER: value * step**i}) for i in range(SWEEP_DESIGNS)
+    ]
+    t0 = time.perf_counter()
+    with continuation(("bench", step, time.perf_counter()) if tracked else None):
+        for design in designs:
+            solve_modes(design, count=MODES)
+    return 1e3 * (time.perf_counter() - t0) / len(designs)
+
+
+def evaluate_ms(step: float) -> tuple[float, float]:
+    """Median ``ufmt.evaluate`` time [ms] of new designs and the modal solve's share."""
+    import cProfile
+    import pstats
+
+    ev = importlib.import_module("ufmt.evaluate")
+
+    os.environ["UFMT_CACHE_DIR"] = ""  # no disk cache: every design is computed
+    ev._memory_cached.cache_clear()
+    path = str(ev.model_file(None))
+    base = ev._base_model(path, ev.file_sha256(path))
+    value = ev.design_value(base, SWEEP_PARAMETER)
+    ev.evaluate({}, {})  # warm up: model, tables, imports
+    times = []
+    profile = cProfile.Profile()
+    for i in range(1, SWEEP_DESIGNS + 1):
+        t0 = time.perf_counter()
+        profile.enable()
+        ev.evaluate({SWEEP_PARAMETER: value * step**i}, {})
+        profile.disable()
+        times.append(time.perf_counter() - t0)
+    stats = pstats.Stats(profile).stats
+    modal = sum(v[3] for k, v in stats.items() if k[2] == "solve_modes")
+    total = sum(v[3] for k, v in stats.items() if k[2] == "evaluate" and "evaluate.py" in k[0])
+    return 1e3 * statistics.median(times), modal / total
+
+
+def sweeps(model, target: float | None, t_eigh: float | None) -> None:
+    """Per-design times of sweeps, against build + eigh at ``target`` (``t_eigh`` [s])."""
+    print(f"sweep of {SWEEP_DESIGNS} designs ({SWEEP_PARAMETER}), 30 modes with shapes:")
+    with threadpool_limits(limits=1, user_api="blas"):
+        for label, step in SWEEP_STEPS.items():
+            plain, tracked = sweep_ms(model, step, False), sweep_ms(model, step, True)
+            line = f"  {label:11s}: {plain:6.1f} ms per design, with continuation {tracked:6.1f} ms"
+            if t_eigh:
+                line += f"; ratio to build + eigh at {target:.0e}: {tracked / (1e3 * t_eigh):5.2f}"
+            print(line)
+        for label, step in SWEEP_STEPS.items():
+            ms, share = evaluate_ms(step)
+            print(
+                f"ufmt.evaluate, new design, {label:11s}: {ms:6.1f} ms median (target <= 50), "
+                f"modal solve {100 * share:.0f} %"
             )
 
 

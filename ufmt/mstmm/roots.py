@@ -385,8 +385,10 @@ def continued_roots(
 
     ``start_hz``: the neighbour's lowest roots (ascending, repeated roots repeated);
     [lo_hz, hi_hz]: where each of them is now (Courant-Fischer bounds, see
-    :func:`ufmt.mstmm.solve.continuation`). The brackets of distinct roots must not overlap;
-    Newton starts from the neighbour's roots and must be certified inside them; the sign of
+    :func:`ufmt.mstmm.solve.continuation`). Overlapping brackets form a block, which holds
+    exactly the roots of its clusters (the others lie in their own, disjoint brackets);
+    Newton starts from the neighbour's roots, each must be certified inside its block and
+    no two on one root (checked by ``_newton``); the sign of
     det U_all below the first root and between consecutive roots must flip exactly with
     each root's multiplicity parity (a root the start values miss breaks the pattern).
     """
@@ -395,25 +397,29 @@ def continued_roots(
     first = np.array([i[0] for i in idx])
     lo, hi = np.asarray(lo_hz, dtype=float)[first], np.asarray(hi_hz, dtype=float)[first]
     lo, hi = lo * (1 - 1e-9), hi * (1 + 1e-9)  # the bounds are exact: widen by rounding only
-    if np.any(hi[:-1] >= lo[1:]):
-        return None
+    # overlapping brackets form a block that holds exactly the roots of its clusters
+    block = np.cumsum(np.r_[True, np.maximum.accumulate(hi)[:-1] < lo[1:]]) - 1
+    lo_b = np.minimum.reduceat(lo, np.flatnonzero(np.diff(np.r_[-1, block])))[block]
+    hi_b = np.maximum.reduceat(hi, np.flatnonzero(np.diff(np.r_[-1, block])))[block]
     mult = np.array([i.size for i in idx])
     system.segment_for(float(hi[-1]))
-    # iterates may overshoot a bracket's end (the root on it, e.g. a mode the changed hinge
-    # does not move); they stay between the neighbouring brackets, the root must be inside
-    middle = np.sqrt(hi[:-1] * lo[1:])
+    # iterates may overshoot a block's end (the root on it, e.g. a mode the changed hinge
+    # does not move); they stay between the neighbouring blocks, the root must be inside
+    below = np.r_[0.5 * lo_b[0], np.sqrt(hi_b[:-1] * lo_b[1:])]
+    above = np.r_[np.sqrt(hi_b[:-1] * lo_b[1:]), 2 * hi_b[-1]]
+    below = np.where(np.r_[True, block[1:] != block[:-1]], below, 0.0)
+    below = np.maximum.accumulate(below)
+    above = np.where(np.r_[block[1:] != block[:-1], True], above, np.inf)
+    above = np.minimum.accumulate(above[::-1])[::-1]
     root, ok, basis = _newton(
-        system,
-        TWO_PI * start[first],
-        TWO_PI * np.r_[0.5 * lo[0], middle],
-        TWO_PI * np.r_[middle, 2 * hi[-1]],
-        mult,
-        rtol,
-        all_or_nothing=True,
+        system, TWO_PI * start[first], TWO_PI * below, TWO_PI * above, mult, rtol, True
     )
     root_hz = root / TWO_PI
-    if not (ok.all() and np.all((root_hz >= lo) & (root_hz <= hi))):
+    if not (ok.all() and np.all((root_hz >= lo_b) & (root_hz <= hi_b))):
         return None
+    order = np.argsort(root_hz, kind="stable")  # roots may swap places within a block
+    root, root_hz, mult = root[order], root_hz[order], mult[order]
+    basis = {k: basis[j] for k, j in enumerate(order)}
     gaps = np.r_[0.5 * root[0], np.sqrt(root[1:] * root[:-1])]
     sign = _sign_det(system, gaps)
     flips = sign[1:] * sign[:-1]

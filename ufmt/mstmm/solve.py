@@ -109,6 +109,7 @@ _CONTINUATION: contextvars.ContextVar = contextvars.ContextVar("continuation", d
 # continuation key -> (masses, hinge pattern, hinge stiffness, roots [Hz], rigid-body modes)
 _LAST_ROOTS: dict = {}
 LAST_ROOTS_KEPT = 8
+MAX_TRACKED_SHIFT = 1.05  # continuation only when no root can move by more than this factor
 
 
 def _hinge_pattern(model: Model) -> tuple:
@@ -143,6 +144,8 @@ def _continued(model, count, shapes, t0) -> ModalSolution | None:
     ):
         return None
     low, high = _stiffness_bounds(model, last[2])
+    if high / low > MAX_TRACKED_SHIFT**2:  # Newton from so far away: not worth trying
+        return None
     start = last[3][: count + 1]
     system = TransferSystem(model)
     roots = continued_roots(system, start, start * np.sqrt(low), start * np.sqrt(high))
