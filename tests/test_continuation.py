@@ -14,10 +14,17 @@ from ufmt.mstmm.solve import continuation, solve_modes
 
 
 @pytest.mark.parametrize(
-    ("steps", "assembled_solves"),
-    [((1.0, 1.002, 1.004, 1.006), 1), ((1.0, 1.02, 1.04, 1.06), 1), ((1.0, 1.5, 2.25), 3)],
+    ("steps", "count", "assembled_solves"),
+    [
+        ((1.0, 1.002, 1.004, 1.006), 12, 1),
+        ((1.0, 1.02, 1.04, 1.06), 12, 1),
+        ((1.0, 1.5, 2.25), 12, 3),
+        ((1.0, 1.01, 1.02), 30, 1),  # the brackets of modes 30 and 31 overlap: one block
+    ],
 )
-def test_sweep_with_continuation_equals_independent_solves(monkeypatch, steps, assembled_solves):
+def test_sweep_with_continuation_equals_independent_solves(
+    monkeypatch, steps, count, assembled_solves
+):
     """Stiffness sweeps of the packaged model: oracle = each design solved on its own (with
     the assembled estimates). In small steps only the first design needs the assembled
     solve; in 50 % steps the Courant-Fischer brackets of the 10.2 and 10.4 Hz modes overlap,
@@ -25,14 +32,14 @@ def test_sweep_with_continuation_equals_independent_solves(monkeypatch, steps, a
     base = load_model(packaged_path("ufmt-prior.toml"))
     hinge = base.hinges[0]
     designs = [base.with_hinge(hinge.name, stiffness=hinge.stiffness6[:3] * s) for s in steps]
-    independent = [solve_modes(m, count=12) for m in designs]
+    independent = [solve_modes(m, count=count) for m in designs]
     calls = []
     real = solve_module.assembled_modes
     monkeypatch.setattr(
         solve_module, "assembled_modes", lambda *a, **k: calls.append(1) or real(*a, **k)
     )
     with continuation("sweep"):
-        tracked = [solve_modes(m, count=12) for m in designs]
+        tracked = [solve_modes(m, count=count) for m in designs]
     assert len(calls) == assembled_solves
     for a, b in zip(independent, tracked, strict=True):
         np.testing.assert_allclose(b.frequencies_hz, a.frequencies_hz, rtol=1e-10)
