@@ -38,7 +38,7 @@ def test_sweep_with_continuation_equals_independent_solves(
     monkeypatch.setattr(
         solve_module, "assembled_modes", lambda *a, **k: calls.append(1) or real(*a, **k)
     )
-    with continuation("sweep"):
+    with continuation(("sweep", steps, count)):
         tracked = [solve_modes(m, count=count) for m in designs]
     assert len(calls) == assembled_solves
     for a, b in zip(independent, tracked, strict=True):

@@ -6,9 +6,11 @@ own:
 
 1. **Newton on det, batched over all roots.** Estimates closer than 1e-6 form a cluster of
    multiplicity m (a repeated root of a symmetric structure). From the cluster's estimate,
-   ω ← ω - m / tr(U_all⁻¹ dU_all/dω), the multiplicity-corrected Newton step on det U_all
-   (d ln det U/dω = tr(U⁻¹ U')), converges quadratically for simple and semisimple repeated
-   roots alike. dU/dω is a forward difference of U_all (its entries are smooth in ω).
+   ω_k ← ω_k - m_k / (tr(U_all⁻¹ dU_all/dω) - Σ_j≠k m_j / (ω_k - ω_j)), the
+   multiplicity-corrected Newton step on det U_all (d ln det U/dω = tr(U⁻¹ U')) with the
+   other clusters' current roots divided out (Aberth-Ehrlich), converges at least
+   quadratically for simple and semisimple repeated roots alike and keeps two clusters off
+   one root. dU/dω is a forward difference of U_all (its entries are smooth in ω).
    A cluster is certified when its steps contract superlinearly (a wrong multiplicity
    converges linearly or oscillates), every iterate stays inside the cluster's window
    (half-way, geometrically, to the neighbouring estimates) and no two clusters meet.
@@ -296,7 +298,7 @@ def natural_frequencies(
     return Roots(found, expected, missing_hz, int(mult[ok].sum()), vectors)
 
 
-def _newton(system, omega, lo, hi, mult, rtol, all_or_nothing=False):
+def _newton(system, omega, lo, hi, mult, rtol):
     """Multiplicity-corrected Newton on det U_all, batched over clusters [rad/s].
 
     Returns (roots, certified, null bases): a cluster is certified when its last step is
@@ -307,7 +309,8 @@ def _newton(system, omega, lo, hi, mult, rtol, all_or_nothing=False):
     multiplicity m, U⁻¹ dU/dω has m eigenvalues ≈ 1/(ω - ω_k), all others O(1), so two
     products with an m-column block (QR after each) give an orthonormal basis (size, m) of
     the null space, accurate to the relative distance of the last iterate from the root.
-    ``all_or_nothing`` stops as soon as one cluster leaves its window (continuation).
+    A step that would leave the window (a neighbouring root pulls Newton too far) goes half
+    way to the window's end instead; such a step never counts as converged.
     """
     w = omega.astype(float).copy()
     n = w.size
@@ -317,10 +320,9 @@ def _newton(system, omega, lo, hi, mult, rtol, all_or_nothing=False):
     matrix_shape = (system.size, system.size)
     basis: dict[int, np.ndarray] = {}
     done = np.zeros(n, dtype=bool)
-    alive = np.ones(n, dtype=bool)
     for _ in range(NEWTON_ITERATIONS):
-        act = np.flatnonzero(alive & ~done)
-        if act.size == 0 or (all_or_nothing and not alive.all()):
+        act = np.flatnonzero(~done)
+        if act.size == 0:
             break
         wa = w[act]
         h = DERIVATIVE_STEP * wa
@@ -332,7 +334,10 @@ def _newton(system, omega, lo, hi, mult, rtol, all_or_nothing=False):
         u0, du = u[0], (u[1] - u[0]) / h[:, None, None]
         with np.errstate(all="ignore"):
             product = batched_solve(u0, du)
-            step = mult[act] / np.einsum("nii->n", product)
+            # Aberth: the other clusters' current roots are divided out of det U_all
+            others = mult[None, :] / (wa[:, None] - w[None, :])
+            others[np.arange(act.size), act] = 0.0
+            step = mult[act] / (np.einsum("nii->n", product) - others.sum(axis=1))
         finite = np.isfinite(step)
         step = np.where(finite, step, 0.0)  # exactly singular: ω is the root
         new = wa - step
@@ -341,10 +346,9 @@ def _newton(system, omega, lo, hi, mult, rtol, all_or_nothing=False):
             (size <= ACCEPT_STEP * wa) & (size <= CONTRACTION * previous[act])
         )
         inside = (new >= lo[act]) & (new <= hi[act])
-        w[act] = np.where(inside, new, wa)
+        w[act] = np.where(inside, new, 0.5 * (wa + np.where(new < lo[act], lo[act], hi[act])))
         previous[act] = size
         done[act] = converged & inside
-        alive[act] = inside
         for m in np.unique(mult[act[done[act]]]):
             sel = np.flatnonzero(done[act] & (mult[act] == m))
             x = np.broadcast_to(start[:, :m], (sel.size, start.shape[0], m))
@@ -353,7 +357,7 @@ def _newton(system, omega, lo, hi, mult, rtol, all_or_nothing=False):
                     x, _ = np.linalg.qr(product[sel] @ x)
             for k, j in enumerate(act[sel]):
                 basis[j] = c[j, 0, :, None] * np.real(x[k])
-    ok = done & alive
+    ok = done.copy()
     order = np.flatnonzero(ok)[np.argsort(w[ok])]  # two clusters on one root: both fail
     close = np.flatnonzero(np.diff(w[order]) <= 1e-9 * w[order][1:])
     ok[order[close]] = ok[order[close + 1]] = False
@@ -362,7 +366,8 @@ def _newton(system, omega, lo, hi, mult, rtol, all_or_nothing=False):
 
 def batched_solve(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Batched a⁻¹ b. A matrix that is exactly singular (ω on a root to the last bit) is
-    shifted by 1e-14 of its largest entry on the diagonal, below its rounding noise."""
+    shifted on the diagonal by 1e-14 (1e-12, 1e-10) of its largest entry; inf if still
+    singular."""
     try:
         return np.linalg.solve(a, b)
     except np.linalg.LinAlgError:
@@ -370,10 +375,13 @@ def batched_solve(a: np.ndarray, b: np.ndarray) -> np.ndarray:
         out = np.empty(b.shape, dtype=np.result_type(a, b))
         eye = np.eye(a.shape[-1])
         for k in range(a.shape[0]):
-            try:
-                out[k] = np.linalg.solve(a[k], b[k])
-            except np.linalg.LinAlgError:
-                out[k] = np.linalg.solve(a[k] + 1e-14 * np.abs(a[k]).max() * eye, b[k])
+            out[k] = np.inf
+            for shift in (0.0, 1e-14, 1e-12, 1e-10):
+                try:
+                    out[k] = np.linalg.solve(a[k] + shift * np.abs(a[k]).max() * eye, b[k])
+                    break
+                except np.linalg.LinAlgError:
+                    continue
         return out
 
 
@@ -412,7 +420,7 @@ def continued_roots(
     above = np.where(np.r_[block[1:] != block[:-1], True], above, np.inf)
     above = np.minimum.accumulate(above[::-1])[::-1]
     root, ok, basis = _newton(
-        system, TWO_PI * start[first], TWO_PI * below, TWO_PI * above, mult, rtol, True
+        system, TWO_PI * start[first], TWO_PI * below, TWO_PI * above, mult, rtol
     )
     root_hz = root / TWO_PI
     if not (ok.all() and np.all((root_hz >= lo_b) & (root_hz <= hi_b))):
