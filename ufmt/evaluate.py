@@ -308,13 +308,11 @@ def _modal_basis(model, key):
     """Modal basis (first N_MODES modes) of ``model``, kept for the last BASIS_CACHE designs so
     that process changes on a known design reuse it."""
     from ufmt.machining.modal import modal_basis
-    from ufmt.mstmm.solve import continuation
 
     with _BASES_LOCK:
         basis = _BASES.pop(key, None)
     if basis is None:
-        with continuation(key[0]):  # start from the last design's roots (ufmt.mstmm.solve)
-            basis = modal_basis(model, N_MODES)
+        basis = modal_basis(model, N_MODES)
     with _BASES_LOCK:
         _BASES[key] = basis
         while len(_BASES) > BASIS_CACHE:
