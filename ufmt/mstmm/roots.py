@@ -330,8 +330,13 @@ def _newton(system, omega, lo, hi, mult, rtol):
         u = system.evaluate(np.concatenate(points)).reshape(len(points), act.size, *matrix_shape)
         if r is None:
             r, c = equilibrate(u[2])
-        u = u[:2] * r[act] * c[act]
-        u0, du = u[0], (u[1] - u[0]) / h[:, None, None]
+        u0, du = u[0], u[1]
+        u0 *= r[act]
+        u0 *= c[act]
+        du *= r[act]
+        du *= c[act]
+        du -= u0
+        du /= h[:, None, None]
         with np.errstate(all="ignore"):
             product = batched_solve(u0, du)
             # Aberth: the other clusters' current roots are divided out of det U_all
