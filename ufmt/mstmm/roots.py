@@ -12,8 +12,9 @@ own:
    quadratically for simple and semisimple repeated roots alike and keeps two clusters off
    one root. dU/dω is a forward difference of U_all (its entries are smooth in ω).
    A cluster is certified when its steps contract superlinearly (a wrong multiplicity
-   converges linearly or oscillates), every iterate stays inside the cluster's window
-   (half-way, geometrically, to the neighbouring estimates) and no two clusters meet.
+   converges linearly or oscillates) inside the cluster's window (half-way, geometrically,
+   to the neighbouring estimates; a step that would leave it goes half-way to its end) and
+   no two clusters meet.
 2. **Fallback scan, only for the clusters Newton could not certify:** the sign of det on a
    grid refined around every estimate, Illinois refinement of each sign change, and a golden
    section on the smallest singular values for even-multiplicity roots the sign cannot see.
@@ -303,8 +304,8 @@ def _newton(system, omega, lo, hi, mult, rtol):
 
     Returns (roots, certified, null bases): a cluster is certified when its last step is
     below ``rtol`` or, being below ACCEPT_STEP, contracted superlinearly from the previous
-    one, and every iterate stayed within [lo, hi]. Rows and columns are scaled once per
-    cluster, off the root, so that the LU solves see O(1) entries (the scaling cancels in
+    one, inside [lo, hi]. Rows and columns are scaled once per cluster, off the root (at
+    the first ω + dω), so that the LU solves see O(1) entries (the scaling cancels in
     tr(U⁻¹ dU)). The null space comes with the last step for free: near a root of
     multiplicity m, U⁻¹ dU/dω has m eigenvalues ≈ 1/(ω - ω_k), all others O(1), so two
     products with an m-column block (QR after each) give an orthonormal basis (size, m) of
@@ -326,10 +327,9 @@ def _newton(system, omega, lo, hi, mult, rtol):
             break
         wa = w[act]
         h = DERIVATIVE_STEP * wa
-        points = [wa, wa + h] if r is not None else [wa, wa + h, wa * OFF_ROOT]
-        u = system.evaluate(np.concatenate(points)).reshape(len(points), act.size, *matrix_shape)
-        if r is None:
-            r, c = equilibrate(u[2])
+        u = system.evaluate(np.concatenate([wa, wa + h])).reshape(2, act.size, *matrix_shape)
+        if r is None:  # at ω(1 + DERIVATIVE_STEP): off the root even from an exact start
+            r, c = equilibrate(u[1])
         u0, du = u[0], u[1]
         u0 *= r[act]
         u0 *= c[act]
