@@ -450,6 +450,29 @@ def _svd(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return s, vh
 
 
+def _condensed(am: AssembledModel):
+    """Massive and massless bases, ``F_a``, ``F_red = (I - P_b) F_a`` and the QR of F_b
+    (see :func:`_solve`)."""
+    basis, independent = _constraint_basis(am.constraints, am.massless)
+    t_a, t_b = _split_massless(am, basis, independent)
+    _check_no_massless_mechanism(am, t_b)
+    f_a = am.deformation @ t_a
+    f_b = am.deformation @ t_b
+    scale_b = np.linalg.norm(f_b, axis=0)
+    q_b, r_b = np.linalg.qr(f_b / scale_b)
+    f_red = f_a - q_b @ (q_b.T @ f_a)
+    return t_a, t_b, f_a, f_red, (q_b, r_b, scale_b)
+
+
+def reduced_matrices(am: AssembledModel) -> tuple[np.ndarray, np.ndarray, int]:
+    """Stiffness [N/m...] and mass [kg...] on the independent massive dofs, and the number
+    of zero-frequency modes: ``K_red = F_red^T F_red`` (exact static condensation of the
+    massless dofs, see :func:`_solve`), ``M_red = T_a^T M T_a``. For eigen-solvers that
+    take (K, M), e.g. ``scipy.linalg.eigh(K, M, subset_by_index=...)`` (benchmarks)."""
+    t_a, _, _, f_red, _ = _condensed(am)
+    return f_red.T @ f_red, t_a.T @ am.M @ t_a, _zero_mode_count(am)
+
+
 def _solve(am: AssembledModel) -> tuple[np.ndarray, np.ndarray, int]:
     """Nonzero angular frequencies [rad/s] ascending, mass-normalised shapes, zero-mode count.
 
@@ -460,16 +483,9 @@ def _solve(am: AssembledModel) -> tuple[np.ndarray, np.ndarray, int]:
     ``S M_a S = L L^T``, omega are the singular values of ``F_red S L^-T`` and the right
     singular vectors v give ``a = S L^-T v`` (``a^T M_a a = 1``).
     """
-    basis, independent = _constraint_basis(am.constraints, am.massless)
-    t_a, t_b = _split_massless(am, basis, independent)
-    _check_no_massless_mechanism(am, t_b)
+    t_a, t_b, f_a, f_red, (q_b, r_b, scale_b) = _condensed(am)
     zero_modes = _zero_mode_count(am)
     n_modes = t_a.shape[1] - zero_modes
-    f_a = am.deformation @ t_a
-    f_b = am.deformation @ t_b
-    scale_b = np.linalg.norm(f_b, axis=0)
-    q_b, r_b = np.linalg.qr(f_b / scale_b)
-    f_red = f_a - q_b @ (q_b.T @ f_a)
     m_a = t_a.T @ am.M @ t_a
     scale = 1.0 / np.sqrt(np.diag(m_a))
     chol = np.linalg.cholesky(scale[:, None] * m_a * scale[None, :])

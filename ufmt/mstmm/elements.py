@@ -153,11 +153,12 @@ def beam_local(omega: np.ndarray, beam: Beam, length: float | None = None) -> np
     Derived from eq. 3.3 in the state conventions of this module (the printed eq. 2.12 mixes
     λy and λz and has sign slips). Local axes: x1 along the beam from input to output; bending
     in the x1-y plane uses I_z (θz = v'), in the x1-z plane I_y (θy = -w'). ``length`` [m]
-    gives the transfer over a part of the beam (default: the whole beam).
+    gives the transfer over a part of the beam (default: the whole beam); an array of the
+    shape of ``omega`` gives one length per frequency.
     """
     w2 = np.asarray(omega, dtype=float) ** 2
     n = w2.size
-    L = beam.length if length is None else length
+    L = beam.length if length is None else np.asarray(length, dtype=float)
     rho, E, G = beam.density, beam.youngs_modulus, beam.shear_modulus
     A, Iy, Iz = beam.area, beam.second_moment_y, beam.second_moment_z
     u = np.zeros((n, 12, 12))
@@ -204,7 +205,8 @@ def beam_local(omega: np.ndarray, beam: Beam, length: float | None = None) -> np
 def beam(omega: np.ndarray, beam: Beam, p_in, p_out, length: float | None = None) -> np.ndarray:
     """Beam transfer matrix from end ``p_in`` towards end ``p_out`` in the global frame [SI].
 
-    ``length`` [m] stops the transfer part-way along the beam (for mode shapes).
+    ``length`` [m] (scalar, or one per ω) stops the transfer part-way along the beam (for
+    mode shapes).
     """
     r = beam_frame(beam, p_in, p_out)
     t = np.zeros((12, 12))

@@ -81,19 +81,16 @@ class State:
 
 
 def _assemble(blocks: list[State], n_omega: int, n: int) -> np.ndarray:
-    """Stack equation blocks into the dense (n_omega, n, n) matrix with one scatter."""
-    flat, values, r0 = [], [], 0
+    """Stack equation blocks into the dense (n_omega, n, n) matrix, one slice per block."""
+    if sum(b.arr.shape[1] for b in blocks) != n:  # pragma: no cover - counting argument
+        raise AssertionError(f"U_all has the wrong number of rows for {n} unknowns")
+    u = np.zeros((n_omega, n, n), dtype=np.result_type(*[b.arr for b in blocks]))
+    r0 = 0
     for b in blocks:
         r = b.arr.shape[1]
-        flat.append(((r0 + np.arange(r))[:, None] * n + b.cols[None, :]).ravel())
-        values.append(b.arr.reshape(n_omega, -1))
+        u[:, r0 : r0 + r, b.cols] = b.arr
         r0 += r
-    if r0 != n:  # pragma: no cover - guarded by the counting argument
-        raise AssertionError(f"U_all has {r0} rows for {n} unknowns")
-    vals = np.concatenate(values, axis=1)
-    u = np.zeros((n_omega, n * n), dtype=vals.dtype)
-    u[:, np.concatenate(flat)] = vals
-    return u.reshape(n_omega, n, n)
+    return u
 
 
 def _unknown_state(n_omega: int, columns: np.ndarray) -> State:

@@ -1,17 +1,29 @@
 """Natural frequencies: every root of det U_all(ω) = 0 in (0, f_max] (paper eq. 2.23).
 
-det U_all has no poles for these elements, so it changes sign only at roots of odd
-multiplicity. The assembled mass-stiffness model of the same file (``ufmt.assembled``) counts
-the roots and says where they are; the MSTMM then finds each one on its own:
+The assembled mass-stiffness model of the same file (``ufmt.assembled``) counts the roots and
+says where they are (within ~1e-5 on the packaged model); the MSTMM then finds each one on its
+own:
 
-1. sign of det on a grid refined around every estimate (geometric steps down to 1e-7) and at
-   the midpoints between neighbouring estimates, plus a uniform background grid;
-2. every sign change is refined by a vectorised Illinois (regula falsi) iteration on det of
-   the row/column-equilibrated U_all (positive scaling, so the sign is unchanged);
-3. where fewer roots than estimates were found (a repeated root of a symmetric structure, or an
-   even-multiplicity cluster) the smallest singular values of U_all are minimised by golden
-   section; a root is accepted when they fall by many orders of magnitude, and its multiplicity
-   is the number of singular values that vanish together.
+1. **Newton on det, batched over all roots.** Estimates closer than 1e-6 form a cluster of
+   multiplicity m (a repeated root of a symmetric structure). From the cluster's estimate,
+   ω_k ← ω_k - m_k / (tr(U_all⁻¹ dU_all/dω) - Σ_j≠k m_j / (ω_k - ω_j)), the
+   multiplicity-corrected Newton step on det U_all (d ln det U/dω = tr(U⁻¹ U')) with the
+   other clusters' current roots divided out (Aberth-Ehrlich), converges at least
+   quadratically for simple and semisimple repeated roots alike and keeps two clusters off
+   one root. dU/dω is a forward difference of U_all (its entries are smooth in ω).
+   A cluster is certified when its steps contract superlinearly (a wrong multiplicity
+   converges linearly or oscillates) inside the cluster's window (half-way, geometrically,
+   to the neighbouring estimates; a step that would leave it goes half-way to its end) and
+   no two clusters meet.
+2. **Fallback scan, only for the clusters Newton could not certify:** the sign of det on a
+   grid refined around every estimate, Illinois refinement of each sign change, and a golden
+   section on the smallest singular values for even-multiplicity roots the sign cannot see.
+3. **Continuation** (:func:`continued_roots`): in a sweep over hinge stiffnesses the roots
+   are tracked from the neighbouring design's inside Courant-Fischer brackets, without the
+   assembled model (see :func:`ufmt.mstmm.solve.continuation`).
+4. **Never lose a root.** A cluster whose roots neither method finds is reported in
+   :attr:`Roots.missing_hz`; :func:`ufmt.mstmm.solve.solve_modes` then raises
+   :class:`RootsLostError` naming the missing frequencies.
 """
 
 from __future__ import annotations
@@ -20,12 +32,18 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ufmt.errors import UfmtError
 from ufmt.mstmm.overall import TransferSystem, equilibrate
 
 TWO_PI = 2.0 * np.pi
 STEPS = np.array([3e-2, 1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7])
 NOISE_RTOL = 1e-5  # sign flips of det closer than this (relative) are rounding noise
 OFF_ROOT = 1.0 + 3.7e-3  # a generic point near a root, where the scaling of U_all is taken
+NEWTON_ITERATIONS = 8
+DERIVATIVE_STEP = 1e-7  # relative forward-difference step for dU/dω
+ACCEPT_STEP = 1e-8  # a contracting Newton step this small (relative) ends the iteration
+CONTRACTION = 0.1  # |step_k| <= CONTRACTION |step_k-1|: superlinear, right multiplicity
+CLUSTER_RTOL = 1e-6  # estimates closer than this (relative) are one repeated root
 
 
 @dataclass(frozen=True)
@@ -34,6 +52,15 @@ class Roots:
 
     frequencies_hz: np.ndarray
     expected: int  # how many the assembled model counts in (0, f_max]
+    missing_hz: np.ndarray  # assembled estimates in (0, f_max] whose root was not found
+    newton: int = 0  # roots certified by Newton (the rest came from the fallback scan)
+    # (n, size) null vectors of U_all per root, an orthonormal basis over a repeated root
+    # (NaN rows for roots of the fallback scan: see ufmt.mstmm.modes.null_vectors)
+    null_vectors: np.ndarray | None = None
+
+
+class RootsLostError(UfmtError):
+    """Fewer MSTMM roots than the assembled model counts: never returned silently."""
 
 
 def _sign_det(system: TransferSystem, omega: np.ndarray) -> np.ndarray:
@@ -135,20 +162,8 @@ def _golden_nullity(system, centre, lo, hi, k, iters=48):
     return w, s_min, s_ends
 
 
-def natural_frequencies(
-    system: TransferSystem, fmax_hz: float, estimates_hz, rtol: float = 1e-12
-) -> Roots:
-    """Every natural frequency in (0, fmax_hz] [Hz], to relative precision ``rtol``.
-
-    ``estimates_hz`` are the assembled model's nonzero frequencies (ascending, repeated roots
-    repeated); they bracket and count the roots, the MSTMM values are computed independently.
-    """
-    system.segment_for(fmax_hz)
-    est = np.sort(np.asarray(estimates_hz, dtype=float))
-    est = est[est > 0]
-    expected = int(np.sum(est <= fmax_hz))
-    if est.size == 0:
-        return Roots(np.zeros(0), 0)
+def _scan(system: TransferSystem, fmax_hz: float, est: np.ndarray, rtol: float) -> np.ndarray:
+    """Fallback: roots [Hz] from the sign of det on a refined grid (module docstring, 2.)."""
     f_lo = 0.5 * est[0]
     near = est[est <= fmax_hz * 1.05]
     grid = [np.linspace(f_lo, fmax_hz, 64), near, np.sqrt(near[1:] * near[:-1])]
@@ -163,8 +178,7 @@ def natural_frequencies(
     found = np.sort(np.concatenate([roots_w, exact])) / TWO_PI
     windows = _windows(near, f_lo, fmax_hz)
     found = _merge_noise_roots(found, windows)
-    found = _add_even_roots(system, found, windows, fmax_hz)
-    return Roots(found, expected)
+    return _add_even_roots(system, found, windows, fmax_hz)
 
 
 def _add_even_roots(system, found, windows, fmax_hz):
@@ -231,9 +245,199 @@ def _merge_noise_roots(found: np.ndarray, windows) -> np.ndarray:
     return out
 
 
-def _clusters(est: np.ndarray, rel: float = 1e-6) -> list[np.ndarray]:
+def _clusters(est: np.ndarray, rel: float = CLUSTER_RTOL) -> list[np.ndarray]:
     """Group estimates closer than ``rel`` (relative) into clusters of repeated roots."""
     if est.size == 0:
         return []
     breaks = np.flatnonzero(np.diff(est) > rel * est[1:]) + 1
     return np.split(np.arange(est.size), breaks)
+
+
+def natural_frequencies(
+    system: TransferSystem, fmax_hz: float, estimates_hz, rtol: float = 1e-12
+) -> Roots:
+    """Every natural frequency in (0, fmax_hz] [Hz], to relative precision ``rtol``.
+
+    ``estimates_hz`` are the assembled model's nonzero frequencies (ascending, repeated roots
+    repeated); they bracket and count the roots, the MSTMM values are computed independently.
+    A root the assembled model counts but neither Newton nor the fallback scan finds is
+    listed in ``missing_hz`` (never dropped silently).
+    """
+    system.segment_for(fmax_hz)
+    est = np.sort(np.asarray(estimates_hz, dtype=float))
+    est = est[est > 0]
+    expected = int(np.sum(est <= fmax_hz))
+    if est.size == 0:
+        return Roots(np.zeros(0), 0, np.zeros(0), 0, np.zeros((0, system.size)))
+    near = est[est <= fmax_hz * 1.05]
+    windows = _windows(near, 0.5 * est[0], fmax_hz)
+    centre = np.array([c for _, c, _, _ in windows])
+    lo = np.array([a for _, _, a, _ in windows])
+    hi = np.array([b for _, _, _, b in windows])
+    mult = np.array([len(idx) for idx, _, _, _ in windows])
+    root, ok, basis = _newton(system, TWO_PI * centre, TWO_PI * lo, TWO_PI * hi, mult, rtol)
+    root /= TWO_PI
+    found = np.repeat(root[ok], mult[ok])
+    vectors = [basis[j].T for j in np.flatnonzero(ok)]
+    if not ok.all():
+        scanned = _scan(system, fmax_hz, est, rtol)
+        inside = np.zeros(scanned.size, dtype=bool)
+        for j in np.flatnonzero(~ok):
+            inside |= (scanned >= lo[j]) & (scanned <= hi[j])
+        found = np.concatenate([found, scanned[inside]])
+        vectors.append(np.full((int(inside.sum()), system.size), np.nan))
+    vectors = np.concatenate(vectors) if vectors else np.zeros((0, system.size))
+    keep = np.flatnonzero(found <= fmax_hz)
+    order = keep[np.argsort(found[keep], kind="stable")]
+    found, vectors = found[order], vectors[order]
+    missing = [
+        np.full(m - np.sum((found >= a) & (found <= b)), c)
+        for c, a, b, m in zip(centre, lo, hi, mult, strict=True)
+        if c <= fmax_hz and np.sum((found >= a) & (found <= b)) < m
+    ]
+    missing_hz = np.concatenate(missing) if missing else np.zeros(0)
+    return Roots(found, expected, missing_hz, int(mult[ok].sum()), vectors)
+
+
+def _newton(system, omega, lo, hi, mult, rtol):
+    """Multiplicity-corrected Newton on det U_all, batched over clusters [rad/s].
+
+    Returns (roots, certified, null bases): a cluster is certified when its last step is
+    below ``rtol`` or, being below ACCEPT_STEP, contracted superlinearly from the previous
+    one, inside [lo, hi]. Rows and columns are scaled once per cluster, off the root (at
+    the first ω + dω), so that the LU solves see O(1) entries (the scaling cancels in
+    tr(U⁻¹ dU)). The null space comes with the last step for free: near a root of
+    multiplicity m, U⁻¹ dU/dω has m eigenvalues ≈ 1/(ω - ω_k), all others O(1), so two
+    products with an m-column block (QR after each) give an orthonormal basis (size, m) of
+    the null space, accurate to the relative distance of the last iterate from the root.
+    A step that would leave the window (a neighbouring root pulls Newton too far) goes half
+    way to the window's end instead; such a step never counts as converged.
+    """
+    w = omega.astype(float).copy()
+    n = w.size
+    r = c = None  # the scaling, from the first evaluation (one walk of the transfer graph)
+    previous = np.full(n, np.inf)
+    start = np.random.default_rng(0).standard_normal((system.size, int(mult.max())))
+    matrix_shape = (system.size, system.size)
+    basis: dict[int, np.ndarray] = {}
+    done = np.zeros(n, dtype=bool)
+    for _ in range(NEWTON_ITERATIONS):
+        act = np.flatnonzero(~done)
+        if act.size == 0:
+            break
+        wa = w[act]
+        h = DERIVATIVE_STEP * wa
+        u = system.evaluate(np.concatenate([wa, wa + h])).reshape(2, act.size, *matrix_shape)
+        if r is None:  # at ω(1 + DERIVATIVE_STEP): off the root even from an exact start
+            r, c = equilibrate(u[1])
+        u0, du = u[0], u[1]
+        u0 *= r[act]
+        u0 *= c[act]
+        du *= r[act]
+        du *= c[act]
+        du -= u0
+        du /= h[:, None, None]
+        with np.errstate(all="ignore"):
+            product = batched_solve(u0, du)
+            # Aberth: the other clusters' current roots are divided out of det U_all
+            others = mult[None, :] / (wa[:, None] - w[None, :])
+            others[np.arange(act.size), act] = 0.0
+            step = mult[act] / (np.einsum("nii->n", product) - others.sum(axis=1))
+        finite = np.isfinite(step)
+        step = np.where(finite, step, 0.0)  # exactly singular: ω is the root
+        new = wa - step
+        size = np.abs(step)
+        converged = (size <= rtol * wa) | (
+            (size <= ACCEPT_STEP * wa) & (size <= CONTRACTION * previous[act])
+        )
+        inside = (new >= lo[act]) & (new <= hi[act])
+        w[act] = np.where(inside, new, 0.5 * (wa + np.where(new < lo[act], lo[act], hi[act])))
+        previous[act] = size
+        done[act] = converged & inside
+        for m in np.unique(mult[act[done[act]]]):
+            sel = np.flatnonzero(done[act] & (mult[act] == m))
+            x = np.broadcast_to(start[:, :m], (sel.size, start.shape[0], m))
+            with np.errstate(all="ignore"):
+                for _ in range(2):
+                    x, _ = np.linalg.qr(product[sel] @ x)
+            for k, j in enumerate(act[sel]):
+                basis[j] = c[j, 0, :, None] * np.real(x[k])
+    ok = done.copy()
+    order = np.flatnonzero(ok)[np.argsort(w[ok])]  # two clusters on one root: both fail
+    close = np.flatnonzero(np.diff(w[order]) <= 1e-9 * w[order][1:])
+    ok[order[close]] = ok[order[close + 1]] = False
+    return w, ok, basis
+
+
+def batched_solve(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Batched a⁻¹ b. A matrix that is exactly singular (ω on a root to the last bit) is
+    shifted on the diagonal by 1e-14 (1e-12, 1e-10) of its largest entry; inf if still
+    singular."""
+    try:
+        return np.linalg.solve(a, b)
+    except np.linalg.LinAlgError:
+        b = np.broadcast_to(b, (*a.shape[:-1], b.shape[-1]))
+        out = np.empty(b.shape, dtype=np.result_type(a, b))
+        eye = np.eye(a.shape[-1])
+        for k in range(a.shape[0]):
+            out[k] = np.inf
+            for shift in (0.0, 1e-14, 1e-12, 1e-10):
+                try:
+                    out[k] = np.linalg.solve(a[k] + shift * np.abs(a[k]).max() * eye, b[k])
+                    break
+                except np.linalg.LinAlgError:
+                    continue
+        return out
+
+
+def continued_roots(
+    system: TransferSystem, start_hz, lo_hz, hi_hz, rtol: float = 1e-12
+) -> Roots | None:
+    """The roots of ``system`` tracked from a neighbouring design's, or None if they cannot
+    be certified without the assembled count.
+
+    ``start_hz``: the neighbour's lowest roots (ascending, repeated roots repeated);
+    [lo_hz, hi_hz]: where each of them is now (Courant-Fischer bounds, see
+    :func:`ufmt.mstmm.solve.continuation`). Overlapping brackets form a block, which holds
+    exactly the roots of its clusters (the others lie in their own, disjoint brackets);
+    Newton starts from the neighbour's roots, each must be certified inside its block and
+    no two on one root (checked by ``_newton``); the sign of
+    det U_all below the first root and between consecutive roots must flip exactly with
+    each root's multiplicity parity (a root the start values miss breaks the pattern).
+    """
+    start = np.asarray(start_hz, dtype=float)
+    idx = _clusters(start)
+    first = np.array([i[0] for i in idx])
+    lo, hi = np.asarray(lo_hz, dtype=float)[first], np.asarray(hi_hz, dtype=float)[first]
+    lo, hi = lo * (1 - 1e-9), hi * (1 + 1e-9)  # the bounds are exact: widen by rounding only
+    # overlapping brackets form a block that holds exactly the roots of its clusters
+    block = np.cumsum(np.r_[True, np.maximum.accumulate(hi)[:-1] < lo[1:]]) - 1
+    lo_b = np.minimum.reduceat(lo, np.flatnonzero(np.diff(np.r_[-1, block])))[block]
+    hi_b = np.maximum.reduceat(hi, np.flatnonzero(np.diff(np.r_[-1, block])))[block]
+    mult = np.array([i.size for i in idx])
+    system.segment_for(float(hi[-1]))
+    # iterates may overshoot a block's end (the root on it, e.g. a mode the changed hinge
+    # does not move); they stay between the neighbouring blocks, the root must be inside
+    below = np.r_[0.5 * lo_b[0], np.sqrt(hi_b[:-1] * lo_b[1:])]
+    above = np.r_[np.sqrt(hi_b[:-1] * lo_b[1:]), 2 * hi_b[-1]]
+    below = np.where(np.r_[True, block[1:] != block[:-1]], below, 0.0)
+    below = np.maximum.accumulate(below)
+    above = np.where(np.r_[block[1:] != block[:-1], True], above, np.inf)
+    above = np.minimum.accumulate(above[::-1])[::-1]
+    root, ok, basis = _newton(
+        system, TWO_PI * start[first], TWO_PI * below, TWO_PI * above, mult, rtol
+    )
+    root_hz = root / TWO_PI
+    if not (ok.all() and np.all((root_hz >= lo_b) & (root_hz <= hi_b))):
+        return None
+    order = np.argsort(root_hz, kind="stable")  # roots may swap places within a block
+    root, root_hz, mult = root[order], root_hz[order], mult[order]
+    basis = {k: basis[j] for k, j in enumerate(order)}
+    gaps = np.r_[0.5 * root[0], np.sqrt(root[1:] * root[:-1])]
+    sign = _sign_det(system, gaps)
+    flips = sign[1:] * sign[:-1]
+    if np.any(sign == 0) or np.any(flips != (-1.0) ** mult[:-1]):
+        return None
+    found = np.repeat(root_hz, mult)
+    vectors = np.concatenate([basis[j].T for j in range(root.size)])
+    return Roots(found, found.size, np.zeros(0), found.size, vectors)

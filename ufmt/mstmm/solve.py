@@ -2,10 +2,16 @@
 
 The assembled mass-stiffness model of the same file counts and brackets the roots; the MSTMM
 finds each one from det U_all(ω) = 0 and builds its shape from the null vector of U_all.
+A root the assembled model counts but the MSTMM cannot find raises :class:`RootsLostError`
+(the CLI prints one line naming the missing frequencies and exits non-zero).
 """
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
+import hashlib
+import pickle
 import time
 from dataclasses import dataclass
 
@@ -14,13 +20,15 @@ from threadpoolctl import threadpool_limits
 
 from ufmt.assembled import assembled_modes
 from ufmt.errors import UfmtError
-from ufmt.model.schema import Model
+from ufmt.model.schema import Beam, Model
 from ufmt.mstmm.modes import ModeShapes, kinetic_terms, mode_shapes
 from ufmt.mstmm.overall import TransferSystem
-from ufmt.mstmm.roots import natural_frequencies
+from ufmt.mstmm.roots import RootsLostError, continued_roots, natural_frequencies
 
 DEFAULT_FMAX_HZ = 1000.0
-BRACKETING_ELEMENTS = 8  # beam elements of the assembled model that only counts and brackets
+# beam elements of the assembled model that only counts and brackets; the finer meshes are
+# tried in turn only when a counted root was not found (estimates too far from the roots)
+BRACKETING_MESHES = (8, 24, 64)
 DIRECTIONS = ("x", "y", "z", "rx", "ry", "rz")
 
 
@@ -169,32 +177,132 @@ def solve_modes(
         return _solve_modes(model, fmax_hz, count, method, shapes)
 
 
+@contextlib.contextmanager
+def continuation(key):
+    """Within this block, ``solve_modes(model, count=n)`` starts from the roots of the last
+    design solved under the same ``key`` (a sweep of one model file over hinge stiffnesses).
+
+    A design that differs from the last one only in hinge stiffness values (same masses, same
+    released and rigid directions), each scaled by s_i, has K_new between min(1, s_i) K_old
+    and max(1, s_i) K_old, so by Courant-Fischer its k-th natural frequency lies in
+    [f_k √min(1, s_i), f_k √max(1, s_i)] around the last design's k-th one. When those
+    brackets of the n + 1 lowest roots do not overlap, each holds exactly its own roots:
+    Newton tracks them from the last design with no assembled solve, each certified inside
+    its bracket as usual (contracting steps, right multiplicity), and det U_all must change
+    sign between them as their multiplicities say. Otherwise (large steps, a split repeated
+    root) the assembled estimates are used as usual.
+    """
+    token = _CONTINUATION.set(key)
+    try:
+        yield
+    finally:
+        _CONTINUATION.reset(token)
+
+
+_CONTINUATION: contextvars.ContextVar = contextvars.ContextVar("continuation", default=None)
+# continuation key -> (masses, hinge pattern, hinge stiffness, roots [Hz], rigid-body modes)
+_LAST_ROOTS: dict = {}
+LAST_ROOTS_KEPT = 8
+MAX_TRACKED_SHIFT = 1.05  # continuation only when no root can move by more than this factor
+
+
+def _hinge_pattern(model: Model) -> tuple:
+    """Which hinge directions are released, elastic or rigid: the topology of U_all."""
+    return tuple(tuple(np.sign(h.stiffness6) * np.isfinite(h.stiffness6)) for h in model.hinges)
+
+
+def _masses(model: Model) -> str:
+    """Digest of every body (mass, inertia, beam data): the mass matrix of the design."""
+    return hashlib.sha256(pickle.dumps(model.bodies)).hexdigest()
+
+
+def _stiffness_bounds(model: Model, stiffness_before) -> tuple[float, float]:
+    """(min(1, s_i), max(1, s_i)) over the finite nonzero hinge stiffness ratios s_i."""
+    now = np.concatenate([h.stiffness6 for h in model.hinges])
+    before = np.concatenate(stiffness_before)
+    elastic = np.isfinite(now) & (now > 0)
+    ratio = now[elastic] / before[elastic]
+    return min(1.0, float(ratio.min(initial=1.0))), max(1.0, float(ratio.max(initial=1.0)))
+
+
+def _continued(model, count, shapes, t0) -> ModalSolution | None:
+    """The first ``count`` modes tracked from the last design's roots, or None (see
+    :func:`continuation`)."""
+    key = _CONTINUATION.get()
+    last = _LAST_ROOTS.get(key) if key is not None else None
+    if (
+        last is None
+        or last[0] != _masses(model)
+        or last[1] != _hinge_pattern(model)
+        or last[3].size < count + 1
+    ):
+        return None
+    low, high = _stiffness_bounds(model, last[2])
+    if high / low > MAX_TRACKED_SHIFT**2:  # Newton from so far away: not worth trying
+        return None
+    start = last[3][: count + 1]
+    system = TransferSystem(model)
+    roots = continued_roots(system, start, start * np.sqrt(low), start * np.sqrt(high))
+    if roots is None:
+        return None
+    f, z = roots.frequencies_hz[:count], roots.null_vectors[:count]
+    modes = mode_shapes(system, f, z) if shapes else None
+    _remember(key, model, roots.frequencies_hz, last[4])
+    return ModalSolution(f, system.order, "mstmm", count, last[4], modes, time.perf_counter() - t0)
+
+
+def _remember(key, model, roots_hz, rigid_body_modes) -> None:
+    _LAST_ROOTS.pop(key, None)
+    stiffness = [h.stiffness6.copy() for h in model.hinges]
+    entry = (_masses(model), _hinge_pattern(model), stiffness, np.array(roots_hz))
+    _LAST_ROOTS[key] = (*entry, rigid_body_modes)
+    while len(_LAST_ROOTS) > LAST_ROOTS_KEPT:
+        del _LAST_ROOTS[next(iter(_LAST_ROOTS))]
+
+
 def _solve_modes(model, fmax_hz, count, method, shapes) -> ModalSolution:
     if fmax_hz is not None and not (np.isfinite(fmax_hz) and fmax_hz > 0):
         raise UfmtError(f"--fmax: {fmax_hz} must be a positive number of Hz")
     if method not in ("mstmm", "assembled"):
         raise UfmtError(f"--method: {method!r} is not one of 'mstmm', 'assembled'")
     t0 = time.perf_counter()
+    tracking = method == "mstmm" and fmax_hz is None and count is not None and count >= 1
+    tracking = tracking and _CONTINUATION.get() is not None
+    if tracking and (solution := _continued(model, count, shapes, t0)) is not None:
+        return solution
     guess_fmax = (DEFAULT_FMAX_HZ if fmax_hz is None else fmax_hz) if count is None else None
-    asm = assembled_modes(
-        model,
-        fmax_hz=_pad(guess_fmax),
-        count=None if count is None else count + 1,
-        elements_per_beam=None if method == "assembled" else BRACKETING_ELEMENTS,
-    )
-    est = np.asarray(asm.frequencies_hz)
-    fmax = _range(fmax_hz, count, est)
-    if method == "assembled":
-        f = est[est <= fmax]
-        return ModalSolution(
-            f, 0, "assembled", f.size, asm.rigid_body_modes, None, time.perf_counter() - t0
+    system = TransferSystem(model) if method == "mstmm" else None
+    for elements in BRACKETING_MESHES:  # a finer mesh only if a root was not found
+        asm = assembled_modes(
+            model,
+            fmax_hz=_pad(guess_fmax),
+            count=None if count is None else count + 1,
+            elements_per_beam=None if method == "assembled" else elements,
         )
-    system = TransferSystem(model)
-    roots = natural_frequencies(system, fmax, est)
-    f = roots.frequencies_hz
-    if count is not None:
-        f = f[:count]
-    modes = mode_shapes(system, f) if shapes and f.size else None
+        est = np.asarray(asm.frequencies_hz)
+        fmax = _range(fmax_hz, count, est)
+        if tracking and est.size > count:  # the next design tracks count + 1 roots
+            fmax = float(est[count]) * (1 + 1e-6)
+        if method == "assembled":
+            f = est[est <= fmax]
+            return ModalSolution(
+                f, 0, "assembled", f.size, asm.rigid_body_modes, None, time.perf_counter() - t0
+            )
+        roots = natural_frequencies(system, fmax, est)
+        if roots.missing_hz.size == 0 or not _has_beams(model):
+            break
+    if roots.missing_hz.size:
+        raise RootsLostError(
+            f"{model.source}: the MSTMM found {roots.frequencies_hz.size} of the "
+            f"{roots.expected} natural frequencies the assembled model counts below "
+            f"{fmax:.6g} Hz; missing near "
+            + ", ".join(f"{x:.6g}" for x in roots.missing_hz)
+            + " Hz"
+        )
+    f, z = roots.frequencies_hz[:count], roots.null_vectors[:count]
+    modes = mode_shapes(system, f, z) if shapes and f.size else None
+    if tracking:
+        _remember(_CONTINUATION.get(), model, roots.frequencies_hz, asm.rigid_body_modes)
     return ModalSolution(
         f,
         system.order,
@@ -204,6 +312,10 @@ def _solve_modes(model, fmax_hz, count, method, shapes) -> ModalSolution:
         modes,
         time.perf_counter() - t0,
     )
+
+
+def _has_beams(model: Model) -> bool:
+    return any(isinstance(b, Beam) for b in model.bodies)
 
 
 def _pad(fmax_hz):
