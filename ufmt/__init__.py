@@ -2,12 +2,14 @@
 
 Public entry points:
 
-- ``ufmt.load_model(path)``: read and validate a model file;
+- ``ufmt.load_model(path=None)``: read and validate a model file (default: the packaged,
+  calibrated UFMT, ``ufmt.packaged_path()``);
 - ``ufmt.solve_modes(model, fmax_hz=None, count=None, method="mstmm")``: natural frequencies
   and mode shapes;
 - ``ufmt.simulate(model, ufmt.Process(rpm, feed_mm_min, depth_um), ...)``: tool-tip response,
   machined surface and its PV;
-- ``ufmt.evaluate(design, process, model=None)``: the study function (design, process) → PV.
+- ``ufmt.evaluate(design, process, model=None)``: the study function (design, process) → PV;
+  ``process`` is a ``ufmt.Process`` or a dict.
 """
 
 __version__ = "0.1.0"
@@ -17,8 +19,8 @@ __version__ = "0.1.0"
 # function whatever is imported later.
 from ufmt.evaluate import evaluate  # noqa: E402
 from ufmt.machining.process import Process  # noqa: E402
-from ufmt.model.load import load_model  # noqa: E402
+from ufmt.model.load import load_model, packaged_path  # noqa: E402
 from ufmt.mstmm.solve import solve_modes  # noqa: E402
 from ufmt.simulate import simulate  # noqa: E402
 
-__all__ = ["Process", "evaluate", "load_model", "simulate", "solve_modes"]
+__all__ = ["Process", "evaluate", "load_model", "packaged_path", "simulate", "solve_modes"]
