@@ -58,6 +58,8 @@ def directory() -> Path | None:
 def _usable(where: str) -> Path | None:
     path = Path(where)
     try:
+        if path.exists() and not path.is_dir():
+            raise NotADirectoryError("not a directory")
         path.mkdir(parents=True, exist_ok=True)
         info = path.stat()
         if not stat.S_ISDIR(info.st_mode):
