@@ -464,8 +464,8 @@ def run_optimise_design(study, evaluator, baseline: Mapping, out_dir: Path) -> s
     ]
     if unknown:
         raise StudyError(
-            f"{study.path}: field 'cost.{unknown[0]}': the calibrated value is unknown"
-            " (the model could not be loaded), so the cost cannot be scaled"
+            f"{study.path}: field 'cost.{unknown[0]}': the calibrated value is not a finite"
+            " number > 0 (released or rigid), so a cost per calibrated multiple is undefined"
         )
     safe_reference = np.where(weights > 0, reference, 1.0)
 

@@ -323,11 +323,13 @@ class Evaluator:
         keys = [k for requested in self._requested.values() for k in requested]
         return pd.DataFrame([self._rows[k] for k in keys], columns=self._log.columns)
 
+    def complete(self) -> None:
+        """Mark the progress bar finished (an optimiser may use less than its budget)."""
+        self._bar.total = self._bar.n
+        self._bar.refresh()
+
     def close(self) -> None:
-        """Close the progress bar (at 100 % if the budget was not used up) and the log."""
-        if self._bar.n < self._bar.total and not sys.exc_info()[0]:
-            self._bar.total = self._bar.n
-            self._bar.refresh()
+        """Close the progress bar and the log."""
         self._bar.close()
         self._log.close()
 
@@ -487,6 +489,7 @@ def _run_locked(study, execution, out_dir, identity, progress, fresh, plots) -> 
             )
             try:
                 headline = _analyse(study, evaluator, baseline, out_dir)
+                evaluator.complete()
                 table = evaluator.table()
             finally:
                 evaluator.close()
