@@ -48,7 +48,11 @@ def location() -> str | None:
 
 def directory() -> Path | None:
     """The usable cache directory, or None (switched off or unusable: warned once)."""
-    where = location()
+    try:
+        where = location()
+    except (RuntimeError, KeyError) as exc:  # no home directory to put the default cache in
+        _warn("~/.cache/ufmt", exc)
+        return None
     if where is None or where in _broken:
         return None
     return _usable(where)

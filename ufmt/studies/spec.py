@@ -15,8 +15,19 @@ A study file names its kind and what to vary. Common top-level fields::
     [base]                               # fixed values for every point (others: calibrated
     rpm = 300.0                          #   design, reference process)
 
-Parameters are named as in :mod:`ufmt.evaluate` (``head_angular_stiffness_Nm_rad``, ``rpm``,
-``hinge.h17.stiffness[2]``, ...). Values along an axis or a bound are given by exactly one of::
+    [design.head_z_N_m]                  # optional: design parameters of this study, added
+    hinge = "h31"                        #   to the model's own [design] table (same schema,
+    field = "stiffness"                  #   see ufmt.model.load.parse_design)
+    components = [2]
+
+Parameters are the model's (and the study's) declared design parameters
+(``head_angular_stiffness_Nm_rad`` on the packaged UFMT), ``hinge.<name>.stiffness[i]`` /
+``hinge.<name>.rotational_stiffness[i]``, and ``rpm``, ``feed_mm_min``, ``depth_um``. The model
+is loaded while the study is parsed, and every value the study can set (base, axis values,
+bound ends; ``scale`` resolved against the calibrated value) is checked with the model
+loader's rules before any point runs: a negative or absurd stiffness, a ``scale`` of a released
+(0) or rigid (inf) component, or a process value <= 0 is a :class:`~ufmt.errors.StudyError`.
+Values along an axis or a bound are given by exactly one of::
 
     values = [1e6, 2e6, 5e6]             # explicit values
     range = [200.0, 400.0]               # absolute low, high (with n and spacing for an axis)
