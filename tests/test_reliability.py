@@ -16,6 +16,7 @@ import signal
 import subprocess
 import sys
 import textwrap
+import threading
 import time
 from pathlib import Path
 
@@ -28,7 +29,14 @@ from ufmt import evaluate_cache
 from ufmt.errors import ModelError, StudyError
 from ufmt.evaluate import apply_design
 from ufmt.jsonout import dumps_strict
-from ufmt.model.load import LIMITS, _toml_value, load_model, load_model_text, model_from_dict
+from ufmt.model.load import (
+    LIMITS,
+    _toml_value,
+    load_model,
+    load_model_text,
+    model_from_dict,
+    model_to_toml,
+)
 from ufmt.studies.outputs import read_meta
 from ufmt.studies.runner import Execution, _locked, planned_points, run_study
 from ufmt.studies.spec import load_study, parse_study
@@ -308,6 +316,15 @@ def test_a_study_declares_its_own_design_parameter_with_did_you_mean(tmp_path):
         parse_study(textwrap.dedent(bad), tmp_path / "bad.toml")
 
 
+def test_design_declarations_survive_the_model_writer():
+    """The calibration writes ufmt.toml from the prior with model_to_toml: the [design] table
+    must come through unchanged."""
+    prior = load_model(ufmt.packaged_path("ufmt-prior.toml"))
+    again = load_model_text(model_to_toml(prior), "again.toml")
+    assert again.design == prior.design == load_model().design
+    assert again.design["head_angular_stiffness_Nm_rad"].components == (0, 1)
+
+
 # ---------------------------------------------------------------------------------------------
 # exit statuses, plots of an all-failed study
 
@@ -485,6 +502,25 @@ def test_sigterm_stops_the_workers_and_leaves_meta_interrupted(tmp_path):
         time.sleep(0.1)
     assert not [c for c in children if _alive(c)]
     out = run_study(study, Execution(jobs=2), results=results, progress=False, plots=False)
+    assert (out / "points.csv").read_bytes() == _reference(tmp_path, "term", body)
+
+
+def test_sigterm_in_process_interrupts_and_a_rerun_resumes(tmp_path):
+    """Small version of the test above: SIGTERM to this process mid-study."""
+    body = RPM_SWEEP.format(n=12)
+    study = study_file(tmp_path, "term", body, "slow_line_pv")
+    results = tmp_path / "r"
+    timer = threading.Timer(1.0, os.kill, (os.getpid(), signal.SIGTERM))
+    timer.start()
+    with pytest.raises(KeyboardInterrupt):
+        run_study(study, Execution(jobs=1), results=results, progress=False, plots=False)
+    timer.join()
+    assert read_meta(results / "term")["status"] == "interrupted"
+    assert signal.getsignal(signal.SIGTERM) == signal.SIG_DFL  # the handler is restored
+    saved = (results / "term" / "points.csv").read_bytes().count(b"\n") - 1
+    assert 1 <= saved < 12
+    out = run_study(study, Execution(jobs=1), results=results, progress=False, plots=False)
+    assert read_meta(out)["run"]["points_reused"] == saved
     assert (out / "points.csv").read_bytes() == _reference(tmp_path, "term", body)
 
 
