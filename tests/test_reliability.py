@@ -26,6 +26,7 @@ from hypothesis import strategies as st
 
 import ufmt
 from ufmt import evaluate_cache
+from ufmt.cli import main
 from ufmt.errors import ModelError, StudyError
 from ufmt.evaluate import apply_design
 from ufmt.jsonout import dumps_strict
@@ -126,7 +127,7 @@ def test_bad_design_and_process_values_are_refused_at_load(tmp_path, axis, phras
     assert phrase in str(error.value)
 
 
-def test_bad_inputs_exit_2_before_any_point_runs(tmp_path):
+def test_bad_inputs_exit_2_before_any_point_runs(tmp_path, capsys):
     bodies = {
         "rpm0": RPM_SWEEP.format(n=3) + "[base]\nrpm = 0.0\n",
         "missing-model": 'model = "nope.toml"\n' + RPM_SWEEP.format(n=3),
@@ -135,9 +136,11 @@ def test_bad_inputs_exit_2_before_any_point_runs(tmp_path):
     }
     (tmp_path / "bad.toml").write_text('name = "x"\n[[body]]\nname = "a"\n', encoding="utf-8")
     for name, body in bodies.items():
-        result = cli("run", study_file(tmp_path, name, body), "--results", tmp_path / "r")
-        assert f"{name}.toml" in one_line_error(result)
-        assert not (tmp_path / "r" / name / "points.csv").exists()
+        path = study_file(tmp_path, name, body)
+        assert main(["run", str(path), "--results", str(tmp_path / "r")]) == 2
+        error = capsys.readouterr().err.strip()
+        assert len(error.splitlines()) == 1 and f"{name}.toml" in error
+        assert not (tmp_path / "r" / name).exists()  # refused before the results exist
 
 
 def test_evaluate_refuses_a_design_value_the_model_file_could_not_hold():
@@ -446,7 +449,8 @@ def test_an_unusable_cache_is_one_warning_and_the_run_goes_on(tmp_path, monkeypa
     with pytest.warns(evaluate_cache.CacheWarning, match="running without the evaluation cache"):
         assert evaluate_cache.directory() is None
     study = study_file(tmp_path, "nocache", RPM_SWEEP.format(n=3))
-    result = cli("run", study, "--results", tmp_path / "r", "--no-plots", "--no-progress")
+    args = ("--results", tmp_path / "r", "--no-plots", "--no-progress", "--jobs", "1")
+    result = cli("run", study, *args)
     assert result.returncode == 0, result.stderr
     warnings_ = result.stderr.splitlines()
     assert len(warnings_) == 1 and warnings_[0].startswith("warning: cache directory")
