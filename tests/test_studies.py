@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -22,7 +23,7 @@ import pytest
 
 from ufmt.errors import StudyError
 from ufmt.evaluate import apply_design, design_value, evaluate
-from ufmt.model.load import packaged_path
+from ufmt.model.load import design_lines, load_model, packaged_path
 from ufmt.studies.optimise import (
     Space,
     fit_convex_quadratic,
@@ -128,7 +129,9 @@ between = ["spindle", "head"]
 at = [0.0, 0.0, 0.1]
 stiffness = [2.0e8, 2.0e8, 5.0e8]
 rotational_stiffness = [3.0e6, 3.0e6, 0.0]
-"""
+""" + "\n".join(  # the packaged model's declarations: head_* on h31, spindle_* on h25
+    line for p in load_model().design.values() for line in design_lines(p)
+)
 
 BASE = """
 [base]
@@ -763,6 +766,9 @@ def test_evaluate_reuses_the_basis_and_caches_on_the_model_content(tmp_path, mon
     for key, value in first.items():  # psd2_rms_nm is NaN (unresolved band) in both
         assert cached[key] == value or (value != value and cached[key] != cached[key])
     with model.open("a", encoding="utf-8") as f:
-        f.write("\n# a comment changes the file's content, hence the cache key\n")
+        f.write("\n# a comment does not change the model's content\n")
+    assert evaluate({}, {}, model) == first
+    text = model.read_text(encoding="utf-8")
+    model.write_text(re.sub(r"force_scale = .*", "force_scale = 40.0", text), encoding="utf-8")
     changed = evaluate({}, {}, model)
     assert changed["status"] == "error" and "must not be recomputed" in changed["message"]

@@ -2,13 +2,14 @@
 
 Public entry points:
 
-- ``ufmt.load_model(path)``: read and validate a model file (``ufmt.packaged_path()`` is the
-  packaged, calibrated UFMT);
+- ``ufmt.load_model(path=None)``: read and validate a model file (default: the packaged,
+  calibrated UFMT, ``ufmt.packaged_path()``);
 - ``ufmt.solve_modes(model, fmax_hz=None, count=None, method="mstmm")``: natural frequencies
   and mode shapes (:class:`ufmt.ModalSolution`: ``.to_frame()``, ``.plot()``, ``.save()``);
 - ``ufmt.simulate(model, ufmt.Process(rpm, feed_mm_min, depth_um), ...)``: tool-tip response,
   machined surface and its PV;
-- ``ufmt.evaluate(design, process, model=None)``: the study function (design, process) → PV.
+- ``ufmt.evaluate(design, process, model=None)``: the study function (design, process) → PV;
+  ``process`` is a ``ufmt.Process`` or a dict.
 """
 
 __version__ = "0.1.0"

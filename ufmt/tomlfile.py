@@ -18,3 +18,10 @@ def read_toml(path: str | Path, error: type[UfmtError] = StudyError) -> dict:
         raise error(f"{where}: file not found") from None
     except tomllib.TOMLDecodeError as exc:
         raise error(f"{where}: malformed TOML: {' '.join(str(exc).split())}") from None
+    except RecursionError:
+        raise error(f"{where}: malformed TOML: values nested too deeply") from None
+    except IsADirectoryError:
+        raise error(f"{where}: is a directory, not a file") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        reason = getattr(exc, "strerror", None) or "not UTF-8 text"
+        raise error(f"{where}: cannot read: {reason}") from None

@@ -1,8 +1,11 @@
 """Command-line interface: ``ufmt modes | simulate | frf | calibrate | validate | plot-mode |
 run | report``; ``ufmt --version``; bare ``ufmt`` prints the help.
 
-User errors (bad model, study or argument) print one line on stderr and exit with status 2;
-no traceback. ``--json`` output is exactly one JSON object on stdout.
+Exit status: 0 success; 1 ``ufmt run`` finished but some points failed (a summary line on
+stderr; each failure's message is in points.csv); 2 a user error (bad model, study, argument or
+results directory; another run holding the results) as one line on stderr, no traceback;
+130 interrupted (Ctrl-C or SIGTERM; finished study rows are kept). ``--json`` output is exactly
+one strict JSON object on stdout.
 """
 
 from __future__ import annotations
@@ -11,6 +14,7 @@ import argparse
 import sys
 import warnings
 
+import numpy as np
 from threadpoolctl import threadpool_limits
 
 from ufmt import __version__
@@ -28,6 +32,10 @@ DESCRIPTION = (
     "parameter studies and an HTML report. MODEL defaults to the packaged, calibrated UFMT."
 )
 
+#: Highest --fmax [Hz]: beyond it the rigid-body model is out of its scope and the transfer
+#: matrices of the MSTMM determinant lose their conditioning.
+MAX_MODE_FREQUENCY_HZ = 2e4
+
 
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="ufmt", description=DESCRIPTION)
@@ -35,7 +43,11 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", title="commands")
     p = sub.add_parser("modes", help="natural frequencies and mode descriptions")
     p.add_argument("model", nargs="?", help="model TOML (default: packaged UFMT)")
-    p.add_argument("--fmax", type=positive(float), help="upper frequency [Hz] (default 1000)")
+    p.add_argument(
+        "--fmax",
+        type=positive(float, at_most=MAX_MODE_FREQUENCY_HZ),
+        help="upper frequency [Hz] (default 1000, at most 20000)",
+    )
     p.add_argument("--count", type=positive(int), help="number of modes")
     p.add_argument("--method", choices=["mstmm", "assembled"], default="mstmm")
     p.add_argument("--json", action="store_true", help="one JSON object on stdout")
@@ -79,5 +91,14 @@ def _main(argv) -> int:
         print(f"ufmt {args.command}: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        print(f"ufmt {args.command}: interrupted", file=sys.stderr)
+        print(f"ufmt {args.command}: interrupted (finished results are kept)", file=sys.stderr)
         return 130
+    except (MemoryError, RecursionError, np.linalg.LinAlgError) as exc:
+        # a last guard: the input checks should have refused what causes these
+        reason = " ".join(str(exc).split()) or "out of memory"
+        print(
+            f"ufmt {args.command}: error: {type(exc).__name__}: {reason} (input too large or"
+            " too extreme for the solver)",
+            file=sys.stderr,
+        )
+        return 2

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 
 
 def load(path: str | None):
@@ -12,16 +13,21 @@ def load(path: str | None):
     return load_model(path or packaged_path())
 
 
-def positive(kind):
-    """argparse type: a number of ``kind`` that must be > 0."""
+def positive(kind, below=None, at_most=None):
+    """argparse type: a finite number of ``kind`` that must be > 0 (and < ``below``, <=
+    ``at_most`` if given)."""
 
     def parse(text):
         try:
             value = kind(text)
         except ValueError:
             raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-        if not value > 0:
-            raise argparse.ArgumentTypeError(f"{text} must be > 0")
+        if not (value > 0 and math.isfinite(value)):
+            raise argparse.ArgumentTypeError(f"{text} must be a finite number > 0")
+        if below is not None and not value < below:
+            raise argparse.ArgumentTypeError(f"{text} must be < {below:g}")
+        if at_most is not None and not value <= at_most:
+            raise argparse.ArgumentTypeError(f"{text} must be <= {at_most:g}")
         return value
 
     return parse

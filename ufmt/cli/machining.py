@@ -29,7 +29,10 @@ def register(subparsers) -> None:
     )
     p.add_argument("--modes", type=positive(int), default=30, help="modes kept (30)")
     p.add_argument(
-        "--zeta", type=positive(float), default=None, help="modal damping ratio (default 0.03)"
+        "--zeta",
+        type=positive(float, below=1.0),
+        default=None,
+        help="modal damping ratio (default 0.03)",
     )
     p.add_argument(
         "--sources",
@@ -60,9 +63,13 @@ def register(subparsers) -> None:
     p.add_argument("model", nargs="?", help="model TOML (default: packaged UFMT)")
     p.add_argument("--fmin", type=positive(float), default=1.0, help="[Hz] (1)")
     p.add_argument("--fmax", type=positive(float), default=1000.0, help="[Hz] (1000)")
-    p.add_argument("--points", type=positive(int), default=4000, help="log-spaced (4000)")
+    p.add_argument(
+        "--points", type=positive(int, at_most=10**6), default=4000, help="log-spaced (4000)"
+    )
     p.add_argument("--modes", type=positive(int), default=30, help="modes kept (30)")
-    p.add_argument("--zeta", type=positive(float), default=None, help="damping ratio (0.03)")
+    p.add_argument(
+        "--zeta", type=positive(float, below=1.0), default=None, help="damping ratio (0.03)"
+    )
     p.add_argument("--no-static", action="store_true", help="modal sum without static correction")
     p.add_argument("--output-dir", default=str(DEFAULT_FRF_DIR), help=f"({DEFAULT_FRF_DIR})")
     p.add_argument("--json", action="store_true", help="summary as one JSON object")

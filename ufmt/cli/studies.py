@@ -20,11 +20,16 @@ Arguments of ``ufmt run`` (built by :func:`add_run_parser`):
 ``--no-plots``
     Skip the PNG plots.
 
+Exit status: 0 every point succeeded; 1 the study finished but some points failed (one summary
+line on stderr; the messages are in points.csv); 2 wrong input, found before any point runs
+(study file, model file, a design or process value, ``--results``, ``--scheduler``, another run
+writing the same results); 130 interrupted (Ctrl-C, SIGTERM; rerun to resume).
 """
 
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 
@@ -64,7 +69,8 @@ def add_run_parser(subparsers) -> argparse.ArgumentParser:
 
 
 def run_study_cli(args: argparse.Namespace) -> int:
-    """Run the study of parsed ``ufmt run`` arguments; prints the headline; returns 0.
+    """Run the study of parsed ``ufmt run`` arguments; prints the headline; returns 0, or 1
+    if some points failed (with a summary line on stderr).
 
     Raises
     ------
@@ -89,4 +95,11 @@ def run_study_cli(args: argparse.Namespace) -> int:
         f"{run['points_total']} points ({run['points_new']} new, {run['points_reused']} reused,"
         f" {run['points_failed']} failed) in {run['wall_s']} s -> {out_dir}"
     )
+    if run["points_failed"]:
+        print(
+            f"ufmt run: {run['points_failed']} of {run['points_total']} points failed"
+            f" (status and message in {out_dir / 'points.csv'})",
+            file=sys.stderr,
+        )
+        return 1
     return 0

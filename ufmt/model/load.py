@@ -28,6 +28,7 @@ from ufmt.model.schema import (
     GROUND,
     Beam,
     Body,
+    DesignParameter,
     Hinge,
     Model,
     RigidBody,
@@ -36,7 +37,7 @@ from ufmt.model.schema import (
 )
 
 KINDS = ("rigid", "virtual", "beam")
-TOP_FIELDS = ("name", "description", "body", "hinge", "machine")
+TOP_FIELDS = ("name", "description", "body", "hinge", "machine", "design")
 BODY_FIELDS = ("name", "kind", "number")
 RIGID_FIELDS = ("mass", "center_of_mass", "inertia")
 CIRCLE_FIELDS = ("diameter", "inner_diameter")
@@ -54,6 +55,31 @@ DEFINITE_RTOL = 1e-12  # smallest principal moment must exceed this times the la
 BEAM_END_RTOL = 1e-9  # hinge point to beam end, relative to the beam length
 POINT_RTOL = 1e-9  # virtual-body hinge points, relative to the model's coordinate extent
 PARALLEL_RTOL = 1e-9  # beam orientation vs. axis: |sin angle| must exceed this
+
+#: Physical magnitude bands [SI]: a finite, nonzero value outside (low, high) is rejected at load
+#: (values far outside them are typing mistakes or overflow the eigen-solvers). Wide on purpose:
+#: from a 1 mg part to a 1,000 t foundation, from foams to diamond.
+LIMITS = {
+    "mass": (1e-6, 1e9, "[kg]"),
+    "inertia": (1e-12, 1e12, "[kg m^2]"),  # principal moments
+    "inertia_entry": (0.0, 1e12, "[kg m^2]"),  # |I_ij|
+    "density": (1.0, 1e5, "[kg/m^3]"),
+    "modulus": (1e3, 1e13, "[Pa]"),
+    "coordinate": (0.0, 1e4, "[m]"),  # |x|, |y|, |z| of points
+    "diameter": (1e-6, 1e3, "[m]"),
+    "area": (1e-12, 1e4, "[m^2]"),
+    "second_moment": (1e-24, 1e4, "[m^4]"),
+    "stiffness": (1e-6, 1e15, "[N/m]"),  # finite nonzero; 0 = released, inf = rigid
+    "rotational_stiffness": (1e-6, 1e15, "[N m/rad]"),
+    "damping": (0.0, 1e12, "[N s/m]"),
+    "rotational_damping": (0.0, 1e12, "[N m s/rad]"),
+}
+#: Process parameters (names a design parameter may not take): see ufmt.evaluate.
+PROCESS_NAMES = ("rpm", "feed_mm_min", "depth_um")
+#: Hinge fields a [design] parameter may set.
+DESIGN_FIELDS = ("stiffness", "rotational_stiffness")
+DESIGN_ENTRY_FIELDS = ("hinge", "field", "components", "description")
+_DESIGN_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 
 # rule -> (inf allowed, lower bound)
 _RULES = {
@@ -74,14 +100,17 @@ def packaged_path(name: str = "ufmt.toml") -> Path:
     return Path(str(resources.files("ufmt") / "data" / name))
 
 
-def load_model(source: str | Path) -> Model:
-    """Read and validate the model file at ``source`` (a path to a TOML file).
+def load_model(source: str | Path | None = None) -> Model:
+    """Read and validate the model file at ``source`` (a path to a TOML file; default: the
+    packaged, calibrated UFMT, :func:`packaged_path`).
 
     Raises
     ------
     ModelError
         One line naming the file (as given), the element and the field.
     """
+    if source is None:
+        source = packaged_path()
     where = str(source)
     try:
         text = Path(source).read_text(encoding="utf-8")
@@ -102,6 +131,8 @@ def load_model_text(text: str, source: str = "<string>") -> Model:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise ModelError(f"{source}: malformed TOML: {_one_line(str(exc))}") from None
+    except RecursionError:
+        raise ModelError(f"{source}: malformed TOML: values nested too deeply") from None
     return model_from_dict(data, source)
 
 
@@ -133,8 +164,61 @@ def model_from_dict(data: Mapping[str, Any], source: str = "<dict>") -> Model:
         bodies=tuple(bodies.values()),
         hinges=tuple(hinges),
         machine=copy.deepcopy(dict(machine)),
+        design=parse_design(source, data.get("design", {}), {h.name: h for h in hinges}),
         source=source,
     )
+
+
+def parse_design(source: str, table, hinges: Mapping[str, Hinge]) -> dict[str, DesignParameter]:
+    """The named design parameters of a ``[design]`` table (model or study file).
+
+    Each entry is a sub-table ``[design.<name>]`` with ``hinge`` (a hinge of the model),
+    ``field`` (``stiffness`` or ``rotational_stiffness``), ``components`` (distinct indices
+    0, 1, 2 = x, y, z) and an optional ``description``.
+
+    Raises
+    ------
+    ModelError
+        One line naming ``source``, the entry and the field (with a did-you-mean).
+    """
+    where = _Where(source, "design")
+    if not isinstance(table, Mapping):
+        where.fail_element(f"expected a table [design], got {_type_name(table)}")
+    design = {}
+    for name, entry in table.items():
+        here = _Where(source, f"design.{name}")
+        if not _DESIGN_NAME.fullmatch(str(name)) or name in PROCESS_NAMES:
+            here.fail_element(
+                "invalid parameter name (letters, digits and _, not starting with a digit; "
+                f"not a process parameter {', '.join(PROCESS_NAMES)})"
+            )
+        if not isinstance(entry, Mapping):
+            here.fail_element(
+                f"expected a table [design.{name}] with hinge, field, components; got "
+                f"{_type_name(entry)}"
+            )
+        _check_fields(here, entry, DESIGN_ENTRY_FIELDS, DESIGN_ENTRY_FIELDS[:3])
+        hinge = _string(here, "hinge", entry["hinge"])
+        if hinge not in hinges:
+            hint = _suggest(hinge, hinges) or f"hinges are {', '.join(hinges)}"
+            here.fail("hinge", f"unknown hinge {hinge!r} ({hint})")
+        field = _string(here, "field", entry["field"])
+        if field not in DESIGN_FIELDS:
+            hint = _suggest(field, DESIGN_FIELDS) or f"allowed: {', '.join(DESIGN_FIELDS)}"
+            here.fail("field", f"unknown field {field!r} ({hint})")
+        components = entry["components"]
+        if not isinstance(components, list | tuple) or not components:
+            here.fail("components", "expected a non-empty array of indices 0, 1, 2 (x, y, z)")
+        for i, c in enumerate(components):
+            if isinstance(c, bool) or c not in (0, 1, 2):
+                here.fail(f"components[{i}]", f"{c!r} is not 0, 1 or 2 (x, y, z)")
+        if len(set(components)) != len(components):
+            here.fail("components", f"{list(components)} repeats an index")
+        description = _string(here, "description", entry.get("description", ""), True)
+        design[str(name)] = DesignParameter(
+            str(name), hinge, field, tuple(int(c) for c in components), description
+        )
+    return design
 
 
 def model_to_toml(model: Model) -> str:
@@ -142,7 +226,8 @@ def model_to_toml(model: Model) -> str:
 
     Numbers are written at full precision (``repr``), infinite stiffness as ``inf``; beams are
     written with their explicit section (area, second moments, polar moment, torsion constant).
-    A file's ``description`` is not kept (``Model`` has no field for it).
+    A file's ``description`` is not kept (``Model`` has no field for it); the ``[design]``
+    declarations are (the calibration writes the identified model through this function).
     """
     lines = [f"name = {_toml_value(model.name)}"]
     for body in model.bodies:
@@ -151,7 +236,20 @@ def model_to_toml(model: Model) -> str:
         lines += ["", "[[hinge]]", *_hinge_lines(hinge)]
     if model.machine:
         lines += _table_lines(("machine",), model.machine)
+    for parameter in model.design.values():
+        lines += design_lines(parameter)
     return "\n".join(lines) + "\n"
+
+
+def design_lines(parameter: DesignParameter) -> list[str]:
+    """The ``[design.<name>]`` table of one design parameter (TOML lines, blank line first)."""
+    pairs = [
+        ("hinge", parameter.hinge),
+        ("field", parameter.field),
+        ("components", list(parameter.components)),
+        ("description", parameter.description or None),
+    ]
+    return ["", f"[design.{_toml_key(parameter.name)}]", *_pairs(pairs)]
 
 
 # ---------------------------------------------------------------------------------------------
@@ -249,8 +347,9 @@ def _integer(where: _Where, field: str, value) -> int:
     return int(value)
 
 
-def _real(where: _Where, field: str, value, rule: str, unit: str = "") -> float:
-    """A float checked against ``rule`` (finite | positive | nonnegative | stiffness)."""
+def _real(where: _Where, field: str, value, rule: str, unit: str = "", limit: str = "") -> float:
+    """A float checked against ``rule`` (finite | positive | nonnegative | stiffness) and, if
+    ``limit`` names one, the physical band ``LIMITS[limit]`` (finite nonzero values only)."""
     allows_inf, bound = _RULES[rule]
     if rule == "stiffness":
         allowed = _STIFFNESS_ALLOWED
@@ -268,6 +367,13 @@ def _real(where: _Where, field: str, value, rule: str, unit: str = "") -> float:
         where.fail(field, f"{_num(x)} is negative (allowed: {allowed})")
     if math.isinf(x) and not allows_inf:
         where.fail(field, f"{_num(x)} is not finite (allowed: {allowed})")
+    if limit and math.isfinite(x) and x != 0.0:
+        low, high, unit_ = LIMITS[limit]
+        if not low <= abs(x) <= high:
+            band = f"|x| <= {high:g}" if low == 0 else f"{low:g} to {high:g}"
+            where.fail(
+                field, f"{_num(x)} is outside the physical range {band} {unit_} (ufmt LIMITS)"
+            )
     return x
 
 
@@ -281,9 +387,13 @@ def _array(where: _Where, field: str, value, n: int, what: str) -> list:
     return list(value)
 
 
-def _vector(where: _Where, field: str, value, rule: str, unit: str = "") -> np.ndarray:
+def _vector(
+    where: _Where, field: str, value, rule: str, unit: str = "", limit: str = ""
+) -> np.ndarray:
     items = _array(where, field, value, 3, f"3 numbers {unit}".rstrip())
-    return frozen_array([_real(where, f"{field}[{i}]", v, rule, unit) for i, v in enumerate(items)])
+    return frozen_array(
+        [_real(where, f"{field}[{i}]", v, rule, unit, limit) for i, v in enumerate(items)]
+    )
 
 
 def _tables(where: _Where, field: str, value, required=False) -> list[Mapping]:
@@ -363,9 +473,9 @@ def _parse_body(where: _Where, table: Mapping) -> Body:
     if kind == "rigid":
         return RigidBody(
             name=name,
-            mass=_real(where, "mass", table["mass"], "positive", "[kg]"),
+            mass=_real(where, "mass", table["mass"], "positive", "[kg]", "mass"),
             center_of_mass=_vector(
-                where, "center_of_mass", table["center_of_mass"], "finite", "[m]"
+                where, "center_of_mass", table["center_of_mass"], "finite", "[m]", "coordinate"
             ),
             inertia=_inertia(where, table["inertia"]),
             number=number,
@@ -380,7 +490,7 @@ def _inertia(where: _Where, value) -> np.ndarray:
     matrix = np.array(
         [
             [
-                _real(where, f"inertia[{i}][{j}]", v, "finite", "[kg m^2]")
+                _real(where, f"inertia[{i}][{j}]", v, "finite", "[kg m^2]", "inertia_entry")
                 for j, v in enumerate(_array(where, f"inertia[{i}]", row, 3, "3 numbers [kg m^2]"))
             ]
             for i, row in enumerate(rows)
@@ -403,6 +513,13 @@ def _inertia(where: _Where, value) -> np.ndarray:
             f"not positive definite: principal moments {_derived(moments)} [kg m^2] "
             "(allowed: all > 0)",
         )
+    low, high, unit = LIMITS["inertia"]
+    if not (low <= moments[0] and moments[2] <= high):
+        where.fail(
+            "inertia",
+            f"principal moments {_derived(moments)} {unit} are outside the physical range "
+            f"{low:g} to {high:g} {unit} (ufmt LIMITS)",
+        )
     if moments[2] - (moments[0] + moments[1]) > TRIANGLE_RTOL * moments[2]:
         where.fail(
             "inertia",
@@ -413,15 +530,15 @@ def _inertia(where: _Where, value) -> np.ndarray:
 
 
 def _beam(where: _Where, name: str, table: Mapping, number: int | None) -> Beam:
-    start = _vector(where, "start", table["start"], "finite", "[m]")
-    end = _vector(where, "end", table["end"], "finite", "[m]")
+    start = _vector(where, "start", table["start"], "finite", "[m]", "coordinate")
+    end = _vector(where, "end", table["end"], "finite", "[m]", "coordinate")
     axis = end - start
     length = float(np.linalg.norm(axis))
     if length <= 0:
         where.fail("end", f"beam length is 0: start and end are both {_vec(start)} (allowed: > 0)")
-    density = _real(where, "density", table["density"], "positive", "[kg/m^3]")
-    youngs = _real(where, "youngs_modulus", table["youngs_modulus"], "positive", "[Pa]")
-    shear = _real(where, "shear_modulus", table["shear_modulus"], "positive", "[Pa]")
+    density = _real(where, "density", table["density"], "positive", "[kg/m^3]", "density")
+    youngs = _real(where, "youngs_modulus", table["youngs_modulus"], "positive", "[Pa]", "modulus")
+    shear = _real(where, "shear_modulus", table["shear_modulus"], "positive", "[Pa]", "modulus")
     section = _section(where, table)
     orientation = None
     if "orientation" in table:
@@ -448,6 +565,14 @@ def _beam(where: _Where, name: str, table: Mapping, number: int | None) -> Beam:
     )
 
 
+_SECTION_LIMITS = {
+    "area": "area",
+    "second_moment_y": "second_moment",
+    "second_moment_z": "second_moment",
+    "polar_moment": "second_moment",
+}
+
+
 def _section(where: _Where, table: Mapping) -> dict[str, float]:
     """Section properties from ``diameter`` (solid/hollow circle) or the explicit fields."""
     explicit = [k for k in SECTION_FIELDS + ("torsion_constant",) if k in table]
@@ -458,10 +583,12 @@ def _section(where: _Where, table: Mapping) -> dict[str, float]:
                 "give either 'diameter' (circular section) or the explicit section "
                 f"({', '.join(SECTION_FIELDS)}), not both",
             )
-        outer = _real(where, "diameter", table["diameter"], "positive", "[m]")
+        outer = _real(where, "diameter", table["diameter"], "positive", "[m]", "diameter")
         inner = 0.0
         if "inner_diameter" in table:
-            inner = _real(where, "inner_diameter", table["inner_diameter"], "nonnegative", "[m]")
+            inner = _real(
+                where, "inner_diameter", table["inner_diameter"], "nonnegative", "[m]", "diameter"
+            )
             if inner >= outer:
                 where.fail(
                     "inner_diameter",
@@ -488,10 +615,18 @@ def _section(where: _Where, table: Mapping) -> dict[str, float]:
             where.fail(key, f"missing (an explicit section needs {', '.join(SECTION_FIELDS)})")
     units = {"area": "[m^2]"}
     section = {
-        k: _real(where, k, table[k], "positive", units.get(k, "[m^4]")) for k in SECTION_FIELDS
+        k: _real(where, k, table[k], "positive", units.get(k, "[m^4]"), _SECTION_LIMITS.get(k, ""))
+        for k in SECTION_FIELDS
     }
     section["torsion_constant"] = (
-        _real(where, "torsion_constant", table["torsion_constant"], "positive", "[m^4]")
+        _real(
+            where,
+            "torsion_constant",
+            table["torsion_constant"],
+            "positive",
+            "[m^4]",
+            "second_moment",
+        )
         if "torsion_constant" in table
         else section["polar_moment"]
     )
@@ -524,7 +659,7 @@ def _parse_hinge(where: _Where, table: Mapping, bodies: dict[str, Body]) -> Hing
     _check_fields(where, table, HINGE_FIELDS, HINGE_REQUIRED)
     name = _string(where, "name", table["name"])
     between = _between(where, table["between"], bodies)
-    at = _vector(where, "at", table["at"], "finite", "[m]")
+    at = _vector(where, "at", table["at"], "finite", "[m]", "coordinate")
     for side in between:
         body = bodies.get(side)
         if isinstance(body, Beam):
@@ -534,20 +669,46 @@ def _parse_hinge(where: _Where, table: Mapping, bodies: dict[str, Body]) -> Hing
         name=name,
         between=between,
         at=at,
-        stiffness=_vector(where, "stiffness", table["stiffness"], "stiffness", "[N/m]"),
-        rotational_stiffness=_vector(
-            where, "rotational_stiffness", table["rotational_stiffness"], "stiffness", "[N m/rad]"
+        stiffness=_hinge_vector(where, "stiffness", table["stiffness"]),
+        rotational_stiffness=_hinge_vector(
+            where, "rotational_stiffness", table["rotational_stiffness"]
         ),
-        damping=_vector(where, "damping", table.get("damping", zeros), "nonnegative", "[N s/m]"),
-        rotational_damping=_vector(
-            where,
-            "rotational_damping",
-            table.get("rotational_damping", zeros),
-            "nonnegative",
-            "[N m s/rad]",
+        damping=_hinge_vector(where, "damping", table.get("damping", zeros)),
+        rotational_damping=_hinge_vector(
+            where, "rotational_damping", table.get("rotational_damping", zeros)
         ),
         number=_integer(where, "number", table["number"]) if "number" in table else None,
     )
+
+
+_HINGE_RULES = {
+    "stiffness": ("stiffness", "[N/m]"),
+    "rotational_stiffness": ("stiffness", "[N m/rad]"),
+    "damping": ("nonnegative", "[N s/m]"),
+    "rotational_damping": ("nonnegative", "[N m s/rad]"),
+}
+
+
+def _hinge_vector(where: _Where, field: str, value) -> np.ndarray:
+    """A hinge's 3-vector ``field`` checked by its rule and physical band."""
+    rule, unit = _HINGE_RULES[field]
+    return _vector(where, field, value, rule, unit, field)
+
+
+def check_hinge_values(model: Model, hinge: str, field: str, values, context: str = "") -> None:
+    """Check new ``values`` of a hinge's ``field`` with the loader's rules (same one-line
+    messages as a model file, ``context`` appended, e.g. the design parameter that set them).
+
+    Raises
+    ------
+    ModelError
+        A value the model file could not hold (negative or NaN stiffness, outside LIMITS).
+    """
+    where = _Where(model.source, f"hinge {hinge!r}")
+    try:
+        _hinge_vector(where, field, list(values))
+    except ModelError as exc:
+        raise ModelError(f"{exc}{f' ({context})' if context else ''}") from None
 
 
 def _between(where: _Where, value, bodies: dict[str, Body]) -> tuple[str, str]:

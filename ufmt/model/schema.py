@@ -127,18 +127,37 @@ class Hinge:
         return np.isinf(self.stiffness6)
 
 
+@dataclass(frozen=True)
+class DesignParameter:
+    """A named design parameter: the ``components`` (0, 1, 2 = x, y, z) of a hinge's
+    ``field`` (``stiffness`` [N/m] or ``rotational_stiffness`` [N m/rad]) set together.
+
+    Setting the parameter to a value scales the components in proportion so that their mean
+    is the value (the calibrated anisotropy is kept); see :func:`ufmt.evaluate.apply_design`.
+    """
+
+    name: str
+    hinge: str
+    field: str
+    components: tuple[int, ...]
+    description: str = ""
+
+
 @dataclass(frozen=True, eq=False)
 class Model:
     """A validated machine model: bodies, hinges and free-form metadata.
 
     ``machine`` holds the optional ``[machine]`` table (tool, workpiece and process metadata
-    used by the cutting dynamics); ``source`` is the file it came from (for messages).
+    used by the cutting dynamics); ``design`` the named design parameters of the ``[design]``
+    table (name -> :class:`DesignParameter`); ``source`` is the file it came from (for
+    messages).
     """
 
     name: str
     bodies: tuple[Body, ...]
     hinges: tuple[Hinge, ...]
     machine: dict[str, Any] = field(default_factory=dict)
+    design: dict[str, DesignParameter] = field(default_factory=dict)
     source: str = "<memory>"
 
     def body(self, name: str) -> Body:

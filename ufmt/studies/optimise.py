@@ -288,6 +288,26 @@ def minimise(
     return SearchResult(refined.u, refined.value, history, found.n_global)
 
 
+def minimise_budget(dim: int, options: Mapping) -> int:
+    """Most evaluations :func:`minimise` requests: differential evolution's population
+    (popsize * dim) for its initial generation and each of maxiter more, then per refinement
+    step the trust-box samples and the surrogate's minimiser."""
+    population = options["popsize"] * dim
+    n_samples = 2 * (1 + dim + dim * (dim + 1) // 2)
+    per_step = max(n_samples - 1, 2 * dim) + 1
+    return population * (options["maxiter"] + 1) + options["refine_steps"] * per_step
+
+
+def budget(study) -> int:
+    """Upper bound on the points an optimiser study requests (its progress bar's total)."""
+    options = study.options["optimiser"]
+    dim = len(study.bounds)
+    if study.kind == "optimise-design":
+        return minimise_budget(dim, options) + 2  # + the calibrated design and the optimum
+    stages = 1 + study.options["pareto_levels"] + BISECTION_STEPS
+    return minimise_budget(dim, options) + (stages - 1) * minimise_budget(dim - 1, options) + 2
+
+
 def pareto_mask(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """True for points not dominated in (a, b), both minimised (ties kept once)."""
     a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
@@ -444,8 +464,8 @@ def run_optimise_design(study, evaluator, baseline: Mapping, out_dir: Path) -> s
     ]
     if unknown:
         raise StudyError(
-            f"{study.path}: field 'cost.{unknown[0]}': the calibrated value is unknown"
-            " (the model could not be loaded), so the cost cannot be scaled"
+            f"{study.path}: field 'cost.{unknown[0]}': the calibrated value is not a finite"
+            " number > 0 (released or rigid), so a cost per calibrated multiple is undefined"
         )
     safe_reference = np.where(weights > 0, reference, 1.0)
 

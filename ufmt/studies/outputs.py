@@ -19,8 +19,10 @@ from __future__ import annotations
 import csv
 import datetime
 import json
+import math
 import os
 import platform
+import re
 import subprocess
 from collections.abc import Iterable, Mapping
 from importlib import metadata
@@ -28,6 +30,8 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+
+from ufmt.jsonout import dumps_strict
 
 POINTS = "points.csv"
 OPTIMA = "optima.csv"
@@ -53,32 +57,49 @@ PACKAGES = (
 )
 
 
+#: Columns of points.csv that hold text; every other column must parse as a float.
+TEXT_COLUMNS = ("group", "status", "message")
+STATUSES = ("ok", "error")
+_INTEGER = re.compile(r"[+-]?[0-9]+")
+
+
 class PointLog:
     """Append-only CSV of evaluated points that survives being killed mid-write.
 
-    A partial last line (a run killed while writing) is cut off on opening. The header grows
-    if a record brings new fields (the file is then rewritten once).
+    The file is created atomically (header written to a temporary file, then renamed) and
+    appended to. On reading, every row is validated: a row with the wrong number of fields,
+    bytes that are not UTF-8, a number that does not parse, or a status other than "ok" or
+    "error" (a partial or corrupt line) is dropped, so its point is computed again; the file is
+    then rewritten with the valid rows. The header grows if a record brings new fields (the
+    file is then rewritten once).
     """
 
     def __init__(self, path: Path, columns: Iterable[str]):
         self.path = Path(path)
         self.columns = list(columns)
         self._file = None
+        self.dropped = 0  # rows dropped as invalid by the last read
 
     def read(self) -> list[dict]:
-        """Rows already on disk (after cutting a partial last line); [] if none."""
+        """The valid rows already on disk ([] if none); invalid ones are dropped (class doc)."""
         if not self.path.exists():
             return []
-        data = self.path.read_bytes()
-        if data and not data.endswith(b"\n"):
-            data = data[: data.rfind(b"\n") + 1]
-            self.path.write_bytes(data)
-        if data.count(b"\n") < 1:
+        lines = self.path.read_bytes().splitlines(keepends=True)
+        header = _parse_line(lines[0]) if lines else None
+        if not header or len(set(header)) != len(header) or not {"group", "status"} <= set(header):
+            self.dropped = max(len(lines) - 1, 0)
             self.path.unlink()
             return []
-        table = read_table(self.path)
-        self.columns = list(dict.fromkeys([*self.columns, *table.columns]))
-        return table.to_dict("records")
+        rows = []
+        for line in lines[1:]:
+            row = _valid_row(line, header)
+            if row is not None:
+                rows.append(row)
+        self.dropped = len(lines) - 1 - len(rows)
+        self.columns = list(dict.fromkeys([*self.columns, *header]))
+        if self.dropped:
+            write_table(pd.DataFrame(rows, columns=header), self.path)
+        return rows
 
     def append(self, row: Mapping) -> None:
         """Write one row and flush it to the operating system."""
@@ -103,10 +124,48 @@ class PointLog:
                 header = next(csv.reader(f))
             if header != self.columns:
                 write_table(read_table(self.path).reindex(columns=self.columns), self.path)
-            self._file = self.path.open("a", newline="", encoding="utf-8")
         else:
-            self._file = self.path.open("w", newline="", encoding="utf-8")
-            csv.writer(self._file).writerow(self.columns)
+            write_table(pd.DataFrame(columns=self.columns), self.path)
+        self._file = self.path.open("a", newline="", encoding="utf-8")
+
+
+def _parse_line(line: bytes) -> list[str] | None:
+    """The fields of one CSV line, or None if it is not UTF-8, not one complete record or
+    not newline-terminated (a line cut off mid-write)."""
+    if not line.endswith(b"\n"):
+        return None
+    try:
+        text = line.decode("utf-8")
+        records = list(csv.reader([text]))
+    except (UnicodeDecodeError, csv.Error):
+        return None
+    return records[0] if len(records) == 1 else None
+
+
+def _number(text: str) -> float | int:
+    """A points.csv number as written: int for integer literals, float otherwise."""
+    if not text:
+        return math.nan
+    return int(text) if _INTEGER.fullmatch(text) else float(text)
+
+
+def _valid_row(line: bytes, header: list[str]) -> dict | None:
+    """The row of a points.csv ``line`` as a dict (numbers as floats), or None if invalid."""
+    fields = _parse_line(line)
+    if fields is None or len(fields) != len(header):
+        return None
+    row = {}
+    for name, text in zip(header, fields, strict=True):
+        if name in TEXT_COLUMNS:
+            row[name] = text
+            continue
+        try:
+            row[name] = _number(text)
+        except ValueError:
+            return None
+    if row.get("status") not in STATUSES or not row.get("group"):
+        return None
+    return row
 
 
 def _cell(value) -> str:
@@ -129,23 +188,26 @@ def read_table(path: Path) -> pd.DataFrame:
 def write_table(table: pd.DataFrame, path: Path) -> None:
     """Write ``table`` atomically (temporary file, then rename), floats at full precision."""
     path = Path(path)
-    tmp = path.with_suffix(path.suffix + ".tmp")
+    tmp = _temporary(path)
     table.to_csv(tmp, index=False)
     os.replace(tmp, path)
 
 
 def write_json(data: Mapping, path: Path) -> None:
-    """Write ``data`` as indented JSON atomically."""
+    """Write ``data`` as indented strict JSON (null for non-finite numbers) atomically."""
+    _write_text(dumps_strict(data, indent=2) + "\n", path)
+
+
+def _temporary(path: Path) -> Path:
+    """A temporary name next to ``path``, unique to this process (two runs never share it)."""
+    return path.with_name(f".{path.name}.{os.getpid()}.tmp")
+
+
+def _write_text(text: str, path: Path) -> None:
     path = Path(path)
-    tmp = path.with_suffix(path.suffix + ".tmp")
-    tmp.write_text(json.dumps(data, indent=2, default=_json_default) + "\n", encoding="utf-8")
+    tmp = _temporary(path)
+    tmp.write_text(text, encoding="utf-8")
     os.replace(tmp, path)
-
-
-def _json_default(value):
-    if hasattr(value, "item"):
-        return value.item()
-    return str(value)
 
 
 def read_meta(out_dir: Path) -> dict:
@@ -226,7 +288,7 @@ def write_index(results_root: Path) -> Path:
         lines += ["## Other outputs", ""]
         lines += [f"- [{name}/]({name}/)" for name in others] + [""]
     path = results_root / INDEX
-    path.write_text("\n".join(lines).rstrip("\n") + "\n", encoding="utf-8")
+    _write_text("\n".join(lines).rstrip("\n") + "\n", path)
     return path
 
 
@@ -295,7 +357,6 @@ def sweep_headline(table: pd.DataFrame, study, baseline: Mapping[str, float]) ->
         else:
             best = rows.iloc[int(np.argmin(pv))]
             at = ", ".join(f"{a.parameter} = {short(best[a.parameter])}" for a in group.axes)
-            parts.append(
-                f"grid {group.name}: PV {short(pv.min())}-{short(pv.max())} nm, lowest at {at}"
-            )
+            label = "grid" if group.name == "grid" else f"grid {group.name}"
+            parts.append(f"{label}: PV {short(pv.min())}-{short(pv.max())} nm, lowest at {at}")
     return "; ".join(parts) + "."

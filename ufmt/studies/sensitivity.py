@@ -79,6 +79,14 @@ def sample(problem: dict, method: str, samples: int, levels: int, seed: int) -> 
     return sobol.sample(problem, N=samples, calc_second_order=False, seed=seed)
 
 
+def sample_count(study) -> int:
+    """Points a sensitivity study evaluates: Morris N (k + 1), Sobol (first order) N (k + 2)
+    for N samples of k parameters."""
+    k = len(study.bounds)
+    per_sample = k + 1 if study.options["method"] == "morris" else k + 2
+    return study.options["samples"] * per_sample
+
+
 def run_sensitivity(study, evaluator, baseline: Mapping, out_dir: Path) -> str:
     """Sample, evaluate, analyse; write ``indices.csv``; return the headline."""
     options = study.options

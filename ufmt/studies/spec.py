@@ -15,8 +15,19 @@ A study file names its kind and what to vary. Common top-level fields::
     [base]                               # fixed values for every point (others: calibrated
     rpm = 300.0                          #   design, reference process)
 
-Parameters are named as in :mod:`ufmt.evaluate` (``head_angular_stiffness_Nm_rad``, ``rpm``,
-``hinge.h17.stiffness[2]``, ...). Values along an axis or a bound are given by exactly one of::
+    [design.head_z_N_m]                  # optional: design parameters of this study, added
+    hinge = "h31"                        #   to the model's own [design] table (same schema,
+    field = "stiffness"                  #   see ufmt.model.load.parse_design)
+    components = [2]
+
+Parameters are the model's (and the study's) declared design parameters
+(``head_angular_stiffness_Nm_rad`` on the packaged UFMT), ``hinge.<name>.stiffness[i]`` /
+``hinge.<name>.rotational_stiffness[i]``, and ``rpm``, ``feed_mm_min``, ``depth_um``. The model
+is loaded while the study is parsed, and every value the study can set (base, axis values,
+bound ends; ``scale`` resolved against the calibrated value) is checked with the model
+loader's rules before any point runs: a negative or absurd stiffness, a ``scale`` of a released
+(0) or rigid (inf) component, or a process value <= 0 is a :class:`~ufmt.errors.StudyError`.
+Values along an axis or a bound are given by exactly one of::
 
     values = [1e6, 2e6, 5e6]             # explicit values
     range = [200.0, 400.0]               # absolute low, high (with n and spacing for an axis)
@@ -42,7 +53,9 @@ Every problem raises :class:`~ufmt.errors.StudyError` with one line naming the f
 
 from __future__ import annotations
 
+import hashlib
 import itertools
+import json
 import math
 import numbers
 import re
@@ -54,14 +67,19 @@ from typing import Any, NoReturn
 
 import numpy as np
 
-from ufmt.errors import StudyError, closest_name
+from ufmt.errors import ModelError, StudyError, closest_name
 from ufmt.evaluate import (
     PROCESS_PARAMETERS,
-    is_design_parameter,
-    is_parameter,
-    parameter_names,
+    REFERENCE_PROCESS,
+    apply_design,
+    design_value,
+    model_file,
+    resolve_model,
+    unknown_design_parameter,
 )
 from ufmt.machining.process import TABLE1_RANGE
+from ufmt.model.load import parse_design
+from ufmt.model.schema import DesignParameter, Model
 
 KINDS = ("sweep", "grid", "optimise-process", "optimise-design", "sensitivity")
 DEFAULT_FUNCTION = "ufmt.evaluate:evaluate"
@@ -70,7 +88,7 @@ TABLE1_BOUNDS = {name: (low, high) for name, (low, high, _) in TABLE1_RANGE.item
 SPACINGS = ("linear", "log")
 OPTIMISER_DEFAULTS = {"seed": 1, "popsize": 8, "maxiter": 20, "tol": 1e-3, "refine_steps": 4}
 
-_COMMON = ("kind", "name", "description", "function", "model", "base")
+_COMMON = ("kind", "name", "description", "function", "model", "base", "design")
 _KIND_FIELDS = {
     "sweep": ("axis", "grid"),
     "grid": ("axis",),
@@ -153,6 +171,9 @@ class Study:
     bounds: tuple[Bound, ...] = ()
     options: dict[str, Any] = field(default_factory=dict)
     text: str = ""
+    design: dict[str, DesignParameter] = field(default_factory=dict)
+    baseline: dict[str, float] = field(default_factory=dict)
+    content_sha256: str = ""
 
     @property
     def parameters(self) -> tuple[str, ...]:
@@ -195,6 +216,9 @@ def parse_study(text: str, path: str | Path = "study.toml") -> Study:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         where.fail("", f"malformed TOML: {' '.join(str(exc).split())}")
+    except RecursionError:
+        where.fail("", "malformed TOML: values nested too deeply")
+    content_sha = _content_sha256(data)
     kind = data.get("kind")
     if kind is None:
         where.fail("kind", f"missing (one of {', '.join(KINDS)})")
@@ -206,6 +230,8 @@ def parse_study(text: str, path: str | Path = "study.toml") -> Study:
     if not _NAME.fullmatch(name):
         where.fail("name", f"{name!r} is not a valid study name (letters, digits, _ . -)")
     model = data.get("model")
+    model = None if model is None else (path.parent / _string(where, "model", model)).resolve()
+    where.use_model(model, data.get("design", {}))
     base = _base(where, data.get("base", {}))
     study = dict(
         path=path,
@@ -213,9 +239,11 @@ def parse_study(text: str, path: str | Path = "study.toml") -> Study:
         kind=kind,
         description=_string(where, "description", data.get("description", ""), empty=True),
         function=_function(where, data.get("function", DEFAULT_FUNCTION)),
-        model=None if model is None else (path.parent / _string(where, "model", model)).resolve(),
+        model=model,
         base=base,
         text=text,
+        design=where.declared,
+        content_sha256=content_sha,
     )
     if kind == "sweep":
         axes = _axes(where, "axis", data.get("axis", []), required=False)
@@ -224,11 +252,73 @@ def parse_study(text: str, path: str | Path = "study.toml") -> Study:
         if not groups:
             where.fail("axis", "a sweep needs at least one [[axis]] or [[grid]]")
         _unique(where, "axis", [g.name for g in groups])
-        return Study(**study, groups=tuple(groups))
-    if kind == "grid":
+        parts = {"groups": tuple(groups)}
+    elif kind == "grid":
         axes = _axes(where, "axis", data.get("axis", []), required=True)
-        return Study(**study, groups=(Group("grid", tuple(axes)),))
-    return Study(**study, **_KIND_PARSERS[kind](where, data, base))
+        parts = {"groups": (Group("grid", tuple(axes)),)}
+    else:
+        parts = _KIND_PARSERS[kind](where, data, base)
+    parsed = Study(**study, **parts)
+    baseline = _baseline(where, parsed)
+    _check_values(where, parsed, baseline)
+    return Study(**study, **parts, baseline=baseline)
+
+
+def _content_sha256(data: Mapping) -> str:
+    """SHA-256 of a parsed TOML table's canonical JSON (comments and layout do not count)."""
+    text = json.dumps(data, sort_keys=True, separators=(",", ":"), default=str)
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+# ---------------------------------------------------------------------------------------------
+# values checked against the model before any point runs
+
+
+def _baseline(where: _Where, study: Study) -> dict[str, float]:
+    """Value of every study parameter when it is not varied: base, else reference process,
+    else the model's calibrated design."""
+    baseline = {}
+    for name in study.parameters:
+        if name in study.base:
+            baseline[name] = study.base[name]
+        elif name in PROCESS_PARAMETERS:
+            baseline[name] = REFERENCE_PROCESS[name]
+        else:
+            baseline[name] = design_value(where.model, name, where.declared)
+    for name in study.relative_parameters:
+        value = baseline[name]
+        if not (math.isfinite(value) and value > 0):
+            state = "released (0)" if value == 0 else f"{value!r}"
+            if math.isinf(value):
+                state = "rigid (inf)"
+            where.fail(
+                f"{name}.scale",
+                f"the calibrated value of {name} is {state}: a scale of it is meaningless;"
+                " give absolute values (range or values)",
+            )
+    return baseline
+
+
+def _check_values(where: _Where, study: Study, baseline: Mapping[str, float]) -> None:
+    """Every value the study can set passes the model loader's rules (design) or is a finite
+    number > 0 (process), so no point runs with an input the model could not hold."""
+    values: dict[str, set[float]] = {name: {v} for name, v in study.base.items()}
+    for group in study.groups:
+        for axis in group.axes:
+            values.setdefault(axis.parameter, set()).update(axis.resolved(baseline))
+    for bound in study.bounds:
+        values.setdefault(bound.parameter, set()).update(bound.resolved(baseline))
+    for name, given in values.items():
+        for value in sorted(given):
+            if name in PROCESS_PARAMETERS:
+                if not (math.isfinite(value) and value > 0):
+                    unit = TABLE1_RANGE[name][2]
+                    where.fail(name, f"{value!r} must be a finite number > 0 [{unit}]")
+                continue
+            try:
+                apply_design(where.model, {name: value}, where.declared)
+            except ModelError as exc:
+                where.fail(name, f"value {value!r} is not allowed: {exc}")
 
 
 # ---------------------------------------------------------------------------------------------
@@ -265,7 +355,7 @@ def _optimise_process(where, data, base) -> dict:
 def _optimise_design(where, data, base) -> dict:
     bounds = _bounds(where, data.get("bound", []), required=True)
     for b in bounds:
-        if not is_design_parameter(b.parameter):
+        if b.parameter in PROCESS_PARAMETERS:
             where.fail(f"bound.{b.parameter}", "optimise-design searches design parameters only")
         if b.parameter in base:
             where.fail(f"base.{b.parameter}", "is searched by optimise-design; remove it")
@@ -317,8 +407,25 @@ _KIND_PARSERS = {
 
 
 class _Where:
+    """The study file being parsed (for messages) and the model its parameters refer to."""
+
     def __init__(self, source: str):
         self.source = source
+        self.model: Model | None = None
+        self.declared: dict[str, DesignParameter] = {}
+
+    def use_model(self, path: Path | None, design) -> None:
+        """Load the study's model (packaged if None) and its ``[design]`` declarations."""
+        try:
+            self.model, _ = resolve_model(model_file(path))
+        except ModelError as exc:
+            self.fail("model", str(exc))
+        try:
+            self.declared = parse_design(
+                self.source, design, {h.name: h for h in self.model.hinges}
+            )
+        except ModelError as exc:
+            raise StudyError(str(exc)) from None
 
     def fail(self, field: str, problem: str) -> NoReturn:
         prefix = f"{self.source}: field '{field}': " if field else f"{self.source}: "
@@ -369,9 +476,10 @@ def _count(where: _Where, field: str, value, minimum: int) -> int:
 
 def _parameter(where: _Where, field: str, name) -> str:
     name = _string(where, field, name)
-    if not is_parameter(name):
-        hint = _hint(name, parameter_names(), "parameters")
-        where.fail(field, f"unknown parameter {name!r} ({hint}; or hinge.<name>.stiffness[i])")
+    if name not in PROCESS_PARAMETERS:
+        problem = unknown_design_parameter(name, where.model, where.declared)
+        if problem:
+            where.fail(field, problem)
     return name
 
 
