@@ -11,6 +11,7 @@ one strict JSON object on stdout.
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import warnings
 
@@ -90,6 +91,10 @@ def _main(argv) -> int:
     except UfmtError as exc:
         print(f"ufmt {args.command}: error: {exc}", file=sys.stderr)
         return 2
+    except BrokenPipeError:
+        # the reader closed stdout (e.g. `ufmt modes | head`): stop quietly, as SIGPIPE would
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 141
     except KeyboardInterrupt:
         print(f"ufmt {args.command}: interrupted (finished results are kept)", file=sys.stderr)
         return 130

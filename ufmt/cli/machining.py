@@ -2,10 +2,11 @@
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
+
+from ufmt.jsonout import dumps_strict
 
 DEFAULT_FRF_DIR = Path("results") / "frf"
 
@@ -104,7 +105,7 @@ def cmd_simulate(args) -> int:
         result.save(args.save)
     summary = {"model": model.name, **result.to_dict()}
     if args.json:
-        print(json.dumps(summary, allow_nan=False))
+        print(dumps_strict(summary))
         return 0
     print(
         f"{model.name}: {args.rpm:g} rpm, {args.feed:g} mm/min, {args.depth:g} um ({args.method})"
@@ -166,7 +167,7 @@ def cmd_frf(args) -> int:
         "plot": str(out / "frf.png"),
     }
     if args.json:
-        print(json.dumps(summary))
+        print(dumps_strict(summary))
     else:
         print(
             f"{model.name}: peak receptance {summary['peak_m_per_N']:.3e} m/N at "

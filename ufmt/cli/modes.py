@@ -2,10 +2,10 @@
 
 from __future__ import annotations
 
-import json
 import sys
 
 from ufmt.cli.common import load
+from ufmt.jsonout import dumps_strict
 
 
 def cmd_modes(args) -> int:
@@ -28,7 +28,7 @@ def cmd_modes(args) -> int:
             "dominant": lines,
             "seconds": round(sol.seconds, 4),
         }
-        print(json.dumps(out))
+        print(dumps_strict(out))
         return 0
     print(f"{model.name}: {sol.frequencies_hz.size} modes ({sol.method}", end="")
     print(f", U_all order {sol.order})" if sol.order else ")")
