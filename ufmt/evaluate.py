@@ -50,6 +50,7 @@ import numpy as np
 
 from ufmt import evaluate_cache
 from ufmt.errors import StudyError, closest_name
+from ufmt.machining.sources import SOURCES
 from ufmt.model.load import check_hinge_values, packaged_path
 from ufmt.model.schema import DesignParameter, Model
 
@@ -59,7 +60,18 @@ BASIS_CACHE = 4  # modal bases kept in memory per process (recent designs)
 
 REFERENCE_PROCESS = {"rpm": 300.0, "feed_mm_min": 15.0, "depth_um": 4.0}
 PROCESS_PARAMETERS = tuple(REFERENCE_PROCESS)
-METRICS = ("pv_nm", "pv_tilt_removed_nm", "rms_nm", "psd1_rms_nm", "psd2_rms_nm")
+#: PV [nm] of the surface with one error source alone (ufmt.machining.sources.SOURCES).
+SOURCE_METRICS = tuple(f"pv_{source}_nm" for source in SOURCES)
+METRICS = (
+    "pv_nm",
+    "pv_aperture_nm",
+    "pv_tilt_removed_nm",
+    "rms_nm",
+    "psd1_rms_nm",
+    "psd2_rms_nm",
+    "force_peak_n",
+    *SOURCE_METRICS,
+)
 FREQUENCIES = tuple(f"f{i}_hz" for i in range(1, N_FREQUENCIES + 1))
 OUTPUTS = METRICS + FREQUENCIES + ("status", "message")
 
@@ -264,8 +276,10 @@ def evaluate(
     Returns
     -------
     dict
-        The inputs, then ``pv_nm``, ``pv_tilt_removed_nm``, ``rms_nm``, ``psd1_rms_nm``,
-        ``psd2_rms_nm`` [nm] (surface of paper eq. 4.1), ``f1_hz`` .. ``f6_hz`` (first natural
+        The inputs, then ``pv_nm``, ``pv_aperture_nm`` (clear aperture), ``pv_tilt_removed_nm``,
+        ``rms_nm``, ``psd1_rms_nm``, ``psd2_rms_nm`` [nm] (surface of paper eq. 4.1; NaN where a
+        band is not resolved), ``force_peak_n`` [N], ``pv_<source>_nm`` [nm] for each error
+        source of :mod:`ufmt.machining.sources` alone, ``f1_hz`` .. ``f6_hz`` (first natural
         frequencies [Hz]), ``status`` ("ok" or "error") and ``message`` (warnings or the error,
         one line; empty if none). On error the metrics are NaN.
 
@@ -319,6 +333,11 @@ def _process_mapping(process) -> dict:
     return dict(process)
 
 
+def _number(value) -> float:
+    """A metric as a float; None (a source switched off, a band not resolved) as NaN."""
+    return math.nan if value is None else float(value)
+
+
 def _one_line(text: str) -> str:
     return " ".join(str(text).split())
 
@@ -361,7 +380,11 @@ def _physics(model: Model, process: Mapping[str, float], basis_key) -> dict:
         warnings.simplefilter("always")
         basis = _modal_basis(model, basis_key)
         result = simulate(model, Process(**process), basis=basis)
-    outputs = {name: float(result.metrics[name]) for name in METRICS}
+    by_source = {f"pv_{k}_nm": v for k, v in result.pv_by_source_nm.items()}
+    outputs = {
+        name: _number(by_source.get(name) if name in SOURCE_METRICS else result.metrics[name])
+        for name in METRICS
+    }
     frequencies = list(basis.omega[:N_FREQUENCIES] / (2.0 * math.pi))
     frequencies += [math.nan] * (N_FREQUENCIES - len(frequencies))
     outputs.update(zip(FREQUENCIES, map(float, frequencies), strict=True))

@@ -24,6 +24,7 @@ from matplotlib.colors import LogNorm
 from matplotlib.figure import Figure
 from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
 
+from ufmt.evaluate import SOURCE_METRICS
 from ufmt.machining.process import TABLE1_RANGE
 from ufmt.plots import new_axes, new_figure, save_figure
 from ufmt.studies.outputs import (
@@ -136,7 +137,8 @@ def sweep_figures(points: pd.DataFrame, meta: dict) -> dict[str, Figure]:
 
 
 def plot_pv_lines(points: pd.DataFrame, groups: list[dict], baseline: dict, ax=None) -> Figure:
-    """One panel per swept parameter: PV and PV with tilt removed [nm] against it.
+    """One panel per swept parameter: PV, PV with tilt removed and the PV of each error source
+    alone (thin lines, where the table has ``pv_<source>_nm`` columns) [nm] against it.
 
     ax : one axes per group; default a new figure with up to three panels a row.
     """
@@ -157,6 +159,10 @@ def plot_pv_lines(points: pd.DataFrame, groups: list[dict], baseline: dict, ax=N
         ax.plot(data[name], data["pv_nm"], "o-", label="PV")
         if "pv_tilt_removed_nm" in data:
             ax.plot(data[name], data["pv_tilt_removed_nm"], "s--", ms=3, label="PV, tilt removed")
+        for column in SOURCE_METRICS:  # PV of one error source alone
+            if column in data and data[column].notna().any():
+                source = column.removeprefix("pv_").removesuffix("_nm").replace("_", " ")
+                ax.plot(data[name], data[column], lw=0.9, alpha=0.8, label=f"{source} alone")
         if axis["log"]:
             ax.set_xscale("log")
         reference = baseline.get(name)
