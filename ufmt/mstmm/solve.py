@@ -123,12 +123,13 @@ def _range(fmax_hz, count, estimates) -> float:
     if count is None:
         return DEFAULT_FMAX_HZ if fmax_hz is None else float(fmax_hz)
     if count < 1:
-        raise UfmtError(f"--count: {count} must be >= 1")
+        raise UfmtError(f"number of modes: {count} must be >= 1")
     if estimates.size < count:
         if fmax_hz is not None:
             return float(fmax_hz)
         raise UfmtError(
-            f"--count: the model has only {estimates.size} nonzero modes; ask for fewer"
+            f"number of modes: {count} asked for, but the model has only {estimates.size} "
+            "nonzero modes; ask for fewer"
         )
     top = estimates[count - 1]
     upper = top * (1 + 1e-6) if count == estimates.size else np.sqrt(top * estimates[count])
