@@ -281,8 +281,9 @@ def natural_frequencies(
     root /= TWO_PI
     found = np.repeat(root[ok], mult[ok])
     vectors = [basis[j].T for j in np.flatnonzero(ok)]
+    estimates = [near[idx] for idx, _, _, _ in windows]
     split, split_hz, split_vectors = _split_clusters(
-        system, root, ~ok & (mult > 1), [near[idx] for idx, _, _, _ in windows], lo, hi, rtol
+        system, root, ~ok & (mult > 1), estimates, lo, hi, found, rtol
     )
     ok |= split
     found = np.concatenate([found, split_hz])
@@ -307,7 +308,7 @@ def natural_frequencies(
     return Roots(found, expected, missing_hz, int(mult[ok].sum()), vectors)
 
 
-def _split_clusters(system, root_hz, failed, estimates_hz, lo_hz, hi_hz, rtol):
+def _split_clusters(system, root_hz, failed, estimates_hz, lo_hz, hi_hz, certified_hz, rtol):
     """Clusters Newton could not certify as one repeated root, solved as m close simple roots.
 
     A cluster of nearly equal estimates may be a pair split by a small asymmetry (e.g. a
@@ -316,9 +317,10 @@ def _split_clusters(system, root_hz, failed, estimates_hz, lo_hz, hi_hz, rtol):
     c + d²/e, a 2-cycle that never contracts. Here each of the cluster's m roots gets its own
     iterate, started around the cluster's last Newton iterate (spread as the estimates are,
     at least ACCEPT_STEP relative), with the others divided out (Aberth) and all kept in the
-    cluster's window; the cluster counts as solved when all m iterates are certified and
-    distinct (checked by ``_newton``). An exact repeated root cannot pass: its iterates
-    converge only linearly, onto one point.
+    cluster's window; the cluster counts as solved when all m iterates are certified,
+    distinct (checked by ``_newton``) and none of them is a root already certified
+    (``certified_hz``). An exact repeated root cannot pass: its iterates converge only
+    linearly, onto one point.
 
     Returns (solved clusters (n,) bool, roots [Hz], null vectors (roots, size)).
     """
@@ -341,11 +343,13 @@ def _split_clusters(system, root_hz, failed, estimates_hz, lo_hz, hi_hz, rtol):
         np.ones(start.size, dtype=int),
         rtol,
     )
+    hz = w / TWO_PI
+    ok &= np.all(np.abs(hz[:, None] - certified_hz[None, :]) > 1e-9 * hz[:, None], axis=1)
     solved[clusters] = [ok[owner == j].all() for j in clusters]
     keep = np.flatnonzero(solved[owner])
     vectors = [basis[k].T for k in keep]
     vectors = np.concatenate(vectors) if vectors else np.zeros((0, system.size))
-    return solved, w[keep] / TWO_PI, vectors
+    return solved, hz[keep], vectors
 
 
 def _newton(system, omega, lo, hi, mult, rtol):
