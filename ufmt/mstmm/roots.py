@@ -14,7 +14,9 @@ own:
    A cluster is certified when its steps contract superlinearly (a wrong multiplicity
    converges linearly or oscillates) inside the cluster's window (half-way, geometrically,
    to the neighbouring estimates; a step that would leave it goes half-way to its end) and
-   no two clusters meet.
+   no two clusters meet. A cluster that does not converge as one repeated root may be a
+   pair split by a small asymmetry (multiplicity-2 Newton then 2-cycles): its m roots are
+   solved again as m simple ones, each with its own Aberth iterate (``_split_clusters``).
 2. **Fallback scan, only for the clusters Newton could not certify:** the sign of det on a
    grid refined around every estimate, Illinois refinement of each sign change, and a golden
    section on the smallest singular values for even-multiplicity roots the sign cannot see.
@@ -279,6 +281,13 @@ def natural_frequencies(
     root /= TWO_PI
     found = np.repeat(root[ok], mult[ok])
     vectors = [basis[j].T for j in np.flatnonzero(ok)]
+    estimates = [near[idx] for idx, _, _, _ in windows]
+    split, split_hz, split_vectors = _split_clusters(
+        system, root, ~ok & (mult > 1), estimates, lo, hi, found, rtol
+    )
+    ok |= split
+    found = np.concatenate([found, split_hz])
+    vectors.append(split_vectors)
     if not ok.all():
         scanned = _scan(system, fmax_hz, est, rtol)
         inside = np.zeros(scanned.size, dtype=bool)
@@ -297,6 +306,50 @@ def natural_frequencies(
     ]
     missing_hz = np.concatenate(missing) if missing else np.zeros(0)
     return Roots(found, expected, missing_hz, int(mult[ok].sum()), vectors)
+
+
+def _split_clusters(system, root_hz, failed, estimates_hz, lo_hz, hi_hz, certified_hz, rtol):
+    """Clusters Newton could not certify as one repeated root, solved as m close simple roots.
+
+    A cluster of nearly equal estimates may be a pair split by a small asymmetry (e.g. a
+    shaft's bending pair on a support whose inertia differs in x and y) instead of an exact
+    repeated root. Near two simple roots c ± d the multiplicity-2 step maps c + e to
+    c + d²/e, a 2-cycle that never contracts. Here each of the cluster's m roots gets its own
+    iterate, started around the cluster's last Newton iterate (spread as the estimates are,
+    at least ACCEPT_STEP relative), with the others divided out (Aberth) and all kept in the
+    cluster's window; the cluster counts as solved when all m iterates are certified,
+    distinct (checked by ``_newton``) and none of them is a root already certified
+    (``certified_hz``). An exact repeated root cannot pass: its iterates converge only
+    linearly, onto one point.
+
+    Returns (solved clusters (n,) bool, roots [Hz], null vectors (roots, size)).
+    """
+    clusters = np.flatnonzero(failed)
+    solved = np.zeros(failed.size, dtype=bool)
+    if clusters.size == 0:
+        return solved, np.zeros(0), np.zeros((0, system.size))
+    starts, owner = [], []
+    for j in clusters:
+        e = estimates_hz[j]
+        spread = max(e[-1] - e[0], ACCEPT_STEP * root_hz[j])
+        starts.append(root_hz[j] + spread * np.linspace(-0.5, 0.5, e.size))
+        owner.append(np.full(e.size, j))
+    start, owner = np.concatenate(starts), np.concatenate(owner)
+    w, ok, basis = _newton(
+        system,
+        TWO_PI * start,
+        TWO_PI * lo_hz[owner],
+        TWO_PI * hi_hz[owner],
+        np.ones(start.size, dtype=int),
+        rtol,
+    )
+    hz = w / TWO_PI
+    ok &= np.all(np.abs(hz[:, None] - certified_hz[None, :]) > 1e-9 * hz[:, None], axis=1)
+    solved[clusters] = [ok[owner == j].all() for j in clusters]
+    keep = np.flatnonzero(solved[owner])
+    vectors = [basis[k].T for k in keep]
+    vectors = np.concatenate(vectors) if vectors else np.zeros((0, system.size))
+    return solved, hz[keep], vectors
 
 
 def _newton(system, omega, lo, hi, mult, rtol):
