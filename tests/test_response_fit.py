@@ -23,6 +23,7 @@ from ufmt.machining.modal import modal_basis
 from ufmt.machining.process import Process
 from ufmt.machining.surface import Surface
 from ufmt.model.load import load_model, packaged_path
+from ufmt.model.machine import machine_of
 from ufmt.tomlfile import read_toml
 
 REFERENCE = Process(300.0, 15.0, 4.0)
@@ -145,3 +146,6 @@ def test_implied_forces_are_coefficients_times_chip(model):
     area = 4e-6 * 15e-3 / 300.0  # depth x feed per revolution [m^2]
     assert forces["cutting"]["force_n"] == pytest.approx(2.0 * 2.0e9 * area)
     assert forces["cutting"]["specific_gpa"] == pytest.approx(4.0)
+    edge = np.sqrt(2 * machine_of(model).nose_radius * 4e-6)  # engaged edge sqrt(2 r_n a_p) [m]
+    assert forces["edge_thrust"]["force_n"] == pytest.approx(2.0 * 200.0 * edge)
+    assert forces["edge_thrust"]["specific_gpa"] == pytest.approx(2.0 * 200.0 * edge / area / 1e9)
