@@ -1,5 +1,12 @@
 """The paper's findings (section 4.2, Figs. 15-16) as properties of the packaged model, and
-the force calibration of Table 4 (the packaged model's force scale reproduces the measured PV).
+the response calibration of Table 4 (the packaged model reproduces the measured PV).
+
+Which PV judges a finding: the measured PV (Table 4, laser interferometer) is the whole
+surface, so it is compared with our total PV (every error source). The paper's bearing
+findings (Fig. 15, section 4.2) come from its dynamic model, whose surface is the
+cutting-force vibration alone; ours also carries geometric error sources (feed marks, spindle
+tilt, error motion, straightness) that no stiffness changes, so those findings are judged on
+``pv_by_source_nm["dynamic"]`` (docs/ufmt-model.md, 'The paper's findings').
 """
 
 from functools import lru_cache
@@ -24,6 +31,11 @@ def pv(model, process=REFERENCE, **options) -> float:
     return simulate(model, process, **options).metrics["pv_nm"]
 
 
+def dynamic_pv(model) -> float:
+    """PV [nm] of the surface the cutting-force vibration alone leaves (the paper's surface)."""
+    return simulate(model, REFERENCE).pv_by_source_nm["dynamic"]
+
+
 def scaled_hinge(name, translation=(1, 1, 1), rotation=(1, 1, 1)):
     model = packaged()
     h = model.hinge(name)
@@ -40,17 +52,10 @@ def test_force_scale_lies_in_its_physical_band():
     assert 0.3 <= packaged().machine["force_scale"] <= 3.0
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason=(
-        "not reproduced: with force_scale inside [0.3, 3] cutting-force vibration alone gives a "
-        "PV of ~13 nm (the response fit ends at the band's edge, results/validation/"
-        "response.csv); the paper's 142.91 nm must contain error sources this model does not "
-        "have yet (issue 8 item 3)"
-    ),
-)
 def test_packaged_model_reproduces_the_measured_pv():
-    """Table 4: 142.91 nm measured (laser interferometer), within 10 %."""
+    """Table 4: 142.91 nm measured (laser interferometer), within 10 % (the validation's
+    'reproduced' criterion, ufmt.calibration.response). The PV is the response fit's primary
+    target, so this checks that the calibration landed, not an independent prediction."""
     measured = read_toml(packaged_path("paper_reference.toml"))["surface_pv"]["measured_nm"]
     assert pv(packaged()) == pytest.approx(measured, rel=0.10)
 
@@ -58,16 +63,17 @@ def test_packaged_model_reproduces_the_measured_pv():
 @pytest.mark.xfail(
     strict=True,
     reason=(
-        "not reproduced after the recalibration with the head bearing's geometric tilt "
-        "stiffness and the spindle-bearing constraint: PV against the h31 tilt factor "
-        "0.25/0.5/1/2/4 is 11.96/10.28/10.65/10.61/9.13 nm, not monotone; with PV from "
-        "cutting-force vibration alone the tilt mostly shifts modes against the spindle "
-        "harmonics"
+        "not reproduced: the cutting-force vibration's PV against the h31 tilt factor "
+        "0.5/1/2 is 11.14/12.33/12.44 nm, rising, although z_re's average peak falls "
+        "(8.93/7.65/6.26 nm): stiffer tilt shifts the head modes against the spindle harmonics "
+        "and the surface's minimum over passes. The total PV falls, 146.2/144.6/143.1 nm, but "
+        "by 1 % through the geometric sources the paper's model does not have"
     ),
 )
 def test_stiffer_angular_head_bearing_lowers_pv():
-    """Fig. 15: the higher the head's angular air-bearing stiffness, the better."""
-    values = [pv(scaled_hinge("h31", rotation=(f, f, 1))) for f in (0.5, 1.0, 2.0)]
+    """Fig. 15: the higher the head's angular air-bearing stiffness, the better (the paper's
+    dynamic surface: judged on the cutting-force vibration's PV)."""
+    values = [dynamic_pv(scaled_hinge("h31", rotation=(f, f, 1))) for f in (0.5, 1.0, 2.0)]
     assert values[0] > values[1] > values[2]
 
 
@@ -86,17 +92,17 @@ def test_process_trends_of_fig_16(better, worse):
 @pytest.mark.xfail(
     strict=True,
     reason=(
-        "not reproduced: the identification now carries the paper's statement as a constraint "
-        "(h25 x2 moves no tool-tip z mode by more than 2 %), but Table 3 cannot be fitted with "
-        "it met (largest h25 strain-energy share 0.20 against 0.057 allowed); doubling h25 "
-        "still lowers PV by ~23 %, halving it raises PV by ~5 % (the head bearing h31: -51 % "
-        "and +77 %)"
+        "not reproduced: the cutting-force vibration's PV changes by 0.0 % / -16.9 % for h25 "
+        "x0.5 / x2 (12.33 -> 12.33 / 10.25 nm; the head bearing h31's tilt x0.5 / x2: -9.7 % / "
+        "+0.9 %). Table 3 cannot be fitted with the identification's constraint met (largest "
+        "h25 strain-energy share 0.20 against 0.057 allowed). The total PV changes by only "
+        "+0.6 % / -0.6 %, diluted by the geometric sources the paper's model does not have"
     ),
 )
 def test_spindle_air_bearing_changes_pv_little():
     """Section 4.2: the spindle air-bearing stiffness has little influence (here: < 5 % for a
-    factor 2 either way)."""
-    base = pv(packaged())
+    factor 2 either way), on the cutting-force vibration's PV (the paper's dynamic response)."""
+    base = dynamic_pv(packaged())
     for f in (0.5, 2.0):
-        changed = pv(scaled_hinge("h25", translation=(f, f, f), rotation=(f, f, 1)))
+        changed = dynamic_pv(scaled_hinge("h25", translation=(f, f, f), rotation=(f, f, 1)))
         assert abs(changed / base - 1) < 0.05

@@ -35,6 +35,7 @@ from ufmt.plots.modes import equivalent_box, plot_frequencies, plot_mode
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT / "ufmt" / "data"
 COMMITTED = ROOT / "results" / "validation" / "frequencies.csv"
+COMMITTED_RESPONSE = ROOT / "results" / "validation" / "response.csv"
 N_MODES = 30
 TESTED = [1, 2, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16, 17, 18, 29]
 TEXT_COLUMNS = ["symmetry_class", "shape", "table3_shape", "tag_check", "tag_detail"]
@@ -91,6 +92,37 @@ def test_packaged_model_reproduces_its_validation_table(result):
         )
     for column in TEXT_COLUMNS:
         assert fresh[column].fillna("").tolist() == committed[column].fillna("").tolist(), column
+
+
+def test_committed_response_table_matches_the_packaged_model(model, result):
+    """results/validation/response.csv (written by ``ufmt validate``): one row per paper
+    quantity of the [response] targets, and its numbers are the packaged model's."""
+    from ufmt.calibration.response import response_table
+    from ufmt.calibration.response_fit import read_response_settings
+    from ufmt.machining.modal import basis_from_shapes
+    from ufmt.tomlfile import read_toml
+
+    committed = pd.read_csv(COMMITTED_RESPONSE)
+    targets = read_response_settings(
+        read_toml(DATA / "calibration.toml")["response"],
+        read_toml(DATA / "paper_reference.toml"),
+        "calibration.toml",
+    ).targets
+    assert committed["metric"].tolist() == [t.metric for t in targets]
+    assert {"paper", "ours", "error_percent", "fitted"} <= set(committed.columns)
+    basis = basis_from_shapes(result.solution.shapes)  # as `ufmt validate` does
+    fresh = response_table(model, DATA / "paper_reference.toml", basis)
+    assert list(fresh.columns) == list(committed.columns)
+    for column in ("paper", "ours", "ours_periodic", "error_percent"):
+        np.testing.assert_allclose(
+            fresh[column].to_numpy(float),
+            committed[column].to_numpy(float),
+            rtol=1e-5,  # the file is written to 6 significant digits
+            equal_nan=True,
+            err_msg=column,
+        )
+    assert fresh["reproduced"].tolist() == committed["reproduced"].tolist()
+    assert fresh["fitted"].tolist() == committed["fitted"].tolist()
 
 
 def test_mstmm_and_assembled_model_agree_for_30_modes(result):

@@ -30,22 +30,29 @@ def reference_process(reference: dict) -> Process:
 def implied_forces(model: Model, metrics: dict, process: Process) -> dict[str, dict]:
     """Peak forces [N] and specific forces [GPa] the model's force scale implies at ``process``.
 
-    Per component (cutting, thrust, feed): the specific force ``force_scale * K`` [GPa] of the
-    force coefficients and the force on the largest uncut chip, depth x feed per revolution
-    [N]. With a ``force_peak_n`` metric (largest simulated force magnitude) also its value and
-    its ratio to the largest chip area. Literature for diamond on KDP: 0.1-1 N, 1-5 GPa.
+    Per coefficient of :class:`ufmt.machining.cutting.ForceCoefficients`: the force of its
+    part on the largest cut, ``force_scale * K`` times the part's amplitude
+    (:func:`ufmt.machining.cutting.part_amplitude`: the chip area depth x feed per revolution
+    for cutting, thrust, feed; the engaged edge length sqrt(2 r_n a_p) for the edge terms)
+    [N], and that force over the chip area [GPa] (for the area part the specific force
+    ``force_scale * K`` itself, for the edge part its equivalent on the chip). With a
+    ``force_peak_n`` metric (largest simulated force magnitude) also its value and its ratio to
+    the chip area. Literature for diamond on KDP: 0.1-1 N, 1-5 GPa.
     """
     from dataclasses import fields
 
+    from ufmt.machining.cutting import FORCE_PARTS, part_amplitude
     from ufmt.machining.response import DEFAULT_COEFFICIENTS
     from ufmt.model.machine import machine_of
 
-    scale = machine_of(model).force_scale
-    area = process.depth_m * process.feed_per_rev_m
+    machine = machine_of(model)
+    area = part_amplitude(process, machine, "area")
+    amplitude = {p: part_amplitude(process, machine, p) for p in FORCE_PARTS}
     out = {}
     for f in fields(DEFAULT_COEFFICIENTS):
-        specific = scale * getattr(DEFAULT_COEFFICIENTS, f.name)
-        out[f.name] = {"force_n": specific * area, "specific_gpa": specific * 1e-9}
+        part = "edge" if f.name.startswith("edge_") else "area"
+        force = machine.force_scale * getattr(DEFAULT_COEFFICIENTS, f.name) * amplitude[part]
+        out[f.name] = {"force_n": force, "specific_gpa": force / area * 1e-9}
     if "force_peak_n" in metrics:
         peak = metrics["force_peak_n"]
         out["peak (simulated)"] = {"force_n": peak, "specific_gpa": peak / area * 1e-9}
