@@ -336,7 +336,8 @@ def trend(x, y) -> str:
 
 
 def sweep_headline(table: pd.DataFrame, study, baseline: Mapping[str, float]) -> str:
-    """One sentence per sweep axis or grid: how PV responds, with its range [nm]."""
+    """One sentence per sweep axis or grid: how PV responds, with its range [nm] (and, where
+    the table has it, the PV of the cutting-force vibration alone at the axis ends)."""
     ok = table[table["status"] == "ok"] if "status" in table else table
     parts = []
     for group in study.groups:
@@ -349,10 +350,17 @@ def sweep_headline(table: pd.DataFrame, study, baseline: Mapping[str, float]) ->
             name = group.axes[0].parameter
             x = rows[name].to_numpy(float)
             lo, hi = x.min(), x.max()
+            vibration = ""
+            if "pv_dynamic_nm" in rows and rows["pv_dynamic_nm"].notna().all():
+                dyn = rows["pv_dynamic_nm"].to_numpy(float)
+                vibration = (
+                    f"; its cutting-force vibration part {short(dyn[np.argmin(x)])} ->"
+                    f" {short(dyn[np.argmax(x)])} nm"
+                )
             parts.append(
                 f"PV {trend(x, pv)} as {name} rises from {short(lo)} to {short(hi)}"
                 f" (PV {short(pv[np.argmin(x)])} -> {short(pv[np.argmax(x)])} nm,"
-                f" range {short(pv.min())}-{short(pv.max())} nm)"
+                f" range {short(pv.min())}-{short(pv.max())} nm{vibration})"
             )
         else:
             best = rows.iloc[int(np.argmin(pv))]
