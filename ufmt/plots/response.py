@@ -15,6 +15,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from ufmt.plots import new_axes, new_figure, save_figure
+from ufmt.plots.surface import plot_pv_by_source
 
 _AXES = ("x", "y", "z")
 CUT_SHADE = {"color": "tab:orange", "alpha": 0.12, "lw": 0}
@@ -164,14 +165,22 @@ def plot_frf(
 
 
 def simulation_figures(result) -> dict[str, Figure]:
-    """The four figures of a :class:`ufmt.simulate.SimulationResult` by file stem."""
+    """The figures of a :class:`ufmt.simulate.SimulationResult` by file stem: Figs. 6, 7, 13,
+    14 and the PV of each error source alone next to the total."""
     r = result.response
-    return {
+    figures = {
         "tool_tip_displacement": plot_tool_tip(r, "displacement"),
         "tool_tip_acceleration": plot_tool_tip(r, "acceleration"),
         "z_re": plot_zre(r),
         "surface": plot_surface(result.surface, result.metrics["pv_nm"]),
+        "pv_by_source": plot_pv_by_source([result], [_process_label(result.process)]),
     }
+    figures["pv_by_source"].axes[0].set_title("Surface PV of each error source alone and in total")
+    return figures
+
+
+def _process_label(process) -> str:
+    return f"{process.rpm:g} rpm, {process.feed_mm_min:g} mm/min, {process.depth_um:g} um"
 
 
 def plot_simulation(result, directory) -> list[Path]:
