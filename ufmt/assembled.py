@@ -250,7 +250,9 @@ def assemble(
     for body in model.bodies:
         dofs = body_dofs[body.name]
         if isinstance(body, RigidBody):
-            M[np.ix_(dofs[0], dofs[0])] = sla.block_diag(body.mass * np.eye(3), body.inertia)
+            r, t = dofs[0, :3], dofs[0, 3:]  # consecutive: translations, then rotations
+            M[r, r] = body.mass
+            M[t[0] : t[-1] + 1, t[0] : t[-1] + 1] = body.inertia
         elif isinstance(body, VirtualBody):
             massless[dofs[0]] = True
         else:
@@ -323,7 +325,7 @@ def _add_beam(beam: Beam, dofs, nodes, K, M) -> np.ndarray:
     """
     n, n_el = K.shape[0], len(nodes) - 1
     k_local, m_local = frame_element(beam, beam.length / n_el)
-    rot = sla.block_diag(*[beam_frame(beam)] * 4)  # local = rot @ global
+    rot = np.kron(np.eye(4), beam_frame(beam))  # local = rot @ global, block diagonal
     k_global = rot.T @ k_local @ rot
     m_global = rot.T @ m_local @ rot
     relative = np.hstack([-point_motion(nodes[1] - nodes[0]), np.eye(6)])

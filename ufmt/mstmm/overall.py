@@ -126,14 +126,18 @@ class TransferSystem:
         topo = self.topology
         w = np.array([2 * np.pi * fmax_hz])
         scale = _physical_scaling(self.model)
-        growth: dict[str, float] = {}
-        chosen = []
+        stages = []
         for name in topo.order:
             node = topo.nodes[name]
             stage = np.broadcast_to(self._edge_matrix(node.parent_edge, w), (1, 12, 12))[0]
             if node.kind == "rigid":
                 stage = stage @ self._rigid_first_input(node, w)[0]
-            g = np.linalg.cond(scale[:, None] * stage / scale[None, :])
+            stages.append(stage)
+        conds = np.linalg.cond(scale[:, None] * np.array(stages) / scale[None, :])
+        growth: dict[str, float] = {}
+        chosen = []
+        for name, g in zip(topo.order, conds, strict=True):
+            node = topo.nodes[name]
             upstream = [
                 growth[topo.edges[i].input_node]
                 for i, role in node.inputs
