@@ -42,7 +42,8 @@ def equilibrate(u: np.ndarray):
     a = np.abs(u)
     r = a.max(axis=2, keepdims=True)
     r[r == 0] = 1.0
-    c = (a / r).max(axis=1, keepdims=True)
+    a /= r
+    c = a.max(axis=1, keepdims=True)
     c[c == 0] = 1.0
     return 1.0 / r, 1.0 / c
 

@@ -384,12 +384,11 @@ def _newton(system, omega, lo, hi, mult, rtol):
         if r is None:  # at ω(1 + DERIVATIVE_STEP): off the root even from an exact start
             r, c = equilibrate(u[1])
         u0, du = u[0], u[1]
-        u0 *= r[act]
-        u0 *= c[act]
-        du *= r[act]
-        du *= c[act]
         du -= u0
-        du /= h[:, None, None]
+        scale = r[act] * c[act]
+        u0 *= scale
+        scale /= h[:, None, None]
+        du *= scale
         # columns of U_all constant in ω (identity blocks of segments, rigid hinge rows...)
         # add nothing to tr(U⁻¹ dU): solve only for the others, product = U⁻¹ dU[:, moving]
         moving = np.flatnonzero(np.any(du != 0, axis=(0, 1)))
