@@ -9,7 +9,9 @@ model at equal accuracy and equal BLAS threads (issue 9).
   over the mesh and printed). Its own singular-value solver (``assembled_modes``) is timed
   at its matching mesh too: eigh on (K, M) loses eps * lambda_max and may never reach the
   target.
-* Both sides run with one BLAS thread (threadpoolctl), timed in the same run (median).
+* Both sides run with one BLAS thread (threadpoolctl), timed in the same run, interleaved
+  (one call of each in turn, REPEATS rounds, medians): the machine is shared, so both sides
+  see the same load.
 * Sweeps: 30 modes of consecutive designs (head radial air-bearing stiffness in 1 % steps
   and in the 1.47x steps of studies/sweep-stiffness.toml) with and without continuation
   (``ufmt.mstmm.solve.continuation``); ``ufmt.evaluate`` of new designs (no disk cache) and
@@ -40,13 +42,15 @@ SWEEP_STEPS = {"1 % steps": 1.01, "1.47x steps": 100 ** (1 / 12)}
 SWEEP_DESIGNS = 12
 
 
-def median_seconds(fn) -> float:
-    times = []
+def interleaved_medians(calls: dict) -> dict:
+    """Median wall time [s] of each callable, called in turn for REPEATS rounds."""
+    times: dict = {name: [] for name in calls}
     for _ in range(REPEATS):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return statistics.median(times)
+        for name, fn in calls.items():
+            t0 = time.perf_counter()
+            fn()
+            times[name].append(time.perf_counter() - t0)
+    return {name: statistics.median(t) for name, t in times.items()}
 
 
 def eigh_modes(model, elements: int):
@@ -73,13 +77,19 @@ def main() -> None:
         f = mst.frequencies_hz
         err_eigh = {e: np.max(np.abs(eigh_modes(model, e)[0] / f - 1)) for e in MESHES}
         err_svd = {e: np.max(np.abs(svd_modes(model, e) / f - 1)) for e in MESHES}
-        t_mst = median_seconds(lambda: solve_modes(model, count=MODES))
-        rows = []
-        for target in TARGETS:
-            e_eigh, e_svd = coarsest(err_eigh, target), coarsest(err_svd, target)
-            t_eigh = median_seconds(lambda e=e_eigh: eigh_modes(model, e)) if e_eigh else None
-            t_svd = median_seconds(lambda e=e_svd: svd_modes(model, e)) if e_svd else None
-            rows.append((target, e_eigh, t_eigh, e_svd, t_svd))
+        meshes = [(coarsest(err_eigh, t), coarsest(err_svd, t)) for t in TARGETS]
+        calls = {"mstmm": lambda: solve_modes(model, count=MODES)}
+        for e_eigh, e_svd in meshes:
+            if e_eigh:
+                calls[("eigh", e_eigh)] = lambda e=e_eigh: eigh_modes(model, e)
+            if e_svd:
+                calls[("svd", e_svd)] = lambda e=e_svd: svd_modes(model, e)
+        seconds = interleaved_medians(calls)
+        t_mst = seconds["mstmm"]
+        rows = [
+            (t, e_eigh, seconds.get(("eigh", e_eigh)), e_svd, seconds.get(("svd", e_svd)))
+            for t, (e_eigh, e_svd) in zip(TARGETS, meshes, strict=True)
+        ]
     best = min(MESHES, key=err_eigh.get)
     print(
         f"{MODES} modes with shapes, packaged model, 1 BLAS thread on both sides; "
@@ -134,9 +144,7 @@ def evaluate_ms(step: float) -> tuple[float, float]:
     ev = importlib.import_module("ufmt.evaluate")
 
     os.environ["UFMT_CACHE_DIR"] = ""  # no disk cache: every design is computed
-    ev._memory_cached.cache_clear()
-    path = str(ev.model_file(None))
-    base = ev._base_model(path, ev.file_sha256(path))
+    base, _ = ev.resolve_model(None)
     value = ev.design_value(base, SWEEP_PARAMETER)
     ev.evaluate({}, {})  # warm up: model, tables, imports
     times = []

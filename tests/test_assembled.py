@@ -313,6 +313,16 @@ def test_matches_textbook_eigh_on_a_coarse_mesh():
     assert np.allclose(modes.frequencies_hz, np.sqrt(w2) / (2 * math.pi), rtol=1e-8)
 
 
+def test_frequencies_without_shapes_are_the_singular_values_alone():
+    """shapes=False (the MSTMM's estimates) returns the same frequencies as the full
+    solution (same matrix, singular values with and without vectors) and no shapes."""
+    full = assembled_modes(mixed_model(), elements_per_beam=3)
+    alone = assembled_modes(mixed_model(), elements_per_beam=3, shapes=False)
+    assert alone.shapes is None
+    assert alone.rigid_body_modes == full.rigid_body_modes
+    assert np.allclose(alone.frequencies_hz, full.frequencies_hz, rtol=1e-12, atol=0)
+
+
 def random_model(seed):
     """Rigid bodies and virtual hubs in a tree plus loops (some through ground); hinge
     directions released, rigid or springs of 1e4..1e8 (none released on a hub)."""

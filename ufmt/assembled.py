@@ -250,7 +250,9 @@ def assemble(
     for body in model.bodies:
         dofs = body_dofs[body.name]
         if isinstance(body, RigidBody):
-            M[np.ix_(dofs[0], dofs[0])] = sla.block_diag(body.mass * np.eye(3), body.inertia)
+            r, t = dofs[0, :3], dofs[0, 3:]  # consecutive: translations, then rotations
+            M[r, r] = body.mass
+            M[t[0] : t[-1] + 1, t[0] : t[-1] + 1] = body.inertia
         elif isinstance(body, VirtualBody):
             massless[dofs[0]] = True
         else:
@@ -323,17 +325,17 @@ def _add_beam(beam: Beam, dofs, nodes, K, M) -> np.ndarray:
     """
     n, n_el = K.shape[0], len(nodes) - 1
     k_local, m_local = frame_element(beam, beam.length / n_el)
-    rot = sla.block_diag(*[beam_frame(beam)] * 4)  # local = rot @ global
+    rot = np.kron(np.eye(4), beam_frame(beam))  # local = rot @ global, block diagonal
     k_global = rot.T @ k_local @ rot
     m_global = rot.T @ m_local @ rot
     relative = np.hstack([-point_motion(nodes[1] - nodes[0]), np.eye(6)])
     rows = np.linalg.cholesky(k_global[6:, 6:]).T @ relative
     out = np.zeros((6 * n_el, n))
-    for e in range(n_el):
-        idx = np.concatenate([dofs[e], dofs[e + 1]])
-        K[np.ix_(idx, idx)] += k_global
-        M[np.ix_(idx, idx)] += m_global
-        out[6 * e : 6 * e + 6, idx] = rows
+    for e in range(n_el):  # a beam's dofs are consecutive: element e spans 12 of them
+        block = slice(dofs[e, 0], dofs[e, 0] + 12)
+        K[block, block] += k_global
+        M[block, block] += m_global
+        out[6 * e : 6 * e + 6, block] = rows
     return out
 
 
@@ -441,13 +443,20 @@ def _zero_mode_count(am: AssembledModel) -> int:
     return 6 * n_bodies - _rank(np.vstack([constraints, am.spring_directions]) @ carry)
 
 
-def _svd(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Singular values (descending) and right singular vectors (rows) of a."""
+def _svd(a: np.ndarray, vectors: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
+    """Singular values (descending) and right singular vectors (rows; None without
+    ``vectors``) of a."""
+
+    def run(driver):
+        if not vectors:
+            return sla.svd(a, compute_uv=False, lapack_driver=driver), None
+        _, s, vh = sla.svd(a, full_matrices=False, lapack_driver=driver)
+        return s, vh
+
     try:
-        _, s, vh = sla.svd(a, full_matrices=False, lapack_driver="gesdd")
+        return run("gesdd")
     except np.linalg.LinAlgError:
-        _, s, vh = sla.svd(a, full_matrices=False, lapack_driver="gesvd")
-    return s, vh
+        return run("gesvd")
 
 
 def _condensed(am: AssembledModel):
@@ -473,8 +482,9 @@ def reduced_matrices(am: AssembledModel) -> tuple[np.ndarray, np.ndarray, int]:
     return f_red.T @ f_red, t_a.T @ am.M @ t_a, _zero_mode_count(am)
 
 
-def _solve(am: AssembledModel) -> tuple[np.ndarray, np.ndarray, int]:
-    """Nonzero angular frequencies [rad/s] ascending, mass-normalised shapes, zero-mode count.
+def _solve(am: AssembledModel, with_shapes: bool = True):
+    """Nonzero angular frequencies [rad/s] ascending, mass-normalised shapes (None without
+    ``with_shapes``: singular values only, about half the time), zero-mode count.
 
     With ``u = T_a a + T_b b`` (b massless), ``F_a = F T_a``, ``F_b = F T_b`` and P_b the
     projector on the range of F_b, the exact static condensation is
@@ -489,8 +499,10 @@ def _solve(am: AssembledModel) -> tuple[np.ndarray, np.ndarray, int]:
     m_a = t_a.T @ am.M @ t_a
     scale = 1.0 / np.sqrt(np.diag(m_a))
     chol = np.linalg.cholesky(scale[:, None] * m_a * scale[None, :])
-    sigma, vh = _svd(sla.solve_triangular(chol, (f_red * scale).T, lower=True).T)
+    sigma, vh = _svd(sla.solve_triangular(chol, (f_red * scale).T, lower=True).T, with_shapes)
     omega = sigma[:n_modes][::-1]
+    if not with_shapes:
+        return omega, None, zero_modes
     coords = scale[:, None] * sla.solve_triangular(chol.T, vh[:n_modes][::-1].T, lower=False)
     condensed = sla.solve_triangular(r_b, q_b.T @ (f_a @ coords)) / scale_b[:, None]
     shapes = (t_a @ coords - t_b @ condensed).T
@@ -507,13 +519,14 @@ class AssembledModes:
     frequencies_hz : (n_modes,) nonzero natural frequencies [Hz], ascending.
     rigid_body_modes : number of zero-frequency (rigid-body and mechanism) modes (not listed).
     shapes : (n_modes, n_dofs) mass-normalised shapes on all dofs of ``assembled``,
-        ``shapes @ M @ shapes.T = I`` [m/sqrt(kg), rad/sqrt(kg)]; largest entry positive.
+        ``shapes @ M @ shapes.T = I`` [m/sqrt(kg), rad/sqrt(kg)]; largest entry positive;
+        None when computed without shapes.
     assembled : the model they belong to (dofs, mesh, K, M).
     """
 
     frequencies_hz: np.ndarray
     rigid_body_modes: int
-    shapes: np.ndarray
+    shapes: np.ndarray | None
     assembled: AssembledModel
 
     @property
@@ -539,6 +552,7 @@ def assembled_modes(
     elements_per_beam: int | None = None,
     rtol: float = DEFAULT_RTOL,
     max_elements_per_beam: int = MAX_ELEMENTS_PER_BEAM,
+    shapes: bool = True,
 ) -> AssembledModes:
     """Natural frequencies and mode shapes by the assembled model ("ordinary method").
 
@@ -549,6 +563,8 @@ def assembled_modes(
         the mesh is set by the ``count``-th frequency of a first solution on the default mesh.
     elements_per_beam : a fixed mesh instead of the automatic one (:func:`elements_for`).
     rtol, max_elements_per_beam : target error and cap of the automatic mesh.
+    shapes : False skips the mode shapes (``shapes`` is None; singular values only: the
+        estimates that count and bracket the MSTMM roots).
 
     Every frequency converges from above as the mesh is refined (consistent mass,
     Rayleigh-Ritz), so the number of modes found below ``fmax_hz`` never exceeds the exact one.
@@ -556,11 +572,13 @@ def assembled_modes(
     mesh_hz = fmax_hz
     has_beams = any(isinstance(b, Beam) for b in model.bodies)
     if mesh_hz is None and count is not None and elements_per_beam is None and has_beams:
-        first = assembled_modes(model, count=count, elements_per_beam=DEFAULT_ELEMENTS_PER_BEAM)
+        first = assembled_modes(
+            model, count=count, elements_per_beam=DEFAULT_ELEMENTS_PER_BEAM, shapes=False
+        )
         if len(first.frequencies_hz):
             mesh_hz = float(first.frequencies_hz[-1])
     am = assemble(model, elements_per_beam, mesh_hz, rtol, max_elements_per_beam)
-    omega, shapes, zero_modes = _solve(am)
+    omega, vectors, zero_modes = _solve(am, shapes)
     freq = omega / (2.0 * math.pi)
     keep = np.ones(len(freq), dtype=bool) if fmax_hz is None else freq <= fmax_hz
     if count is not None:
@@ -568,6 +586,6 @@ def assembled_modes(
     return AssembledModes(
         frequencies_hz=freq[keep],
         rigid_body_modes=zero_modes,
-        shapes=shapes[keep],
+        shapes=None if vectors is None else vectors[keep],
         assembled=am,
     )

@@ -8,6 +8,8 @@ function returns an array of shape ``(n_omega, 12, 12)``.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from ufmt.model.schema import Beam
@@ -107,6 +109,12 @@ def beam_frame(beam: Beam, p_in, p_out) -> np.ndarray:
     return np.column_stack([e1, e2, np.cross(e1, e2)])
 
 
+# S, T/x, U/x², V/x³ = Σ_k x⁴ᵏ / (4k + j)!, j = 0..3; 12 terms: 16¹²/48! is below eps
+_KRYLOV_SERIES = 1.0 / np.array(
+    [[math.factorial(4 * k + j) for j in range(4)] for k in range(12)], dtype=float
+)
+
+
 def _krylov_scaled(x4: np.ndarray):
     """Entire Krylov-Duncan functions in terms of x⁴ = (λL)⁴, stable for all x ≥ 0.
 
@@ -116,19 +124,12 @@ def _krylov_scaled(x4: np.ndarray):
     """
     x4 = np.asarray(x4, dtype=float)
     small = x4 < 16.0
-    xs = np.where(small, x4, 0.0)
-    s = np.zeros_like(x4)
-    t = np.zeros_like(x4)
-    u = np.zeros_like(x4)
-    v = np.zeros_like(x4)
-    term = np.ones_like(x4)
-    for k in range(12):  # 16^12/(48)! is far below machine precision
-        n = 4 * k
-        s += term
-        t += term / (n + 1)
-        u += term / ((n + 1) * (n + 2))
-        v += term / ((n + 1) * (n + 2) * (n + 3))
-        term = term * xs / ((n + 1) * (n + 2) * (n + 3) * (n + 4))
+    xs = np.where(small, x4, 0.0)[..., None]
+    series = np.full((*x4.shape, 4), _KRYLOV_SERIES[-1])  # Horner in x⁴, all four at once
+    for coefficients in _KRYLOV_SERIES[-2::-1]:
+        series *= xs
+        series += coefficients
+    s, t, u, v = np.moveaxis(series, -1, 0).copy()
     if np.any(~small):
         x = np.sqrt(np.sqrt(x4[~small]))
         ch, c, sh, sn = np.cosh(x), np.cos(x), np.sinh(x), np.sin(x)

@@ -42,7 +42,8 @@ def equilibrate(u: np.ndarray):
     a = np.abs(u)
     r = a.max(axis=2, keepdims=True)
     r[r == 0] = 1.0
-    c = (a / r).max(axis=1, keepdims=True)
+    a /= r
+    c = a.max(axis=1, keepdims=True)
     c[c == 0] = 1.0
     return 1.0 / r, 1.0 / c
 
@@ -126,14 +127,18 @@ class TransferSystem:
         topo = self.topology
         w = np.array([2 * np.pi * fmax_hz])
         scale = _physical_scaling(self.model)
-        growth: dict[str, float] = {}
-        chosen = []
+        stages = []
         for name in topo.order:
             node = topo.nodes[name]
             stage = np.broadcast_to(self._edge_matrix(node.parent_edge, w), (1, 12, 12))[0]
             if node.kind == "rigid":
                 stage = stage @ self._rigid_first_input(node, w)[0]
-            g = np.linalg.cond(scale[:, None] * stage / scale[None, :])
+            stages.append(stage)
+        conds = np.linalg.cond(scale[:, None] * np.array(stages) / scale[None, :])
+        growth: dict[str, float] = {}
+        chosen = []
+        for name, g in zip(topo.order, conds, strict=True):
+            node = topo.nodes[name]
             upstream = [
                 growth[topo.edges[i].input_node]
                 for i, role in node.inputs

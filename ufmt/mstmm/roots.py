@@ -384,18 +384,21 @@ def _newton(system, omega, lo, hi, mult, rtol):
         if r is None:  # at ω(1 + DERIVATIVE_STEP): off the root even from an exact start
             r, c = equilibrate(u[1])
         u0, du = u[0], u[1]
-        u0 *= r[act]
-        u0 *= c[act]
-        du *= r[act]
-        du *= c[act]
         du -= u0
-        du /= h[:, None, None]
+        scale = r[act] * c[act]
+        u0 *= scale
+        scale /= h[:, None, None]
+        du *= scale
+        # columns of U_all constant in ω (identity blocks of segments, rigid hinge rows...)
+        # add nothing to tr(U⁻¹ dU): solve only for the others, product = U⁻¹ dU[:, moving]
+        moving = np.flatnonzero(np.any(du != 0, axis=(0, 1)))
         with np.errstate(all="ignore"):
-            product = batched_solve(u0, du)
+            product = batched_solve(u0, du[:, :, moving])
             # Aberth: the other clusters' current roots are divided out of det U_all
             others = mult[None, :] / (wa[:, None] - w[None, :])
             others[np.arange(act.size), act] = 0.0
-            step = mult[act] / (np.einsum("nii->n", product) - others.sum(axis=1))
+            trace = np.einsum("nii->n", product[:, moving, :])
+            step = mult[act] / (trace - others.sum(axis=1))
         finite = np.isfinite(step)
         step = np.where(finite, step, 0.0)  # exactly singular: ω is the root
         new = wa - step
@@ -412,7 +415,7 @@ def _newton(system, omega, lo, hi, mult, rtol):
             x = np.broadcast_to(start[:, :m], (sel.size, start.shape[0], m))
             with np.errstate(all="ignore"):
                 for _ in range(2):
-                    x, _ = np.linalg.qr(product[sel] @ x)
+                    x, _ = np.linalg.qr(product[sel] @ x[:, moving, :])
             for k, j in enumerate(act[sel]):
                 basis[j] = c[j, 0, :, None] * np.real(x[k])
     ok = done.copy()
