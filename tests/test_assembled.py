@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import scipy.linalg as sla
 import scipy.optimize as so
-from hypothesis import given, settings
+from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from ufmt.assembled import (
@@ -290,10 +290,10 @@ def test_mixed_model_shapes_are_mass_orthonormal_and_satisfy_everything():
     assert np.allclose(am.deformation.T @ am.deformation, am.K, atol=1e-12 * np.abs(am.K).max())
 
 
-def textbook_modes(am):
+def textbook_spectrum(am):
     """Independent algebra (as a textbook would): orthonormal null space of the constraints,
     eigenbasis split of the projected mass, Schur complement, scipy.linalg.eigh.
-    Returns (omega^2 of the elastic modes, number of zero modes)."""
+    Returns every omega^2, zero modes included, ascending."""
     n = sla.null_space(am.constraints) if len(am.constraints) else np.eye(len(am.K))
     k, m = n.T @ am.K @ n, n.T @ am.M @ n
     mu, q = np.linalg.eigh(m)
@@ -301,7 +301,12 @@ def textbook_modes(am):
     kq = q.T @ k @ q
     kmm, kms, kss = kq[np.ix_(heavy, heavy)], kq[np.ix_(heavy, ~heavy)], kq[np.ix_(~heavy, ~heavy)]
     k_red = kmm - kms @ np.linalg.solve(kss, kms.T)
-    w2 = sla.eigh(k_red, np.diag(mu[heavy]), eigvals_only=True)
+    return sla.eigh(k_red, np.diag(mu[heavy]), eigvals_only=True)
+
+
+def textbook_modes(am):
+    """(omega^2 of the elastic modes, number of zero modes) of :func:`textbook_spectrum`."""
+    w2 = textbook_spectrum(am)
     zero = w2 < 1e-9 * w2.max(initial=0.0)
     return w2[~zero], int(zero.sum())
 
@@ -366,6 +371,12 @@ def random_model(seed):
 def test_random_rigid_models_match_textbook_eigh(seed):
     model = random_model(seed)
     modes = assembled_modes(model)
+    # eigh resolves omega^2 only to ~eps * max(omega^2): a near-mechanism between rounding
+    # level (1e-13) and 1e-8 of the stiffest mode can be neither told from a zero mode nor
+    # checked to 1e-7 by this reference (e.g. seed 4064: a 5 mHz mode at 1e-10)
+    spectrum = textbook_spectrum(modes.assembled)
+    ratio = spectrum / spectrum.max()
+    assume(not np.any((ratio > 1e-13) & (ratio < 1e-8)))
     w2, zero_modes = textbook_modes(modes.assembled)
     assert modes.rigid_body_modes == zero_modes
     assert np.allclose(modes.frequencies_hz, np.sqrt(w2) / (2 * math.pi), rtol=1e-7)
