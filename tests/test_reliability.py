@@ -610,3 +610,18 @@ def test_progress_totals_are_fixed_in_advance(tmp_path):
 )
 def test_listed_tracebacks_are_one_line_with_exit_2(args):
     one_line_error(cli(*args))
+
+
+@pytest.mark.parametrize(
+    "axes",
+    [
+        '[[axis]]\nparameter = "rpm"\nrange = [200.0, 400.0]\nn = 36339061537\n',
+        '[[grid]]\nname = "g"\n[[grid.axis]]\nparameter = "rpm"\nrange = [200.0, 400.0]\nn = 1000\n'
+        '[[grid.axis]]\nparameter = "feed_mm_min"\nrange = [4.0, 16.0]\nn = 1000\n',
+    ],
+)
+def test_a_study_larger_than_the_point_limit_is_one_line_before_any_allocation(tmp_path, axes):
+    """A typo like n = 36339061537 once allocated 271 GiB (found by the fuzz test above)."""
+    with pytest.raises(StudyError, match="more than the allowed 100,000") as info:
+        parse_study(f'kind = "sweep"\n{axes}', tmp_path / "big.toml")
+    assert "\n" not in str(info.value) and "big.toml" in str(info.value)

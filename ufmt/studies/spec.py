@@ -103,6 +103,9 @@ _KIND_FIELDS = {
     "optimise-design": ("bound", "cost", "optimiser"),
     "sensitivity": ("bound", "method", "samples", "levels", "seed"),
 }
+#: Most points of one axis or one grid: a study of more is a typo (a sweep of 1e5 points runs
+#: for hours) and its value table alone could exhaust memory.
+MAX_POINTS = 100_000
 _AXIS_FIELDS = ("parameter", "values", "range", "scale", "n", "spacing")
 _BOUND_FIELDS = ("parameter", "range", "scale", "spacing")
 _GRID_FIELDS = ("name", "axis")
@@ -386,7 +389,7 @@ def _sensitivity(where, data, base) -> dict:
         where.fail("method", f"unknown method {method!r} (morris or sobol)")
     options = {
         "method": method,
-        "samples": _count(where, "samples", data.get("samples", 16), 2),
+        "samples": _count(where, "samples", data.get("samples", 16), 2, MAX_POINTS),
         "levels": _count(where, "levels", data.get("levels", 4), 2),
         "seed": _count(where, "seed", data.get("seed", 1), 0),
     }
@@ -468,9 +471,11 @@ def _positive(where: _Where, field: str, value) -> float | None:
     return value
 
 
-def _count(where: _Where, field: str, value, minimum: int) -> int:
+def _count(where: _Where, field: str, value, minimum: int, maximum: int | None = None) -> int:
     if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
         where.fail(field, f"expected an integer >= {minimum}, got {value!r}")
+    if maximum is not None and value > maximum:
+        where.fail(field, f"{value!r} is more than the allowed {maximum:,} points")
     return value
 
 
@@ -552,7 +557,7 @@ def _axis(where: _Where, label: str, table: Mapping) -> Axis:
         if "n" in table:
             where.fail(f"{label}.n", "n goes with range or scale, not with values")
         return Axis(parameter, tuple(values), log)
-    n = _count(where, f"{label}.n", table.get("n", DEFAULT_POINTS), 1)
+    n = _count(where, f"{label}.n", table.get("n", DEFAULT_POINTS), 1, MAX_POINTS)
     low, high = values
     grid = np.geomspace(low, high, n) if log else np.linspace(low, high, n)
     return Axis(parameter, tuple(float(v) for v in grid), log, relative=source == "scale")
@@ -575,6 +580,11 @@ def _grids(where: _Where, value) -> list[Group]:
         axes = _axes(where, f"grid[{i}].axis", table.get("axis", []), required=True)
         if len(axes) < 2:
             where.fail(f"grid[{i}].axis", "a grid needs at least two axes")
+        size = math.prod(len(a.values) for a in axes)
+        if size > MAX_POINTS:
+            where.fail(
+                f"grid[{i}].axis", f"{size:,} points is more than the allowed {MAX_POINTS:,}"
+            )
         groups.append(Group(name, tuple(axes)))
     return groups
 
