@@ -193,10 +193,10 @@ class CutGeometry:
     2, 1 and 1): w_hat, w_y_hat (n, 5) and c_hat (n, 3) hold their complex Fourier coefficients
     (harmonics -2..2, -1..1), w_trig, w_y_trig (n, 5) and c_trig (3, n) the real ones on
     ``trig`` (5, N) = [1, cos, sin, cos 2phi, sin 2phi]. table_y (M,) slide positions [m] of
-    the periodic table and row_knots their row coordinate (see :class:`ZreTable`); table_a
-    (N/2 + 1, M, 21): for harmonic k, row i and (p, d), the half
-    spectrum of the chip factor at harmonic k - d (d = -3..3) times Y_i^p (p = 0, 1, 2);
-    active (N,) the angles that cut at some slide position.
+    the periodic table and row_knots their row coordinate (see :class:`ZreTable`); spectra
+    (N/2 + 7, M): the half spectrum of the chip factor at each table row, extended by three
+    harmonics at both ends (harmonic k in entry k + 3); active (N,) the angles that cut at
+    some slide position.
     """
 
     basis: ModalBasis
@@ -220,7 +220,7 @@ class CutGeometry:
     trig: np.ndarray
     table_y: np.ndarray
     row_knots: tuple[float, float, np.ndarray]
-    table_a: np.ndarray
+    spectra: np.ndarray
     active: np.ndarray
     part: str = "area"
     static_tool: np.ndarray | None = None
@@ -297,7 +297,7 @@ def cut_geometry(
     trig = np.stack(
         [np.ones(n_phi), np.cos(phases), np.sin(phases), np.cos(2 * phases), np.sin(2 * phases)]
     )
-    table_y, row_knots, pattern, table_a, active = _pattern_tables(machine, n_phi, table_rows, part)
+    table_y, row_knots, pattern, spectra, active = _pattern_tables(machine, n_phi, table_rows, part)
     dtip, ddtip = tool_tip_rates(phases, machine, 1 / (2 * np.pi))  # d/dphi, d^2/dphi^2
     static_tool = static_work = static_table = None
     if residual is not None:
@@ -332,7 +332,7 @@ def cut_geometry(
         trig=trig,
         table_y=table_y,
         row_knots=row_knots,
-        table_a=table_a,
+        spectra=spectra,
         active=active,
         part=part,
         static_tool=static_tool,
@@ -341,12 +341,12 @@ def cut_geometry(
     )
 
 
-@lru_cache(maxsize=4)  # ~16 MiB each: both force parts of two machines
+@lru_cache(maxsize=4)  # ~1.6 MiB each: both force parts of two machines
 def _pattern_tables(machine: Machine, n_phi: int, table_rows: int, part: str):
     """Machine-only tables of :func:`cut_geometry` (cached per machine, not per design).
 
     Returns table_y, row_knots, the chip pattern (M, N) of ``part`` at the table rows, its
-    shifted spectra table_a (N/2 + 1, M, 21) and the active angles (N,); all read-only.
+    extended half spectra (N/2 + 7, M) and the active angles (N,); all read-only.
     """
     phases = 2 * np.pi * np.arange(n_phi) / n_phi
     cell = 2 * np.pi / n_phi
@@ -356,15 +356,10 @@ def _pattern_tables(machine: Machine, n_phi: int, table_rows: int, part: str):
     active = (centred + cell / 2 > lo) & (centred - cell / 2 < hi) & (np.abs(centred) < np.pi / 2)
     pattern = np.zeros((table_y.size, n_phi))
     pattern[:, active] = chip_factor_cells(phases[active], table_y[:, None], machine, cell, part)
-    spectra = _extend(np.fft.rfft(pattern, axis=1)).T  # (N/2 + 7, M)
-    half = n_phi // 2 + 1
-    # A[k - d] Y^p for the 3 x 7 kernels of periodic_response, as (N/2 + 1, M, 21)
-    shifted = spectra[np.arange(half)[:, None] + np.arange(6, -1, -1)[None, :]].transpose(0, 2, 1)
-    powers = table_y[:, None] ** np.arange(3)[None, :]
-    table_a = (powers[None, :, :, None] * shifted[:, :, None, :]).reshape(half, -1, 21)
-    for a in (table_y, pattern, table_a, active):
+    spectra = np.ascontiguousarray(_extend(np.fft.rfft(pattern, axis=1)).T)  # (N/2 + 7, M)
+    for a in (table_y, pattern, spectra, active):
         a.setflags(write=False)
-    return table_y, row_knots, pattern, table_a, active
+    return table_y, row_knots, pattern, spectra, active
 
 
 def _table_rows(machine: Machine, rows: int, uniform: float = UNIFORM_SHARE):
@@ -471,70 +466,142 @@ def _outputs(geo: CutGeometry, j, slide, q, qd, qdd, spindle_hz: float):
     return disp[0], acc, disp[1]
 
 
-def periodic_response(
-    geo: CutGeometry, process, zeta=DEFAULT_ZETA, force_scale: float = 1.0
-) -> Response:
+def periodic_response(geo, process, zeta=DEFAULT_ZETA, force_scale: float = 1.0) -> Response:
     """Periodic steady state at each tabulated slide position (path b).
 
     Per harmonic k: z_re[k] = sum_s sum_l c_hat[s,l] H_s[k-l] sum_m w_hat[s,m] A[k-l-m]
-    = sum_d K_d[k] A[k-d], with A the spectrum of the chip factor (cached in ``geo``) and H_s
-    the receptance of :func:`discrete_receptance`; with the workpiece arm's Y terms the kernels
-    are a quadratic in Y, sum_p Y^p K_pd. The record window is one spindle period at the slide
-    position of :func:`record_slide`. Everything is linear in the chip area a_p v/f: the
-    response per unit area is cached per (geometry, spindle speed, damping), so another feed
-    or depth at a known spindle speed costs a scaling.
+    = sum_d K_d[k] A[k-d], with A the spectrum of the chip factor (``spectra`` of ``geo``) and
+    H_s the receptance of :func:`discrete_receptance`; with the workpiece arm's Y terms the
+    kernels are a quadratic in Y, sum_p Y^p K_pd. The record window is one spindle period at
+    the slide position of :func:`record_slide`. The kernels and the record window's modal
+    spectra per unit pattern depend on the spindle speed only: they are cached per (geometry,
+    spindle speed, damping), so another feed or depth at a known spindle speed costs the
+    scaled sum over k and one inverse FFT.
+
+    ``geo``: one :class:`CutGeometry` or a sequence of them, the force parts of one force on
+    the same basis, machine, n_phi and table rows: their spectra are summed (each times its
+    part's amplitude) before the inverse FFT, so the parts cost one transform.
     """
+    parts = (geo,) if isinstance(geo, CutGeometry) else tuple(geo)
+    geo = parts[0]
     zeta = modal_damping(zeta, geo.basis.n_modes)
     f = process.spindle_hz
     n = geo.n_phi
-    amp = force_scale * part_amplitude(process, geo.machine, geo.part)
-    values, tip, acc, work, chip = _unit_periodic(geo, f, tuple(zeta.tolist()))
+    half = n // 2
+    amps = np.array([force_scale * part_amplitude(process, geo.machine, g.part) for g in parts])
+    kern, hq, hv = _periodic_kernels(parts, f, tuple(zeta.tolist()))
+    # z_re[k, i] = sum_p Y_i^p sum_(d, part) amp K[k, p, (d, part)] A_part[k - d, i]: one small
+    # product per harmonic over a strided view of the stacked spectra (no copy)
+    stacked = _stacked_spectra(parts)  # (N/2 + 7, P, M)
+    p_count, rows = len(parts), stacked.shape[2]
+    view = np.lib.stride_tricks.as_strided(
+        stacked,
+        shape=(half + 1, 7 * p_count, rows),
+        strides=(stacked.strides[0], stacked.strides[1], stacked.strides[2]),
+        writeable=False,
+    )
+    z_p = np.matmul(kern * np.tile(amps, 7), view)  # (N/2 + 1, 3, M)
+    y = geo.table_y
+    zk = z_p[:, 0] + y * (z_p[:, 1] + y * z_p[:, 2])
+    values = np.empty((rows, n + 3))
+    table = np.fft.irfft(zk.T, n=n, axis=1)
+    for g, amp in zip(parts, amps, strict=True):
+        if g.static_table is not None:
+            table += amp * g.static_table
+    values[:, 1 : n + 1] = table
+    values[:, 0], values[:, n + 1 :] = table[:, -1], table[:, :2]
+
+    units = [_record_unit(g) for g in parts]
+    fk = sum(amp * u.fk for amp, u in zip(amps, units, strict=True))
+    q = np.fft.irfft(hq * fk, n=n, axis=1)
+    qd = np.fft.irfft(hv * fk, n=n, axis=1)
+    fs = sum(amp * u.fs for amp, u in zip(amps, units, strict=True))
+    b = geo.basis
+    qdd = fs - (2 * zeta * b.omega)[:, None] * qd - (b.omega**2)[:, None] * q
     y_rec = record_slide(geo.machine)
+    tip, acc, work = _outputs(geo, np.arange(n), np.full(n, y_rec), q, qd, qdd, f)
+    for amp, u in zip(amps, units, strict=True):
+        if u.static_tip is not None:
+            tip, work = tip + amp * u.static_tip, work + amp * u.static_work
     j = np.arange(n)
     return Response(
         method="periodic",
         t=(j + (y_rec - geo.machine.cut_span[0]) / process.feed_per_rev_m * n) / (f * n),
         slide_y=np.full(n, y_rec),
-        force=(amp * chip)[:, None]
-        * force_vector(geo.phases, geo.machine, geo.coefficients, geo.part),
-        tip_disp=amp * tip,
-        tip_acc=amp * acc,
-        work_disp=amp * work,
-        z_re=amp * (tip[:, 2] - work[:, 2]),
+        force=sum(amp * u.force for amp, u in zip(amps, units, strict=True)),
+        tip_disp=tip,
+        tip_acc=acc,
+        work_disp=work,
+        z_re=tip[:, 2] - work[:, 2],
         period=1.0 / f,
         periods=1,
-        table=ZreTable(amp * values, geo.table_y, 0.0, geo.row_knots),
+        table=ZreTable(values, geo.table_y, 0.0, geo.row_knots),
     )
 
 
-@lru_cache(maxsize=4)  # ~17 MB per entry; a sweep visits many designs
-def _unit_periodic(geo: CutGeometry, spindle_hz: float, zeta: tuple):
-    """Table values and record-window outputs of :func:`periodic_response` per unit chip area."""
-    b = geo.basis
+@lru_cache(maxsize=4)
+def _stacked_spectra(parts: tuple[CutGeometry, ...]) -> np.ndarray:
+    """The parts' extended spectra interleaved as (N/2 + 7, P, M) (cached per parts)."""
+    out = np.stack([g.spectra for g in parts], axis=1)
+    out.setflags(write=False)
+    return out
+
+
+@lru_cache(maxsize=16)
+def _periodic_kernels(parts: tuple[CutGeometry, ...], spindle_hz: float, zeta: tuple):
+    """Kernels and receptances of :func:`periodic_response` (cached per spindle speed).
+
+    Returns kern (N/2 + 1, 3, 7 P): for harmonic k, power p of Y and (shift, part) the kernel
+    K_pd[k] of that part with d = 3 - shift (the order of the strided spectra view), and
+    hq, hv (n, N/2 + 1) the receptances at harmonics 0..N/2.
+    """
+    geo = parts[0]
     n = geo.n_phi
     half = n // 2
     zeta = np.array(zeta)
     dt = 1.0 / (spindle_hz * n)
     k = np.arange(-1, half + 2)
-    hq, hv = discrete_receptance(b.omega, zeta, dt, 2 * np.pi * k / n)
-    # kernels of Y^0, Y^1, Y^2: c = c_hat + Y c_y (l = 0 only), w_s = w_hat + Y w_y_hat
-    c_y = np.zeros_like(geo.c_hat)
-    c_y[:, 1] = geo.c_y
-    kern = np.zeros((3, 7, half + 1), dtype=complex)
-    for pc, ch in enumerate((geo.c_hat, c_y)):
-        for pw, wh in enumerate((geo.w_hat, geo.w_y_hat)):
-            for li, l in enumerate(_HARM_C):
-                g = (ch[:, li : li + 1] * wh).T @ hq[:, 1 - l : half + 2 - l]
-                kern[pc + pw, li : li + 5] += g
-    kern = np.ascontiguousarray(kern.reshape(21, half + 1).T)[:, :, None]
-    zk = np.matmul(geo.table_a, kern)[:, :, 0]
-    rows = np.fft.irfft(zk, n=n, axis=0).T
-    if geo.static_table is not None:
-        rows = rows + geo.static_table
-    values = np.empty((rows.shape[0], n + 3))
-    values[:, 1 : n + 1] = rows
-    values[:, 0], values[:, n + 1 :] = rows[:, -1], rows[:, :2]
+    hq, hv = discrete_receptance(geo.basis.omega, zeta, dt, 2 * np.pi * k / n)
+    kern = np.zeros((3, 7, len(parts), half + 1), dtype=complex)
+    for pi_, g in enumerate(parts):
+        # kernels of Y^0, Y^1, Y^2: c = c_hat + Y c_y (l = 0 only), w_s = w_hat + Y w_y_hat
+        c_y = np.zeros_like(g.c_hat)
+        c_y[:, 1] = g.c_y
+        for pc, ch in enumerate((g.c_hat, c_y)):
+            for pw, wh in enumerate((g.w_hat, g.w_y_hat)):
+                for li, l in enumerate(_HARM_C):
+                    kern[pc + pw, li : li + 5, pi_] += (ch[:, li : li + 1] * wh).T @ hq[
+                        :, 1 - l : half + 2 - l
+                    ]
+    # shift index 6 - d_index first, then the part: the layout of the strided view
+    kern = np.ascontiguousarray(kern[:, ::-1].reshape(3, -1, half + 1).transpose(2, 0, 1))
+    hq, hv = hq[:, 1 : half + 2], hv[:, 1 : half + 2]
+    for a in (kern, hq, hv):
+        a.setflags(write=False)
+    return kern, hq, hv
 
+
+@dataclass(frozen=True)
+class _RecordUnit:
+    """Record-window quantities of one force part per unit amplitude (process-independent).
+
+    fk (n, N/2 + 1) half spectrum of the modal force; fs (n, N) the modal force; force (N, 3)
+    the force on the tool [N per unit]; static_tip, static_work (N, 3) or None the static
+    correction's displacements.
+    """
+
+    fk: np.ndarray
+    fs: np.ndarray
+    force: np.ndarray
+    static_tip: np.ndarray | None
+    static_work: np.ndarray | None
+
+
+@lru_cache(maxsize=8)
+def _record_unit(geo: CutGeometry) -> _RecordUnit:
+    """The record window of :func:`periodic_response` per unit amplitude (cached per geometry)."""
+    n = geo.n_phi
+    half = n // 2
     y_rec = record_slide(geo.machine)
     chip = chip_factor_cells(geo.phases, y_rec, geo.machine, 2 * np.pi / n, geo.part)
     chip_ext = _extend(np.fft.rfft(chip))
@@ -542,17 +609,16 @@ def _unit_periodic(geo: CutGeometry, spindle_hz: float, zeta: tuple):
     fk = w_hat[:, :1] * chip_ext[None, 5 : 5 + half + 1]
     for mi in range(1, 5):
         fk += w_hat[:, mi : mi + 1] * chip_ext[None, 5 - mi : 5 - mi + half + 1]
-    q = np.fft.irfft(hq[:, 1 : half + 2] * fk, n=n, axis=1)
-    qd = np.fft.irfft(hv[:, 1 : half + 2] * fk, n=n, axis=1)
     fs = (geo.w + y_rec * geo.w_y) * chip
-    qdd = fs - (2 * zeta * b.omega)[:, None] * qd - (b.omega**2)[:, None] * q
-    tip, acc, work = _outputs(geo, np.arange(n), np.full(n, y_rec), q, qd, qdd, spindle_hz)
+    force = chip[:, None] * force_vector(geo.phases, geo.machine, geo.coefficients, geo.part)
+    static_tip = static_work = None
     if geo.static_tool is not None:
         s_tool, s_work = geo.static_at(np.arange(n), np.full(n, y_rec))
-        tip, work = tip + chip[:, None] * s_tool, work + chip[:, None] * s_work
-    for a in (values, tip, acc, work, chip):
-        a.setflags(write=False)
-    return values, tip, acc, work, chip
+        static_tip, static_work = chip[:, None] * s_tool, chip[:, None] * s_work
+    for a in (fk, fs, force, static_tip, static_work):
+        if a is not None:
+            a.setflags(write=False)
+    return _RecordUnit(fk, fs, force, static_tip, static_work)
 
 
 def time_response(
