@@ -490,25 +490,23 @@ def periodic_response(geo, process, zeta=DEFAULT_ZETA, force_scale: float = 1.0)
     half = n // 2
     amps = np.array([force_scale * part_amplitude(process, geo.machine, g.part) for g in parts])
     kern, hq, hv = _periodic_kernels(parts, f, tuple(zeta.tolist()))
-    # z_re[k, i] = sum_p Y_i^p sum_(d, part) amp K[k, p, (d, part)] A_part[k - d, i]: one small
+    # z_re[k, i] = sum_(d, part, p) amp K[k, (d, part, p)] Y_i^p A_part[k - d, i]: one small
     # product per harmonic over a strided view of the stacked spectra (no copy)
-    stacked = _stacked_spectra(parts)  # (N/2 + 7, P, M)
-    p_count, rows = len(parts), stacked.shape[2]
+    stacked = _stacked_spectra(parts)  # (N/2 + 7, P, 3, M)
+    rows = stacked.shape[3]
     view = np.lib.stride_tricks.as_strided(
         stacked,
-        shape=(half + 1, 7 * p_count, rows),
-        strides=(stacked.strides[0], stacked.strides[1], stacked.strides[2]),
+        shape=(half + 1, 7 * stacked.shape[1] * 3, rows),
+        strides=(stacked.strides[0], stacked.strides[2], stacked.strides[3]),
         writeable=False,
     )
-    z_p = np.matmul(kern * np.tile(amps, 7), view)  # (N/2 + 1, 3, M)
-    y = geo.table_y
-    zk = z_p[:, 0] + y * (z_p[:, 1] + y * z_p[:, 2])
+    zk = np.matmul(kern * np.repeat(np.tile(amps, 7), 3), view)[:, 0]  # (N/2 + 1, M)
     values = np.empty((rows, n + 3))
-    table = np.fft.irfft(zk.T, n=n, axis=1)
+    table = values[:, 1 : n + 1]
+    np.fft.irfft(zk.T, n=n, axis=1, out=table)
     for g, amp in zip(parts, amps, strict=True):
         if g.static_table is not None:
             table += amp * g.static_table
-    values[:, 1 : n + 1] = table
     values[:, 0], values[:, n + 1 :] = table[:, -1], table[:, :2]
 
     units = [_record_unit(g) for g in parts]
@@ -539,10 +537,11 @@ def periodic_response(geo, process, zeta=DEFAULT_ZETA, force_scale: float = 1.0)
     )
 
 
-@lru_cache(maxsize=4)
+@lru_cache(maxsize=4)  # ~4.7 MiB each (two parts, 192 rows)
 def _stacked_spectra(parts: tuple[CutGeometry, ...]) -> np.ndarray:
-    """The parts' extended spectra interleaved as (N/2 + 7, P, M) (cached per parts)."""
-    out = np.stack([g.spectra for g in parts], axis=1)
+    """The parts' extended spectra times Y^p at each row, (N/2 + 7, P, 3, M) (cached)."""
+    powers = parts[0].table_y ** np.arange(3)[:, None]  # (3, M)
+    out = np.stack([g.spectra for g in parts], axis=1)[:, :, None, :] * powers
     out.setflags(write=False)
     return out
 
@@ -551,34 +550,40 @@ def _stacked_spectra(parts: tuple[CutGeometry, ...]) -> np.ndarray:
 def _periodic_kernels(parts: tuple[CutGeometry, ...], spindle_hz: float, zeta: tuple):
     """Kernels and receptances of :func:`periodic_response` (cached per spindle speed).
 
-    Returns kern (N/2 + 1, 3, 7 P): for harmonic k, power p of Y and (shift, part) the kernel
+    Returns kern (N/2 + 1, 1, 21 P): for harmonic k and (shift, part, power p of Y) the kernel
     K_pd[k] of that part with d = 3 - shift (the order of the strided spectra view), and
     hq, hv (n, N/2 + 1) the receptances at harmonics 0..N/2.
     """
     geo = parts[0]
     n = geo.n_phi
     half = n // 2
-    zeta = np.array(zeta)
     dt = 1.0 / (spindle_hz * n)
     k = np.arange(-1, half + 2)
-    hq, hv = discrete_receptance(geo.basis.omega, zeta, dt, 2 * np.pi * k / n)
-    kern = np.zeros((3, 7, len(parts), half + 1), dtype=complex)
-    for pi_, g in enumerate(parts):
-        # kernels of Y^0, Y^1, Y^2: c = c_hat + Y c_y (l = 0 only), w_s = w_hat + Y w_y_hat
-        c_y = np.zeros_like(g.c_hat)
-        c_y[:, 1] = g.c_y
-        for pc, ch in enumerate((g.c_hat, c_y)):
-            for pw, wh in enumerate((g.w_hat, g.w_y_hat)):
-                for li, l in enumerate(_HARM_C):
-                    kern[pc + pw, li : li + 5, pi_] += (ch[:, li : li + 1] * wh).T @ hq[
-                        :, 1 - l : half + 2 - l
-                    ]
-    # shift index 6 - d_index first, then the part: the layout of the strided view
-    kern = np.ascontiguousarray(kern[:, ::-1].reshape(3, -1, half + 1).transpose(2, 0, 1))
+    hq, hv = discrete_receptance(geo.basis.omega, np.array(zeta), dt, 2 * np.pi * k / n)
+    # kernels of Y^0, Y^1, Y^2: c = c_hat + Y c_y (l = 0 only), w_s = w_hat + Y w_y_hat;
+    # for each output harmonic l, one product of (part, pc, pw, m) coefficient rows with H
+    c = np.stack([np.stack([g.c_hat, _c_y_hat(g)]) for g in parts])  # (P, 2, n, 3)
+    w = np.stack([np.stack([g.w_hat, g.w_y_hat]) for g in parts])  # (P, 2, n, 5)
+    kern = np.zeros((len(parts), 3, 7, half + 1), dtype=complex)
+    for li, l in enumerate(_HARM_C):
+        coef = c[:, :, None, :, li, None] * w[:, None, :, :, :]  # (P, pc, pw, n, 5)
+        g = np.swapaxes(coef, 3, 4) @ hq[:, 1 - l : half + 2 - l]  # (P, pc, pw, 5, K)
+        kern[:, 0, li : li + 5] += g[:, 0, 0]
+        kern[:, 1, li : li + 5] += g[:, 0, 1] + g[:, 1, 0]
+        kern[:, 2, li : li + 5] += g[:, 1, 1]
+    # (shift = 6 - d index, part, power) per harmonic: the layout of the strided view
+    kern = np.ascontiguousarray(kern[:, :, ::-1].transpose(3, 2, 0, 1)).reshape(half + 1, 1, -1)
     hq, hv = hq[:, 1 : half + 2], hv[:, 1 : half + 2]
     for a in (kern, hq, hv):
         a.setflags(write=False)
     return kern, hq, hv
+
+
+def _c_y_hat(geo: CutGeometry) -> np.ndarray:
+    """Fourier coefficients (n, 3) of the Y rate of the output shape (harmonic 0 only)."""
+    out = np.zeros_like(geo.c_hat)
+    out[:, 1] = geo.c_y
+    return out
 
 
 @dataclass(frozen=True)
