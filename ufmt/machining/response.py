@@ -181,8 +181,10 @@ class CutGeometry:
     part: "area" or "edge" (:data:`~ufmt.machining.cutting.FORCE_PARTS`): the pattern and the
     force vector below are that part's. static_tool, static_work (3, N, 3) or None: the
     residual-flexibility displacement of the tool tip and of the workpiece point per unit
-    pattern, as a quadratic in Y (coefficients of Y^0, Y^1, Y^2); static_table (M, N) its z_re
-    at the table rows times the pattern there.
+    pattern, as a quadratic in Y (coefficients of Y^0, Y^1, Y^2); static_hat (3, 7) the
+    complex Fourier coefficients (harmonics -3..3) of their z difference per power of Y, which
+    the periodic path adds to its kernels (exact: force, arms and so the displacement of the
+    residual flexibility are trigonometric polynomials of degree <= 3 in phi).
 
     phases (N,) [rad]; tip (N, 3) tool-tip position [m] and dtip, ddtip (N, 3) its first and
     second derivatives in phi [m]; w (n, N) modal force per unit chip area,
@@ -225,7 +227,7 @@ class CutGeometry:
     part: str = "area"
     static_tool: np.ndarray | None = None
     static_work: np.ndarray | None = None
-    static_table: np.ndarray | None = None
+    static_hat: np.ndarray | None = None
 
     def static_at(self, j, slide_y) -> tuple[np.ndarray, np.ndarray]:
         """Static-correction displacement of tool tip and workpiece point per unit pattern.
@@ -297,9 +299,9 @@ def cut_geometry(
     trig = np.stack(
         [np.ones(n_phi), np.cos(phases), np.sin(phases), np.cos(2 * phases), np.sin(2 * phases)]
     )
-    table_y, row_knots, pattern, spectra, active = _pattern_tables(machine, n_phi, table_rows, part)
+    table_y, row_knots, spectra, active = _pattern_tables(machine, n_phi, table_rows, part)
     dtip, ddtip = tool_tip_rates(phases, machine, 1 / (2 * np.pi))  # d/dphi, d^2/dphi^2
-    static_tool = static_work = static_table = None
+    static_tool = static_work = static_hat = None
     if residual is not None:
         # quadratic in Y from three exact evaluations (the workpiece point moves with Y)
         k = force_vector(phases, machine, coefficients, part)
@@ -307,9 +309,8 @@ def cut_geometry(
         fit = np.array([[0.0, 1.0, 0.0], [-0.5, 0.0, 0.5], [0.5, -1.0, 0.5]])
         static_tool = np.einsum("pk,knc->pnc", fit, np.stack([t for t, _ in samples]))
         static_work = np.einsum("pk,knc->pnc", fit, np.stack([w for _, w in samples]))
-        y = table_y[:, None]
-        rel = static_tool[..., 2] - static_work[..., 2]
-        static_table = pattern * (rel[0] + y * (rel[1] + y * rel[2]))
+        rel = np.fft.fft(static_tool[..., 2] - static_work[..., 2], axis=1) / n_phi
+        static_hat = rel[:, np.arange(-3, 4) % n_phi]
     return CutGeometry(
         basis=basis,
         machine=machine,
@@ -337,7 +338,7 @@ def cut_geometry(
         part=part,
         static_tool=static_tool,
         static_work=static_work,
-        static_table=static_table,
+        static_hat=static_hat,
     )
 
 
@@ -345,8 +346,8 @@ def cut_geometry(
 def _pattern_tables(machine: Machine, n_phi: int, table_rows: int, part: str):
     """Machine-only tables of :func:`cut_geometry` (cached per machine, not per design).
 
-    Returns table_y, row_knots, the chip pattern (M, N) of ``part`` at the table rows, its
-    extended half spectra (N/2 + 7, M) and the active angles (N,); all read-only.
+    Returns table_y, row_knots, the extended half spectra (N/2 + 7, M) of the chip pattern of
+    ``part`` at the table rows and the active angles (N,); all read-only.
     """
     phases = 2 * np.pi * np.arange(n_phi) / n_phi
     cell = 2 * np.pi / n_phi
@@ -357,9 +358,9 @@ def _pattern_tables(machine: Machine, n_phi: int, table_rows: int, part: str):
     pattern = np.zeros((table_y.size, n_phi))
     pattern[:, active] = chip_factor_cells(phases[active], table_y[:, None], machine, cell, part)
     spectra = np.ascontiguousarray(_extend(np.fft.rfft(pattern, axis=1)).T)  # (N/2 + 7, M)
-    for a in (table_y, pattern, spectra, active):
+    for a in (table_y, spectra, active):
         a.setflags(write=False)
-    return table_y, row_knots, pattern, spectra, active
+    return table_y, row_knots, spectra, active
 
 
 def _table_rows(machine: Machine, rows: int, uniform: float = UNIFORM_SHARE):
@@ -504,9 +505,6 @@ def periodic_response(geo, process, zeta=DEFAULT_ZETA, force_scale: float = 1.0)
     values = np.empty((rows, n + 3))
     table = values[:, 1 : n + 1]
     np.fft.irfft(zk.T, n=n, axis=1, out=table)
-    for g, amp in zip(parts, amps, strict=True):
-        if g.static_table is not None:
-            table += amp * g.static_table
     values[:, 0], values[:, n + 1 :] = table[:, -1], table[:, :2]
 
     units = [_record_unit(g) for g in parts]
@@ -551,7 +549,8 @@ def _periodic_kernels(parts: tuple[CutGeometry, ...], spindle_hz: float, zeta: t
     """Kernels and receptances of :func:`periodic_response` (cached per spindle speed).
 
     Returns kern (N/2 + 1, 1, 21 P): for harmonic k and (shift, part, power p of Y) the kernel
-    K_pd[k] of that part with d = 3 - shift (the order of the strided spectra view), and
+    K_pd[k] of that part with d = 3 - shift (the order of the strided spectra view), the
+    static correction's coefficients included (:class:`CutGeometry` ``static_hat``), and
     hq, hv (n, N/2 + 1) the receptances at harmonics 0..N/2.
     """
     geo = parts[0]
@@ -571,6 +570,9 @@ def _periodic_kernels(parts: tuple[CutGeometry, ...], spindle_hz: float, zeta: t
         kern[:, 0, li : li + 5] += g[:, 0, 0]
         kern[:, 1, li : li + 5] += g[:, 0, 1] + g[:, 1, 0]
         kern[:, 2, li : li + 5] += g[:, 1, 1]
+    for pi_, g in enumerate(parts):  # static correction: pattern times a degree-3 polynomial
+        if g.static_hat is not None:
+            kern[pi_] += g.static_hat[:, :, None]
     # (shift = 6 - d index, part, power) per harmonic: the layout of the strided view
     kern = np.ascontiguousarray(kern[:, :, ::-1].transpose(3, 2, 0, 1)).reshape(half + 1, 1, -1)
     hq, hv = hq[:, 1 : half + 2], hv[:, 1 : half + 2]
