@@ -450,21 +450,32 @@ def _outputs(geo: CutGeometry, j, slide, q, qd, qdd, spindle_hz: float):
     p. The workpiece point under the tool sits at p - C + Y y_hat from its centre of mass.
     """
     b, m = geo.basis, geo.machine
-    disp = []
-    for body, shift in ((m.tool_body, 0.0), (m.workpiece_body, 1.0)):
-        s, arm = b.body_shapes[body], geo.tip[j] - b.body_centers[body]
-        arm[:, 1] += shift * slide
-        disp.append(q.T @ s[:, :3] + np.cross(q.T @ s[:, 3:], arm))
-    s = b.body_shapes[m.tool_body]
+    tool, work = b.body_shapes[m.tool_body], b.body_shapes[m.workpiece_body]
+    arm_tool = geo.tip[j] - b.body_centers[m.tool_body]
+    arm_work = geo.tip[j] - b.body_centers[m.workpiece_body]
+    arm_work[:, 1] += slide
+    moved = q.T @ np.concatenate([tool, work], axis=1)  # (T, 12) both bodies' motions
+    disp = [
+        moved[:, :3] + _cross(moved[:, 3:6], arm_tool),
+        moved[:, 6:9] + _cross(moved[:, 9:], arm_work),
+    ]
     om = 2 * np.pi * spindle_hz
-    arm = geo.tip[j] - b.body_centers[m.tool_body]
+    accel = qdd.T @ tool  # (T, 6)
     acc = (
-        qdd.T @ s[:, :3]
-        + np.cross(qdd.T @ s[:, 3:], arm)
-        + 2 * np.cross(qd.T @ s[:, 3:], om * geo.dtip[j])
-        + np.cross(q.T @ s[:, 3:], om**2 * geo.ddtip[j])
+        accel[:, :3]
+        + _cross(accel[:, 3:], arm_tool)
+        + 2 * _cross(qd.T @ tool[:, 3:], om * geo.dtip[j])
+        + _cross(moved[:, 3:6], om**2 * geo.ddtip[j])
     )
     return disp[0], acc, disp[1]
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a x b for (T, 3) arrays (np.cross without its axis handling: the record window's
+    outputs take five of them per response)."""
+    a0, a1, a2 = a[:, 0], a[:, 1], a[:, 2]
+    b0, b1, b2 = b[:, 0], b[:, 1], b[:, 2]
+    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=1)
 
 
 def periodic_response(geo, process, zeta=DEFAULT_ZETA, force_scale: float = 1.0) -> Response:
@@ -509,8 +520,7 @@ def periodic_response(geo, process, zeta=DEFAULT_ZETA, force_scale: float = 1.0)
 
     units = [_record_unit(g) for g in parts]
     fk = sum(amp * u.fk for amp, u in zip(amps, units, strict=True))
-    q = np.fft.irfft(hq * fk, n=n, axis=1)
-    qd = np.fft.irfft(hv * fk, n=n, axis=1)
+    q, qd = np.split(np.fft.irfft(np.concatenate([hq * fk, hv * fk]), n=n, axis=1), 2)
     fs = sum(amp * u.fs for amp, u in zip(amps, units, strict=True))
     b = geo.basis
     qdd = fs - (2 * zeta * b.omega)[:, None] * qd - (b.omega**2)[:, None] * q
@@ -563,13 +573,15 @@ def _periodic_kernels(parts: tuple[CutGeometry, ...], spindle_hz: float, zeta: t
     # for each output harmonic l, one product of (part, pc, pw, m) coefficient rows with H
     c = np.stack([np.stack([g.c_hat, _c_y_hat(g)]) for g in parts])  # (P, 2, n, 3)
     w = np.stack([np.stack([g.w_hat, g.w_y_hat]) for g in parts])  # (P, 2, n, 5)
+    coef = c[:, :, None, :, :, None] * w[:, None, :, :, None, :]  # (P, pc, pw, n, l, m)
+    coef = np.ascontiguousarray(coef.transpose(4, 0, 1, 2, 5, 3)).reshape(3, -1, c.shape[2])
+    shifted = np.stack([hq[:, 1 - l : half + 2 - l] for l in _HARM_C])  # (l, n, K)
+    g = (coef @ shifted).reshape(3, len(parts), 2, 2, 5, half + 1)
     kern = np.zeros((len(parts), 3, 7, half + 1), dtype=complex)
-    for li, l in enumerate(_HARM_C):
-        coef = c[:, :, None, :, li, None] * w[:, None, :, :, :]  # (P, pc, pw, n, 5)
-        g = np.swapaxes(coef, 3, 4) @ hq[:, 1 - l : half + 2 - l]  # (P, pc, pw, 5, K)
-        kern[:, 0, li : li + 5] += g[:, 0, 0]
-        kern[:, 1, li : li + 5] += g[:, 0, 1] + g[:, 1, 0]
-        kern[:, 2, li : li + 5] += g[:, 1, 1]
+    for li in range(3):
+        kern[:, 0, li : li + 5] += g[li, :, 0, 0]
+        kern[:, 1, li : li + 5] += g[li, :, 0, 1] + g[li, :, 1, 0]
+        kern[:, 2, li : li + 5] += g[li, :, 1, 1]
     for pi_, g in enumerate(parts):  # static correction: pattern times a degree-3 polynomial
         if g.static_hat is not None:
             kern[pi_] += g.static_hat[:, :, None]
