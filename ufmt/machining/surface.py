@@ -251,11 +251,14 @@ def machined_surface(
 
 @lru_cache(maxsize=1)  # one simulation reads its table for the total and each source alone
 def _table_pairs(table: ZreTable, machine: Machine, spacing, window, arcs: int) -> np.ndarray:
-    """:func:`_columns` of ``table`` at the grid's pass angles, each row beside the next:
-    (rows - 1, arcs * Nx, 2), so that a lookup is one gather (cached per table, grid)."""
+    """:func:`_columns` of ``table`` at the grid's pass angles, each row with the next one as
+    its imaginary part: (rows - 1, arcs * Nx) complex, so that a lookup is one gather of both
+    (cached per table, grid)."""
     phi = _grid(machine, spacing, window)[3][:arcs]
     cols = _columns(table.values, phi)
-    return np.stack([cols[:-1], cols[1:]], axis=-1)
+    pairs = cols[:-1] + 1j * cols[1:]
+    pairs.setflags(write=False)
+    return pairs
 
 
 def _columns(values: np.ndarray, phi: np.ndarray) -> np.ndarray:
@@ -277,7 +280,8 @@ def _columns(values: np.ndarray, phi: np.ndarray) -> np.ndarray:
 def _lookup(pairs: np.ndarray, row_knots, slide: np.ndarray, columns: np.ndarray) -> np.ndarray:
     """Table columns linearly interpolated in rows at slide positions [m], in ``columns``.
 
-    ``pairs`` (rows - 1, C, 2): each row's columns beside the next row's (:func:`_table_pairs`).
+    ``pairs`` (rows - 1, C): each row's columns plus i times the next row's
+    (:func:`_table_pairs`).
     The fractional row of a slide position comes from the table's knots (see ZreTable);
     the column indices ``columns`` broadcast against ``slide``.
     """
@@ -287,9 +291,9 @@ def _lookup(pairs: np.ndarray, row_knots, slide: np.ndarray, columns: np.ndarray
     k = np.minimum(t.astype(np.intp), u.size - 2)
     rr = u[k] + (t - k) * (u[k + 1] - u[k])
     i0 = np.minimum(rr.astype(np.intp), pairs.shape[0] - 1)
-    both = pairs.reshape(-1, 2)[i0 * width + columns]  # one gather: this row and the next
-    lo = both[..., 0]
-    return lo + (rr - i0) * (both[..., 1] - lo)
+    both = pairs.ravel()[i0 * width + columns]  # one gather: this row and the next
+    lo = both.real
+    return lo + (rr - i0) * (both.imag - lo)
 
 
 def steady_region(surface: Surface, machine: Machine, settle: float = 0.0) -> np.ndarray:
