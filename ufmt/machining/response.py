@@ -205,6 +205,7 @@ class CutGeometry:
     machine: Machine
     coefficients: ForceCoefficients
     n_phi: int
+    table_rows: int
     phases: np.ndarray
     tip: np.ndarray
     dtip: np.ndarray
@@ -316,6 +317,7 @@ def cut_geometry(
         machine=machine,
         coefficients=coefficients,
         n_phi=n_phi,
+        table_rows=table_rows,
         phases=phases,
         tip=tip,
         dtip=dtip,
@@ -504,7 +506,7 @@ def periodic_response(geo, process, zeta=DEFAULT_ZETA, force_scale: float = 1.0)
     kern, hq, hv = _periodic_kernels(parts, f, tuple(zeta.tolist()))
     # z_re[k, i] = sum_(d, part, p) amp K[k, (d, part, p)] Y_i^p A_part[k - d, i]: one small
     # product per harmonic over a strided view of the stacked spectra (no copy)
-    stacked = _stacked_spectra(parts)  # (N/2 + 7, P, 3, M)
+    stacked = _stacked_spectra(geo.machine, n, geo.table_rows, tuple(g.part for g in parts))
     rows = stacked.shape[3]
     view = np.lib.stride_tricks.as_strided(
         stacked,
@@ -545,11 +547,13 @@ def periodic_response(geo, process, zeta=DEFAULT_ZETA, force_scale: float = 1.0)
     )
 
 
-@lru_cache(maxsize=4)  # ~4.7 MiB each (two parts, 192 rows)
-def _stacked_spectra(parts: tuple[CutGeometry, ...]) -> np.ndarray:
-    """The parts' extended spectra times Y^p at each row, (N/2 + 7, P, 3, M) (cached)."""
-    powers = parts[0].table_y ** np.arange(3)[:, None]  # (3, M)
-    out = np.stack([g.spectra for g in parts], axis=1)[:, :, None, :] * powers
+@lru_cache(maxsize=2)  # ~4.7 MiB each (two parts, 192 rows); machine-only
+def _stacked_spectra(machine: Machine, n_phi: int, table_rows: int, parts: tuple[str, ...]):
+    """The parts' extended spectra times Y^p at each row, (N/2 + 7, P, 3, M) (cached per
+    machine: every design of a sweep shares it)."""
+    tables = [_pattern_tables(machine, n_phi, table_rows, part) for part in parts]
+    powers = tables[0][0] ** np.arange(3)[:, None]  # (3, M)
+    out = np.stack([t[2] for t in tables], axis=1)[:, :, None, :] * powers
     out.setflags(write=False)
     return out
 
