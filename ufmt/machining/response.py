@@ -573,35 +573,43 @@ def _periodic_kernels(parts: tuple[CutGeometry, ...], spindle_hz: float, zeta: t
     dt = 1.0 / (spindle_hz * n)
     k = np.arange(-1, half + 2)
     hq, hv = discrete_receptance(geo.basis.omega, np.array(zeta), dt, 2 * np.pi * k / n)
-    # kernels of Y^0, Y^1, Y^2: c = c_hat + Y c_y (l = 0 only), w_s = w_hat + Y w_y_hat;
-    # for each output harmonic l, one product of (part, pc, pw, m) coefficient rows with H
-    c = np.stack([np.stack([g.c_hat, _c_y_hat(g)]) for g in parts])  # (P, 2, n, 3)
-    w = np.stack([np.stack([g.w_hat, g.w_y_hat]) for g in parts])  # (P, 2, n, 5)
-    coef = c[:, :, None, :, :, None] * w[:, None, :, :, None, :]  # (P, pc, pw, n, l, m)
-    coef = np.ascontiguousarray(coef.transpose(4, 0, 1, 2, 5, 3)).reshape(3, -1, c.shape[2])
-    shifted = np.stack([hq[:, 1 - l : half + 2 - l] for l in _HARM_C])  # (l, n, K)
-    g = (coef @ shifted).reshape(3, len(parts), 2, 2, 5, half + 1)
-    kern = np.zeros((len(parts), 3, 7, half + 1), dtype=complex)
-    for li in range(3):
-        kern[:, 0, li : li + 5] += g[li, :, 0, 0]
-        kern[:, 1, li : li + 5] += g[li, :, 0, 1] + g[li, :, 1, 0]
-        kern[:, 2, li : li + 5] += g[li, :, 1, 1]
-    for pi_, g in enumerate(parts):  # static correction: pattern times a degree-3 polynomial
-        if g.static_hat is not None:
-            kern[pi_] += g.static_hat[:, :, None]
-    # (shift = 6 - d index, part, power) per harmonic: the layout of the strided view
-    kern = np.ascontiguousarray(kern[:, :, ::-1].transpose(3, 2, 0, 1)).reshape(half + 1, 1, -1)
+    # one product of the receptances, shifted by each output harmonic l, with the coefficients
+    coef, static = _kernel_coefficients(parts)
+    shifted = np.concatenate([hq.T[1 - l : half + 2 - l] for l in _HARM_C], axis=1)  # (K, 3n)
+    kern = (shifted @ coef + static).reshape(half + 1, 1, -1)
     hq, hv = hq[:, 1 : half + 2], hv[:, 1 : half + 2]
     for a in (kern, hq, hv):
         a.setflags(write=False)
     return kern, hq, hv
 
 
-def _c_y_hat(geo: CutGeometry) -> np.ndarray:
-    """Fourier coefficients (n, 3) of the Y rate of the output shape (harmonic 0 only)."""
-    out = np.zeros_like(geo.c_hat)
-    out[:, 1] = geo.c_y
-    return out
+@lru_cache(maxsize=8)
+def _kernel_coefficients(parts: tuple[CutGeometry, ...]) -> tuple[np.ndarray, np.ndarray]:
+    """Coefficients of the kernels of :func:`_periodic_kernels` (cached per geometry).
+
+    K_pd[k] = sum_l sum_s coef[(l, s), (d, part, p)] H_s[k - l] + static[(d, part, p)]: the
+    kernels of Y^0, Y^1, Y^2 from c = c_hat + Y c_y (harmonic 0 only) and
+    w = w_hat + Y w_y_hat (output harmonic l, force harmonic m = d - l), and the static
+    correction's Fourier coefficients. Columns in the order of the strided spectra view
+    (shift 6 - d index, part, power). Returns coef (3 n, 21 P) and static (21 P,).
+    """
+    n_modes = parts[0].basis.n_modes
+    coef = np.zeros((3, n_modes, 7, len(parts), 3), dtype=complex)  # (l, s, d, part, p)
+    static = np.zeros((7, len(parts), 3), dtype=complex)
+    for pi_, g in enumerate(parts):
+        c_y = np.zeros_like(g.c_hat)
+        c_y[:, 1] = g.c_y
+        for pc, ch in enumerate((g.c_hat, c_y)):
+            for pw, wh in enumerate((g.w_hat, g.w_y_hat)):
+                for li in range(3):
+                    coef[li, :, li : li + 5, pi_, pc + pw] += ch[:, li : li + 1] * wh
+        if g.static_hat is not None:
+            static[:, pi_, :] = g.static_hat.T
+    coef = np.ascontiguousarray(coef[:, :, ::-1]).reshape(3 * n_modes, -1)
+    static = np.ascontiguousarray(static[::-1]).reshape(-1)
+    for a in (coef, static):
+        a.setflags(write=False)
+    return coef, static
 
 
 @dataclass(frozen=True)
