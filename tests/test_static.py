@@ -166,3 +166,17 @@ def test_static_flexibility_of_a_new_design_is_its_own_assembled_solve(packaged)
         np.testing.assert_allclose(
             static_flexibility(design, bodies), direct, rtol=1e-8, atol=1e-8 * np.abs(direct).max()
         )
+
+
+@pytest.mark.parametrize("part", ["area", "edge"])
+def test_static_coefficients_hold_the_whole_static_term(packaged, part):
+    """The periodic path adds the static term through its Fourier coefficients -3..3 (arms and
+    force of degree 1 make it of degree <= 3 in phi); oracle: the term at every sample."""
+    model, basis, machine = packaged
+    geo = cut_geometry(
+        basis, machine, part=part, residual=residual_flexibility(model, basis, machine)
+    )
+    direct = geo.static_tool[..., 2] - geo.static_work[..., 2]  # (3, N): Y^0, Y^1, Y^2
+    harmonics = np.exp(1j * np.outer(np.arange(-3, 4), geo.phases))
+    rebuilt = (geo.static_hat @ harmonics).real
+    np.testing.assert_allclose(rebuilt, direct, rtol=0, atol=1e-12 * np.abs(direct).max())
