@@ -21,6 +21,7 @@ P = [T_tool(p), -T_work(q)], T(x) = [I, -[(x - C)]x] the translation of point x 
 
 from __future__ import annotations
 
+import threading
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -101,6 +102,7 @@ class _Structure:
 #: Structures of the last few models (key: bodies, hinge geometry and which directions are
 #: rigid or released), so that a design change (hinge stiffnesses only) costs one small solve.
 _STRUCTURES: dict = {}
+_STRUCTURES_LOCK = threading.Lock()  # dask workers may evaluate in threads
 STRUCTURE_CACHE = 4
 
 
@@ -120,7 +122,8 @@ def _structure(model, bodies: tuple[str, ...]) -> _Structure:
     from ufmt.assembled import assemble
 
     key = _structure_key(model, bodies)
-    found = _STRUCTURES.pop(key, None)
+    with _STRUCTURES_LOCK:
+        found = _STRUCTURES.pop(key, None)
     if found is None:
         # one cubic frame element per beam is exact in statics (no load between the nodes);
         # springs at zero give the beams alone, at one their unit direction rows d_j
@@ -163,9 +166,10 @@ def _structure(model, bodies: tuple[str, ...]) -> _Structure:
             spring_direction=index[:, 1],
             loads=basis[dofs].T,
         )
-    _STRUCTURES[key] = found
-    while len(_STRUCTURES) > STRUCTURE_CACHE:
-        del _STRUCTURES[next(iter(_STRUCTURES))]
+    with _STRUCTURES_LOCK:
+        _STRUCTURES[key] = found
+        while len(_STRUCTURES) > STRUCTURE_CACHE:
+            del _STRUCTURES[next(iter(_STRUCTURES))]
     return found
 
 
