@@ -379,10 +379,10 @@ def _legendre_fit(x: np.ndarray, y: np.ndarray, z: np.ndarray) -> tuple[np.ndarr
     fu = np.stack([one_u, u, one_u, 1.5 * u**2 - 0.5, u, one_u])  # (6, Nx)
     gv = np.stack([one_v, one_v, v, one_v, v, 1.5 * v**2 - 0.5])  # (6, Ny)
     normal = (fu @ fu.T) * (gv @ gv.T)
-    rhs = np.einsum("kj,ji,ki->k", gv, z, fu)
+    rhs = ((gv @ z) * fu).sum(axis=1)
     coef = np.linalg.solve(normal, rhs)
-    fit = np.einsum("k,kj,ki->ji", coef, gv, fu)
-    form = np.einsum("k,kj,ki->ji", coef[3:], gv[3:], fu[3:])
+    fit = (gv.T * coef) @ fu
+    form = (gv[3:].T * coef[3:]) @ fu[3:]
     return fit, form
 
 
