@@ -275,10 +275,9 @@ def cut_geometry(
     # workpiece arm grows by Y y_hat: rel(Y) = rel(0) - Y theta_work x y_hat
     lever = -np.cross(basis.body_shapes[machine.workpiece_body][:, 3:], [0.0, 1.0, 0.0])
 
-    def shapes(ph):
-        tip = tool_tip(ph, machine)
-        rel = basis.point_shapes(machine.tool_body, tip)
-        rel = rel - basis.point_shapes(machine.workpiece_body, tip)
+    def shapes(samples):
+        ph = 2 * np.pi * np.arange(samples) / samples
+        tip, rel = _relative_shapes(basis, machine, samples)
         k = force_vector(ph, machine, coefficients, part)
         return tip, np.einsum("sjc,jc->sj", rel, k) / mass, lever @ k.T / mass, rel[:, :, 2]
 
@@ -292,8 +291,8 @@ def cut_geometry(
             axis=1,
         )
 
-    tip, w, w_y, c = shapes(phases)
-    _, w8, w_y8, c8 = shapes(2 * np.pi * np.arange(8) / 8)  # 8 samples resolve degree 2
+    tip, w, w_y, c = shapes(n_phi)
+    _, w8, w_y8, c8 = shapes(8)  # 8 samples resolve degree 2
     w_hat, w_y_hat = harmonics(w8, _HARM_W), harmonics(w_y8, _HARM_W)
     c_hat = harmonics(c8, _HARM_C)
     c_trig = np.stack([c_hat[:, 1].real, 2 * c_hat[:, 2].real, -2 * c_hat[:, 2].imag])
@@ -342,6 +341,18 @@ def cut_geometry(
         static_work=static_work,
         static_hat=static_hat,
     )
+
+
+@lru_cache(maxsize=4)  # both force parts of the last two designs
+def _relative_shapes(basis: ModalBasis, machine: Machine, samples: int):
+    """Tool tip (N, 3) [m] at ``samples`` equally spaced angles and the relative translation
+    (V_tool - V_work)(tip) (n, N, 3) of every mode there (shared by the force parts)."""
+    tip = tool_tip(2 * np.pi * np.arange(samples) / samples, machine)
+    rel = basis.point_shapes(machine.tool_body, tip)
+    rel = rel - basis.point_shapes(machine.workpiece_body, tip)
+    for a in (tip, rel):
+        a.setflags(write=False)
+    return tip, rel
 
 
 @lru_cache(maxsize=4)  # ~1.6 MiB each: both force parts of two machines
