@@ -19,7 +19,7 @@ from ufmt.machining.frf import tool_workpiece_receptance
 from ufmt.machining.modal import modal_basis
 from ufmt.machining.process import Process
 from ufmt.machining.response import cut_geometry, periodic_response, time_response
-from ufmt.machining.static import ResidualFlexibility, residual_flexibility
+from ufmt.machining.static import ResidualFlexibility, residual_flexibility, static_flexibility
 from ufmt.model.machine import machine_of, read_machine
 
 
@@ -145,3 +145,38 @@ def test_surface_tables_carry_the_static_correction(path):
         assert scale > 0
         diff = with_res.values[:, 1 : n + 1] - without.values[:, 1 : n + 1]
         np.testing.assert_allclose(diff, expected, atol=1e-9 * scale)
+
+
+def test_static_flexibility_of_a_new_design_is_its_own_assembled_solve(packaged):
+    """The springs' share is summed on a structure assembled once per model; oracle: a
+    direct dense solve of each design's own assembled model (8 elements per beam, all dofs)."""
+    model, _, machine = packaged
+    bodies = (machine.tool_body, machine.workpiece_body)
+    static_flexibility(model, bodies)  # the structure of the base model, cached
+    for factor in (0.1, 3.0):
+        h31, h25 = model.hinge("h31"), model.hinge("h25")
+        design = model.with_hinge("h31", stiffness=h31.stiffness * factor).with_hinge(
+            "h25", rotational_stiffness=h25.rotational_stiffness / factor
+        )
+        am = assemble(design, elements_per_beam=8)
+        n_space = sla.null_space(am.constraints / np.linalg.norm(am.constraints, axis=1)[:, None])
+        dofs = np.concatenate([am.body_dofs[b][0] for b in bodies])
+        k_red = n_space.T @ am.K @ n_space
+        direct = n_space[dofs] @ np.linalg.solve(k_red, n_space[dofs].T)
+        np.testing.assert_allclose(
+            static_flexibility(design, bodies), direct, rtol=1e-8, atol=1e-8 * np.abs(direct).max()
+        )
+
+
+@pytest.mark.parametrize("part", ["area", "edge"])
+def test_static_coefficients_hold_the_whole_static_term(packaged, part):
+    """The periodic path adds the static term through its Fourier coefficients -3..3 (arms and
+    force of degree 1 make it of degree <= 3 in phi); oracle: the term at every sample."""
+    model, basis, machine = packaged
+    geo = cut_geometry(
+        basis, machine, part=part, residual=residual_flexibility(model, basis, machine)
+    )
+    direct = geo.static_tool[..., 2] - geo.static_work[..., 2]  # (3, N): Y^0, Y^1, Y^2
+    harmonics = np.exp(1j * np.outer(np.arange(-3, 4), geo.phases))
+    rebuilt = (geo.static_hat @ harmonics).real
+    np.testing.assert_allclose(rebuilt, direct, rtol=0, atol=1e-12 * np.abs(direct).max())

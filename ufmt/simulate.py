@@ -30,14 +30,12 @@ from ufmt.machining.response import (
     DEFAULT_TABLE_ROWS,
     DEFAULT_ZETA,
     Response,
-    combine,
     cut_geometry,
     modal_damping,
     periodic_response,
     time_response,
 )
 from ufmt.machining.sources import (
-    GEOMETRIC,
     SOURCES,
     check_sources,
     geometric_z,
@@ -50,8 +48,8 @@ from ufmt.machining.surface import (
     PSD2_PATCH_SPACING,
     Surface,
     band_rms,
-    machined_surface,
     surface_metrics,
+    surface_passes,
 )
 from ufmt.model.machine import Machine, machine_of, read_machine
 
@@ -311,58 +309,51 @@ def _run(
         cut_geometry(basis, machine, coefficients, n_phi, table_rows, part, residual)
         for part in parts
     ]
-    if method == "periodic":
-        response = combine(periodic_response(g, process, zeta, force_scale) for g in geos)
-    else:  # the parts share one pass of the recurrence
-        response = time_response(geos, process, zeta, force_scale, record_periods)
+    response = (  # the parts share one inverse FFT (periodic) or one recurrence (time)
+        periodic_response(geos, process, zeta, force_scale)
+        if method == "periodic"
+        else time_response(geos, process, zeta, force_scale, record_periods)
+    )
 
-    made = {}  # surfaces by what acts on them: the total, the band surface and a source alone
-    #            are often the same (geometric sources of zero amplitude act on none)
+    # every surface reported (the total, the band surface, each source alone) is the lower
+    # pass of a sum of per-source heights on one set of passes: each height is computed once
+    acting = [name for name in sources if is_active(name, machine)]
 
-    def surface(srcs, window=None, grid=spacing, marks=True):
-        key = (
-            "dynamic" in srcs,
-            marks and "feed_marks" in srcs,
-            tuple(s for s in srcs if s in GEOMETRIC and is_active(s, machine)),
-            window,
-            grid,
-        )
-        if key not in made:
-            made[key] = _surface(srcs, window, grid, marks)
-        return made[key]
+    def heights(passes, name):
+        if name == "dynamic":
+            return passes.dynamic(response.table, machine)
+        if name == "feed_marks":
+            return passes.feed_marks(machine.nose_radius)
+        return passes.geometric(geometric_z(machine, (name,)))
 
-    def _surface(srcs, window, grid, marks):
-        return machined_surface(
-            response.table if "dynamic" in srcs else None,
-            machine,
-            process.feed_per_rev_m,
-            spacing=grid,
-            nose_radius=machine.nose_radius if marks and "feed_marks" in srcs else None,
-            trailing_arc=trailing_arc,
-            geometric=geometric_z(machine, srcs),
-            window=window,
-        )
-
-    total = surface(sources)
+    passes = surface_passes(machine, process.feed_per_rev_m, spacing, trailing_arc)
+    terms = {name: heights(passes, name) for name in acting}
+    total = passes.lower(terms.values())
     # the scallop's wavelength (v/f) cos(phi) <= 80 um lies below PSD2 (>= 120 um) for every
     # Table 1 process; on grids coarser than it, it would only alias into the bands
-    band_surface = surface(sources, marks=False) if "feed_marks" in sources else total
+    smooth = [t for name, t in terms.items() if name != "feed_marks"]
+    band_surface = passes.lower(smooth) if "feed_marks" in terms else total
     metrics = surface_metrics(total, aperture_margin, band_surface)
     if psd2_patch is not None:
         half = psd2_patch / 2
         window = ((-half, half), (-half, half))
-        patch = surface(sources, window, PSD2_PATCH_SPACING, marks=False)
+        patch_passes = surface_passes(
+            machine, process.feed_per_rev_m, PSD2_PATCH_SPACING, trailing_arc, window
+        )
+        patch = patch_passes.lower(
+            heights(patch_passes, name) for name in acting if name != "feed_marks"
+        )
         metrics["psd2_rms_nm"] = band_rms(patch)["psd2_rms_nm"]
     pv_by_source = {}
     for name in SOURCES:
         if name not in sources:
             pv_by_source[name] = None
-        elif not is_active(name, machine):
+        elif name not in terms:
             pv_by_source[name] = 0.0
         elif len(sources) == 1:
             pv_by_source[name] = metrics["pv_nm"]
         else:
-            pv_by_source[name] = float(np.ptp(surface((name,)).z)) * 1e9
+            pv_by_source[name] = float(np.ptp(passes.lower([terms[name]]).z)) * 1e9
     per = response.periods
     metrics["zre_peak_nm"] = _mean_peak(response.z_re, per) * 1e9
     metrics["tip_acc_peak_mm_s2"] = _mean_peak(response.tip_acc[:, 2], per) * 1e3

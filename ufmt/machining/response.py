@@ -181,8 +181,10 @@ class CutGeometry:
     part: "area" or "edge" (:data:`~ufmt.machining.cutting.FORCE_PARTS`): the pattern and the
     force vector below are that part's. static_tool, static_work (3, N, 3) or None: the
     residual-flexibility displacement of the tool tip and of the workpiece point per unit
-    pattern, as a quadratic in Y (coefficients of Y^0, Y^1, Y^2); static_table (M, N) its z_re
-    at the table rows times the pattern there.
+    pattern, as a quadratic in Y (coefficients of Y^0, Y^1, Y^2); static_hat (3, 7) the
+    complex Fourier coefficients (harmonics -3..3) of their z difference per power of Y, which
+    the periodic path adds to its kernels (exact: force, arms and so the displacement of the
+    residual flexibility are trigonometric polynomials of degree <= 3 in phi).
 
     phases (N,) [rad]; tip (N, 3) tool-tip position [m] and dtip, ddtip (N, 3) its first and
     second derivatives in phi [m]; w (n, N) modal force per unit chip area,
@@ -193,16 +195,17 @@ class CutGeometry:
     2, 1 and 1): w_hat, w_y_hat (n, 5) and c_hat (n, 3) hold their complex Fourier coefficients
     (harmonics -2..2, -1..1), w_trig, w_y_trig (n, 5) and c_trig (3, n) the real ones on
     ``trig`` (5, N) = [1, cos, sin, cos 2phi, sin 2phi]. table_y (M,) slide positions [m] of
-    the periodic table and row_knots their row coordinate (see :class:`ZreTable`); table_a
-    (N/2 + 1, M, 21): for harmonic k, row i and (p, d), the half
-    spectrum of the chip factor at harmonic k - d (d = -3..3) times Y_i^p (p = 0, 1, 2);
-    active (N,) the angles that cut at some slide position.
+    the periodic table and row_knots their row coordinate (see :class:`ZreTable`); spectra
+    (N/2 + 7, M): the half spectrum of the chip factor at each table row, extended by three
+    harmonics at both ends (harmonic k in entry k + 3); active (N,) the angles that cut at
+    some slide position.
     """
 
     basis: ModalBasis
     machine: Machine
     coefficients: ForceCoefficients
     n_phi: int
+    table_rows: int
     phases: np.ndarray
     tip: np.ndarray
     dtip: np.ndarray
@@ -220,12 +223,12 @@ class CutGeometry:
     trig: np.ndarray
     table_y: np.ndarray
     row_knots: tuple[float, float, np.ndarray]
-    table_a: np.ndarray
+    spectra: np.ndarray
     active: np.ndarray
     part: str = "area"
     static_tool: np.ndarray | None = None
     static_work: np.ndarray | None = None
-    static_table: np.ndarray | None = None
+    static_hat: np.ndarray | None = None
 
     def static_at(self, j, slide_y) -> tuple[np.ndarray, np.ndarray]:
         """Static-correction displacement of tool tip and workpiece point per unit pattern.
@@ -272,10 +275,9 @@ def cut_geometry(
     # workpiece arm grows by Y y_hat: rel(Y) = rel(0) - Y theta_work x y_hat
     lever = -np.cross(basis.body_shapes[machine.workpiece_body][:, 3:], [0.0, 1.0, 0.0])
 
-    def shapes(ph):
-        tip = tool_tip(ph, machine)
-        rel = basis.point_shapes(machine.tool_body, tip)
-        rel = rel - basis.point_shapes(machine.workpiece_body, tip)
+    def shapes(samples):
+        ph = 2 * np.pi * np.arange(samples) / samples
+        tip, rel = _relative_shapes(basis, machine, samples)
         k = force_vector(ph, machine, coefficients, part)
         return tip, np.einsum("sjc,jc->sj", rel, k) / mass, lever @ k.T / mass, rel[:, :, 2]
 
@@ -289,17 +291,17 @@ def cut_geometry(
             axis=1,
         )
 
-    tip, w, w_y, c = shapes(phases)
-    _, w8, w_y8, c8 = shapes(2 * np.pi * np.arange(8) / 8)  # 8 samples resolve degree 2
+    tip, w, w_y, c = shapes(n_phi)
+    _, w8, w_y8, c8 = shapes(8)  # 8 samples resolve degree 2
     w_hat, w_y_hat = harmonics(w8, _HARM_W), harmonics(w_y8, _HARM_W)
     c_hat = harmonics(c8, _HARM_C)
     c_trig = np.stack([c_hat[:, 1].real, 2 * c_hat[:, 2].real, -2 * c_hat[:, 2].imag])
     trig = np.stack(
         [np.ones(n_phi), np.cos(phases), np.sin(phases), np.cos(2 * phases), np.sin(2 * phases)]
     )
-    table_y, row_knots, pattern, table_a, active = _pattern_tables(machine, n_phi, table_rows, part)
+    table_y, row_knots, spectra, active = _pattern_tables(machine, n_phi, table_rows, part)
     dtip, ddtip = tool_tip_rates(phases, machine, 1 / (2 * np.pi))  # d/dphi, d^2/dphi^2
-    static_tool = static_work = static_table = None
+    static_tool = static_work = static_hat = None
     if residual is not None:
         # quadratic in Y from three exact evaluations (the workpiece point moves with Y)
         k = force_vector(phases, machine, coefficients, part)
@@ -307,14 +309,14 @@ def cut_geometry(
         fit = np.array([[0.0, 1.0, 0.0], [-0.5, 0.0, 0.5], [0.5, -1.0, 0.5]])
         static_tool = np.einsum("pk,knc->pnc", fit, np.stack([t for t, _ in samples]))
         static_work = np.einsum("pk,knc->pnc", fit, np.stack([w for _, w in samples]))
-        y = table_y[:, None]
-        rel = static_tool[..., 2] - static_work[..., 2]
-        static_table = pattern * (rel[0] + y * (rel[1] + y * rel[2]))
+        rel = np.fft.fft(static_tool[..., 2] - static_work[..., 2], axis=1) / n_phi
+        static_hat = rel[:, np.arange(-3, 4) % n_phi]
     return CutGeometry(
         basis=basis,
         machine=machine,
         coefficients=coefficients,
         n_phi=n_phi,
+        table_rows=table_rows,
         phases=phases,
         tip=tip,
         dtip=dtip,
@@ -332,21 +334,33 @@ def cut_geometry(
         trig=trig,
         table_y=table_y,
         row_knots=row_knots,
-        table_a=table_a,
+        spectra=spectra,
         active=active,
         part=part,
         static_tool=static_tool,
         static_work=static_work,
-        static_table=static_table,
+        static_hat=static_hat,
     )
 
 
-@lru_cache(maxsize=4)  # ~16 MiB each: both force parts of two machines
+@lru_cache(maxsize=4)  # both force parts of the last two designs
+def _relative_shapes(basis: ModalBasis, machine: Machine, samples: int):
+    """Tool tip (N, 3) [m] at ``samples`` equally spaced angles and the relative translation
+    (V_tool - V_work)(tip) (n, N, 3) of every mode there (shared by the force parts)."""
+    tip = tool_tip(2 * np.pi * np.arange(samples) / samples, machine)
+    rel = basis.point_shapes(machine.tool_body, tip)
+    rel = rel - basis.point_shapes(machine.workpiece_body, tip)
+    for a in (tip, rel):
+        a.setflags(write=False)
+    return tip, rel
+
+
+@lru_cache(maxsize=4)  # ~1.6 MiB each: both force parts of two machines
 def _pattern_tables(machine: Machine, n_phi: int, table_rows: int, part: str):
     """Machine-only tables of :func:`cut_geometry` (cached per machine, not per design).
 
-    Returns table_y, row_knots, the chip pattern (M, N) of ``part`` at the table rows, its
-    shifted spectra table_a (N/2 + 1, M, 21) and the active angles (N,); all read-only.
+    Returns table_y, row_knots, the extended half spectra (N/2 + 7, M) of the chip pattern of
+    ``part`` at the table rows and the active angles (N,); all read-only.
     """
     phases = 2 * np.pi * np.arange(n_phi) / n_phi
     cell = 2 * np.pi / n_phi
@@ -356,15 +370,10 @@ def _pattern_tables(machine: Machine, n_phi: int, table_rows: int, part: str):
     active = (centred + cell / 2 > lo) & (centred - cell / 2 < hi) & (np.abs(centred) < np.pi / 2)
     pattern = np.zeros((table_y.size, n_phi))
     pattern[:, active] = chip_factor_cells(phases[active], table_y[:, None], machine, cell, part)
-    spectra = _extend(np.fft.rfft(pattern, axis=1)).T  # (N/2 + 7, M)
-    half = n_phi // 2 + 1
-    # A[k - d] Y^p for the 3 x 7 kernels of periodic_response, as (N/2 + 1, M, 21)
-    shifted = spectra[np.arange(half)[:, None] + np.arange(6, -1, -1)[None, :]].transpose(0, 2, 1)
-    powers = table_y[:, None] ** np.arange(3)[None, :]
-    table_a = (powers[None, :, :, None] * shifted[:, :, None, :]).reshape(half, -1, 21)
-    for a in (table_y, pattern, table_a, active):
+    spectra = np.ascontiguousarray(_extend(np.fft.rfft(pattern, axis=1)).T)  # (N/2 + 7, M)
+    for a in (table_y, spectra, active):
         a.setflags(write=False)
-    return table_y, row_knots, pattern, table_a, active
+    return table_y, row_knots, spectra, active
 
 
 def _table_rows(machine: Machine, rows: int, uniform: float = UNIFORM_SHARE):
@@ -454,87 +463,187 @@ def _outputs(geo: CutGeometry, j, slide, q, qd, qdd, spindle_hz: float):
     p. The workpiece point under the tool sits at p - C + Y y_hat from its centre of mass.
     """
     b, m = geo.basis, geo.machine
-    disp = []
-    for body, shift in ((m.tool_body, 0.0), (m.workpiece_body, 1.0)):
-        s, arm = b.body_shapes[body], geo.tip[j] - b.body_centers[body]
-        arm[:, 1] += shift * slide
-        disp.append(q.T @ s[:, :3] + np.cross(q.T @ s[:, 3:], arm))
-    s = b.body_shapes[m.tool_body]
+    tool, work = b.body_shapes[m.tool_body], b.body_shapes[m.workpiece_body]
+    arm_tool = geo.tip[j] - b.body_centers[m.tool_body]
+    arm_work = geo.tip[j] - b.body_centers[m.workpiece_body]
+    arm_work[:, 1] += slide
+    moved = q.T @ np.concatenate([tool, work], axis=1)  # (T, 12) both bodies' motions
+    disp = [
+        moved[:, :3] + _cross(moved[:, 3:6], arm_tool),
+        moved[:, 6:9] + _cross(moved[:, 9:], arm_work),
+    ]
     om = 2 * np.pi * spindle_hz
-    arm = geo.tip[j] - b.body_centers[m.tool_body]
+    accel = qdd.T @ tool  # (T, 6)
     acc = (
-        qdd.T @ s[:, :3]
-        + np.cross(qdd.T @ s[:, 3:], arm)
-        + 2 * np.cross(qd.T @ s[:, 3:], om * geo.dtip[j])
-        + np.cross(q.T @ s[:, 3:], om**2 * geo.ddtip[j])
+        accel[:, :3]
+        + _cross(accel[:, 3:], arm_tool)
+        + 2 * _cross(qd.T @ tool[:, 3:], om * geo.dtip[j])
+        + _cross(moved[:, 3:6], om**2 * geo.ddtip[j])
     )
     return disp[0], acc, disp[1]
 
 
-def periodic_response(
-    geo: CutGeometry, process, zeta=DEFAULT_ZETA, force_scale: float = 1.0
-) -> Response:
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a x b for (T, 3) arrays (np.cross without its axis handling: the record window's
+    outputs take five of them per response)."""
+    a0, a1, a2 = a[:, 0], a[:, 1], a[:, 2]
+    b0, b1, b2 = b[:, 0], b[:, 1], b[:, 2]
+    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=1)
+
+
+def periodic_response(geo, process, zeta=DEFAULT_ZETA, force_scale: float = 1.0) -> Response:
     """Periodic steady state at each tabulated slide position (path b).
 
     Per harmonic k: z_re[k] = sum_s sum_l c_hat[s,l] H_s[k-l] sum_m w_hat[s,m] A[k-l-m]
-    = sum_d K_d[k] A[k-d], with A the spectrum of the chip factor (cached in ``geo``) and H_s
-    the receptance of :func:`discrete_receptance`; with the workpiece arm's Y terms the kernels
-    are a quadratic in Y, sum_p Y^p K_pd. The record window is one spindle period at the slide
-    position of :func:`record_slide`. Everything is linear in the chip area a_p v/f: the
-    response per unit area is cached per (geometry, spindle speed, damping), so another feed
-    or depth at a known spindle speed costs a scaling.
+    = sum_d K_d[k] A[k-d], with A the spectrum of the chip factor (``spectra`` of ``geo``) and
+    H_s the receptance of :func:`discrete_receptance`; with the workpiece arm's Y terms the
+    kernels are a quadratic in Y, sum_p Y^p K_pd. The record window is one spindle period at
+    the slide position of :func:`record_slide`. The kernels and the record window's modal
+    spectra per unit pattern depend on the spindle speed only: they are cached per (geometry,
+    spindle speed, damping), so another feed or depth at a known spindle speed costs the
+    scaled sum over k and one inverse FFT.
+
+    ``geo``: one :class:`CutGeometry` or a sequence of them, the force parts of one force on
+    the same basis, machine, n_phi and table rows: their spectra are summed (each times its
+    part's amplitude) before the inverse FFT, so the parts cost one transform.
     """
+    parts = (geo,) if isinstance(geo, CutGeometry) else tuple(geo)
+    geo = parts[0]
     zeta = modal_damping(zeta, geo.basis.n_modes)
     f = process.spindle_hz
     n = geo.n_phi
-    amp = force_scale * part_amplitude(process, geo.machine, geo.part)
-    values, tip, acc, work, chip = _unit_periodic(geo, f, tuple(zeta.tolist()))
+    half = n // 2
+    amps = np.array([force_scale * part_amplitude(process, geo.machine, g.part) for g in parts])
+    kern, hq, hv = _periodic_kernels(parts, f, tuple(zeta.tolist()))
+    # z_re[k, i] = sum_(d, part, p) amp K[k, (d, part, p)] Y_i^p A_part[k - d, i]: one small
+    # product per harmonic over a strided view of the stacked spectra (no copy)
+    stacked = _stacked_spectra(geo.machine, n, geo.table_rows, tuple(g.part for g in parts))
+    rows = stacked.shape[3]
+    view = np.lib.stride_tricks.as_strided(
+        stacked,
+        shape=(half + 1, 7 * stacked.shape[1] * 3, rows),
+        strides=(stacked.strides[0], stacked.strides[2], stacked.strides[3]),
+        writeable=False,
+    )
+    zk = np.matmul(kern * np.repeat(np.tile(amps, 7), 3), view)[:, 0]  # (N/2 + 1, M)
+    values = np.empty((rows, n + 3))
+    table = values[:, 1 : n + 1]
+    np.fft.irfft(zk.T, n=n, axis=1, out=table)
+    values[:, 0], values[:, n + 1 :] = table[:, -1], table[:, :2]
+
+    units = [_record_unit(g) for g in parts]
+    fk = sum(amp * u.fk for amp, u in zip(amps, units, strict=True))
+    q, qd = np.split(np.fft.irfft(np.concatenate([hq * fk, hv * fk]), n=n, axis=1), 2)
+    fs = sum(amp * u.fs for amp, u in zip(amps, units, strict=True))
+    b = geo.basis
+    qdd = fs - (2 * zeta * b.omega)[:, None] * qd - (b.omega**2)[:, None] * q
     y_rec = record_slide(geo.machine)
+    tip, acc, work = _outputs(geo, np.arange(n), np.full(n, y_rec), q, qd, qdd, f)
+    for amp, u in zip(amps, units, strict=True):
+        if u.static_tip is not None:
+            tip, work = tip + amp * u.static_tip, work + amp * u.static_work
     j = np.arange(n)
     return Response(
         method="periodic",
         t=(j + (y_rec - geo.machine.cut_span[0]) / process.feed_per_rev_m * n) / (f * n),
         slide_y=np.full(n, y_rec),
-        force=(amp * chip)[:, None]
-        * force_vector(geo.phases, geo.machine, geo.coefficients, geo.part),
-        tip_disp=amp * tip,
-        tip_acc=amp * acc,
-        work_disp=amp * work,
-        z_re=amp * (tip[:, 2] - work[:, 2]),
+        force=sum(amp * u.force for amp, u in zip(amps, units, strict=True)),
+        tip_disp=tip,
+        tip_acc=acc,
+        work_disp=work,
+        z_re=tip[:, 2] - work[:, 2],
         period=1.0 / f,
         periods=1,
-        table=ZreTable(amp * values, geo.table_y, 0.0, geo.row_knots),
+        table=ZreTable(values, geo.table_y, 0.0, geo.row_knots),
     )
 
 
-@lru_cache(maxsize=4)  # ~17 MB per entry; a sweep visits many designs
-def _unit_periodic(geo: CutGeometry, spindle_hz: float, zeta: tuple):
-    """Table values and record-window outputs of :func:`periodic_response` per unit chip area."""
-    b = geo.basis
+@lru_cache(maxsize=2)  # ~4.7 MiB each (two parts, 192 rows); machine-only
+def _stacked_spectra(machine: Machine, n_phi: int, table_rows: int, parts: tuple[str, ...]):
+    """The parts' extended spectra times Y^p at each row, (N/2 + 7, P, 3, M) (cached per
+    machine: every design of a sweep shares it)."""
+    tables = [_pattern_tables(machine, n_phi, table_rows, part) for part in parts]
+    powers = tables[0][0] ** np.arange(3)[:, None]  # (3, M)
+    out = np.stack([t[2] for t in tables], axis=1)[:, :, None, :] * powers
+    out.setflags(write=False)
+    return out
+
+
+@lru_cache(maxsize=16)
+def _periodic_kernels(parts: tuple[CutGeometry, ...], spindle_hz: float, zeta: tuple):
+    """Kernels and receptances of :func:`periodic_response` (cached per spindle speed).
+
+    Returns kern (N/2 + 1, 1, 21 P): for harmonic k and (shift, part, power p of Y) the kernel
+    K_pd[k] of that part with d = 3 - shift (the order of the strided spectra view), the
+    static correction's coefficients included (:class:`CutGeometry` ``static_hat``), and
+    hq, hv (n, N/2 + 1) the receptances at harmonics 0..N/2.
+    """
+    geo = parts[0]
     n = geo.n_phi
     half = n // 2
-    zeta = np.array(zeta)
     dt = 1.0 / (spindle_hz * n)
     k = np.arange(-1, half + 2)
-    hq, hv = discrete_receptance(b.omega, zeta, dt, 2 * np.pi * k / n)
-    # kernels of Y^0, Y^1, Y^2: c = c_hat + Y c_y (l = 0 only), w_s = w_hat + Y w_y_hat
-    c_y = np.zeros_like(geo.c_hat)
-    c_y[:, 1] = geo.c_y
-    kern = np.zeros((3, 7, half + 1), dtype=complex)
-    for pc, ch in enumerate((geo.c_hat, c_y)):
-        for pw, wh in enumerate((geo.w_hat, geo.w_y_hat)):
-            for li, l in enumerate(_HARM_C):
-                g = (ch[:, li : li + 1] * wh).T @ hq[:, 1 - l : half + 2 - l]
-                kern[pc + pw, li : li + 5] += g
-    kern = np.ascontiguousarray(kern.reshape(21, half + 1).T)[:, :, None]
-    zk = np.matmul(geo.table_a, kern)[:, :, 0]
-    rows = np.fft.irfft(zk, n=n, axis=0).T
-    if geo.static_table is not None:
-        rows = rows + geo.static_table
-    values = np.empty((rows.shape[0], n + 3))
-    values[:, 1 : n + 1] = rows
-    values[:, 0], values[:, n + 1 :] = rows[:, -1], rows[:, :2]
+    hq, hv = discrete_receptance(geo.basis.omega, np.array(zeta), dt, 2 * np.pi * k / n)
+    # one product of the receptances, shifted by each output harmonic l, with the coefficients
+    coef, static = _kernel_coefficients(parts)
+    shifted = np.concatenate([hq.T[1 - l : half + 2 - l] for l in _HARM_C], axis=1)  # (K, 3n)
+    kern = (shifted @ coef + static).reshape(half + 1, 1, -1)
+    hq, hv = hq[:, 1 : half + 2], hv[:, 1 : half + 2]
+    for a in (kern, hq, hv):
+        a.setflags(write=False)
+    return kern, hq, hv
 
+
+@lru_cache(maxsize=8)
+def _kernel_coefficients(parts: tuple[CutGeometry, ...]) -> tuple[np.ndarray, np.ndarray]:
+    """Coefficients of the kernels of :func:`_periodic_kernels` (cached per geometry).
+
+    K_pd[k] = sum_l sum_s coef[(l, s), (d, part, p)] H_s[k - l] + static[(d, part, p)]: the
+    kernels of Y^0, Y^1, Y^2 from c = c_hat + Y c_y (harmonic 0 only) and
+    w = w_hat + Y w_y_hat (output harmonic l, force harmonic m = d - l), and the static
+    correction's Fourier coefficients. Columns in the order of the strided spectra view
+    (shift 6 - d index, part, power). Returns coef (3 n, 21 P) and static (21 P,).
+    """
+    n_modes = parts[0].basis.n_modes
+    coef = np.zeros((3, n_modes, 7, len(parts), 3), dtype=complex)  # (l, s, d, part, p)
+    static = np.zeros((7, len(parts), 3), dtype=complex)
+    for pi_, g in enumerate(parts):
+        c_y = np.zeros_like(g.c_hat)
+        c_y[:, 1] = g.c_y
+        for pc, ch in enumerate((g.c_hat, c_y)):
+            for pw, wh in enumerate((g.w_hat, g.w_y_hat)):
+                for li in range(3):
+                    coef[li, :, li : li + 5, pi_, pc + pw] += ch[:, li : li + 1] * wh
+        if g.static_hat is not None:
+            static[:, pi_, :] = g.static_hat.T
+    coef = np.ascontiguousarray(coef[:, :, ::-1]).reshape(3 * n_modes, -1)
+    static = np.ascontiguousarray(static[::-1]).reshape(-1)
+    for a in (coef, static):
+        a.setflags(write=False)
+    return coef, static
+
+
+@dataclass(frozen=True)
+class _RecordUnit:
+    """Record-window quantities of one force part per unit amplitude (process-independent).
+
+    fk (n, N/2 + 1) half spectrum of the modal force; fs (n, N) the modal force; force (N, 3)
+    the force on the tool [N per unit]; static_tip, static_work (N, 3) or None the static
+    correction's displacements.
+    """
+
+    fk: np.ndarray
+    fs: np.ndarray
+    force: np.ndarray
+    static_tip: np.ndarray | None
+    static_work: np.ndarray | None
+
+
+@lru_cache(maxsize=8)
+def _record_unit(geo: CutGeometry) -> _RecordUnit:
+    """The record window of :func:`periodic_response` per unit amplitude (cached per geometry)."""
+    n = geo.n_phi
+    half = n // 2
     y_rec = record_slide(geo.machine)
     chip = chip_factor_cells(geo.phases, y_rec, geo.machine, 2 * np.pi / n, geo.part)
     chip_ext = _extend(np.fft.rfft(chip))
@@ -542,17 +651,16 @@ def _unit_periodic(geo: CutGeometry, spindle_hz: float, zeta: tuple):
     fk = w_hat[:, :1] * chip_ext[None, 5 : 5 + half + 1]
     for mi in range(1, 5):
         fk += w_hat[:, mi : mi + 1] * chip_ext[None, 5 - mi : 5 - mi + half + 1]
-    q = np.fft.irfft(hq[:, 1 : half + 2] * fk, n=n, axis=1)
-    qd = np.fft.irfft(hv[:, 1 : half + 2] * fk, n=n, axis=1)
     fs = (geo.w + y_rec * geo.w_y) * chip
-    qdd = fs - (2 * zeta * b.omega)[:, None] * qd - (b.omega**2)[:, None] * q
-    tip, acc, work = _outputs(geo, np.arange(n), np.full(n, y_rec), q, qd, qdd, spindle_hz)
+    force = chip[:, None] * force_vector(geo.phases, geo.machine, geo.coefficients, geo.part)
+    static_tip = static_work = None
     if geo.static_tool is not None:
         s_tool, s_work = geo.static_at(np.arange(n), np.full(n, y_rec))
-        tip, work = tip + chip[:, None] * s_tool, work + chip[:, None] * s_work
-    for a in (values, tip, acc, work, chip):
-        a.setflags(write=False)
-    return values, tip, acc, work, chip
+        static_tip, static_work = chip[:, None] * s_tool, chip[:, None] * s_work
+    for a in (fk, fs, force, static_tip, static_work):
+        if a is not None:
+            a.setflags(write=False)
+    return _RecordUnit(fk, fs, force, static_tip, static_work)
 
 
 def time_response(

@@ -21,11 +21,11 @@ P = [T_tool(p), -T_work(q)], T(x) = [I, -[(x - C)]x] the translation of point x 
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import threading
+from dataclasses import dataclass, replace
 
 import numpy as np
 import scipy.linalg as sla
-from threadpoolctl import threadpool_limits
 
 from ufmt.errors import ModelError
 from ufmt.machining.basis import ModalBasis
@@ -85,42 +85,116 @@ def _point_map(arm: np.ndarray) -> np.ndarray:
     return out
 
 
+@dataclass(frozen=True, eq=False)
+class _Structure:
+    """What a static solve needs that the hinge stiffnesses do not change (see
+    :func:`static_flexibility`): the reduced stiffness of the beams k_beams (r, r), the
+    reduced finite spring directions d (s, r), their hinge and direction (s,) indices into the
+    hinges' ``stiffness6``, and the map (r -> listed dofs) ``loads`` (r, 6B)."""
+
+    k_beams: np.ndarray
+    directions: np.ndarray
+    spring_hinge: np.ndarray
+    spring_direction: np.ndarray
+    loads: np.ndarray
+
+
+#: Structures of the last few models (key: bodies, hinge geometry and which directions are
+#: rigid or released), so that a design change (hinge stiffnesses only) costs one small solve.
+_STRUCTURES: dict = {}
+_STRUCTURES_LOCK = threading.Lock()  # dask workers may evaluate in threads
+STRUCTURE_CACHE = 4
+
+
+def _structure_key(model, bodies: tuple[str, ...]):
+    return (
+        model.bodies,  # identity-hashed bodies: shared by every design of one loaded model
+        tuple(
+            (h.name, h.between, h.at.tobytes(), h.rigid.tobytes(), h.released.tobytes())
+            for h in model.hinges
+        ),
+        bodies,
+    )
+
+
+def _structure(model, bodies: tuple[str, ...]) -> _Structure:
+    """The :class:`_Structure` of ``model`` (assembled once per structure key)."""
+    from ufmt.assembled import assemble
+
+    key = _structure_key(model, bodies)
+    with _STRUCTURES_LOCK:
+        found = _STRUCTURES.pop(key, None)
+    if found is None:
+        # one cubic frame element per beam is exact in statics (no load between the nodes);
+        # springs at zero give the beams alone, at one their unit direction rows d_j
+        def with_springs(value):
+            hinges = []
+            for h in model.hinges:
+                finite = ~(h.rigid | h.released)
+                k = np.where(finite, value, h.stiffness6)
+                hinges.append(replace(h, stiffness=k[:3], rotational_stiffness=k[3:]))
+            return replace(model, hinges=tuple(hinges))
+
+        beams = assemble(with_springs(0.0), elements_per_beam=1)
+        springs = assemble(with_springs(1.0), elements_per_beam=1)
+        finite = [
+            (i, j)
+            for i, h in enumerate(model.hinges)
+            for j in np.flatnonzero(~(h.rigid | h.released))
+        ]
+        d = springs.deformation[springs.deformation.shape[0] - len(finite) :]
+        dofs = []
+        for name in bodies:
+            body_dofs = beams.body_dofs[name]
+            if body_dofs.shape[0] != 1:
+                raise ModelError(
+                    f"{model.source}: machine: body {name!r} is a beam; the static correction "
+                    "needs rigid tool and workpiece bodies"
+                )
+            dofs.append(body_dofs[0])
+        dofs = np.concatenate(dofs)
+        if len(beams.constraints):
+            rows = beams.constraints / np.linalg.norm(beams.constraints, axis=1, keepdims=True)
+            basis = sla.null_space(rows, rcond=1e-9)
+        else:
+            basis = np.eye(beams.K.shape[0])
+        index = np.array(finite, dtype=int).reshape(-1, 2)
+        found = _Structure(
+            k_beams=basis.T @ beams.K @ basis,
+            directions=d @ basis,
+            spring_hinge=index[:, 0],
+            spring_direction=index[:, 1],
+            loads=basis[dofs].T,
+        )
+    with _STRUCTURES_LOCK:
+        _STRUCTURES[key] = found
+        while len(_STRUCTURES) > STRUCTURE_CACHE:
+            del _STRUCTURES[next(iter(_STRUCTURES))]
+    return found
+
+
 def static_flexibility(model, bodies: tuple[str, ...]) -> np.ndarray:
     """Static flexibility of the listed bodies' 6 coordinates each, (6B, 6B) (assembled model).
+
+    u = N (N^T K N)^-1 N^T f, N a basis of the motions the rigid hinges allow. The hinges'
+    finite springs enter K as sum_j k_j d_j d_j^T: the beams' part and the spring directions
+    are assembled once per structure (bodies, hinge geometry, rigid and released directions),
+    so another design (hinge stiffnesses) costs the reduced sum and a Cholesky solve.
 
     The bodies must be rigid or virtual (one node of 6 dofs). Raises ModelError if the model is
     not restrained (a stiffness matrix that is singular on the allowed motions).
     """
-    from ufmt.assembled import assemble
-
-    # one cubic frame element per beam is exact in statics (no load between the nodes)
-    am = assemble(model, elements_per_beam=1)
-    dofs = []
-    for name in bodies:
-        d = am.body_dofs[name]
-        if d.shape[0] != 1:
-            raise ModelError(
-                f"{model.source}: machine: body {name!r} is a beam; the static correction "
-                "needs rigid tool and workpiece bodies"
-            )
-        dofs.append(d[0])
-    dofs = np.concatenate(dofs)
-    n = am.K.shape[0]
-    if len(am.constraints):
-        rows = am.constraints / np.linalg.norm(am.constraints, axis=1, keepdims=True)
-        basis = sla.null_space(rows, rcond=1e-9)
-    else:
-        basis = np.eye(n)
-    k_red = basis.T @ am.K @ basis
-    with threadpool_limits(limits=1, user_api="blas"):  # small matrices: threads only wait
-        try:
-            chol = sla.cho_factor(k_red)
-        except np.linalg.LinAlgError:
-            raise ModelError(
-                f"{model.source}: the structure is not restrained (no static solution)"
-            ) from None
-        loads = basis[dofs].T  # N^T e_j for each listed dof
-        return basis[dofs] @ sla.cho_solve(chol, loads)
+    st = _structure(model, tuple(bodies))
+    k = np.array([h.stiffness6 for h in model.hinges]).reshape(-1, 6)
+    k = k[st.spring_hinge, st.spring_direction]
+    k_red = st.k_beams + (st.directions.T * k) @ st.directions
+    try:
+        chol = sla.cho_factor(k_red)
+    except np.linalg.LinAlgError:
+        raise ModelError(
+            f"{model.source}: the structure is not restrained (no static solution)"
+        ) from None
+    return st.loads.T @ sla.cho_solve(chol, st.loads)
 
 
 def residual_flexibility(model, basis: ModalBasis, machine: Machine) -> ResidualFlexibility:

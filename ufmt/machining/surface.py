@@ -129,6 +129,89 @@ def _grid(machine: Machine, spacing, window=None):
     return x, y, core, phi, cos
 
 
+@dataclass(frozen=True, eq=False)
+class Passes:
+    """The two passes of every arc over every grid point (the bracketing revolutions).
+
+    x (Nx,), y (Ny,) grid [m] and core (Ny,) its evenly spaced rows (see :class:`Surface`);
+    phi (arcs, Nx) [rad] the pass angle of each column, cos its cosine; frac (Ny, arcs, Nx)
+    how far the point lies from the earlier pass's path towards the later one (0..1, in
+    revolutions); slide_lo (Ny, arcs, Nx) [m] the slide position of the earlier pass, the later
+    one ``feed_per_rev`` further. Every term of the surface is a pair (earlier, later) of
+    heights on this layout; :meth:`lower` takes the lower pass (tool interference).
+    """
+
+    x: np.ndarray
+    y: np.ndarray
+    core: np.ndarray
+    phi: np.ndarray
+    cos: np.ndarray
+    frac: np.ndarray
+    slide_lo: np.ndarray
+    feed_per_rev: float
+    spacing: tuple[float, float]
+    window: tuple | None
+
+    def dynamic(self, table: ZreTable, machine: Machine) -> tuple[np.ndarray, np.ndarray]:
+        """z_re of ``table`` [m] at both passes (cubic in phi, linear in the table's rows)."""
+        arcs = self.phi.shape[0]
+        pairs = _table_pairs(table, machine, self.spacing, self.window, arcs)
+        y_lo = self.slide_lo - table.drift * (self.phi / (2 * np.pi))
+        columns = np.arange(self.phi.size).reshape(arcs, -1)
+        return (
+            _lookup(pairs, table.row_knots, y_lo, columns),
+            _lookup(pairs, table.row_knots, y_lo + self.feed_per_rev, columns),
+        )
+
+    def geometric(self, geometric) -> tuple[np.ndarray, np.ndarray]:
+        """Heights [m] of a geometric z(phi, Y) (:func:`~ufmt.machining.sources.geometric_z`)."""
+        return geometric(self.phi, self.slide_lo), geometric(
+            self.phi, self.slide_lo + self.feed_per_rev
+        )
+
+    def feed_marks(self, nose_radius: float) -> tuple[np.ndarray, np.ndarray]:
+        """Nose scallops [m]: d^2 / (2 r_n) at normal distance d from each pass's path."""
+        d2 = (self.feed_per_rev * self.cos) ** 2 / (2 * nose_radius)
+        return self.frac**2 * d2, (1 - self.frac) ** 2 * d2
+
+    def lower(self, terms) -> Surface:
+        """The surface of the summed ``terms`` (pairs of heights): the lower pass everywhere."""
+        terms = list(terms)
+        if terms:
+            z_lo = sum(t[0] for t in terms)
+            z_hi = sum(t[1] for t in terms)
+            z = np.minimum(z_lo, z_hi)
+        else:
+            z = np.zeros(self.frac.shape)
+        z = np.broadcast_to(z, self.frac.shape)
+        return Surface(self.x, self.y, z.min(axis=1) if z.shape[1] > 1 else z[:, 0], self.core)
+
+
+def surface_passes(
+    machine: Machine,
+    feed_per_rev: float,
+    spacing=DEFAULT_SPACING,
+    trailing_arc: bool = False,
+    window=None,
+) -> Passes:
+    """The passes over the grid of ``spacing`` [m] (arguments of :func:`machined_surface`)."""
+    if not feed_per_rev > 0:
+        raise ValueError(f"feed_per_rev must be > 0 [m], got {feed_per_rev!r}")
+    spacing = tuple(np.broadcast_to(np.asarray(spacing, dtype=float), (2,)).tolist())
+    if window is not None:
+        window = tuple(tuple(float(v) for v in w) for w in window)
+    x, y, core, phi, cos = _grid(machine, spacing, window)
+    arcs = 2 if trailing_arc else 1
+    phi, cos = phi[:arcs], cos[:arcs]
+    turn = phi / (2 * np.pi)
+    y_start = machine.cut_span[0]
+    # revolutions since Y_start when the arc passes the point; the two bracketing revolutions
+    rho = (y[:, None, None] - machine.tool_radius * cos - y_start) / feed_per_rev - turn
+    k = np.floor(rho)
+    slide_lo = y_start + feed_per_rev * (k + turn)  # slide position of the earlier pass
+    return Passes(x, y, core, phi, cos, rho - k, slide_lo, feed_per_rev, spacing, window)
+
+
 def machined_surface(
     table: ZreTable | None,
     machine: Machine,
@@ -150,49 +233,32 @@ def machined_surface(
     angle and slide position (:func:`ufmt.machining.sources.geometric_z`); ``window``
     ((x0, x1), (y0, y1)) [m] evaluates a patch only. Each point takes the lower of the two
     revolutions whose paths bracket it; a periodic (quasi-static) table gives each of them the
-    steady state at its own slide position.
+    steady state at its own slide position. (Several surfaces of one grid and feed share one
+    :func:`surface_passes`.)
     """
-    if not feed_per_rev > 0:
-        raise ValueError(f"feed_per_rev must be > 0 [m], got {feed_per_rev!r}")
     if nose_radius is not None and not nose_radius > 0:
         raise ValueError(f"nose_radius must be > 0 [m], got {nose_radius!r}")
-    spacing = tuple(np.broadcast_to(np.asarray(spacing, dtype=float), (2,)).tolist())
-    if window is not None:
-        window = tuple(tuple(float(v) for v in w) for w in window)
-    x, y, core, phi, cos = _grid(machine, spacing, window)
-    arcs = 2 if trailing_arc else 1
-    phi, cos = phi[:arcs], cos[:arcs]
-    turn = phi / (2 * np.pi)
-    y_start = machine.cut_span[0]
-    # revolutions since Y_start when the arc passes the point; the two bracketing revolutions
-    rho = (y[:, None, None] - machine.tool_radius * cos - y_start) / feed_per_rev - turn
-    k = np.floor(rho)
-    slide_lo = y_start + feed_per_rev * (k + turn)  # slide position of the earlier pass
-    if table is None:
-        z_lo, z_hi = np.zeros(rho.shape), np.zeros(rho.shape)
-    else:
-        cols = _table_columns(table, machine, spacing, window, arcs)
-        y_lo = slide_lo - table.drift * turn
-        columns = np.arange(cols.shape[1]).reshape(arcs, -1)
-        z_lo = _lookup(cols, table.row_knots, y_lo, columns)
-        z_hi = _lookup(cols, table.row_knots, y_lo + feed_per_rev, columns)
+    passes = surface_passes(machine, feed_per_rev, spacing, trailing_arc, window)
+    terms = []
+    if table is not None:
+        terms.append(passes.dynamic(table, machine))
     if geometric is not None:
-        z_lo = z_lo + geometric(phi, slide_lo)
-        z_hi = z_hi + geometric(phi, slide_lo + feed_per_rev)
+        terms.append(passes.geometric(geometric))
     if nose_radius is not None:
-        frac = rho - k
-        d2 = (feed_per_rev * cos) ** 2 / (2 * nose_radius)
-        z_lo += frac**2 * d2
-        z_hi += (1 - frac) ** 2 * d2
-    z = np.minimum(z_lo, z_hi)
-    return Surface(x, y, z.min(axis=1) if arcs > 1 else z[:, 0], core)
+        terms.append(passes.feed_marks(nose_radius))
+    return passes.lower(terms)
 
 
 @lru_cache(maxsize=1)  # one simulation reads its table for the total and each source alone
-def _table_columns(table: ZreTable, machine: Machine, spacing, window, arcs: int) -> np.ndarray:
-    """:func:`_columns` of ``table`` at the pass angles of the grid (cached per table, grid)."""
+def _table_pairs(table: ZreTable, machine: Machine, spacing, window, arcs: int) -> np.ndarray:
+    """:func:`_columns` of ``table`` at the grid's pass angles, each row with the next one as
+    its imaginary part: (rows - 1, arcs * Nx) complex, so that a lookup is one gather of both
+    (cached per table, grid)."""
     phi = _grid(machine, spacing, window)[3][:arcs]
-    return _columns(table.values, phi)
+    cols = _columns(table.values, phi)
+    pairs = cols[:-1] + 1j * cols[1:]
+    pairs.setflags(write=False)
+    return pairs
 
 
 def _columns(values: np.ndarray, phi: np.ndarray) -> np.ndarray:
@@ -211,22 +277,23 @@ def _columns(values: np.ndarray, phi: np.ndarray) -> np.ndarray:
     return cols.reshape(rows, -1)
 
 
-def _lookup(cols: np.ndarray, row_knots, slide: np.ndarray, columns: np.ndarray) -> np.ndarray:
-    """``cols`` (rows, C) linearly interpolated in rows at slide positions [m], in ``columns``.
+def _lookup(pairs: np.ndarray, row_knots, slide: np.ndarray, columns: np.ndarray) -> np.ndarray:
+    """Table columns linearly interpolated in rows at slide positions [m], in ``columns``.
 
+    ``pairs`` (rows - 1, C): each row's columns plus i times the next row's
+    (:func:`_table_pairs`).
     The fractional row of a slide position comes from the table's knots (see ZreTable);
     the column indices ``columns`` broadcast against ``slide``.
     """
     start, step, u = row_knots
-    rows, width = cols.shape
+    width = pairs.shape[1]
     t = np.clip((slide - start) / step, 0.0, u.size - 1.0)
     k = np.minimum(t.astype(np.intp), u.size - 2)
     rr = u[k] + (t - k) * (u[k + 1] - u[k])
-    i0 = np.minimum(rr.astype(np.intp), rows - 2)
-    flat = i0 * width + columns
-    c = cols.ravel()
-    lo = c[flat]
-    return lo + (rr - i0) * (c[flat + width] - lo)
+    i0 = np.minimum(rr.astype(np.intp), pairs.shape[0] - 1)
+    both = pairs.ravel()[i0 * width + columns]  # one gather: this row and the next
+    lo = both.real
+    return lo + (rr - i0) * (both.imag - lo)
 
 
 def steady_region(surface: Surface, machine: Machine, settle: float = 0.0) -> np.ndarray:
@@ -312,10 +379,10 @@ def _legendre_fit(x: np.ndarray, y: np.ndarray, z: np.ndarray) -> tuple[np.ndarr
     fu = np.stack([one_u, u, one_u, 1.5 * u**2 - 0.5, u, one_u])  # (6, Nx)
     gv = np.stack([one_v, one_v, v, one_v, v, 1.5 * v**2 - 0.5])  # (6, Ny)
     normal = (fu @ fu.T) * (gv @ gv.T)
-    rhs = np.einsum("kj,ji,ki->k", gv, z, fu)
+    rhs = ((gv @ z) * fu).sum(axis=1)
     coef = np.linalg.solve(normal, rhs)
-    fit = np.einsum("k,kj,ki->ji", coef, gv, fu)
-    form = np.einsum("k,kj,ki->ji", coef[3:], gv[3:], fu[3:])
+    fit = (gv.T * coef) @ fu
+    form = (gv[3:].T * coef[3:]) @ fu[3:]
     return fit, form
 
 
