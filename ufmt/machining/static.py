@@ -173,6 +173,11 @@ def _structure(model, bodies: tuple[str, ...]) -> _Structure:
     return found
 
 
+#: Eigenvalues of the reduced stiffness below this fraction of the largest are mechanisms
+#: (zero-frequency motions; rounding leaves them at ~1e-16 of the largest).
+MECHANISM_RTOL = 1e-12
+
+
 def static_flexibility(model, bodies: tuple[str, ...]) -> np.ndarray:
     """Static flexibility of the listed bodies' 6 coordinates each, (6B, 6B) (assembled model).
 
@@ -181,8 +186,9 @@ def static_flexibility(model, bodies: tuple[str, ...]) -> np.ndarray:
     are assembled once per structure (bodies, hinge geometry, rigid and released directions),
     so another design (hinge stiffnesses) costs the reduced sum and a Cholesky solve.
 
-    The bodies must be rigid or virtual (one node of 6 dofs). Raises ModelError if the model is
-    not restrained (a stiffness matrix that is singular on the allowed motions).
+    The bodies must be rigid or virtual (one node of 6 dofs). Zero-stiffness motions (a
+    released spindle rotation: the model's zero-frequency modes) carry no static correction
+    (pseudo-inverse on the elastic motions); ModelError if nothing is restrained.
     """
     st = _structure(model, tuple(bodies))
     k = np.array([h.stiffness6 for h in model.hinges]).reshape(-1, 6)
@@ -191,10 +197,22 @@ def static_flexibility(model, bodies: tuple[str, ...]) -> np.ndarray:
     try:
         chol = sla.cho_factor(k_red)
     except np.linalg.LinAlgError:
-        raise ModelError(
-            f"{model.source}: the structure is not restrained (no static solution)"
-        ) from None
+        return st.loads.T @ _mechanism_free_solve(k_red, st.loads, model.source)
     return st.loads.T @ sla.cho_solve(chol, st.loads)
+
+
+def _mechanism_free_solve(k_red: np.ndarray, loads: np.ndarray, source: str) -> np.ndarray:
+    """K^+ loads for a stiffness matrix with zero-stiffness motions (a mechanism such as a
+    released spindle rotation): the static correction is the elastic part only, so the
+    load components on the mechanism's motions are dropped (they are the zero-frequency
+    modes, which the modal basis leaves out too). Raises ModelError when every motion is a
+    mechanism."""
+    w, v = np.linalg.eigh(k_red)
+    elastic = w > MECHANISM_RTOL * np.abs(w).max(initial=0.0)
+    if not elastic.any():
+        raise ModelError(f"{source}: the structure is not restrained (no static solution)")
+    coords = v[:, elastic]
+    return coords @ ((coords.T @ loads) / w[elastic, None])
 
 
 def residual_flexibility(model, basis: ModalBasis, machine: Machine) -> ResidualFlexibility:
