@@ -160,6 +160,15 @@ class Model:
     design: dict[str, DesignParameter] = field(default_factory=dict)
     source: str = "<memory>"
 
+    def __repr__(self) -> str:
+        """One line (the full tables would flood a notebook): name, counts and the file."""
+        extras = [f"{len(self.design)} design parameters"] if self.design else []
+        extras += ["[machine]"] if self.machine else []
+        return (
+            f"Model({self.name!r}: {len(self.bodies)} bodies, {len(self.hinges)} hinges"
+            f"{''.join(', ' + e for e in extras)}; source={self.source!r})"
+        )
+
     def body(self, name: str) -> Body:
         """The body called ``name`` (KeyError lists the valid names)."""
         for b in self.bodies:
