@@ -23,7 +23,7 @@ from ufmt.machining.response import (
 from ufmt.machining.surface import machined_surface, steady_region
 from ufmt.model.machine import read_machine
 from ufmt.model.schema import Model
-from ufmt.simulate import fit_force_scale, simulate
+from ufmt.simulate import simulate
 
 #: the cutting-force vibration alone, without the static correction (a synthetic basis has no
 #: model to solve statically)
@@ -262,19 +262,16 @@ def test_pv_is_linear_in_depth_and_force_scale():
         assert scaled[key] == pytest.approx(2 * ref[key], rel=1e-9)
 
 
-def test_fit_force_scale_is_the_pv_ratio():
+def test_the_machines_force_scale_scales_the_vibration_pv():
+    """With the dynamic source alone PV is linear in the force (z_re linear, min over passes)."""
     model = Model("syn", (), (), machine=dict(MACHINE))
     basis = synthetic_basis(n=8)
     p = Process(300, 15, 4)
     target = 1.7 * simulate(model, p, basis=basis, **DYN).metrics["pv_nm"]
-    scale = fit_force_scale(model, p, target, basis=basis, static_correction=False)
-    assert scale == pytest.approx(1.7, rel=1e-9)
-    pv = simulate(model, p, basis=basis, force_scale=scale, **DYN).metrics["pv_nm"]
+    pv = simulate(model, p, basis=basis, force_scale=1.7, **DYN).metrics["pv_nm"]
     assert pv == pytest.approx(target, rel=1e-9)
-    same = fit_force_scale(basis, p, target, machine=MACHINE)
-    assert same == pytest.approx(scale, rel=1e-12)
     # the model's [machine] force_scale is the default
-    fitted = Model("syn", (), (), machine={**MACHINE, "force_scale": scale})
+    fitted = Model("syn", (), (), machine={**MACHINE, "force_scale": 1.7})
     assert simulate(fitted, p, basis=basis, **DYN).metrics["pv_nm"] == pytest.approx(
         target, rel=1e-9
     )
@@ -288,8 +285,6 @@ def test_simulate_options_are_checked():
         simulate(model, p, basis=basis, method="euler", **DYN)
     with pytest.raises(ValueError, match="damping ratios must lie in"):
         simulate(model, p, basis=basis, zeta=[0.02, 0.02, 1.5, 0.02], **DYN)
-    with pytest.raises(ValueError, match="dynamic source alone"):
-        fit_force_scale(model, p, 100.0, basis=basis, sources=("dynamic", "feed_marks"))
     with pytest.raises(ModelError, match="'vibration' is not an error source"):
         simulate(model, p, basis=basis, sources=("vibration",), static_correction=False)
     per_mode = simulate(model, p, basis=basis, zeta=np.full(4, 0.05), **DYN).metrics["pv_nm"]

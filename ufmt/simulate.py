@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import json
 import math
-from collections.abc import Mapping
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
@@ -51,7 +50,7 @@ from ufmt.machining.surface import (
     surface_metrics,
     surface_passes,
 )
-from ufmt.model.machine import Machine, machine_of, read_machine
+from ufmt.model.machine import Machine, machine_of
 
 METHODS = ("periodic", "time")
 
@@ -234,37 +233,6 @@ def simulate(
         aperture_margin=aperture_margin,
         psd2_patch=psd2_patch,
     )
-
-
-def fit_force_scale(
-    model_or_basis, reference_process: Process, target_pv_nm: float, *, machine=None, **options
-) -> float:
-    """Force scale factor that makes the PV of the cutting-force vibration alone equal the target.
-
-    z_re is linear in the force and, with the dynamic source alone, the surface is a minimum
-    of z_re values, so PV(s) = s PV(1) for s > 0: the fit is the ratio target / PV(1).
-    ``model_or_basis``: a Model (its basis from ``modal_basis``) or a :class:`ModalBasis`
-    together with ``machine`` (a :class:`Machine` or a ``[machine]`` mapping; no static
-    correction then). ``options`` go to :func:`simulate` (``sources`` is set to the dynamic
-    source); fit the reference value with ``method="time"``.
-    """
-    if "sources" in options:
-        raise ValueError("fit_force_scale uses the dynamic source alone (PV is then linear)")
-    if not target_pv_nm > 0:
-        raise ValueError(f"target_pv_nm must be > 0, got {target_pv_nm!r}")
-    options["force_scale"] = 1.0
-    options["sources"] = ("dynamic",)
-    if isinstance(model_or_basis, ModalBasis):
-        if machine is None:
-            raise ValueError("fit_force_scale with a ModalBasis needs machine=")
-        if isinstance(machine, Mapping):
-            machine = read_machine(machine)
-        n_modes = options.pop("n_modes", 30)
-        options.pop("static_correction", None)
-        result = _run(_truncated(model_or_basis, n_modes), machine, reference_process, **options)
-    else:
-        result = simulate(model_or_basis, reference_process, **options)
-    return target_pv_nm / result.metrics["pv_nm"]
 
 
 @lru_cache(maxsize=8)

@@ -30,8 +30,8 @@ class Machine:
     workpiece_size : (x, y) size of the workpiece [m].
     workpiece_center_xy : workpiece centre when the cut is halfway (under the spindle) [m].
     rotation : "cw" (eq. 4.1 as printed, clockwise seen from +z) or "ccw".
-    force_scale : factor on the force coefficients [-] (default 1, band 0.3-3; see
-        :func:`ufmt.simulate.fit_force_scale`).
+    force_scale : factor on the force coefficients [-] (default 1, band 0.3-3; fitted by
+        ``ufmt calibrate``, :mod:`ufmt.calibration.response_fit`).
     nose_radius : tool nose radius r_n [m] (feed marks, edge length of the ploughing term).
     rake_angle_deg, clearance_angle_deg : tool rake and clearance angles [deg] (recorded and
         validated; the force coefficients are those of the default geometry).
