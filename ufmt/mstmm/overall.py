@@ -50,14 +50,31 @@ def equilibrate(u: np.ndarray):
 
 @dataclass
 class State:
-    """A state vector as a linear map of the unknowns: ``Z = arr @ Z_all[cols]``."""
+    """A state vector as a linear map of the unknowns: ``Z = arr @ Z_all[cols]``.
+
+    ``arr`` is stored rows first, (12, n_omega, k), so that a transfer matrix constant in ω
+    acts on every frequency and column in one matrix product.
+    """
 
     cols: np.ndarray  # (k,) column indices into Z_all
-    arr: np.ndarray  # (n_omega, 12, k)
+    arr: np.ndarray  # (rows, n_omega, k)
 
     def transfer(self, u: np.ndarray) -> State:
-        """U @ Z for a batch of transfer matrices ``u`` (n_omega, 12, 12)."""
-        return State(self.cols, u @ self.arr)
+        """U @ Z for a transfer matrix ``u``: (r, 12) constant, or (n_omega, r, 12)."""
+        rows, nw, k = self.arr.shape
+        if u.ndim == 2:
+            out = u @ self.arr.reshape(rows, nw * k)
+            return State(self.cols, out.reshape(u.shape[0], nw, k))
+        out = np.matmul(u, self.arr.transpose(1, 0, 2))
+        return State(self.cols, np.ascontiguousarray(out.transpose(1, 0, 2)))
+
+    def transfer_affine(self, base: np.ndarray, inertial: np.ndarray, w2: np.ndarray) -> State:
+        """(base + ω² inertial) @ Z for constant (12, 12) parts and ω² (n_omega,) [rad²/s²]."""
+        rows, nw, k = self.arr.shape
+        flat = self.arr.reshape(rows, nw * k)
+        out = (base @ flat).reshape(rows, nw, k)
+        out += (inertial @ flat).reshape(rows, nw, k) * w2[None, :, None]
+        return State(self.cols, out)
 
     def __add__(self, other: State) -> State:
         """Sum of two maps; columns need not be sorted, shared ones are added."""
@@ -78,18 +95,18 @@ class State:
 
     def rows(self, rows) -> State:
         """The map restricted to some of its rows (an equation block of U_all)."""
-        return State(self.cols, self.arr[:, rows, :])
+        return State(self.cols, self.arr[rows])
 
 
 def _assemble(blocks: list[State], n_omega: int, n: int) -> np.ndarray:
     """Stack equation blocks into the dense (n_omega, n, n) matrix, one slice per block."""
-    if sum(b.arr.shape[1] for b in blocks) != n:  # pragma: no cover - counting argument
+    if sum(b.arr.shape[0] for b in blocks) != n:  # pragma: no cover - counting argument
         raise AssertionError(f"U_all has the wrong number of rows for {n} unknowns")
     u = np.zeros((n_omega, n, n), dtype=np.result_type(*[b.arr for b in blocks]))
     r0 = 0
     for b in blocks:
-        r = b.arr.shape[1]
-        u[:, r0 : r0 + r, b.cols] = b.arr
+        r = b.arr.shape[0]
+        u[:, r0 : r0 + r, b.cols] = b.arr.transpose(1, 0, 2)
         r0 += r
     return u
 
@@ -97,8 +114,8 @@ def _assemble(blocks: list[State], n_omega: int, n: int) -> np.ndarray:
 def _unknown_state(n_omega: int, columns: np.ndarray) -> State:
     """A state whose 12 entries are unknowns ``columns`` (-1 = known zero)."""
     known = columns >= 0
-    arr = np.zeros((n_omega, 12, int(known.sum())))
-    arr[:, np.flatnonzero(known), np.arange(known.sum())] = 1.0
+    arr = np.zeros((12, n_omega, int(known.sum())))
+    arr[np.flatnonzero(known), :, np.arange(known.sum())] = 1.0
     return State(columns[known], arr)
 
 
@@ -171,7 +188,12 @@ class TransferSystem:
         return elements.beam(omega, e.element, e.point_at(e.input_node), e.point_at(e.output_node))
 
     def _rigid_first_input(self, node, omega: np.ndarray) -> np.ndarray:
-        """U_{i,I1} (eq. 2.8) from cached constant and ω² parts."""
+        """U_{i,I1} (eq. 2.8) as (n_omega, 12, 12)."""
+        base, inertial = self._rigid_parts(node)
+        return base[None] + (omega**2)[:, None, None] * inertial[None]
+
+    def _rigid_parts(self, node) -> tuple[np.ndarray, np.ndarray]:
+        """Constant and ω² parts (12, 12) of U_{i,I1} (eq. 2.8), cached per body."""
         key = node.name
         if key not in self._body_cache:
             b = node.body
@@ -180,14 +202,13 @@ class TransferSystem:
                 np.array([0.0, 1.0]), b.mass, b.inertia, b.center_of_mass, p1, node.output_point
             )
             self._body_cache[key] = (both[0], both[1] - both[0])
-        base, inertial = self._body_cache[key]
-        return base[None] + (omega**2)[:, None, None] * inertial[None]
+        return self._body_cache[key]
 
     def _edge_output(self, index: int, state_in: State, omega: np.ndarray) -> State:
         out = state_in.transfer(self._edge_matrix(index, omega))
         for direction, col in self.topology.released_columns.get(index, {}).items():
-            delta = np.zeros((omega.size, 12, 1))
-            delta[:, direction, 0] = 1.0
+            delta = np.zeros((12, omega.size, 1))
+            delta[direction] = 1.0
             out = out + State(np.array([col]), delta)
         return out
 
@@ -222,13 +243,13 @@ class TransferSystem:
                 e = topo.edges[i]
                 if role == "cut":
                     z = _unknown_state(nw, topo.cut_columns[i])
-                    inputs.append((State(z.cols, CUT @ z.arr), e.point_at(name)))
+                    inputs.append((z.transfer(CUT), e.point_at(name)))
                 else:
                     inputs.append((edge_out[i], e.point_at(name)))
             if not inputs:  # free tip: six unknown displacements, zero forces
                 cols = topo.free_tip_columns[name]
-                arr = np.zeros((nw, 12, 6))
-                arr[:, np.arange(6), np.arange(6)] = 1.0
+                arr = np.zeros((12, nw, 6))
+                arr[np.arange(6), :, np.arange(6)] = 1.0
                 inputs.append((State(cols, arr), p_out))
             out = self._node_output(node, inputs, omega)
             for k in range(1, len(inputs)):  # geometric equations (2.5-2.7)
@@ -237,9 +258,7 @@ class TransferSystem:
                 h_k[0:3, 0:3] = np.eye(3)
                 h_k[0:3, 3:6] = elements.tilde(np.asarray(pk) - p1) if node.kind == "rigid" else 0
                 h_k[3:6, 3:6] = np.eye(3)
-                zk_h = State(zk.cols, h_k[None] @ zk.arr)
-                z1_h = State(z1.cols, -z1.arr[:, 0:6, :])
-                rows.append(zk_h + z1_h)
+                rows.append(zk.transfer(h_k) + State(z1.cols, -z1.arr[0:6]))
             if keep_states:
                 for k, (z, _) in enumerate(inputs):
                     states[("node_in", name, k)] = z
@@ -250,7 +269,7 @@ class TransferSystem:
                 rows.append(out.rows([force_row]))
             if name in segment_cols:  # Z_out - S = 0, transfer continues from S
                 cols = segment_cols[name]
-                ident = np.broadcast_to(np.eye(12), (nw, 12, 12))
+                ident = np.broadcast_to(np.eye(12)[:, None, :], (12, nw, 12))
                 rows.append(out + State(cols, -ident))
                 out = State(cols, ident)
             edge_out[i] = self._edge_output(i, out, omega)
@@ -258,22 +277,21 @@ class TransferSystem:
                 states[("edge_in", i)] = out
                 states[("edge_out", i)] = edge_out[i]
             if topo.edges[i].output_node == GROUND:  # root: zero displacement, reactions
-                reaction = np.zeros((nw, 12, 6))
-                reaction[:, 6 + np.arange(6), np.arange(6)] = -1.0
+                reaction = np.zeros((12, nw, 6))
+                reaction[6 + np.arange(6), :, np.arange(6)] = -1.0
                 rows.append(edge_out[i] + State(topo.root_columns[i], reaction))
         u_all = _assemble(rows, nw, n)
         return (u_all, states) if keep_states else u_all
 
     def _node_output(self, node, inputs, omega) -> State:
         """Output state of a body from its input states (eqs. 2.4, 2.8, 2.9, 2.11)."""
-        nw = omega.size
         z1 = inputs[0][0]
         p_out = node.output_point
         if node.kind == "rigid":
-            out = z1.transfer(self._rigid_first_input(node, omega))
+            out = z1.transfer_affine(*self._rigid_parts(node), omega**2)
         else:
             out = z1
         for zk, pk in inputs[1:]:
             lever = pk if node.kind == "rigid" else p_out
-            out = out + zk.transfer(elements.rigid_body_other_input(nw, lever, p_out))
+            out = out + zk.transfer(elements.rigid_body_other_input(1, lever, p_out)[0])
         return out
