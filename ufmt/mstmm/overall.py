@@ -11,6 +11,7 @@ zero-force condition per released direction of a tree hinge.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -111,6 +112,26 @@ def _assemble(blocks: list[State], n_omega: int, n: int) -> np.ndarray:
     return u
 
 
+@functools.lru_cache(maxsize=4096)
+def _hinge_matrix(stiffness6: tuple) -> np.ndarray:
+    """Hinge transfer matrix (12, 12) (eq. 2.13), shared by every design with these values."""
+    out = elements.hinge(np.zeros(1), np.array(stiffness6))[0]
+    out.flags.writeable = False
+    return out
+
+
+@functools.lru_cache(maxsize=4096)
+def _rigid_parts(mass, inertia: tuple, com: tuple, p_in: tuple, p_out: tuple):
+    """Constant and ω² parts (12, 12) of a rigid body's U_{i,I1} (eq. 2.8), shared by every
+    design with the same body (a stiffness sweep builds them once)."""
+    both = elements.rigid_body_first_input(
+        np.array([0.0, 1.0]), mass, np.reshape(inertia, (3, 3)), com, np.array(p_in), p_out
+    )
+    base, inertial = both[0], both[1] - both[0]
+    base.flags.writeable = inertial.flags.writeable = False
+    return base, inertial
+
+
 def _unknown_state(n_omega: int, columns: np.ndarray) -> State:
     """A state whose 12 entries are unknowns ``columns`` (-1 = known zero)."""
     known = columns >= 0
@@ -126,8 +147,6 @@ class TransferSystem:
         self.model = model
         self.topology: Topology = build_topology(drop_redundant_rigid(model))
         self.segments: tuple[str, ...] = ()
-        self._hinge_cache: dict[int, np.ndarray] = {}
-        self._body_cache: dict[str, tuple[np.ndarray, np.ndarray]] = {}
         if fmax_hz is not None:
             self.segment_for(fmax_hz)
 
@@ -182,9 +201,7 @@ class TransferSystem:
         """Transfer matrix of edge ``index``: (12, 12) if constant in ω, else (n, 12, 12)."""
         e = self.topology.edges[index]
         if e.kind == "hinge":
-            if index not in self._hinge_cache:
-                self._hinge_cache[index] = elements.hinge(np.zeros(1), e.element.stiffness6)[0]
-            return self._hinge_cache[index]
+            return _hinge_matrix(tuple(e.element.stiffness6))
         return elements.beam(omega, e.element, e.point_at(e.input_node), e.point_at(e.output_node))
 
     def _rigid_first_input(self, node, omega: np.ndarray) -> np.ndarray:
@@ -194,15 +211,9 @@ class TransferSystem:
 
     def _rigid_parts(self, node) -> tuple[np.ndarray, np.ndarray]:
         """Constant and ω² parts (12, 12) of U_{i,I1} (eq. 2.8), cached per body."""
-        key = node.name
-        if key not in self._body_cache:
-            b = node.body
-            p1 = self.topology.first_input_point(key)
-            both = elements.rigid_body_first_input(
-                np.array([0.0, 1.0]), b.mass, b.inertia, b.center_of_mass, p1, node.output_point
-            )
-            self._body_cache[key] = (both[0], both[1] - both[0])
-        return self._body_cache[key]
+        b = node.body
+        points = (b.center_of_mass, self.topology.first_input_point(node.name), node.output_point)
+        return _rigid_parts(b.mass, tuple(np.ravel(b.inertia)), *(tuple(p) for p in points))
 
     def _edge_output(self, index: int, state_in: State, omega: np.ndarray) -> State:
         out = state_in.transfer(self._edge_matrix(index, omega))
