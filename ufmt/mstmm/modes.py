@@ -13,13 +13,15 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 
 import numpy as np
+from scipy.special import gammaln
 
 from ufmt.model.schema import Beam, RigidBody
 from ufmt.mstmm import elements
 from ufmt.mstmm.overall import TransferSystem, equilibrate
 from ufmt.mstmm.roots import OFF_ROOT, batched_solve
 
-GAUSS_POINTS = 16  # per beam: modal-mass integrals to ~1e-12 up to βL ≈ 15
+GAUSS_POINTS = 16  # per beam at most (modal-mass integrals to ~1e-12 up to βL ≈ 15)
+GAUSS_RTOL = 1e-15  # fewer points where the Gauss error bound allows (see _gauss_points)
 
 
 @dataclass(frozen=True, eq=False)
@@ -90,7 +92,7 @@ def mode_shapes(system: TransferSystem, frequencies_hz, null_space=None) -> Mode
     topo = system.topology
     model = system.model
     omega = 2 * np.pi * f
-    u_all, states = system.evaluate(omega, keep_states=True)
+    states = system.states(omega)
     z = np.full((f.size, system.size), np.nan) if null_space is None else np.array(null_space)
     # groups of repeated roots share a null space; one batched solve per multiplicity
     first = np.flatnonzero(np.r_[True, np.abs(np.diff(f)) > 1e-9 * f[1:]])
@@ -99,7 +101,7 @@ def mode_shapes(system: TransferSystem, frequencies_hz, null_space=None) -> Mode
     for m in np.unique(size[unknown]):
         starts = first[unknown & (size == m)]
         u_near = system.evaluate(omega[starts] * OFF_ROOT)
-        vecs = null_vectors(u_all[starts], u_near, int(m))
+        vecs = null_vectors(system.evaluate(omega[starts]), u_near, int(m))
         for k in range(m):
             z[starts + k] = np.real(vecs[:, :, k])
     rigid, virtual, centers, beams = {}, {}, {}, {}
@@ -145,7 +147,7 @@ def _beam_field(system, beam: Beam, states, z, omega, fractions=None):
     z_in = _apply(states[("edge_in", index)], z)
     length = beam.length
     if fractions is None:
-        x, wts = np.polynomial.legendre.leggauss(GAUSS_POINTS)
+        x, wts = np.polynomial.legendre.leggauss(_gauss_points(beam, omega.max(initial=0.0)))
         s = 0.5 * (x + 1.0) * length
         wts = 0.5 * wts * length
     else:  # fractions from the beam's start; the transfer runs from its input end
@@ -160,11 +162,36 @@ def _beam_field(system, beam: Beam, states, z, omega, fractions=None):
     return positions, wts, motion
 
 
+def _gauss_points(beam: Beam, omega_max: float) -> int:
+    """Gauss-Legendre points for a beam's modal-mass integrals up to ω_max [rad/s].
+
+    The integrands are products of two fields made of e^{±βs}, e^{±iβs} (β the largest
+    bending, axial or torsional wavenumber), so the g-point rule errs by at most about
+    c^(2g+1) (g!)^4 / ((2g + 1) ((2g)!)^3) relative, c = 2βL (the remainder of the rule
+    for e^{cx} on [0, 1]); the smallest g with that below GAUSS_RTOL, at most GAUSS_POINTS.
+    """
+    w2 = omega_max**2
+    rho, e_mod = beam.density, beam.youngs_modulus
+    bending = (rho * beam.area * w2 / (e_mod * min(beam.second_moment_y, beam.second_moment_z)))
+    axial = rho * w2 / e_mod
+    torsion = rho * beam.polar_moment * w2 / (beam.shear_modulus * beam.torsion_constant)
+    c = 2.0 * beam.length * max(bending**0.25, np.sqrt(axial), np.sqrt(torsion), 1e-3)
+    g = np.arange(2, GAUSS_POINTS + 1)
+    log_error = (
+        (2 * g + 1) * np.log(c)
+        + 4 * gammaln(g + 1)
+        - np.log(2 * g + 1)
+        - 3 * gammaln(2 * g + 1)
+    )
+    fine = g[log_error <= np.log(GAUSS_RTOL)]
+    return int(fine[0]) if fine.size else GAUSS_POINTS
+
+
 def beam_shape(system: TransferSystem, shapes: ModeShapes, beam_name: str, fractions):
     """Motion (n, P, 6) [m, rad] of beam points at ``fractions`` of its length from its start,
     for the modes of ``shapes`` (same normalisation), with their positions (P, 3) [m]."""
     beam = system.model.body(beam_name)
-    _, states = system.evaluate(shapes.omega, keep_states=True)
+    states = system.states(shapes.omega)
     positions, _, motion = _beam_field(system, beam, states, shapes.z_all, shapes.omega, fractions)
     return positions, motion
 

@@ -223,17 +223,24 @@ class TransferSystem:
             out = out + State(np.array([col]), delta)
         return out
 
-    def evaluate(self, omega, keep_states: bool = False):
-        """U_all(ω) as (n_omega, n, n); with ``keep_states`` also every state map.
-
-        The states dict maps ``("node_in", node, k)`` (k-th input end), ``("node_out", node)``,
-        ``("edge_in", edge)`` and ``("edge_out", edge)`` to State objects.
-        """
+    def evaluate(self, omega) -> np.ndarray:
+        """U_all(ω) as (n_omega, n, n) for ω [rad/s]."""
         omega = np.atleast_1d(np.asarray(omega, dtype=float))
+        return _assemble(self._walk(omega, False)[0], omega.size, self.size)
+
+    def states(self, omega) -> dict:
+        """Every state map at ω [rad/s]: ``("node_in", node, k)`` (k-th input end),
+        ``("node_out", node)``, ``("edge_in", edge)`` and ``("edge_out", edge)`` to State
+        objects (U_all is not assembled)."""
+        return self._walk(np.atleast_1d(np.asarray(omega, dtype=float)), True)[1]
+
+    def _walk(self, omega: np.ndarray, keep_states: bool) -> tuple[list[State], dict]:
+        """Transfer every state from the tips to the root: U_all's equation blocks and, with
+        ``keep_states``, every state map."""
+        nw = omega.size
         nw = omega.size
         topo = self.topology
         n_base = topo.order_size
-        n = n_base + 12 * len(self.segments)
         segment_cols = {
             name: n_base + 12 * j + np.arange(12) for j, name in enumerate(self.segments)
         }
@@ -291,8 +298,7 @@ class TransferSystem:
                 reaction = np.zeros((12, nw, 6))
                 reaction[6 + np.arange(6), :, np.arange(6)] = -1.0
                 rows.append(edge_out[i] + State(topo.root_columns[i], reaction))
-        u_all = _assemble(rows, nw, n)
-        return (u_all, states) if keep_states else u_all
+        return rows, states
 
     def _node_output(self, node, inputs, omega) -> State:
         """Output state of a body from its input states (eqs. 2.4, 2.8, 2.9, 2.11)."""
