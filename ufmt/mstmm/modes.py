@@ -72,7 +72,7 @@ def null_vectors(u: np.ndarray, u_near: np.ndarray, multiplicity: int) -> np.nda
 
 def _apply(state, z: np.ndarray) -> np.ndarray:
     """States (n, 12) of a State map at each mode's frequency and unknowns z (n, order)."""
-    return np.einsum("ink,nk->ni", state.arr, z[:, state.cols])
+    return np.einsum("nik,nk->ni", state.arr, z[:, state.cols])
 
 
 def _rigid_motion_from_state(s: np.ndarray, point, com) -> np.ndarray:

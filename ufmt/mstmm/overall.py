@@ -51,31 +51,14 @@ def equilibrate(u: np.ndarray):
 
 @dataclass
 class State:
-    """A state vector as a linear map of the unknowns: ``Z = arr @ Z_all[cols]``.
-
-    ``arr`` is stored rows first, (12, n_omega, k), so that a transfer matrix constant in ω
-    acts on every frequency and column in one matrix product.
-    """
+    """A state vector as a linear map of the unknowns: ``Z = arr @ Z_all[cols]``."""
 
     cols: np.ndarray  # (k,) column indices into Z_all
-    arr: np.ndarray  # (rows, n_omega, k)
+    arr: np.ndarray  # (n_omega, 12, k)
 
     def transfer(self, u: np.ndarray) -> State:
-        """U @ Z for a transfer matrix ``u``: (r, 12) constant, or (n_omega, r, 12)."""
-        rows, nw, k = self.arr.shape
-        if u.ndim == 2:
-            out = u @ self.arr.reshape(rows, nw * k)
-            return State(self.cols, out.reshape(u.shape[0], nw, k))
-        out = np.matmul(u, self.arr.transpose(1, 0, 2))
-        return State(self.cols, np.ascontiguousarray(out.transpose(1, 0, 2)))
-
-    def transfer_affine(self, base: np.ndarray, inertial: np.ndarray, w2: np.ndarray) -> State:
-        """(base + ω² inertial) @ Z for constant (12, 12) parts and ω² (n_omega,) [rad²/s²]."""
-        rows, nw, k = self.arr.shape
-        flat = self.arr.reshape(rows, nw * k)
-        out = (base @ flat).reshape(rows, nw, k)
-        out += (inertial @ flat).reshape(rows, nw, k) * w2[None, :, None]
-        return State(self.cols, out)
+        """U @ Z for transfer matrices ``u``: (n_omega, 12, 12), or (12, 12) constant in ω."""
+        return State(self.cols, u @ self.arr)
 
     def __add__(self, other: State) -> State:
         """Sum of two maps; columns need not be sorted, shared ones are added."""
@@ -96,18 +79,18 @@ class State:
 
     def rows(self, rows) -> State:
         """The map restricted to some of its rows (an equation block of U_all)."""
-        return State(self.cols, self.arr[rows])
+        return State(self.cols, self.arr[:, rows, :])
 
 
 def _assemble(blocks: list[State], n_omega: int, n: int) -> np.ndarray:
     """Stack equation blocks into the dense (n_omega, n, n) matrix, one slice per block."""
-    if sum(b.arr.shape[0] for b in blocks) != n:  # pragma: no cover - counting argument
+    if sum(b.arr.shape[1] for b in blocks) != n:  # pragma: no cover - counting argument
         raise AssertionError(f"U_all has the wrong number of rows for {n} unknowns")
     u = np.zeros((n_omega, n, n), dtype=np.result_type(*[b.arr for b in blocks]))
     r0 = 0
     for b in blocks:
-        r = b.arr.shape[0]
-        u[:, r0 : r0 + r, b.cols] = b.arr.transpose(1, 0, 2)
+        r = b.arr.shape[1]
+        u[:, r0 : r0 + r, b.cols] = b.arr
         r0 += r
     return u
 
@@ -135,8 +118,8 @@ def _rigid_parts(mass, inertia: tuple, com: tuple, p_in: tuple, p_out: tuple):
 def _unknown_state(n_omega: int, columns: np.ndarray) -> State:
     """A state whose 12 entries are unknowns ``columns`` (-1 = known zero)."""
     known = columns >= 0
-    arr = np.zeros((12, n_omega, int(known.sum())))
-    arr[np.flatnonzero(known), :, np.arange(known.sum())] = 1.0
+    arr = np.zeros((n_omega, 12, int(known.sum())))
+    arr[:, np.flatnonzero(known), np.arange(known.sum())] = 1.0
     return State(columns[known], arr)
 
 
@@ -218,8 +201,8 @@ class TransferSystem:
     def _edge_output(self, index: int, state_in: State, omega: np.ndarray) -> State:
         out = state_in.transfer(self._edge_matrix(index, omega))
         for direction, col in self.topology.released_columns.get(index, {}).items():
-            delta = np.zeros((12, omega.size, 1))
-            delta[direction] = 1.0
+            delta = np.zeros((omega.size, 12, 1))
+            delta[:, direction, 0] = 1.0
             out = out + State(np.array([col]), delta)
         return out
 
@@ -261,13 +244,13 @@ class TransferSystem:
                 e = topo.edges[i]
                 if role == "cut":
                     z = _unknown_state(nw, topo.cut_columns[i])
-                    inputs.append((z.transfer(CUT), e.point_at(name)))
+                    inputs.append((State(z.cols, CUT @ z.arr), e.point_at(name)))
                 else:
                     inputs.append((edge_out[i], e.point_at(name)))
             if not inputs:  # free tip: six unknown displacements, zero forces
                 cols = topo.free_tip_columns[name]
-                arr = np.zeros((12, nw, 6))
-                arr[np.arange(6), :, np.arange(6)] = 1.0
+                arr = np.zeros((nw, 12, 6))
+                arr[:, np.arange(6), np.arange(6)] = 1.0
                 inputs.append((State(cols, arr), p_out))
             out = self._node_output(node, inputs, omega)
             for k in range(1, len(inputs)):  # geometric equations (2.5-2.7)
@@ -276,7 +259,9 @@ class TransferSystem:
                 h_k[0:3, 0:3] = np.eye(3)
                 h_k[0:3, 3:6] = elements.tilde(np.asarray(pk) - p1) if node.kind == "rigid" else 0
                 h_k[3:6, 3:6] = np.eye(3)
-                rows.append(zk.transfer(h_k) + State(z1.cols, -z1.arr[0:6]))
+                zk_h = State(zk.cols, h_k[None] @ zk.arr)
+                z1_h = State(z1.cols, -z1.arr[:, 0:6, :])
+                rows.append(zk_h + z1_h)
             if keep_states:
                 for k, (z, _) in enumerate(inputs):
                     states[("node_in", name, k)] = z
@@ -287,7 +272,7 @@ class TransferSystem:
                 rows.append(out.rows([force_row]))
             if name in segment_cols:  # Z_out - S = 0, transfer continues from S
                 cols = segment_cols[name]
-                ident = np.broadcast_to(np.eye(12)[:, None, :], (12, nw, 12))
+                ident = np.broadcast_to(np.eye(12), (nw, 12, 12))
                 rows.append(out + State(cols, -ident))
                 out = State(cols, ident)
             edge_out[i] = self._edge_output(i, out, omega)
@@ -295,8 +280,8 @@ class TransferSystem:
                 states[("edge_in", i)] = out
                 states[("edge_out", i)] = edge_out[i]
             if topo.edges[i].output_node == GROUND:  # root: zero displacement, reactions
-                reaction = np.zeros((12, nw, 6))
-                reaction[6 + np.arange(6), :, np.arange(6)] = -1.0
+                reaction = np.zeros((nw, 12, 6))
+                reaction[:, 6 + np.arange(6), np.arange(6)] = -1.0
                 rows.append(edge_out[i] + State(topo.root_columns[i], reaction))
         return rows, states
 
@@ -305,7 +290,7 @@ class TransferSystem:
         z1 = inputs[0][0]
         p_out = node.output_point
         if node.kind == "rigid":
-            out = z1.transfer_affine(*self._rigid_parts(node), omega**2)
+            out = z1.transfer(self._rigid_first_input(node, omega))
         else:
             out = z1
         for zk, pk in inputs[1:]:
