@@ -203,14 +203,24 @@ def beam_local(omega: np.ndarray, beam: Beam, length: float | None = None) -> np
     return u
 
 
-def beam(omega: np.ndarray, beam: Beam, p_in, p_out, length: float | None = None) -> np.ndarray:
+def beam_rotation(beam: Beam, p_in, p_out) -> np.ndarray:
+    """(12, 12) block-diagonal rotation from the beam's local frame (transfer from ``p_in``
+    to ``p_out``) to the global frame, acting on the four 3-vectors of a state."""
+    return np.kron(np.eye(4), beam_frame(beam, p_in, p_out))
+
+
+def beam(
+    omega: np.ndarray,
+    beam: Beam,
+    p_in=None,
+    p_out=None,
+    length: float | None = None,
+    rotation: np.ndarray | None = None,
+) -> np.ndarray:
     """Beam transfer matrix from end ``p_in`` towards end ``p_out`` in the global frame [SI].
 
     ``length`` [m] (scalar, or one per ω) stops the transfer part-way along the beam (for
-    mode shapes).
+    mode shapes). ``rotation``: :func:`beam_rotation` of (p_in, p_out), if already known.
     """
-    r = beam_frame(beam, p_in, p_out)
-    t = np.zeros((12, 12))
-    for k in range(4):
-        t[3 * k : 3 * k + 3, 3 * k : 3 * k + 3] = r
+    t = beam_rotation(beam, p_in, p_out) if rotation is None else rotation
     return t[None] @ beam_local(omega, beam, length) @ t.T[None]

@@ -172,16 +172,13 @@ def _gauss_points(beam: Beam, omega_max: float) -> int:
     """
     w2 = omega_max**2
     rho, e_mod = beam.density, beam.youngs_modulus
-    bending = (rho * beam.area * w2 / (e_mod * min(beam.second_moment_y, beam.second_moment_z)))
+    bending = rho * beam.area * w2 / (e_mod * min(beam.second_moment_y, beam.second_moment_z))
     axial = rho * w2 / e_mod
     torsion = rho * beam.polar_moment * w2 / (beam.shear_modulus * beam.torsion_constant)
     c = 2.0 * beam.length * max(bending**0.25, np.sqrt(axial), np.sqrt(torsion), 1e-3)
     g = np.arange(2, GAUSS_POINTS + 1)
     log_error = (
-        (2 * g + 1) * np.log(c)
-        + 4 * gammaln(g + 1)
-        - np.log(2 * g + 1)
-        - 3 * gammaln(2 * g + 1)
+        (2 * g + 1) * np.log(c) + 4 * gammaln(g + 1) - np.log(2 * g + 1) - 3 * gammaln(2 * g + 1)
     )
     fine = g[log_error <= np.log(GAUSS_RTOL)]
     return int(fine[0]) if fine.size else GAUSS_POINTS

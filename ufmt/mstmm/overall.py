@@ -62,24 +62,42 @@ class State:
 
     def __add__(self, other: State) -> State:
         """Sum of two maps; columns need not be sorted, shared ones are added."""
-        pos = {int(c): i for i, c in enumerate(self.cols)}
-        shared = [j for j, c in enumerate(other.cols) if int(c) in pos]
-        if not shared:  # disjoint subtrees: just stack the columns
-            return State(
-                np.concatenate([self.cols, other.cols]),
-                np.concatenate([self.arr, other.arr], axis=2),
-            )
+        cols, at, shared, rest = _sum_plan(_key(self.cols), _key(other.cols))
+        if shared is None:  # disjoint subtrees: just stack the columns
+            return State(cols, np.concatenate([self.arr, other.arr], axis=2))
         arr = self.arr.astype(np.result_type(self.arr, other.arr), copy=True)
-        arr[:, :, [pos[int(other.cols[j])] for j in shared]] += other.arr[:, :, shared]
-        rest = [j for j in range(other.cols.size) if int(other.cols[j]) not in pos]
-        return State(
-            np.concatenate([self.cols, other.cols[rest]]),
-            np.concatenate([arr, other.arr[:, :, rest]], axis=2),
-        )
+        arr[:, :, at] += other.arr[:, :, shared]
+        return State(cols, np.concatenate([arr, other.arr[:, :, rest]], axis=2))
 
     def rows(self, rows) -> State:
         """The map restricted to some of its rows (an equation block of U_all)."""
         return State(self.cols, self.arr[:, rows, :])
+
+
+@functools.lru_cache(maxsize=65536)
+def _sum_plan(cols_a: bytes, cols_b: bytes):
+    """Index plan of the sum of two state maps with these column arrays (int64 bytes): the
+    summed columns, and where b's shared columns add into a (None if disjoint) and which of
+    b's columns are appended. A walk repeats the same sums at every call."""
+    a, b = np.frombuffer(cols_a, dtype=np.int64), np.frombuffer(cols_b, dtype=np.int64)
+    pos = {int(c): i for i, c in enumerate(a)}
+    shared = np.array([j for j, c in enumerate(b) if int(c) in pos], dtype=int)
+    if shared.size == 0:
+        return _frozen(np.concatenate([a, b])), None, None, None
+    at = np.array([pos[int(b[j])] for j in shared], dtype=int)
+    rest = np.array([j for j in range(b.size) if int(b[j]) not in pos], dtype=int)
+    return _frozen(np.concatenate([a, b[rest]])), at, shared, rest
+
+
+def _key(cols: np.ndarray) -> bytes:
+    """Column indices as int64 bytes: the cache key of an index plan."""
+    return cols.astype(np.int64, copy=False).tobytes()
+
+
+def _frozen(a: np.ndarray) -> np.ndarray:
+    """``a`` made read-only: cached plans are shared by every walk."""
+    a.flags.writeable = False
+    return a
 
 
 def _assemble(blocks: list[State], n_omega: int, n: int) -> np.ndarray:
@@ -98,9 +116,7 @@ def _assemble(blocks: list[State], n_omega: int, n: int) -> np.ndarray:
 @functools.lru_cache(maxsize=4096)
 def _hinge_matrix(stiffness6: tuple) -> np.ndarray:
     """Hinge transfer matrix (12, 12) (eq. 2.13), shared by every design with these values."""
-    out = elements.hinge(np.zeros(1), np.array(stiffness6))[0]
-    out.flags.writeable = False
-    return out
+    return _frozen(elements.hinge(np.zeros(1), np.array(stiffness6))[0])
 
 
 @functools.lru_cache(maxsize=4096)
@@ -110,17 +126,44 @@ def _rigid_parts(mass, inertia: tuple, com: tuple, p_in: tuple, p_out: tuple):
     both = elements.rigid_body_first_input(
         np.array([0.0, 1.0]), mass, np.reshape(inertia, (3, 3)), com, np.array(p_in), p_out
     )
-    base, inertial = both[0], both[1] - both[0]
-    base.flags.writeable = inertial.flags.writeable = False
-    return base, inertial
+    return _frozen(both[0]), _frozen(both[1] - both[0])
 
 
 def _unknown_state(n_omega: int, columns: np.ndarray) -> State:
     """A state whose 12 entries are unknowns ``columns`` (-1 = known zero)."""
+    cols, template = _selection(_key(columns))
+    return State(cols, np.broadcast_to(template, (n_omega, *template.shape)))
+
+
+@functools.lru_cache(maxsize=4096)
+def _selection(columns: bytes) -> tuple[np.ndarray, np.ndarray]:
+    """(known columns, (12, k) 0/1 map) of a state of unknowns ``columns`` (-1 = zero)."""
+    columns = np.frombuffer(columns, dtype=np.int64)
     known = columns >= 0
-    arr = np.zeros((n_omega, 12, int(known.sum())))
-    arr[:, np.flatnonzero(known), np.arange(known.sum())] = 1.0
-    return State(columns[known], arr)
+    template = np.zeros((12, int(known.sum())))
+    template[np.flatnonzero(known), np.arange(known.sum())] = 1.0
+    return _frozen(columns[known]), _frozen(template)
+
+
+@functools.lru_cache(maxsize=4096)
+def _geometric_map(lever: tuple, rigid: bool) -> np.ndarray:
+    """H_k (6, 12) of a geometric equation (eqs. 2.5-2.7): displacement of input k carried
+    to the first input point (``lever`` = p_k - p_1 [m] on a rigid body), and rotation."""
+    h_k = np.zeros((6, 12))
+    h_k[0:3, 0:3] = np.eye(3)
+    h_k[0:3, 3:6] = elements.tilde(lever) if rigid else 0.0
+    h_k[3:6, 3:6] = np.eye(3)
+    return _frozen(h_k)
+
+
+@functools.lru_cache(maxsize=4096)
+def _other_input(lever: tuple, p_out: tuple) -> np.ndarray:
+    """U_{i,Ik}, k >= 2 (eqs. 2.9, 2.11), constant (12, 12)."""
+    return _frozen(elements.rigid_body_other_input(1, np.array(lever), np.array(p_out))[0].copy())
+
+
+FREE_TIP = np.eye(12, 6)  # a free tip's state: six unknown displacements, zero forces
+REACTION = -np.eye(12, 6, -6)  # the ground's reactions enter the root's force rows
 
 
 class TransferSystem:
@@ -130,6 +173,7 @@ class TransferSystem:
         self.model = model
         self.topology: Topology = build_topology(drop_redundant_rigid(model))
         self.segments: tuple[str, ...] = ()
+        self._beam_rotations: dict[int, np.ndarray] = {}
         if fmax_hz is not None:
             self.segment_for(fmax_hz)
 
@@ -185,7 +229,10 @@ class TransferSystem:
         e = self.topology.edges[index]
         if e.kind == "hinge":
             return _hinge_matrix(tuple(e.element.stiffness6))
-        return elements.beam(omega, e.element, e.point_at(e.input_node), e.point_at(e.output_node))
+        if index not in self._beam_rotations:
+            p_in, p_out = e.point_at(e.input_node), e.point_at(e.output_node)
+            self._beam_rotations[index] = elements.beam_rotation(e.element, p_in, p_out)
+        return elements.beam(omega, e.element, rotation=self._beam_rotations[index])
 
     def _rigid_first_input(self, node, omega: np.ndarray) -> np.ndarray:
         """U_{i,I1} (eq. 2.8) as (n_omega, 12, 12)."""
@@ -221,7 +268,6 @@ class TransferSystem:
         """Transfer every state from the tips to the root: U_all's equation blocks and, with
         ``keep_states``, every state map."""
         nw = omega.size
-        nw = omega.size
         topo = self.topology
         n_base = topo.order_size
         segment_cols = {
@@ -244,24 +290,17 @@ class TransferSystem:
                 e = topo.edges[i]
                 if role == "cut":
                     z = _unknown_state(nw, topo.cut_columns[i])
-                    inputs.append((State(z.cols, CUT @ z.arr), e.point_at(name)))
+                    inputs.append((z.transfer(CUT), e.point_at(name)))
                 else:
                     inputs.append((edge_out[i], e.point_at(name)))
             if not inputs:  # free tip: six unknown displacements, zero forces
                 cols = topo.free_tip_columns[name]
-                arr = np.zeros((nw, 12, 6))
-                arr[:, np.arange(6), np.arange(6)] = 1.0
-                inputs.append((State(cols, arr), p_out))
+                inputs.append((State(cols, np.broadcast_to(FREE_TIP, (nw, 12, 6))), p_out))
             out = self._node_output(node, inputs, omega)
             for k in range(1, len(inputs)):  # geometric equations (2.5-2.7)
                 (z1, p1), (zk, pk) = inputs[0], inputs[k]
-                h_k = np.zeros((6, 12))
-                h_k[0:3, 0:3] = np.eye(3)
-                h_k[0:3, 3:6] = elements.tilde(np.asarray(pk) - p1) if node.kind == "rigid" else 0
-                h_k[3:6, 3:6] = np.eye(3)
-                zk_h = State(zk.cols, h_k[None] @ zk.arr)
-                z1_h = State(z1.cols, -z1.arr[:, 0:6, :])
-                rows.append(zk_h + z1_h)
+                h_k = _geometric_map(tuple(np.subtract(pk, p1)), node.kind == "rigid")
+                rows.append(zk.transfer(h_k) + State(z1.cols, -z1.arr[:, 0:6, :]))
             if keep_states:
                 for k, (z, _) in enumerate(inputs):
                     states[("node_in", name, k)] = z
@@ -280,8 +319,7 @@ class TransferSystem:
                 states[("edge_in", i)] = out
                 states[("edge_out", i)] = edge_out[i]
             if topo.edges[i].output_node == GROUND:  # root: zero displacement, reactions
-                reaction = np.zeros((nw, 12, 6))
-                reaction[:, 6 + np.arange(6), np.arange(6)] = -1.0
+                reaction = np.broadcast_to(REACTION, (nw, 12, 6))
                 rows.append(edge_out[i] + State(topo.root_columns[i], reaction))
         return rows, states
 
@@ -295,5 +333,5 @@ class TransferSystem:
             out = z1
         for zk, pk in inputs[1:]:
             lever = pk if node.kind == "rigid" else p_out
-            out = out + zk.transfer(elements.rigid_body_other_input(1, lever, p_out)[0])
+            out = out + zk.transfer(_other_input(tuple(lever), tuple(p_out)))
         return out
