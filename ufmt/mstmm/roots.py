@@ -383,17 +383,18 @@ def _newton(system, omega, lo, hi, mult, rtol):
         u = system.evaluate(np.concatenate([wa, wa + h])).reshape(2, act.size, *matrix_shape)
         if r is None:  # at ω(1 + DERIVATIVE_STEP): off the root even from an exact start
             r, c = equilibrate(u[1])
-        u0, du = u[0], u[1]
-        du -= u0
-        scale = r[act] * c[act]
-        u0 *= scale
-        scale /= h[:, None, None]
-        du *= scale
-        # columns of U_all constant in ω (identity blocks of segments, rigid hinge rows...)
-        # add nothing to tr(U⁻¹ dU): solve only for the others, product = U⁻¹ dU[:, moving]
-        moving = np.flatnonzero(np.any(du != 0, axis=(0, 1)))
+            # columns of U_all constant in ω (identity blocks of segments, rigid hinge
+            # rows...) add nothing to tr(U⁻¹ dU): solve only for the others
+            moving = np.flatnonzero(np.any(u[1] != u[0], axis=(0, 1)))
+        u0 = u[0]
+        du = u[1][:, :, moving]
+        du -= u0[:, :, moving]
+        du *= r[act] / h[:, None, None]
+        du *= c[act][:, :, moving]
+        u0 *= r[act]
+        u0 *= c[act]
         with np.errstate(all="ignore"):
-            product = batched_solve(u0, du[:, :, moving])
+            product = batched_solve(u0, du)  # U⁻¹ dU[:, moving], scaled
             # Aberth: the other clusters' current roots are divided out of det U_all
             others = mult[None, :] / (wa[:, None] - w[None, :])
             others[np.arange(act.size), act] = 0.0
