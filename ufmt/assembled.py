@@ -60,17 +60,25 @@ PIVOT_PREFERENCE = 1e3  # column weight that makes massless dofs the dependent o
 
 
 def _skew(v: np.ndarray) -> np.ndarray:
-    """Cross-product matrix: ``_skew(a) @ b == a x b`` (paper eq. 2.10)."""
-    return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
+    """Cross-product matrices (..., 3, 3) of vectors (..., 3): ``_skew(a) @ b == a x b``
+    (paper eq. 2.10)."""
+    s = np.zeros(v.shape + (3,))
+    s[..., 0, 1], s[..., 0, 2] = -v[..., 2], v[..., 1]
+    s[..., 1, 0], s[..., 1, 2] = v[..., 2], -v[..., 0]
+    s[..., 2, 0], s[..., 2, 1] = -v[..., 1], v[..., 0]
+    return s
 
 
 def point_motion(offset: np.ndarray) -> np.ndarray:
-    """6x6 map from ``[r_C; theta]`` to ``[r_C + theta x offset; theta]`` (paper eq. 2.5).
+    """(..., 6, 6) maps from ``[r_C; theta]`` to ``[r_C + theta x offset; theta]`` (paper
+    eq. 2.5).
 
-    offset [m]: vector from the reference point C to the point P.
+    offset (..., 3) [m]: vectors from the reference point C to the point P.
     """
-    t = np.eye(6)
-    t[:3, 3:] = -_skew(offset)
+    offset = np.asarray(offset, dtype=float)
+    t = np.zeros(offset.shape[:-1] + (6, 6))
+    t[..., range(6), range(6)] = 1.0
+    t[..., :3, 3:] = -_skew(offset)
     return t
 
 
@@ -83,12 +91,21 @@ def beam_frame(beam: Beam) -> np.ndarray:
     e1 = (beam.end - beam.start) / beam.length
     ref = beam.orientation
     if ref is None:
-        z = np.array([0.0, 0.0, 1.0])
-        vertical = np.linalg.norm(np.cross(e1, z)) <= PARALLEL_SINE
-        ref = np.array([1.0, 0.0, 0.0]) if vertical else z
+        vertical = math.hypot(e1[0], e1[1]) <= PARALLEL_SINE  # |e1 x z|
+        ref = np.array([1.0, 0.0, 0.0]) if vertical else np.array([0.0, 0.0, 1.0])
     e2 = ref - (ref @ e1) * e1
     e2 = e2 / np.linalg.norm(e2)
-    return np.array([e1, e2, np.cross(e1, e2)])
+    e3 = [
+        e1[1] * e2[2] - e1[2] * e2[1],
+        e1[2] * e2[0] - e1[0] * e2[2],
+        e1[0] * e2[1] - e1[1] * e2[0],
+    ]
+    return np.array([e1, e2, e3])
+
+
+# frame-element dofs (node 1 then node 2, local axes) of each deformation
+AXIAL, TORSION = np.ix_([0, 6], [0, 6]), np.ix_([3, 9], [3, 9])
+BENDING_XY, BENDING_XZ = np.ix_([1, 5, 7, 11], [1, 5, 7, 11]), np.ix_([2, 4, 8, 10], [2, 4, 8, 10])
 
 
 def frame_element(beam: Beam, h: float) -> tuple[np.ndarray, np.ndarray]:
@@ -104,11 +121,11 @@ def frame_element(beam: Beam, h: float) -> tuple[np.ndarray, np.ndarray]:
     rod_k = np.array([[1.0, -1.0], [-1.0, 1.0]])
     rod_m = np.array([[2.0, 1.0], [1.0, 2.0]]) * h / 6.0
     for idx, stiffness, inertia in (
-        ([0, 6], e * a / h, rho * a),  # axial
-        ([3, 9], g * beam.torsion_constant / h, rho * beam.polar_moment),  # torsion
+        (AXIAL, e * a / h, rho * a),
+        (TORSION, g * beam.torsion_constant / h, rho * beam.polar_moment),
     ):
-        k[np.ix_(idx, idx)] += stiffness * rod_k
-        m[np.ix_(idx, idx)] += inertia * rod_m
+        k[idx] += stiffness * rod_k
+        m[idx] += inertia * rod_m
     bend_k = (
         np.array(
             [
@@ -128,13 +145,12 @@ def frame_element(beam: Beam, h: float) -> tuple[np.ndarray, np.ndarray]:
             [-13 * h, -3 * h * h, -22 * h, 4 * h * h],
         ]
     ) * (rho * a * h / 420.0)
-    flip = np.diag([1.0, -1.0, 1.0, -1.0])  # theta_y = -dw/dx
-    for idx, second, sign in (
-        ([1, 5, 7, 11], beam.second_moment_z, np.eye(4)),  # x-y plane: v, theta_z
-        ([2, 4, 8, 10], beam.second_moment_y, flip),  # x-z plane: w, theta_y
-    ):
-        k[np.ix_(idx, idx)] += e * second * (sign @ bend_k @ sign)
-        m[np.ix_(idx, idx)] += sign @ bend_m @ sign
+    flip = np.array([1.0, -1.0, 1.0, -1.0])  # theta_y = -dw/dx
+    flip = flip[:, None] * flip
+    k[BENDING_XY] += e * beam.second_moment_z * bend_k  # x-y plane: v, theta_z
+    m[BENDING_XY] += bend_m
+    k[BENDING_XZ] += e * beam.second_moment_y * (bend_k * flip)  # x-z plane: w, theta_y
+    m[BENDING_XZ] += bend_m * flip
     return k, m
 
 
@@ -257,24 +273,19 @@ def assemble(
             massless[dofs[0]] = True
         else:
             deformation.append(_add_beam(body, dofs, positions[body.name], K, M))
-    springs, constraints = [], []
-    for hinge in model.hinges:
-        d = _relative_motion(model, hinge, body_dofs, positions, n)
-        for j, k in enumerate(hinge.stiffness6):
-            if np.isinf(k):
-                constraints.append(d[j])
-            elif k > 0.0:
-                idx = np.flatnonzero(d[j])
-                K[np.ix_(idx, idx)] += k * np.outer(d[j, idx], d[j, idx])
-                springs.append(d[j])
-                deformation.append(math.sqrt(k) * d[j][None, :])
-    springs = np.array(springs).reshape(-1, n)
+    directions = _relative_motion(model, body_dofs, positions, n).reshape(-1, n)
+    stiffness = np.array([hinge.stiffness6 for hinge in model.hinges]).reshape(-1)
+    rigid = np.isinf(stiffness)
+    finite = ~rigid & (stiffness > 0.0)
+    springs = directions[finite]
+    _add_springs(springs, stiffness[finite], K)
+    deformation.append(np.sqrt(stiffness[finite])[:, None] * springs)
     return AssembledModel(
         K=K,
         M=M,
-        deformation=np.vstack(deformation) if deformation else np.zeros((0, n)),
+        deformation=np.vstack(deformation),
         spring_directions=springs / np.linalg.norm(springs, axis=1, keepdims=True),
-        constraints=np.array(constraints).reshape(-1, n),
+        constraints=directions[rigid],
         massless=massless,
         dof_labels=tuple(labels),
         body_dofs=body_dofs,
@@ -323,38 +334,75 @@ def _add_beam(beam: Beam, dofs, nodes, K, M) -> np.ndarray:
     of node 2 relative to node 1 carried rigidly and K22 the stiffness with node 1 clamped;
     the rows returned are ``R D`` per element, ``K22 = R^T R``.
     """
-    n, n_el = K.shape[0], len(nodes) - 1
+    n_el = len(nodes) - 1
     k_local, m_local = frame_element(beam, beam.length / n_el)
-    rot = np.kron(np.eye(4), beam_frame(beam))  # local = rot @ global, block diagonal
+    rot = np.zeros((4, 3, 4, 3))  # local = rot @ global, block diagonal
+    rot[range(4), :, range(4), :] = beam_frame(beam)
+    rot = rot.reshape(12, 12)
     k_global = rot.T @ k_local @ rot
     m_global = rot.T @ m_local @ rot
     relative = np.hstack([-point_motion(nodes[1] - nodes[0]), np.eye(6)])
     rows = np.linalg.cholesky(k_global[6:, 6:]).T @ relative
-    out = np.zeros((6 * n_el, n))
-    for e in range(n_el):  # a beam's dofs are consecutive: element e spans 12 of them
-        block = slice(dofs[e, 0], dofs[e, 0] + 12)
-        K[block, block] += k_global
-        M[block, block] += m_global
-        out[6 * e : 6 * e + 6, block] = rows
-    return out
+    span = slice(dofs[0, 0], dofs[-1, -1] + 1)  # a beam's dofs are consecutive
+    K[span, span] += _chain(k_global, n_el)
+    M[span, span] += _chain(m_global, n_el)
+    out = np.zeros((n_el, 6, K.shape[0]))
+    element = np.arange(n_el)[:, None, None]
+    out[element, np.arange(6)[:, None], dofs[0, 0] + 6 * element + np.arange(12)] = rows
+    return out.reshape(6 * n_el, -1)
 
 
-def _relative_motion(model: Model, hinge, body_dofs, positions, n: int) -> np.ndarray:
-    """(6, n) map from all dofs to ``d = u_A(P) - u_B(P)`` at the hinge point P."""
-    d = np.zeros((6, n))
-    at = np.asarray(hinge.at, dtype=float)
-    for side, sign in zip(hinge.between, (1.0, -1.0), strict=True):
-        if side == GROUND:
-            continue
-        nodes = positions[side]
-        node = int(np.argmin(np.linalg.norm(nodes - at, axis=1)))
-        if isinstance(model.body(side), Beam) and node not in (0, len(nodes) - 1):
-            raise ModelError(
-                f"{model.source}: hinge {hinge.name!r}: field 'at': {at.tolist()} is not at an "
-                f"end of beam {side!r}"
-            )
-        d[:, body_dofs[side][node]] += sign * point_motion(at - nodes[node])
+def _chain(element: np.ndarray, n_el: int) -> np.ndarray:
+    """Matrix of n_el equal 2-node elements (12x12, 6 dofs per node) joined in a chain of
+    n_el + 1 nodes [units of ``element``]."""
+    out = np.zeros((n_el + 1, 6, n_el + 1, 6))
+    blocks = element.reshape(2, 6, 2, 6)
+    first, second = np.arange(n_el), np.arange(1, n_el + 1)
+    for i, nodes_i in enumerate((first, second)):
+        for j, nodes_j in enumerate((first, second)):
+            out[nodes_i, :, nodes_j, :] += blocks[i, :, j, :]
+    return out.reshape(6 * (n_el + 1), -1)
+
+
+def _relative_motion(model: Model, body_dofs, positions, n: int) -> np.ndarray:
+    """(hinges, 6, n) maps from all dofs to ``d = u_A(P) - u_B(P)`` at each hinge point P."""
+    beams = {body.name for body in model.bodies if isinstance(body, Beam)}
+    hinge_index, signs, first_dofs, points, ats = [], [], [], [], []
+    for i, hinge in enumerate(model.hinges):
+        for side, sign in zip(hinge.between, (1.0, -1.0), strict=True):
+            if side == GROUND:
+                continue
+            node = _beam_end(model, hinge, side, positions[side]) if side in beams else 0
+            hinge_index.append(i)
+            signs.append(sign)
+            first_dofs.append(body_dofs[side][node, 0])
+            points.append(positions[side][node])
+            ats.append(hinge.at)
+    offsets = np.reshape(ats, (-1, 3)) - np.reshape(points, (-1, 3))
+    blocks = np.reshape(signs, (-1, 1, 1)) * point_motion(offsets)
+    columns = np.array(first_dofs, dtype=int).reshape(-1, 1, 1) + np.arange(6)
+    rows = np.array(hinge_index, dtype=int).reshape(-1, 1, 1)
+    d = np.zeros((len(model.hinges), 6, n))
+    d[rows, np.arange(6)[:, None], columns] += blocks  # the two sides touch different dofs
     return d
+
+
+def _beam_end(model: Model, hinge, beam: str, nodes: np.ndarray) -> int:
+    """Index of the mesh node of ``beam`` at the hinge point (ModelError unless an end)."""
+    node = int(np.argmin(np.linalg.norm(nodes - hinge.at, axis=1)))
+    if node not in (0, len(nodes) - 1):
+        raise ModelError(
+            f"{model.source}: hinge {hinge.name!r}: field 'at': {hinge.at.tolist()} is not at "
+            f"an end of beam {beam!r}"
+        )
+    return node
+
+
+def _add_springs(directions: np.ndarray, stiffness: np.ndarray, K: np.ndarray) -> None:
+    """Add ``sum_j k_j d_j d_j^T`` to K in place (d_j: rows of directions, k_j [N/m, N m/rad])."""
+    touched = np.flatnonzero(np.any(directions != 0.0, axis=0))
+    d = directions[:, touched]
+    K[np.ix_(touched, touched)] += (d.T * stiffness) @ d
 
 
 # ---------------------------------------------------------------------------------------------
