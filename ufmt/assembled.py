@@ -481,14 +481,14 @@ def _zero_mode_count(am: AssembledModel) -> int:
     Such a motion moves every beam rigidly, so it is ``E q`` with q the 6 rigid-motion dofs of
     each body (E carries a beam's first node to its other nodes) and ``[C; S] E q = 0``.
     """
-    n_bodies = len(am.body_dofs)
-    carry = np.zeros((len(am.dof_labels), 6 * n_bodies))
-    for b, (name, dofs) in enumerate(am.body_dofs.items()):
-        nodes = am.node_positions[name]
-        for node, idx in enumerate(dofs):
-            carry[idx, 6 * b : 6 * b + 6] = point_motion(nodes[node] - nodes[0])
+    names = list(am.body_dofs)
+    dofs = np.concatenate([am.body_dofs[name] for name in names])  # (all nodes, 6)
+    offsets = np.concatenate([am.node_positions[n] - am.node_positions[n][0] for n in names])
+    body = np.repeat(np.arange(len(names)), [len(am.body_dofs[name]) for name in names])
+    carry = np.zeros((len(am.dof_labels), 6 * len(names)))
+    carry[dofs[:, :, None], 6 * body[:, None, None] + np.arange(6)] = point_motion(offsets)
     constraints = am.constraints / np.linalg.norm(am.constraints, axis=1, keepdims=True)
-    return 6 * n_bodies - _rank(np.vstack([constraints, am.spring_directions]) @ carry)
+    return 6 * len(names) - _rank(np.vstack([constraints, am.spring_directions]) @ carry)
 
 
 def _svd(a: np.ndarray, vectors: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
@@ -507,14 +507,26 @@ def _svd(a: np.ndarray, vectors: bool = True) -> tuple[np.ndarray, np.ndarray | 
         return run("gesvd")
 
 
+def _times_basis(a: np.ndarray, basis: np.ndarray) -> np.ndarray:
+    """``a @ basis`` [units of a] for a motion basis whose columns are mostly unit vectors
+    (a single 1): those columns of the product are copied from a, the others multiplied."""
+    nonzero = basis != 0.0
+    first = np.argmax(nonzero, axis=0)  # row of each column's first nonzero
+    single = np.count_nonzero(nonzero, axis=0) == 1
+    mixed = np.flatnonzero(~single | (basis[first, np.arange(basis.shape[1])] != 1.0))
+    out = a[:, first]
+    out[:, mixed] = a @ basis[:, mixed]
+    return out
+
+
 def _condensed(am: AssembledModel):
     """Massive and massless bases, ``F_a``, ``F_red = (I - P_b) F_a`` and the QR of F_b
     (see :func:`_solve`)."""
     basis, independent = _constraint_basis(am.constraints, am.massless)
     t_a, t_b = _split_massless(am, basis, independent)
     _check_no_massless_mechanism(am, t_b)
-    f_a = am.deformation @ t_a
-    f_b = am.deformation @ t_b
+    f_a = _times_basis(am.deformation, t_a)
+    f_b = _times_basis(am.deformation, t_b)
     scale_b = np.linalg.norm(f_b, axis=0)
     q_b, r_b = np.linalg.qr(f_b / scale_b)
     f_red = f_a - q_b @ (q_b.T @ f_a)
@@ -527,7 +539,12 @@ def reduced_matrices(am: AssembledModel) -> tuple[np.ndarray, np.ndarray, int]:
     massless dofs, see :func:`_solve`), ``M_red = T_a^T M T_a``. For eigen-solvers that
     take (K, M), e.g. ``scipy.linalg.eigh(K, M, subset_by_index=...)`` (benchmarks)."""
     t_a, _, _, f_red, _ = _condensed(am)
-    return f_red.T @ f_red, t_a.T @ am.M @ t_a, _zero_mode_count(am)
+    return f_red.T @ f_red, _reduced_mass(am, t_a), _zero_mode_count(am)
+
+
+def _reduced_mass(am: AssembledModel, t_a: np.ndarray) -> np.ndarray:
+    """``M_a = T_a^T M T_a`` [kg, kg m, kg m^2] on the massive coordinates."""
+    return _times_basis(_times_basis(am.M, t_a).T, t_a).T
 
 
 def _solve(am: AssembledModel, with_shapes: bool = True):
@@ -544,7 +561,7 @@ def _solve(am: AssembledModel, with_shapes: bool = True):
     t_a, t_b, f_a, f_red, (q_b, r_b, scale_b) = _condensed(am)
     zero_modes = _zero_mode_count(am)
     n_modes = t_a.shape[1] - zero_modes
-    m_a = t_a.T @ am.M @ t_a
+    m_a = _reduced_mass(am, t_a)
     scale = 1.0 / np.sqrt(np.diag(m_a))
     chol = np.linalg.cholesky(scale[:, None] * m_a * scale[None, :])
     sigma, vh = _svd(sla.solve_triangular(chol, (f_red * scale).T, lower=True).T, with_shapes)
