@@ -259,10 +259,15 @@ def assemble(
         body_dofs[body.name] = len(labels) + np.arange(6 * n_nodes).reshape(n_nodes, 6)
         labels += [(body.name, i, c) for i in range(n_nodes) for c in COMPONENTS]
     n = len(labels)
+    stiffness = np.array([hinge.stiffness6 for hinge in model.hinges]).reshape(-1)
+    rigid = np.isinf(stiffness)
+    finite = ~rigid & (stiffness > 0.0)
+    beam_rows = 6 * sum(counts.values())  # deformation rows: beam elements, then springs
     K = np.zeros((n, n))
     M = np.zeros((n, n))
+    deformation = np.zeros((beam_rows + np.count_nonzero(finite), n))
     massless = np.zeros(n, dtype=bool)
-    deformation: list[np.ndarray] = []
+    row = 0
     for body in model.bodies:
         dofs = body_dofs[body.name]
         if isinstance(body, RigidBody):
@@ -272,18 +277,17 @@ def assemble(
         elif isinstance(body, VirtualBody):
             massless[dofs[0]] = True
         else:
-            deformation.append(_add_beam(body, dofs, positions[body.name], K, M))
+            rows = deformation[row : row + 6 * counts[body.name]]
+            _add_beam(body, dofs, positions[body.name], K, M, rows)
+            row += len(rows)
     directions = _relative_motion(model, body_dofs, positions, n).reshape(-1, n)
-    stiffness = np.array([hinge.stiffness6 for hinge in model.hinges]).reshape(-1)
-    rigid = np.isinf(stiffness)
-    finite = ~rigid & (stiffness > 0.0)
     springs = directions[finite]
     _add_springs(springs, stiffness[finite], K)
-    deformation.append(np.sqrt(stiffness[finite])[:, None] * springs)
+    deformation[beam_rows:] = np.sqrt(stiffness[finite])[:, None] * springs
     return AssembledModel(
         K=K,
         M=M,
-        deformation=np.vstack(deformation),
+        deformation=deformation,
         spring_directions=springs / np.linalg.norm(springs, axis=1, keepdims=True),
         constraints=directions[rigid],
         massless=massless,
@@ -327,8 +331,9 @@ def _mesh(model, elements_per_beam, fmax_hz, rtol, max_elements) -> tuple[dict, 
     return positions, counts
 
 
-def _add_beam(beam: Beam, dofs, nodes, K, M) -> np.ndarray:
-    """Add a meshed beam's elements to K and M in place; return its deformation rows.
+def _add_beam(beam: Beam, dofs, nodes, K, M, F) -> None:
+    """Add a meshed beam's elements to K and M and write its deformation rows into F (zeros,
+    6 per element), in place.
 
     An element's stiffness is ``D^T K22 D`` with ``D = [-point_motion(x2 - x1), I]`` the motion
     of node 2 relative to node 1 carried rigidly and K22 the stiffness with node 1 clamped;
@@ -346,10 +351,9 @@ def _add_beam(beam: Beam, dofs, nodes, K, M) -> np.ndarray:
     span = slice(dofs[0, 0], dofs[-1, -1] + 1)  # a beam's dofs are consecutive
     K[span, span] += _chain(k_global, n_el)
     M[span, span] += _chain(m_global, n_el)
-    out = np.zeros((n_el, 6, K.shape[0]))
     element = np.arange(n_el)[:, None, None]
-    out[element, np.arange(6)[:, None], dofs[0, 0] + 6 * element + np.arange(12)] = rows
-    return out.reshape(6 * n_el, -1)
+    columns = dofs[0, 0] + 6 * element + np.arange(12)
+    F.reshape(n_el, 6, -1)[element, np.arange(6)[:, None], columns] = rows
 
 
 def _chain(element: np.ndarray, n_el: int) -> np.ndarray:
@@ -422,7 +426,7 @@ def _constraint_basis(constraints: np.ndarray, massless: np.ndarray) -> tuple[np
         return np.eye(n), np.arange(n)
     rows = constraints / np.linalg.norm(constraints, axis=1, keepdims=True)
     weight = np.where(massless, PIVOT_PREFERENCE, 1.0)
-    _, r, perm = sla.qr(rows * weight, mode="economic", pivoting=True)
+    r, perm = sla.qr(rows * weight, mode="r", pivoting=True)
     pivots = np.abs(np.diag(r))
     rank = int(np.count_nonzero(pivots > RANK_RTOL * pivots[0]))
     dependent, independent = perm[:rank], perm[rank:]
@@ -457,7 +461,7 @@ def _split_massless(am: AssembledModel, basis, independent) -> tuple[np.ndarray,
     """
     light = am.massless[independent]
     cols = np.flatnonzero(light)
-    free = _null_space(basis[~am.massless][:, cols], len(cols))
+    free = _null_space(basis[np.ix_(~am.massless, cols)], len(cols))
     driving = _null_space(free.T, len(cols))
     return np.hstack([basis[:, ~light], basis[:, cols] @ driving]), basis[:, cols] @ free
 
@@ -529,7 +533,7 @@ def _condensed(am: AssembledModel):
     f_b = _times_basis(am.deformation, t_b)
     scale_b = np.linalg.norm(f_b, axis=0)
     q_b, r_b = np.linalg.qr(f_b / scale_b)
-    f_red = f_a - q_b @ (q_b.T @ f_a)
+    f_red = f_a - q_b @ (q_b.T @ f_a) if len(scale_b) else f_a
     return t_a, t_b, f_a, f_red, (q_b, r_b, scale_b)
 
 
