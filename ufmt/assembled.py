@@ -533,7 +533,7 @@ def _condensed(am: AssembledModel):
     f_b = _times_basis(am.deformation, t_b)
     scale_b = np.linalg.norm(f_b, axis=0)
     q_b, r_b = np.linalg.qr(f_b / scale_b)
-    f_red = f_a - q_b @ (q_b.T @ f_a) if len(scale_b) else f_a
+    f_red = f_a - q_b @ (q_b.T @ f_a) if t_b.shape[1] else f_a  # nothing massless: F_a
     return t_a, t_b, f_a, f_red, (q_b, r_b, scale_b)
 
 
