@@ -348,24 +348,21 @@ def _add_beam(beam: Beam, dofs, nodes, K, M, F) -> None:
     m_global = rot.T @ m_local @ rot
     relative = np.hstack([-point_motion(nodes[1] - nodes[0]), np.eye(6)])
     rows = np.linalg.cholesky(k_global[6:, 6:]).T @ relative
-    span = slice(dofs[0, 0], dofs[-1, -1] + 1)  # a beam's dofs are consecutive
-    K[span, span] += _chain(k_global, n_el)
-    M[span, span] += _chain(m_global, n_el)
+    _add_chain(K, dofs, k_global)
+    _add_chain(M, dofs, m_global)
     element = np.arange(n_el)[:, None, None]
     columns = dofs[0, 0] + 6 * element + np.arange(12)
     F.reshape(n_el, 6, -1)[element, np.arange(6)[:, None], columns] = rows
 
 
-def _chain(element: np.ndarray, n_el: int) -> np.ndarray:
-    """Matrix of n_el equal 2-node elements (12x12, 6 dofs per node) joined in a chain of
-    n_el + 1 nodes [units of ``element``]."""
-    out = np.zeros((n_el + 1, 6, n_el + 1, 6))
+def _add_chain(target: np.ndarray, dofs: np.ndarray, element: np.ndarray) -> None:
+    """Add equal 2-node elements (12x12, 6 dofs per node) joining consecutive nodes of a chain
+    (dofs: (nodes, 6)) to target in place [units of ``element``]."""
     blocks = element.reshape(2, 6, 2, 6)
-    first, second = np.arange(n_el), np.arange(1, n_el + 1)
-    for i, nodes_i in enumerate((first, second)):
-        for j, nodes_j in enumerate((first, second)):
-            out[nodes_i, :, nodes_j, :] += blocks[i, :, j, :]
-    return out.reshape(6 * (n_el + 1), -1)
+    for i in range(2):
+        for j in range(2):
+            rows, columns = dofs[i : len(dofs) - 1 + i], dofs[j : len(dofs) - 1 + j]
+            target[rows[:, :, None], columns[:, None, :]] += blocks[i, :, j, :]
 
 
 def _relative_motion(model: Model, body_dofs, positions, n: int) -> np.ndarray:
@@ -511,13 +508,19 @@ def _svd(a: np.ndarray, vectors: bool = True) -> tuple[np.ndarray, np.ndarray | 
         return run("gesvd")
 
 
-def _times_basis(a: np.ndarray, basis: np.ndarray) -> np.ndarray:
-    """``a @ basis`` [units of a] for a motion basis whose columns are mostly unit vectors
-    (a single 1): those columns of the product are copied from a, the others multiplied."""
+def _unit_columns(basis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Row of each column's first nonzero and the columns that are not unit vectors (a single
+    1) of a motion basis (whose columns are mostly unit vectors)."""
     nonzero = basis != 0.0
-    first = np.argmax(nonzero, axis=0)  # row of each column's first nonzero
+    first = np.argmax(nonzero, axis=0)
     single = np.count_nonzero(nonzero, axis=0) == 1
-    mixed = np.flatnonzero(~single | (basis[first, np.arange(basis.shape[1])] != 1.0))
+    return first, np.flatnonzero(~single | (basis[first, np.arange(basis.shape[1])] != 1.0))
+
+
+def _times_basis(a: np.ndarray, basis: np.ndarray, unit=None) -> np.ndarray:
+    """``a @ basis`` [units of a]: unit columns of the basis copy a column of a, only the others
+    are multiplied; unit: :func:`_unit_columns` of basis if already known."""
+    first, mixed = _unit_columns(basis) if unit is None else unit
     out = a[:, first]
     out[:, mixed] = a @ basis[:, mixed]
     return out
@@ -548,7 +551,11 @@ def reduced_matrices(am: AssembledModel) -> tuple[np.ndarray, np.ndarray, int]:
 
 def _reduced_mass(am: AssembledModel, t_a: np.ndarray) -> np.ndarray:
     """``M_a = T_a^T M T_a`` [kg, kg m, kg m^2] on the massive coordinates."""
-    return _times_basis(_times_basis(am.M, t_a).T, t_a).T
+    first, mixed = unit = _unit_columns(t_a)
+    m_t = _times_basis(am.M, t_a, unit)
+    m_a = m_t[first]
+    m_a[mixed] = t_a[:, mixed].T @ m_t
+    return m_a
 
 
 def _solve(am: AssembledModel, with_shapes: bool = True):
