@@ -60,17 +60,25 @@ PIVOT_PREFERENCE = 1e3  # column weight that makes massless dofs the dependent o
 
 
 def _skew(v: np.ndarray) -> np.ndarray:
-    """Cross-product matrix: ``_skew(a) @ b == a x b`` (paper eq. 2.10)."""
-    return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
+    """Cross-product matrices (..., 3, 3) of vectors (..., 3): ``_skew(a) @ b == a x b``
+    (paper eq. 2.10)."""
+    s = np.zeros(v.shape + (3,))
+    s[..., 0, 1], s[..., 0, 2] = -v[..., 2], v[..., 1]
+    s[..., 1, 0], s[..., 1, 2] = v[..., 2], -v[..., 0]
+    s[..., 2, 0], s[..., 2, 1] = -v[..., 1], v[..., 0]
+    return s
 
 
 def point_motion(offset: np.ndarray) -> np.ndarray:
-    """6x6 map from ``[r_C; theta]`` to ``[r_C + theta x offset; theta]`` (paper eq. 2.5).
+    """(..., 6, 6) maps from ``[r_C; theta]`` to ``[r_C + theta x offset; theta]`` (paper
+    eq. 2.5).
 
-    offset [m]: vector from the reference point C to the point P.
+    offset (..., 3) [m]: vectors from the reference point C to the point P.
     """
-    t = np.eye(6)
-    t[:3, 3:] = -_skew(offset)
+    offset = np.asarray(offset, dtype=float)
+    t = np.zeros(offset.shape[:-1] + (6, 6))
+    t[..., range(6), range(6)] = 1.0
+    t[..., :3, 3:] = -_skew(offset)
     return t
 
 
@@ -83,12 +91,21 @@ def beam_frame(beam: Beam) -> np.ndarray:
     e1 = (beam.end - beam.start) / beam.length
     ref = beam.orientation
     if ref is None:
-        z = np.array([0.0, 0.0, 1.0])
-        vertical = np.linalg.norm(np.cross(e1, z)) <= PARALLEL_SINE
-        ref = np.array([1.0, 0.0, 0.0]) if vertical else z
+        vertical = math.hypot(e1[0], e1[1]) <= PARALLEL_SINE  # |e1 x z|
+        ref = np.array([1.0, 0.0, 0.0]) if vertical else np.array([0.0, 0.0, 1.0])
     e2 = ref - (ref @ e1) * e1
     e2 = e2 / np.linalg.norm(e2)
-    return np.array([e1, e2, np.cross(e1, e2)])
+    e3 = [
+        e1[1] * e2[2] - e1[2] * e2[1],
+        e1[2] * e2[0] - e1[0] * e2[2],
+        e1[0] * e2[1] - e1[1] * e2[0],
+    ]
+    return np.array([e1, e2, e3])
+
+
+# frame-element dofs (node 1 then node 2, local axes) of each deformation
+AXIAL, TORSION = np.ix_([0, 6], [0, 6]), np.ix_([3, 9], [3, 9])
+BENDING_XY, BENDING_XZ = np.ix_([1, 5, 7, 11], [1, 5, 7, 11]), np.ix_([2, 4, 8, 10], [2, 4, 8, 10])
 
 
 def frame_element(beam: Beam, h: float) -> tuple[np.ndarray, np.ndarray]:
@@ -104,11 +121,11 @@ def frame_element(beam: Beam, h: float) -> tuple[np.ndarray, np.ndarray]:
     rod_k = np.array([[1.0, -1.0], [-1.0, 1.0]])
     rod_m = np.array([[2.0, 1.0], [1.0, 2.0]]) * h / 6.0
     for idx, stiffness, inertia in (
-        ([0, 6], e * a / h, rho * a),  # axial
-        ([3, 9], g * beam.torsion_constant / h, rho * beam.polar_moment),  # torsion
+        (AXIAL, e * a / h, rho * a),
+        (TORSION, g * beam.torsion_constant / h, rho * beam.polar_moment),
     ):
-        k[np.ix_(idx, idx)] += stiffness * rod_k
-        m[np.ix_(idx, idx)] += inertia * rod_m
+        k[idx] += stiffness * rod_k
+        m[idx] += inertia * rod_m
     bend_k = (
         np.array(
             [
@@ -128,13 +145,12 @@ def frame_element(beam: Beam, h: float) -> tuple[np.ndarray, np.ndarray]:
             [-13 * h, -3 * h * h, -22 * h, 4 * h * h],
         ]
     ) * (rho * a * h / 420.0)
-    flip = np.diag([1.0, -1.0, 1.0, -1.0])  # theta_y = -dw/dx
-    for idx, second, sign in (
-        ([1, 5, 7, 11], beam.second_moment_z, np.eye(4)),  # x-y plane: v, theta_z
-        ([2, 4, 8, 10], beam.second_moment_y, flip),  # x-z plane: w, theta_y
-    ):
-        k[np.ix_(idx, idx)] += e * second * (sign @ bend_k @ sign)
-        m[np.ix_(idx, idx)] += sign @ bend_m @ sign
+    flip = np.array([1.0, -1.0, 1.0, -1.0])  # theta_y = -dw/dx
+    flip = flip[:, None] * flip
+    k[BENDING_XY] += e * beam.second_moment_z * bend_k  # x-y plane: v, theta_z
+    m[BENDING_XY] += bend_m
+    k[BENDING_XZ] += e * beam.second_moment_y * (bend_k * flip)  # x-z plane: w, theta_y
+    m[BENDING_XZ] += bend_m * flip
     return k, m
 
 
@@ -243,10 +259,15 @@ def assemble(
         body_dofs[body.name] = len(labels) + np.arange(6 * n_nodes).reshape(n_nodes, 6)
         labels += [(body.name, i, c) for i in range(n_nodes) for c in COMPONENTS]
     n = len(labels)
+    stiffness = np.array([hinge.stiffness6 for hinge in model.hinges]).reshape(-1)
+    rigid = np.isinf(stiffness)
+    finite = ~rigid & (stiffness > 0.0)
+    beam_rows = 6 * sum(counts.values())  # deformation rows: beam elements, then springs
     K = np.zeros((n, n))
     M = np.zeros((n, n))
+    deformation = np.zeros((beam_rows + np.count_nonzero(finite), n))
     massless = np.zeros(n, dtype=bool)
-    deformation: list[np.ndarray] = []
+    row = 0
     for body in model.bodies:
         dofs = body_dofs[body.name]
         if isinstance(body, RigidBody):
@@ -256,25 +277,19 @@ def assemble(
         elif isinstance(body, VirtualBody):
             massless[dofs[0]] = True
         else:
-            deformation.append(_add_beam(body, dofs, positions[body.name], K, M))
-    springs, constraints = [], []
-    for hinge in model.hinges:
-        d = _relative_motion(model, hinge, body_dofs, positions, n)
-        for j, k in enumerate(hinge.stiffness6):
-            if np.isinf(k):
-                constraints.append(d[j])
-            elif k > 0.0:
-                idx = np.flatnonzero(d[j])
-                K[np.ix_(idx, idx)] += k * np.outer(d[j, idx], d[j, idx])
-                springs.append(d[j])
-                deformation.append(math.sqrt(k) * d[j][None, :])
-    springs = np.array(springs).reshape(-1, n)
+            rows = deformation[row : row + 6 * counts[body.name]]
+            _add_beam(body, dofs, positions[body.name], K, M, rows)
+            row += len(rows)
+    directions = _relative_motion(model, body_dofs, positions, n).reshape(-1, n)
+    springs = directions[finite]
+    _add_springs(springs, stiffness[finite], K)
+    deformation[beam_rows:] = np.sqrt(stiffness[finite])[:, None] * springs
     return AssembledModel(
         K=K,
         M=M,
-        deformation=np.vstack(deformation) if deformation else np.zeros((0, n)),
+        deformation=deformation,
         spring_directions=springs / np.linalg.norm(springs, axis=1, keepdims=True),
-        constraints=np.array(constraints).reshape(-1, n),
+        constraints=directions[rigid],
         massless=massless,
         dof_labels=tuple(labels),
         body_dofs=body_dofs,
@@ -316,45 +331,79 @@ def _mesh(model, elements_per_beam, fmax_hz, rtol, max_elements) -> tuple[dict, 
     return positions, counts
 
 
-def _add_beam(beam: Beam, dofs, nodes, K, M) -> np.ndarray:
-    """Add a meshed beam's elements to K and M in place; return its deformation rows.
+def _add_beam(beam: Beam, dofs, nodes, K, M, F) -> None:
+    """Add a meshed beam's elements to K and M and write its deformation rows into F (zeros,
+    6 per element), in place.
 
     An element's stiffness is ``D^T K22 D`` with ``D = [-point_motion(x2 - x1), I]`` the motion
     of node 2 relative to node 1 carried rigidly and K22 the stiffness with node 1 clamped;
     the rows returned are ``R D`` per element, ``K22 = R^T R``.
     """
-    n, n_el = K.shape[0], len(nodes) - 1
+    n_el = len(nodes) - 1
     k_local, m_local = frame_element(beam, beam.length / n_el)
-    rot = np.kron(np.eye(4), beam_frame(beam))  # local = rot @ global, block diagonal
+    rot = np.zeros((4, 3, 4, 3))  # local = rot @ global, block diagonal
+    rot[range(4), :, range(4), :] = beam_frame(beam)
+    rot = rot.reshape(12, 12)
     k_global = rot.T @ k_local @ rot
     m_global = rot.T @ m_local @ rot
     relative = np.hstack([-point_motion(nodes[1] - nodes[0]), np.eye(6)])
     rows = np.linalg.cholesky(k_global[6:, 6:]).T @ relative
-    out = np.zeros((6 * n_el, n))
-    for e in range(n_el):  # a beam's dofs are consecutive: element e spans 12 of them
-        block = slice(dofs[e, 0], dofs[e, 0] + 12)
-        K[block, block] += k_global
-        M[block, block] += m_global
-        out[6 * e : 6 * e + 6, block] = rows
-    return out
+    _add_chain(K, dofs, k_global)
+    _add_chain(M, dofs, m_global)
+    element = np.arange(n_el)[:, None, None]
+    columns = dofs[0, 0] + 6 * element + np.arange(12)
+    F.reshape(n_el, 6, -1)[element, np.arange(6)[:, None], columns] = rows
 
 
-def _relative_motion(model: Model, hinge, body_dofs, positions, n: int) -> np.ndarray:
-    """(6, n) map from all dofs to ``d = u_A(P) - u_B(P)`` at the hinge point P."""
-    d = np.zeros((6, n))
-    at = np.asarray(hinge.at, dtype=float)
-    for side, sign in zip(hinge.between, (1.0, -1.0), strict=True):
-        if side == GROUND:
-            continue
-        nodes = positions[side]
-        node = int(np.argmin(np.linalg.norm(nodes - at, axis=1)))
-        if isinstance(model.body(side), Beam) and node not in (0, len(nodes) - 1):
-            raise ModelError(
-                f"{model.source}: hinge {hinge.name!r}: field 'at': {at.tolist()} is not at an "
-                f"end of beam {side!r}"
-            )
-        d[:, body_dofs[side][node]] += sign * point_motion(at - nodes[node])
+def _add_chain(target: np.ndarray, dofs: np.ndarray, element: np.ndarray) -> None:
+    """Add equal 2-node elements (12x12, 6 dofs per node) joining consecutive nodes of a chain
+    (dofs: (nodes, 6)) to target in place [units of ``element``]."""
+    blocks = element.reshape(2, 6, 2, 6)
+    for i in range(2):
+        for j in range(2):
+            rows, columns = dofs[i : len(dofs) - 1 + i], dofs[j : len(dofs) - 1 + j]
+            target[rows[:, :, None], columns[:, None, :]] += blocks[i, :, j, :]
+
+
+def _relative_motion(model: Model, body_dofs, positions, n: int) -> np.ndarray:
+    """(hinges, 6, n) maps from all dofs to ``d = u_A(P) - u_B(P)`` at each hinge point P."""
+    beams = {body.name for body in model.bodies if isinstance(body, Beam)}
+    hinge_index, signs, first_dofs, points, ats = [], [], [], [], []
+    for i, hinge in enumerate(model.hinges):
+        for side, sign in zip(hinge.between, (1.0, -1.0), strict=True):
+            if side == GROUND:
+                continue
+            node = _beam_end(model, hinge, side, positions[side]) if side in beams else 0
+            hinge_index.append(i)
+            signs.append(sign)
+            first_dofs.append(body_dofs[side][node, 0])
+            points.append(positions[side][node])
+            ats.append(hinge.at)
+    offsets = np.reshape(ats, (-1, 3)) - np.reshape(points, (-1, 3))
+    blocks = np.reshape(signs, (-1, 1, 1)) * point_motion(offsets)
+    columns = np.array(first_dofs, dtype=int).reshape(-1, 1, 1) + np.arange(6)
+    rows = np.array(hinge_index, dtype=int).reshape(-1, 1, 1)
+    d = np.zeros((len(model.hinges), 6, n))
+    d[rows, np.arange(6)[:, None], columns] += blocks  # the two sides touch different dofs
     return d
+
+
+def _beam_end(model: Model, hinge, beam: str, nodes: np.ndarray) -> int:
+    """Index of the mesh node of ``beam`` at the hinge point (ModelError unless an end)."""
+    node = int(np.argmin(np.linalg.norm(nodes - hinge.at, axis=1)))
+    if node not in (0, len(nodes) - 1):
+        raise ModelError(
+            f"{model.source}: hinge {hinge.name!r}: field 'at': {hinge.at.tolist()} is not at "
+            f"an end of beam {beam!r}"
+        )
+    return node
+
+
+def _add_springs(directions: np.ndarray, stiffness: np.ndarray, K: np.ndarray) -> None:
+    """Add ``sum_j k_j d_j d_j^T`` to K in place (d_j: rows of directions, k_j [N/m, N m/rad])."""
+    touched = np.flatnonzero(np.any(directions != 0.0, axis=0))
+    d = directions[:, touched]
+    K[np.ix_(touched, touched)] += (d.T * stiffness) @ d
 
 
 # ---------------------------------------------------------------------------------------------
@@ -374,7 +423,7 @@ def _constraint_basis(constraints: np.ndarray, massless: np.ndarray) -> tuple[np
         return np.eye(n), np.arange(n)
     rows = constraints / np.linalg.norm(constraints, axis=1, keepdims=True)
     weight = np.where(massless, PIVOT_PREFERENCE, 1.0)
-    _, r, perm = sla.qr(rows * weight, mode="economic", pivoting=True)
+    r, perm = sla.qr(rows * weight, mode="r", pivoting=True)
     pivots = np.abs(np.diag(r))
     rank = int(np.count_nonzero(pivots > RANK_RTOL * pivots[0]))
     dependent, independent = perm[:rank], perm[rank:]
@@ -409,7 +458,7 @@ def _split_massless(am: AssembledModel, basis, independent) -> tuple[np.ndarray,
     """
     light = am.massless[independent]
     cols = np.flatnonzero(light)
-    free = _null_space(basis[~am.massless][:, cols], len(cols))
+    free = _null_space(basis[np.ix_(~am.massless, cols)], len(cols))
     driving = _null_space(free.T, len(cols))
     return np.hstack([basis[:, ~light], basis[:, cols] @ driving]), basis[:, cols] @ free
 
@@ -433,14 +482,14 @@ def _zero_mode_count(am: AssembledModel) -> int:
     Such a motion moves every beam rigidly, so it is ``E q`` with q the 6 rigid-motion dofs of
     each body (E carries a beam's first node to its other nodes) and ``[C; S] E q = 0``.
     """
-    n_bodies = len(am.body_dofs)
-    carry = np.zeros((len(am.dof_labels), 6 * n_bodies))
-    for b, (name, dofs) in enumerate(am.body_dofs.items()):
-        nodes = am.node_positions[name]
-        for node, idx in enumerate(dofs):
-            carry[idx, 6 * b : 6 * b + 6] = point_motion(nodes[node] - nodes[0])
+    names = list(am.body_dofs)
+    dofs = np.concatenate([am.body_dofs[name] for name in names])  # (all nodes, 6)
+    offsets = np.concatenate([am.node_positions[n] - am.node_positions[n][0] for n in names])
+    body = np.repeat(np.arange(len(names)), [len(am.body_dofs[name]) for name in names])
+    carry = np.zeros((len(am.dof_labels), 6 * len(names)))
+    carry[dofs[:, :, None], 6 * body[:, None, None] + np.arange(6)] = point_motion(offsets)
     constraints = am.constraints / np.linalg.norm(am.constraints, axis=1, keepdims=True)
-    return 6 * n_bodies - _rank(np.vstack([constraints, am.spring_directions]) @ carry)
+    return 6 * len(names) - _rank(np.vstack([constraints, am.spring_directions]) @ carry)
 
 
 def _svd(a: np.ndarray, vectors: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
@@ -459,17 +508,35 @@ def _svd(a: np.ndarray, vectors: bool = True) -> tuple[np.ndarray, np.ndarray | 
         return run("gesvd")
 
 
+def _unit_columns(basis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Row of each column's first nonzero and the columns that are not unit vectors (a single
+    1) of a motion basis (whose columns are mostly unit vectors)."""
+    nonzero = basis != 0.0
+    first = np.argmax(nonzero, axis=0)
+    single = np.count_nonzero(nonzero, axis=0) == 1
+    return first, np.flatnonzero(~single | (basis[first, np.arange(basis.shape[1])] != 1.0))
+
+
+def _times_basis(a: np.ndarray, basis: np.ndarray, unit=None) -> np.ndarray:
+    """``a @ basis`` [units of a]: unit columns of the basis copy a column of a, only the others
+    are multiplied; unit: :func:`_unit_columns` of basis if already known."""
+    first, mixed = _unit_columns(basis) if unit is None else unit
+    out = a[:, first]
+    out[:, mixed] = a @ basis[:, mixed]
+    return out
+
+
 def _condensed(am: AssembledModel):
     """Massive and massless bases, ``F_a``, ``F_red = (I - P_b) F_a`` and the QR of F_b
     (see :func:`_solve`)."""
     basis, independent = _constraint_basis(am.constraints, am.massless)
     t_a, t_b = _split_massless(am, basis, independent)
     _check_no_massless_mechanism(am, t_b)
-    f_a = am.deformation @ t_a
-    f_b = am.deformation @ t_b
+    f_a = _times_basis(am.deformation, t_a)
+    f_b = _times_basis(am.deformation, t_b)
     scale_b = np.linalg.norm(f_b, axis=0)
     q_b, r_b = np.linalg.qr(f_b / scale_b)
-    f_red = f_a - q_b @ (q_b.T @ f_a)
+    f_red = f_a - q_b @ (q_b.T @ f_a) if t_b.shape[1] else f_a  # nothing massless: F_a
     return t_a, t_b, f_a, f_red, (q_b, r_b, scale_b)
 
 
@@ -479,7 +546,16 @@ def reduced_matrices(am: AssembledModel) -> tuple[np.ndarray, np.ndarray, int]:
     massless dofs, see :func:`_solve`), ``M_red = T_a^T M T_a``. For eigen-solvers that
     take (K, M), e.g. ``scipy.linalg.eigh(K, M, subset_by_index=...)`` (benchmarks)."""
     t_a, _, _, f_red, _ = _condensed(am)
-    return f_red.T @ f_red, t_a.T @ am.M @ t_a, _zero_mode_count(am)
+    return f_red.T @ f_red, _reduced_mass(am, t_a), _zero_mode_count(am)
+
+
+def _reduced_mass(am: AssembledModel, t_a: np.ndarray) -> np.ndarray:
+    """``M_a = T_a^T M T_a`` [kg, kg m, kg m^2] on the massive coordinates."""
+    first, mixed = unit = _unit_columns(t_a)
+    m_t = _times_basis(am.M, t_a, unit)
+    m_a = m_t[first]
+    m_a[mixed] = t_a[:, mixed].T @ m_t
+    return m_a
 
 
 def _solve(am: AssembledModel, with_shapes: bool = True):
@@ -496,7 +572,7 @@ def _solve(am: AssembledModel, with_shapes: bool = True):
     t_a, t_b, f_a, f_red, (q_b, r_b, scale_b) = _condensed(am)
     zero_modes = _zero_mode_count(am)
     n_modes = t_a.shape[1] - zero_modes
-    m_a = t_a.T @ am.M @ t_a
+    m_a = _reduced_mass(am, t_a)
     scale = 1.0 / np.sqrt(np.diag(m_a))
     chol = np.linalg.cholesky(scale[:, None] * m_a * scale[None, :])
     sigma, vh = _svd(sla.solve_triangular(chol, (f_red * scale).T, lower=True).T, with_shapes)
