@@ -15,6 +15,7 @@ from ufmt.machining.response import (
     cut_geometry,
     discrete_receptance,
     discretise,
+    periodic_impulse_response,
     periodic_response,
     real_recurrence,
     record_slide,
@@ -129,6 +130,19 @@ def test_periodic_receptance_is_the_steady_state_of_the_recurrence():
     hq, _ = discrete_receptance([w], [zeta], dt, 2 * np.pi * np.fft.rfftfreq(n))
     steady = np.fft.irfft(hq[0] * np.fft.rfft(period), n)
     np.testing.assert_allclose(q, steady, rtol=0, atol=1e-12 * np.abs(steady).max())
+
+
+def test_periodic_impulse_response_is_the_inverse_dft_of_the_receptance():
+    """q of the periodic steady state under one unit force sample per period, at every lag,
+    equals the inverse DFT of H_q (the receptance is its DFT)."""
+    n, dt = 64, 1e-3
+    omega = 2 * np.pi * np.array([3.0, 30.0, 200.0])
+    zeta = np.array([0.01, 0.05, 0.3])
+    hq, _ = discrete_receptance(omega, zeta, dt, 2 * np.pi * np.arange(n) / n)
+    expected = np.fft.ifft(hq, axis=1)
+    h = periodic_impulse_response(omega, zeta, dt, n, np.arange(n))
+    np.testing.assert_allclose(h, expected.real, rtol=0, atol=1e-12 * np.abs(h).max())
+    np.testing.assert_allclose(expected.imag, 0.0, atol=1e-12 * np.abs(h).max())
 
 
 # --- the cutting response ----------------------------------------------------------------------

@@ -44,7 +44,7 @@ from functools import lru_cache
 import numpy as np
 from scipy.fft import next_fast_len
 
-from ufmt.machining.response import ZreTable
+from ufmt.machining.response import PeriodicZreTable, ZreTable
 from ufmt.model.machine import Machine
 
 #: Grid spacing (x, y) [m]: x finer, as the x-profile of a pass carries the vibration of the
@@ -152,7 +152,9 @@ class Passes:
     spacing: tuple[float, float]
     window: tuple | None
 
-    def dynamic(self, table: ZreTable, machine: Machine) -> tuple[np.ndarray, np.ndarray]:
+    def dynamic(
+        self, table: ZreTable | PeriodicZreTable, machine: Machine
+    ) -> tuple[np.ndarray, np.ndarray]:
         """z_re of ``table`` [m] at both passes (cubic in phi, linear in the table's rows)."""
         arcs = self.phi.shape[0]
         pairs = _table_pairs(table, machine, self.spacing, self.window, arcs)
@@ -213,7 +215,7 @@ def surface_passes(
 
 
 def machined_surface(
-    table: ZreTable | None,
+    table: ZreTable | PeriodicZreTable | None,
     machine: Machine,
     feed_per_rev: float,
     spacing=DEFAULT_SPACING,
@@ -250,31 +252,14 @@ def machined_surface(
 
 
 @lru_cache(maxsize=1)  # one simulation reads its table for the total and each source alone
-def _table_pairs(table: ZreTable, machine: Machine, spacing, window, arcs: int) -> np.ndarray:
-    """:func:`_columns` of ``table`` at the grid's pass angles, each row with the next one as
-    its imaginary part: (rows - 1, arcs * Nx) complex, so that a lookup is one gather of both
-    (cached per table, grid)."""
-    phi = _grid(machine, spacing, window)[3][:arcs]
-    cols = _columns(table.values, phi)
+def _table_pairs(table, machine: Machine, spacing, window, arcs: int) -> np.ndarray:
+    """The table's columns at the grid's pass angles (``table.columns``), each row with the
+    next one as its imaginary part: (rows - 1, arcs * Nx) complex, so that a lookup is one
+    gather of both (cached per table, grid)."""
+    cols = table.columns(_grid(machine, spacing, window)[3][:arcs])
     pairs = cols[:-1] + 1j * cols[1:]
     pairs.setflags(write=False)
     return pairs
-
-
-def _columns(values: np.ndarray, phi: np.ndarray) -> np.ndarray:
-    """Table columns at angles phi (arcs, Nx), 4-point Lagrange in phi: (rows, arcs * Nx)."""
-    rows, n3 = values.shape
-    u = phi * ((n3 - 3) / (2 * np.pi))
-    j0 = np.minimum(u.astype(int), n3 - 4)
-    t = u - j0
-    w = (
-        -t * (t - 1) * (t - 2) / 6,
-        (t + 1) * (t - 1) * (t - 2) / 2,
-        -(t + 1) * t * (t - 2) / 2,
-        (t + 1) * t * (t - 1) / 6,
-    )
-    cols = sum(values[:, j0 + i] * w[i] for i in range(4))
-    return cols.reshape(rows, -1)
 
 
 def _lookup(pairs: np.ndarray, row_knots, slide: np.ndarray, columns: np.ndarray) -> np.ndarray:
