@@ -209,7 +209,7 @@ def simulate(
         from ufmt.model.load import load_model
 
         model = load_model(model)
-    machine = machine_of(model)
+    machine = _machine(model)
     if basis is None:
         from ufmt.machining.modal import modal_basis
 
@@ -233,6 +233,12 @@ def simulate(
         aperture_margin=aperture_margin,
         psd2_patch=psd2_patch,
     )
+
+
+@lru_cache(maxsize=8)
+def _machine(model) -> Machine:
+    """The model's validated machine (cached per model object; models are immutable)."""
+    return machine_of(model)
 
 
 @lru_cache(maxsize=8)

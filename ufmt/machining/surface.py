@@ -136,9 +136,9 @@ class Passes:
     x (Nx,), y (Ny,) grid [m] and core (Ny,) its evenly spaced rows (see :class:`Surface`);
     phi (arcs, Nx) [rad] the pass angle of each column, cos its cosine; frac (Ny, arcs, Nx)
     how far the point lies from the earlier pass's path towards the later one (0..1, in
-    revolutions); slide_lo (Ny, arcs, Nx) [m] the slide position of the earlier pass, the later
-    one ``feed_per_rev`` further. Every term of the surface is a pair (earlier, later) of
-    heights on this layout; :meth:`lower` takes the lower pass (tool interference).
+    revolutions); slide (2, Ny, arcs, Nx) [m] the slide positions of the earlier and the later
+    pass (``feed_per_rev`` further). Every term of the surface is an array of heights (earlier,
+    later) broadcasting to ``slide``; :meth:`lower` takes the lower pass (tool interference).
     """
 
     x: np.ndarray
@@ -147,45 +147,34 @@ class Passes:
     phi: np.ndarray
     cos: np.ndarray
     frac: np.ndarray
-    slide_lo: np.ndarray
+    slide: np.ndarray
     feed_per_rev: float
     spacing: tuple[float, float]
     window: tuple | None
 
-    def dynamic(
-        self, table: ZreTable | PeriodicZreTable, machine: Machine
-    ) -> tuple[np.ndarray, np.ndarray]:
+    def dynamic(self, table: ZreTable | PeriodicZreTable, machine: Machine) -> np.ndarray:
         """z_re of ``table`` [m] at both passes (cubic in phi, linear in the table's rows)."""
         arcs = self.phi.shape[0]
         pairs = _table_pairs(table, machine, self.spacing, self.window, arcs)
-        y_lo = self.slide_lo - table.drift * (self.phi / (2 * np.pi))
+        slide = self.slide - table.drift * (self.phi / (2 * np.pi)) if table.drift else self.slide
         columns = np.arange(self.phi.size).reshape(arcs, -1)
-        return (
-            _lookup(pairs, table.row_knots, y_lo, columns),
-            _lookup(pairs, table.row_knots, y_lo + self.feed_per_rev, columns),
-        )
+        return _lookup(pairs, table.row_knots, slide, columns)
 
-    def geometric(self, geometric) -> tuple[np.ndarray, np.ndarray]:
+    def geometric(self, geometric) -> np.ndarray:
         """Heights [m] of a geometric z(phi, Y) (:func:`~ufmt.machining.sources.geometric_z`)."""
-        return geometric(self.phi, self.slide_lo), geometric(
-            self.phi, self.slide_lo + self.feed_per_rev
-        )
+        return geometric(self.phi, self.slide)
 
-    def feed_marks(self, nose_radius: float) -> tuple[np.ndarray, np.ndarray]:
+    def feed_marks(self, nose_radius: float) -> np.ndarray:
         """Nose scallops [m]: d^2 / (2 r_n) at normal distance d from each pass's path."""
         d2 = (self.feed_per_rev * self.cos) ** 2 / (2 * nose_radius)
-        return self.frac**2 * d2, (1 - self.frac) ** 2 * d2
+        return np.stack([self.frac, 1 - self.frac]) ** 2 * d2
 
     def lower(self, terms) -> Surface:
-        """The surface of the summed ``terms`` (pairs of heights): the lower pass everywhere."""
+        """The surface of the summed ``terms`` (heights at both passes): the lower pass
+        everywhere."""
         terms = list(terms)
-        if terms:
-            z_lo = sum(t[0] for t in terms)
-            z_hi = sum(t[1] for t in terms)
-            z = np.minimum(z_lo, z_hi)
-        else:
-            z = np.zeros(self.frac.shape)
-        z = np.broadcast_to(z, self.frac.shape)
+        z = sum(terms[1:], terms[0]) if terms else np.zeros(())
+        z = np.broadcast_to(z, self.slide.shape).min(axis=0)
         return Surface(self.x, self.y, z.min(axis=1) if z.shape[1] > 1 else z[:, 0], self.core)
 
 
@@ -210,8 +199,9 @@ def surface_passes(
     # revolutions since Y_start when the arc passes the point; the two bracketing revolutions
     rho = (y[:, None, None] - machine.tool_radius * cos - y_start) / feed_per_rev - turn
     k = np.floor(rho)
-    slide_lo = y_start + feed_per_rev * (k + turn)  # slide position of the earlier pass
-    return Passes(x, y, core, phi, cos, rho - k, slide_lo, feed_per_rev, spacing, window)
+    slide = y_start + feed_per_rev * (k + turn)  # slide position of the earlier pass
+    slide = np.stack([slide, slide + feed_per_rev])
+    return Passes(x, y, core, phi, cos, rho - k, slide, feed_per_rev, spacing, window)
 
 
 def machined_surface(
