@@ -133,16 +133,21 @@ def test_periodic_receptance_is_the_steady_state_of_the_recurrence():
 
 
 def test_periodic_impulse_response_is_the_inverse_dft_of_the_receptance():
-    """q of the periodic steady state under one unit force sample per period, at every lag,
-    equals the inverse DFT of H_q (the receptance is its DFT)."""
+    """q and q' of the periodic steady state under one unit force sample per period, at every
+    lag, equal the inverse DFTs of H_q and H_v (the receptances are their DFTs)."""
     n, dt = 64, 1e-3
     omega = 2 * np.pi * np.array([3.0, 30.0, 200.0])
     zeta = np.array([0.01, 0.05, 0.3])
-    hq, _ = discrete_receptance(omega, zeta, dt, 2 * np.pi * np.arange(n) / n)
-    expected = np.fft.ifft(hq, axis=1)
-    h = periodic_impulse_response(omega, zeta, dt, n, np.arange(n))
-    np.testing.assert_allclose(h, expected.real, rtol=0, atol=1e-12 * np.abs(h).max())
-    np.testing.assert_allclose(expected.imag, 0.0, atol=1e-12 * np.abs(h).max())
+    lam, e, _, powers, z = periodic_impulse_response(omega, zeta, dt, n)
+    np.testing.assert_allclose(powers, np.exp(np.outer(lam * dt, np.arange(n))), rtol=1e-13)
+    np.testing.assert_allclose(e, np.exp(lam * dt), rtol=1e-15)
+    receptances = discrete_receptance(omega, zeta, dt, 2 * np.pi * np.arange(n) / n)
+    for h, rate in zip(receptances, (np.ones(3), lam), strict=True):
+        expected = np.fft.ifft(h, axis=1)
+        got = 2 * (rate[:, None] * z).real
+        scale = np.abs(got).max()
+        np.testing.assert_allclose(got, expected.real, rtol=0, atol=1e-12 * scale)
+        np.testing.assert_allclose(expected.imag, 0.0, atol=1e-12 * scale)
 
 
 # --- the cutting response ----------------------------------------------------------------------

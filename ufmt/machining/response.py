@@ -50,6 +50,7 @@ the middle of that band is taken. A per-mode array overrides it.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from functools import cached_property, lru_cache
 
@@ -161,20 +162,27 @@ def discrete_receptance(omega, zeta, dt: float, theta) -> tuple[np.ndarray, np.n
     return tf_p + np.conj(tf_m), lam * tf_p + np.conj(lam * tf_m)
 
 
-def periodic_impulse_response(omega, zeta, dt: float, n_samples: int, lags) -> np.ndarray:
-    """q at ``lags`` (integers in 0..N - 1) of the exact recurrence's periodic steady state
-    under a unit force sample every N = ``n_samples`` samples: (n, L) [s^2].
+def periodic_impulse_response(omega, zeta, dt: float, n_samples: int):
+    """The exact recurrence's periodic steady state under one unit force sample per period of
+    N = ``n_samples`` samples, at sample 0.
 
-    The complex state answers z_l = (b0 E^l + b1 E^((l - 1) mod N)) / (1 - E^N) and q = 2 Re z;
-    its DFT over one period is :func:`discrete_receptance`'s H_q.
+    Its complex state (:func:`discretise`) is z_l = (b0 E^l + b1 E^((l - 1) mod N)) / (1 - E^N)
+    at l = 0..N - 1; q = 2 Re z [s^2] and q' = 2 Re(lambda z) [s], whose DFTs over one period
+    are :func:`discrete_receptance`'s H_q and H_v. E^l is the product of E^(B a) and E^b for
+    l = B a + b (B ~ sqrt(N): two short tables of exponentials).
+
+    Returns
+    -------
+    lam, E : (n,) as :func:`discretise`; powers (n, N) E^l; z (n, N) complex.
     """
     lam, e, b0, b1 = (a[:, None] for a in discretise(omega, zeta, dt))
-    lags = np.asarray(lags)
-    power = np.exp(lam * (dt * lags))  # E^l
-    period = np.exp(lam * (dt * n_samples))  # E^N
-    previous = np.where(lags == 0, period, power) / e  # E^((l - 1) mod N)
-    z = (b0 * power + b1 * previous) / (1.0 - period)
-    return 2 * z.real
+    step = math.isqrt(n_samples - 1) + 1
+    fine = np.exp(lam * (dt * np.arange(step)))
+    coarse = np.exp(lam * (dt * step * np.arange(-(-n_samples // step))))
+    powers = (coarse[:, :, None] * fine[:, None, :]).reshape(lam.size, -1)[:, :n_samples]
+    period = np.exp(lam * (dt * n_samples))
+    z = (b0 * powers + b1 * np.roll(powers, 1, axis=1)) / (1.0 - period)
+    return lam[:, 0], e[:, 0], b1[:, 0], powers, z
 
 
 def real_recurrence(omega, zeta, dt: float) -> tuple[np.ndarray, np.ndarray]:
@@ -534,8 +542,8 @@ class PeriodicZreTable:
         geo = self.parts[0]
         n = geo.n_phi
         plan = _column_plan(self.parts, tuple(np.ravel(phi).tolist()))
-        dt = 1 / (self.spindle_hz * n)
-        h = periodic_impulse_response(geo.basis.omega, self.zeta, dt, n, plan.lags).T  # (L, n)
+        z = _impulse(geo.basis, n, self.spindle_hz, self.zeta)[4]
+        h = 2 * z[:, plan.lags].real.T  # q of the impulse response at the lags (L, n)
         # kernels of c^(a) and w^(b) (a, b = 0: at Y = 0, 1: rate in Y) for each angle m
         # and sample k: sum_s c^(a)_s[k] h_s[k - m] w^(b)_s[m]
         active, samples = plan.lag_index.shape
@@ -688,14 +696,10 @@ def periodic_response(geo, process, zeta=DEFAULT_ZETA, force_scale: float = 1.0)
     zeta = modal_damping(zeta, geo.basis.n_modes)
     f = process.spindle_hz
     n = geo.n_phi
-    half = n // 2
     amps = np.array([force_scale * part_amplitude(process, geo.machine, g.part) for g in parts])
-    hq, hv = _receptances(geo.basis, n, f, tuple(zeta.tolist()))
     units = [_record_unit(g) for g in parts]
-    fk = sum(amp * u.fk for amp, u in zip(amps, units, strict=True))
-    spectra = np.concatenate([hq[:, 1 : half + 2] * fk, hv[:, 1 : half + 2] * fk])
-    q, qd = np.split(np.fft.irfft(spectra, n=n, axis=1), 2)
     fs = sum(amp * u.fs for amp, u in zip(amps, units, strict=True))
+    q, qd = _periodic_state(_impulse(geo.basis, n, f, tuple(zeta.tolist())), fs, geo.active)
     b = geo.basis
     qdd = fs - (2 * zeta * b.omega)[:, None] * qd - (b.omega**2)[:, None] * q
     y_rec = record_slide(geo.machine)
@@ -717,6 +721,35 @@ def periodic_response(geo, process, zeta=DEFAULT_ZETA, force_scale: float = 1.0)
         periods=1,
         table=PeriodicZreTable(parts, amps, f, tuple(zeta.tolist()), geo.table_y, geo.row_knots),
     )
+
+
+@lru_cache(maxsize=4)  # ~0.5 MiB each
+def _impulse(basis: ModalBasis, n_phi: int, spindle_hz: float, zeta: tuple):
+    """:func:`periodic_impulse_response` of the basis at the spindle frequency [Hz] (cached per
+    spindle speed and damping; read-only)."""
+    out = periodic_impulse_response(basis.omega, np.array(zeta), 1 / (spindle_hz * n_phi), n_phi)
+    for a in out:
+        a.setflags(write=False)
+    return out
+
+
+def _periodic_state(impulse, force: np.ndarray, active: np.ndarray):
+    """Periodic steady state (q, q') (n, N) [m, m/s per unit modal force] of the recurrence
+    under the modal force (n, N), zero outside the circular run of ``active`` (N,) samples.
+
+    Within the run: its sum with the periodic impulse response (``impulse`` of
+    :func:`_impulse`); after it, the free decay E^l of the state after the run's last sample.
+    """
+    lam, e, b1, powers, z = impulse
+    n = active.size
+    first = int(np.flatnonzero(active & ~np.roll(active, 1))[0])
+    run = np.mod(first + np.arange(np.count_nonzero(active)), n)
+    f = force[:, run]
+    lag = np.mod(np.subtract.outer(np.arange(run.size), np.arange(run.size)), n)
+    inside = np.einsum("sjm,sm->sj", z[:, lag], f)
+    after = e * inside[:, -1] + b1 * f[:, -1]  # the sample after the run (no force there)
+    x = np.roll(np.concatenate([inside, powers[:, : n - run.size] * after[:, None]], 1), first, 1)
+    return 2 * x.real, 2 * (lam[:, None] * x).real
 
 
 @lru_cache(maxsize=2)  # ~4.7 MiB each (two parts, 192 rows); machine-only
@@ -807,12 +840,10 @@ def _kernel_coefficients(parts: tuple[CutGeometry, ...]) -> tuple[np.ndarray, np
 class _RecordUnit:
     """Record-window quantities of one force part per unit amplitude (process-independent).
 
-    fk (n, N/2 + 1) half spectrum of the modal force; fs (n, N) the modal force; force (N, 3)
-    the force on the tool [N per unit]; static_tip, static_work (N, 3) or None the static
-    correction's displacements.
+    fs (n, N) the modal force; force (N, 3) the force on the tool [N per unit]; static_tip,
+    static_work (N, 3) or None the static correction's displacements.
     """
 
-    fk: np.ndarray
     fs: np.ndarray
     force: np.ndarray
     static_tip: np.ndarray | None
@@ -823,24 +854,18 @@ class _RecordUnit:
 def _record_unit(geo: CutGeometry) -> _RecordUnit:
     """The record window of :func:`periodic_response` per unit amplitude (cached per geometry)."""
     n = geo.n_phi
-    half = n // 2
     y_rec = record_slide(geo.machine)
     chip = chip_factor_cells(geo.phases, y_rec, geo.machine, 2 * np.pi / n, geo.part)
-    chip_ext = _extend(np.fft.rfft(chip))
-    w_hat = geo.w_hat + y_rec * geo.w_y_hat
-    fk = w_hat[:, :1] * chip_ext[None, 5 : 5 + half + 1]
-    for mi in range(1, 5):
-        fk += w_hat[:, mi : mi + 1] * chip_ext[None, 5 - mi : 5 - mi + half + 1]
     fs = (geo.w + y_rec * geo.w_y) * chip
     force = chip[:, None] * force_vector(geo.phases, geo.machine, geo.coefficients, geo.part)
     static_tip = static_work = None
     if geo.static_tool is not None:
         s_tool, s_work = geo.static_at(np.arange(n), np.full(n, y_rec))
         static_tip, static_work = chip[:, None] * s_tool, chip[:, None] * s_work
-    for a in (fk, fs, force, static_tip, static_work):
+    for a in (fs, force, static_tip, static_work):
         if a is not None:
             a.setflags(write=False)
-    return _RecordUnit(fk, fs, force, static_tip, static_work)
+    return _RecordUnit(fs, force, static_tip, static_work)
 
 
 def time_response(
