@@ -12,10 +12,11 @@ from ufmt.machining.frf import tool_workpiece_receptance
 from ufmt.machining.process import Process
 from ufmt.machining.response import (
     _outputs,
+    _periodic_state,
     cut_geometry,
     discrete_receptance,
     discretise,
-    periodic_impulse_response,
+    periodic_recurrence,
     periodic_response,
     real_recurrence,
     record_slide,
@@ -138,9 +139,11 @@ def test_periodic_impulse_response_is_the_inverse_dft_of_the_receptance():
     n, dt = 64, 1e-3
     omega = 2 * np.pi * np.array([3.0, 30.0, 200.0])
     zeta = np.array([0.01, 0.05, 0.3])
-    lam, e, _, powers, z = periodic_impulse_response(omega, zeta, dt, n)
-    np.testing.assert_allclose(powers, np.exp(np.outer(lam * dt, np.arange(n))), rtol=1e-13)
-    np.testing.assert_allclose(e, np.exp(lam * dt), rtol=1e-15)
+    recurrence = periodic_recurrence(omega, zeta, dt, n)
+    lam = recurrence.lam
+    exact = np.exp(np.outer(lam * dt, np.arange(n)))
+    np.testing.assert_allclose(recurrence.powers, exact, rtol=1e-13)
+    z = recurrence.impulse(np.arange(n))
     receptances = discrete_receptance(omega, zeta, dt, 2 * np.pi * np.arange(n) / n)
     for h, rate in zip(receptances, (np.ones(3), lam), strict=True):
         expected = np.fft.ifft(h, axis=1)
@@ -148,6 +151,22 @@ def test_periodic_impulse_response_is_the_inverse_dft_of_the_receptance():
         scale = np.abs(got).max()
         np.testing.assert_allclose(got, expected.real, rtol=0, atol=1e-12 * scale)
         np.testing.assert_allclose(expected.imag, 0.0, atol=1e-12 * scale)
+
+
+def test_periodic_state_of_a_force_on_a_run_is_the_receptance_times_its_spectrum():
+    """q and q' of a force that is zero outside a run of samples wrapping around sample 0
+    (sum over the run, free decay after it) equal irfft(H rfft(f))."""
+    n, dt = 64, 1e-3
+    omega = 2 * np.pi * np.array([3.0, 30.0, 200.0])
+    zeta = np.array([0.01, 0.05, 0.3])
+    active = np.zeros(n, bool)
+    active[np.arange(-5, 9)] = True
+    force = np.random.default_rng(2).normal(size=(3, n)) * active
+    q, qd = _periodic_state(periodic_recurrence(omega, zeta, dt, n), force, active)
+    theta = 2 * np.pi * np.fft.rfftfreq(n)
+    for got, h in zip((q, qd), discrete_receptance(omega, zeta, dt, theta), strict=True):
+        expected = np.fft.irfft(h * np.fft.rfft(force, axis=1), n, axis=1)
+        np.testing.assert_allclose(got, expected, rtol=0, atol=1e-12 * np.abs(expected).max())
 
 
 # --- the cutting response ----------------------------------------------------------------------

@@ -162,27 +162,48 @@ def discrete_receptance(omega, zeta, dt: float, theta) -> tuple[np.ndarray, np.n
     return tf_p + np.conj(tf_m), lam * tf_p + np.conj(lam * tf_m)
 
 
-def periodic_impulse_response(omega, zeta, dt: float, n_samples: int):
-    """The exact recurrence's periodic steady state under one unit force sample per period of
-    N = ``n_samples`` samples, at sample 0.
+@dataclass(frozen=True, eq=False)
+class PeriodicRecurrence:
+    """The exact recurrence (:func:`discretise`) over a period of N samples.
 
-    Its complex state (:func:`discretise`) is z_l = (b0 E^l + b1 E^((l - 1) mod N)) / (1 - E^N)
-    at l = 0..N - 1; q = 2 Re z [s^2] and q' = 2 Re(lambda z) [s], whose DFTs over one period
-    are :func:`discrete_receptance`'s H_q and H_v. E^l is the product of E^(B a) and E^b for
-    l = B a + b (B ~ sqrt(N): two short tables of exponentials).
-
-    Returns
-    -------
-    lam, E : (n,) as :func:`discretise`; powers (n, N) E^l; z (n, N) complex.
+    lam, e, b0, b1 (n,) as :func:`discretise` returns them; powers (n, N) E^l for
+    l = 0..N - 1, the product of E^(B a) and E^b for l = B a + b (B ~ sqrt(N): two short
+    tables of exponentials); period (n,) E^N.
     """
-    lam, e, b0, b1 = (a[:, None] for a in discretise(omega, zeta, dt))
+
+    lam: np.ndarray
+    e: np.ndarray
+    b0: np.ndarray
+    b1: np.ndarray
+    powers: np.ndarray
+    period: np.ndarray
+
+    def impulse(self, lags) -> np.ndarray:
+        """Complex state z_l (n, ...) at integer ``lags`` in 0..N - 1 of the periodic steady
+        state under one unit force sample per period, at sample 0.
+
+        z_l = (b0 E^l + b1 E^((l - 1) mod N)) / (1 - E^N); q = 2 Re z [s^2] and
+        q' = 2 Re(lambda z) [s], whose DFTs over the period are :func:`discrete_receptance`'s
+        H_q and H_v.
+        """
+        lags = np.asarray(lags)
+        flat = lags.ravel()
+        previous = self.powers[:, flat - 1]  # index -1 is E^(N - 1)
+        z = (self.b0[:, None] * self.powers[:, flat] + self.b1[:, None] * previous) / (
+            1.0 - self.period[:, None]
+        )
+        return z.reshape(-1, *lags.shape)
+
+
+def periodic_recurrence(omega, zeta, dt: float, n_samples: int) -> PeriodicRecurrence:
+    """:class:`PeriodicRecurrence` of modes ``omega`` [rad/s], ``zeta``, step ``dt`` [s] over
+    ``n_samples`` samples."""
+    lam, e, b0, b1 = discretise(omega, zeta, dt)
     step = math.isqrt(n_samples - 1) + 1
-    fine = np.exp(lam * (dt * np.arange(step)))
-    coarse = np.exp(lam * (dt * step * np.arange(-(-n_samples // step))))
+    fine = np.exp(np.outer(lam, dt * np.arange(step)))
+    coarse = np.exp(np.outer(lam, dt * step * np.arange(-(-n_samples // step))))
     powers = (coarse[:, :, None] * fine[:, None, :]).reshape(lam.size, -1)[:, :n_samples]
-    period = np.exp(lam * (dt * n_samples))
-    z = (b0 * powers + b1 * np.roll(powers, 1, axis=1)) / (1.0 - period)
-    return lam[:, 0], e[:, 0], b1[:, 0], powers, z
+    return PeriodicRecurrence(lam, e, b0, b1, powers, np.exp(lam * (dt * n_samples)))
 
 
 def real_recurrence(omega, zeta, dt: float) -> tuple[np.ndarray, np.ndarray]:
@@ -492,7 +513,7 @@ class PeriodicZreTable:
     The chip pattern is zero except on the few ``active`` angles of the cut, so z_re at a
     sample j is a short sum over them: z_re[i, j] = sum_(part, p) amp Y_i^p
     sum_m T_(part, p)[j, m] A_part[i, m] with the periodic impulse response of the exact
-    recurrence (:func:`periodic_impulse_response`) in the kernels T, the static correction on
+    recurrence (:meth:`PeriodicRecurrence.impulse`) in the kernels T, the static correction on
     their diagonal. :meth:`columns` evaluates the samples the surface reads (a few tens);
     ``values``, the whole table by the harmonics (:func:`periodic_response`), is computed on
     first use. parts: the force parts' geometries; amps [m^2 or m] their amplitudes times the
@@ -542,8 +563,8 @@ class PeriodicZreTable:
         geo = self.parts[0]
         n = geo.n_phi
         plan = _column_plan(self.parts, tuple(np.ravel(phi).tolist()))
-        z = _impulse(geo.basis, n, self.spindle_hz, self.zeta)[4]
-        h = 2 * z[:, plan.lags].real.T  # q of the impulse response at the lags (L, n)
+        z = _recurrence(geo.basis, n, self.spindle_hz, self.zeta).impulse(plan.lags)
+        h = 2 * z.real.T  # q of the impulse response at the lags (L, n)
         # kernels of c^(a) and w^(b) (a, b = 0: at Y = 0, 1: rate in Y) for each angle m
         # and sample k: sum_s c^(a)_s[k] h_s[k - m] w^(b)_s[m]
         active, samples = plan.lag_index.shape
@@ -699,7 +720,7 @@ def periodic_response(geo, process, zeta=DEFAULT_ZETA, force_scale: float = 1.0)
     amps = np.array([force_scale * part_amplitude(process, geo.machine, g.part) for g in parts])
     units = [_record_unit(g) for g in parts]
     fs = sum(amp * u.fs for amp, u in zip(amps, units, strict=True))
-    q, qd = _periodic_state(_impulse(geo.basis, n, f, tuple(zeta.tolist())), fs, geo.active)
+    q, qd = _periodic_state(_recurrence(geo.basis, n, f, tuple(zeta.tolist())), fs, geo.active)
     b = geo.basis
     qdd = fs - (2 * zeta * b.omega)[:, None] * qd - (b.omega**2)[:, None] * q
     y_rec = record_slide(geo.machine)
@@ -723,33 +744,40 @@ def periodic_response(geo, process, zeta=DEFAULT_ZETA, force_scale: float = 1.0)
     )
 
 
-@lru_cache(maxsize=4)  # ~0.5 MiB each
-def _impulse(basis: ModalBasis, n_phi: int, spindle_hz: float, zeta: tuple):
-    """:func:`periodic_impulse_response` of the basis at the spindle frequency [Hz] (cached per
-    spindle speed and damping; read-only)."""
-    out = periodic_impulse_response(basis.omega, np.array(zeta), 1 / (spindle_hz * n_phi), n_phi)
-    for a in out:
-        a.setflags(write=False)
-    return out
+@lru_cache(maxsize=4)  # ~0.3 MiB each
+def _recurrence(basis: ModalBasis, n_phi: int, spindle_hz: float, zeta: tuple):
+    """:func:`periodic_recurrence` of the basis at the spindle frequency [Hz] (cached per
+    spindle speed and damping)."""
+    return periodic_recurrence(basis.omega, np.array(zeta), 1 / (spindle_hz * n_phi), n_phi)
 
 
-def _periodic_state(impulse, force: np.ndarray, active: np.ndarray):
+@lru_cache(maxsize=8)
+def _cut_run(active: tuple[bool, ...]):
+    """The circular run of the ``active`` samples (N,): its samples (A,) in order, the lags
+    (A, A) between them mod N and the samples after it (N - A,) in order."""
+    active = np.array(active)
+    n = active.size
+    first = int(np.flatnonzero(active & ~np.roll(active, 1))[0])
+    a = int(np.count_nonzero(active))
+    order = np.mod(first + np.arange(n), n)
+    return order[:a], np.mod(np.subtract.outer(np.arange(a), np.arange(a)), n), order[a:]
+
+
+def _periodic_state(recurrence: PeriodicRecurrence, force: np.ndarray, active: np.ndarray):
     """Periodic steady state (q, q') (n, N) [m, m/s per unit modal force] of the recurrence
     under the modal force (n, N), zero outside the circular run of ``active`` (N,) samples.
 
-    Within the run: its sum with the periodic impulse response (``impulse`` of
-    :func:`_impulse`); after it, the free decay E^l of the state after the run's last sample.
+    Within the run: its sum with the periodic impulse response; after it, the free decay E^l
+    of the state after the run's last sample.
     """
-    lam, e, b1, powers, z = impulse
-    n = active.size
-    first = int(np.flatnonzero(active & ~np.roll(active, 1))[0])
-    run = np.mod(first + np.arange(np.count_nonzero(active)), n)
+    run, lag, decay = _cut_run(tuple(active.tolist()))
     f = force[:, run]
-    lag = np.mod(np.subtract.outer(np.arange(run.size), np.arange(run.size)), n)
-    inside = np.einsum("sjm,sm->sj", z[:, lag], f)
-    after = e * inside[:, -1] + b1 * f[:, -1]  # the sample after the run (no force there)
-    x = np.roll(np.concatenate([inside, powers[:, : n - run.size] * after[:, None]], 1), first, 1)
-    return 2 * x.real, 2 * (lam[:, None] * x).real
+    inside = np.einsum("sjm,sm->sj", recurrence.impulse(lag), f)
+    after = recurrence.e * inside[:, -1] + recurrence.b1 * f[:, -1]  # no force there
+    x = np.empty(force.shape, complex)
+    x[:, run] = inside
+    x[:, decay] = recurrence.powers[:, : decay.size] * after[:, None]
+    return 2 * x.real, 2 * (recurrence.lam[:, None] * x).real
 
 
 @lru_cache(maxsize=2)  # ~4.7 MiB each (two parts, 192 rows); machine-only

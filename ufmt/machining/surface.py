@@ -174,7 +174,9 @@ class Passes:
         everywhere."""
         terms = list(terms)
         z = sum(terms[1:], terms[0]) if terms else np.zeros(())
-        z = np.broadcast_to(z, self.slide.shape).min(axis=0)
+        if np.ndim(z) == self.slide.ndim:  # else the same at both passes
+            z = np.minimum(z[0], z[1])
+        z = np.broadcast_to(z, self.frac.shape)
         return Surface(self.x, self.y, z.min(axis=1) if z.shape[1] > 1 else z[:, 0], self.core)
 
 
