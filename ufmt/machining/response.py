@@ -120,6 +120,8 @@ def _phi1_phi2(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     xs = np.where(small, 1.0, x)
     p1 = np.expm1(xs) / xs
     p2 = (p1 - 1.0) / xs
+    if not small.any():
+        return p1, p2
     t = np.where(small, x, 0.0)
     s1 = 1 + t / 2 + t**2 / 6 + t**3 / 24 + t**4 / 120 + t**5 / 720
     s2 = 0.5 + t / 6 + t**2 / 24 + t**3 / 120 + t**4 / 720 + t**5 / 5040
@@ -672,27 +674,20 @@ def _outputs(geo: CutGeometry, j, slide, q, qd, qdd, spindle_hz: float):
     arm_work = geo.tip[j] - b.body_centers[m.workpiece_body]
     arm_work[:, 1] += slide
     moved = q.T @ np.concatenate([tool, work], axis=1)  # (T, 12) both bodies' motions
-    disp = [
-        moved[:, :3] + _cross(moved[:, 3:6], arm_tool),
-        moved[:, 6:9] + _cross(moved[:, 9:], arm_work),
-    ]
     om = 2 * np.pi * spindle_hz
     accel = qdd.T @ tool  # (T, 6)
-    acc = (
-        accel[:, :3]
-        + _cross(accel[:, 3:], arm_tool)
-        + 2 * _cross(qd.T @ tool[:, 3:], om * geo.dtip[j])
-        + _cross(moved[:, 3:6], om**2 * geo.ddtip[j])
-    )
-    return disp[0], acc, disp[1]
+    rot = np.stack([moved[:, 3:6], moved[:, 9:], accel[:, 3:], qd.T @ tool[:, 3:], moved[:, 3:6]])
+    arm = np.stack([arm_tool, arm_work, arm_tool, 2 * om * geo.dtip[j], om**2 * geo.ddtip[j]])
+    turn = _cross(rot, arm)  # (5, T, 3)
+    acc = accel[:, :3] + turn[2] + turn[3] + turn[4]
+    return moved[:, :3] + turn[0], acc, moved[:, 6:9] + turn[1]
 
 
 def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """a x b for (T, 3) arrays (np.cross without its axis handling: the record window's
-    outputs take five of them per response)."""
-    a0, a1, a2 = a[:, 0], a[:, 1], a[:, 2]
-    b0, b1, b2 = b[:, 0], b[:, 1], b[:, 2]
-    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=1)
+    """a x b for (..., 3) arrays (np.cross without its axis handling)."""
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
 
 
 def periodic_response(geo, process, zeta=DEFAULT_ZETA, force_scale: float = 1.0) -> Response:
@@ -752,15 +747,17 @@ def _recurrence(basis: ModalBasis, n_phi: int, spindle_hz: float, zeta: tuple):
 
 
 @lru_cache(maxsize=8)
-def _cut_run(active: tuple[bool, ...]):
-    """The circular run of the ``active`` samples (N,): its samples (A,) in order, the lags
-    (A, A) between them mod N and the samples after it (N - A,) in order."""
-    active = np.array(active)
+def _cut_run(active: bytes):
+    """The circular run of the ``active`` samples (N bools as bytes): its first sample and
+    length, the distinct lags (L,) between its samples mod N and each pair's (A, A)."""
+    active = np.frombuffer(active, dtype=bool)
     n = active.size
     first = int(np.flatnonzero(active & ~np.roll(active, 1))[0])
     a = int(np.count_nonzero(active))
-    order = np.mod(first + np.arange(n), n)
-    return order[:a], np.mod(np.subtract.outer(np.arange(a), np.arange(a)), n), order[a:]
+    lags, pairs = np.unique(
+        np.mod(np.subtract.outer(np.arange(a), np.arange(a)), n), return_inverse=True
+    )
+    return first, a, lags, pairs.reshape(a, a)
 
 
 def _periodic_state(recurrence: PeriodicRecurrence, force: np.ndarray, active: np.ndarray):
@@ -770,14 +767,14 @@ def _periodic_state(recurrence: PeriodicRecurrence, force: np.ndarray, active: n
     Within the run: its sum with the periodic impulse response; after it, the free decay E^l
     of the state after the run's last sample.
     """
-    run, lag, decay = _cut_run(tuple(active.tolist()))
-    f = force[:, run]
-    inside = np.einsum("sjm,sm->sj", recurrence.impulse(lag), f)
+    first, a, lags, pairs = _cut_run(active.tobytes())
+    n = active.size
+    f = np.roll(force, -first, axis=1)[:, :a]
+    inside = np.einsum("sjm,sm->sj", recurrence.impulse(lags)[:, pairs], f)
     after = recurrence.e * inside[:, -1] + recurrence.b1 * f[:, -1]  # no force there
-    x = np.empty(force.shape, complex)
-    x[:, run] = inside
-    x[:, decay] = recurrence.powers[:, : decay.size] * after[:, None]
-    return 2 * x.real, 2 * (recurrence.lam[:, None] * x).real
+    x = np.concatenate([inside, recurrence.powers[:, : n - a] * after[:, None]], axis=1)
+    q, qd = 2 * x.real, 2 * (recurrence.lam[:, None] * x).real  # from the run's first sample
+    return np.roll(q, first, axis=1), np.roll(qd, first, axis=1)
 
 
 @lru_cache(maxsize=2)  # ~4.7 MiB each (two parts, 192 rows); machine-only
