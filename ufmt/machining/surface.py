@@ -42,7 +42,7 @@ from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
-from scipy.fft import next_fast_len
+import scipy.fft
 
 from ufmt.machining.response import PeriodicZreTable, ZreTable
 from ufmt.model.machine import Machine
@@ -108,7 +108,7 @@ def _grid(machine: Machine, spacing, window=None):
             raise ValueError(f"window {window!r} must lie inside the plate")
     # nodes on the edges, at most ``spacing`` apart; counts rounded up to fast FFT lengths
     nx, ny = (
-        next_fast_len(int(np.ceil(v / h - 1e-9)) + 1, real=True)
+        scipy.fft.next_fast_len(int(np.ceil(v / h - 1e-9)) + 1, real=True)
         for v, h in ((x1 - x0, hx), (y1 - y0, hy))
     )
     x = np.linspace(x0, x1, nx)
@@ -326,7 +326,7 @@ def band_rms(surface: Surface) -> dict[str, float]:
     flat = z - _plane(x, y, z)
     hx, hy = surface.spacing
     win, norm, masks = _spectral(x.size, y.size, hx, hy)
-    power = np.abs(np.fft.rfft2(flat * win)) ** 2
+    power = np.abs(scipy.fft.rfft2(flat * win)) ** 2
     return {
         f"{name}_rms_nm": float(np.sqrt(np.sum(power * mask)) * norm) * 1e9
         if band_resolved(surface, name)
@@ -335,12 +335,48 @@ def band_rms(surface: Surface) -> dict[str, float]:
     }
 
 
+@dataclass(frozen=True)
+class _GridFit:
+    """Process-independent parts of the plane and Legendre fits on an evenly spaced grid.
+
+    xc (Nx,), yc (Ny,) the coordinates less their means [m] and xx, yy their sums of squares
+    [m^2]; fu (6, Nx), gv (6, Ny) the factors of the six Legendre terms (each f(u) g(v)) and
+    normal (6, 6) their normal equations.
+    """
+
+    xc: np.ndarray
+    yc: np.ndarray
+    xx: float
+    yy: float
+    fu: np.ndarray
+    gv: np.ndarray
+    normal: np.ndarray
+
+
+def _grid_fit(x: np.ndarray, y: np.ndarray) -> _GridFit:
+    """The :class:`_GridFit` of the grid x (Nx,), y (Ny,) [m] (cached per grid)."""
+    return _grid_fit_of(x.tobytes(), y.tobytes())
+
+
+@lru_cache(maxsize=16)
+def _grid_fit_of(x_bytes: bytes, y_bytes: bytes) -> _GridFit:
+    x, y = np.frombuffer(x_bytes), np.frombuffer(y_bytes)
+    xc, yc = x - x.mean(), y - y.mean()
+    u = (2 * x - x[0] - x[-1]) / (x[-1] - x[0])
+    v = (2 * y - y[0] - y[-1]) / (y[-1] - y[0])
+    one_u, one_v = np.ones_like(u), np.ones_like(v)
+    fu = np.stack([one_u, u, one_u, 1.5 * u**2 - 0.5, u, one_u])  # (6, Nx)
+    gv = np.stack([one_v, one_v, v, one_v, v, 1.5 * v**2 - 0.5])  # (6, Ny)
+    normal = (fu @ fu.T) * (gv @ gv.T)
+    return _GridFit(xc, yc, float(xc @ xc), float(yc @ yc), fu, gv, normal)
+
+
 def _plane(x: np.ndarray, y: np.ndarray, z: np.ndarray) -> np.ndarray:
     """Best-fit plane of z (Ny, Nx) on an evenly spaced grid (three means: 1, x, y orthogonal)."""
-    xc, yc = x - x.mean(), y - y.mean()
-    bx = (z @ xc).sum() / (y.size * (xc @ xc))
-    by = (yc @ z).sum() / (x.size * (yc @ yc))
-    return z.mean() + bx * xc[None, :] + by * yc[:, None]
+    g = _grid_fit(x, y)
+    bx = (z @ g.xc).sum() / (y.size * g.xx)
+    by = (g.yc @ z).sum() / (x.size * g.yy)
+    return z.mean() + bx * g.xc[None, :] + by * g.yc[:, None]
 
 
 def _legendre_fit(x: np.ndarray, y: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -350,16 +386,11 @@ def _legendre_fit(x: np.ndarray, y: np.ndarray, z: np.ndarray) -> tuple[np.ndarr
     (P2(u), u v, P2(v) with u, v the coordinates scaled to [-1, 1]), both (Ny, Nx). Every term
     is a product f(u) g(v), so the normal equations are sums over u and v separately.
     """
-    u = (2 * x - x[0] - x[-1]) / (x[-1] - x[0])
-    v = (2 * y - y[0] - y[-1]) / (y[-1] - y[0])
-    one_u, one_v = np.ones_like(u), np.ones_like(v)
-    fu = np.stack([one_u, u, one_u, 1.5 * u**2 - 0.5, u, one_u])  # (6, Nx)
-    gv = np.stack([one_v, one_v, v, one_v, v, 1.5 * v**2 - 0.5])  # (6, Ny)
-    normal = (fu @ fu.T) * (gv @ gv.T)
-    rhs = ((gv @ z) * fu).sum(axis=1)
-    coef = np.linalg.solve(normal, rhs)
-    fit = (gv.T * coef) @ fu
-    form = (gv[3:].T * coef[3:]) @ fu[3:]
+    g = _grid_fit(x, y)
+    rhs = ((g.gv @ z) * g.fu).sum(axis=1)
+    coef = np.linalg.solve(g.normal, rhs)
+    fit = (g.gv.T * coef) @ g.fu
+    form = (g.gv[3:].T * coef[3:]) @ g.fu[3:]
     return fit, form
 
 
