@@ -318,6 +318,7 @@ def _run(
             heights(patch_passes, name) for name in acting if name != "feed_marks"
         )
         metrics["psd2_rms_nm"] = band_rms(patch)["psd2_rms_nm"]
+    alone = dict(zip(terms, passes.pv_each(terms.values()), strict=True)) if terms else {}
     pv_by_source = {}
     for name in SOURCES:
         if name not in sources:
@@ -327,7 +328,7 @@ def _run(
         elif len(sources) == 1:
             pv_by_source[name] = metrics["pv_nm"]
         else:
-            pv_by_source[name] = float(np.ptp(passes.lower([terms[name]]).z)) * 1e9
+            pv_by_source[name] = float(alone[name]) * 1e9
     per = response.periods
     metrics["zre_peak_nm"] = _mean_peak(response.z_re, per) * 1e9
     metrics["tip_acc_peak_mm_s2"] = _mean_peak(response.tip_acc[:, 2], per) * 1e3
