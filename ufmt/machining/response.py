@@ -557,6 +557,7 @@ class PeriodicZreTable:
 
     @property
     def part_names(self) -> tuple[str, ...]:
+        """The force parts ("area", "edge") of ``parts``."""
         return tuple(g.part for g in self.parts)
 
     def columns(self, phi: np.ndarray) -> np.ndarray:
@@ -700,8 +701,9 @@ def periodic_response(geo, process, zeta=DEFAULT_ZETA, force_scale: float = 1.0)
     with A the spectrum of the chip factor (``spectra`` of ``geo``) and H_s the receptance of
     :func:`discrete_receptance`; with the workpiece arm's Y terms the kernels are a quadratic
     in Y, sum_p Y^p K_pd. The record window is one spindle period at the slide position of
-    :func:`record_slide`, from the receptances (cached per spindle speed and damping) and the
-    record window's modal spectra per unit pattern (cached per geometry).
+    :func:`record_slide`: the modal force there summed over the cut's angles with the periodic
+    impulse response, free decay after them (:class:`PeriodicRecurrence`, cached per spindle
+    speed and damping; the force per unit amplitude cached per geometry).
 
     ``geo``: one :class:`CutGeometry` or a sequence of them, the force parts of one force on
     the same basis, machine, n_phi and table rows: their responses are summed (each times its
@@ -802,18 +804,6 @@ def _stacked_patterns(machine: Machine, n_phi: int, table_rows: int, parts: tupl
 
 
 @lru_cache(maxsize=16)
-def _receptances(basis: ModalBasis, n_phi: int, spindle_hz: float, zeta: tuple):
-    """Receptances hq, hv (n, N/2 + 3) of :func:`discrete_receptance` at harmonics
-    -1..N/2 + 1 of the spindle frequency [Hz] (cached per spindle speed)."""
-    k = np.arange(-1, n_phi // 2 + 2)
-    dt = 1.0 / (spindle_hz * n_phi)
-    hq, hv = discrete_receptance(basis.omega, np.array(zeta), dt, 2 * np.pi * k / n_phi)
-    for a in (hq, hv):
-        a.setflags(write=False)
-    return hq, hv
-
-
-@lru_cache(maxsize=16)
 def _periodic_kernels(parts: tuple[CutGeometry, ...], spindle_hz: float, zeta: tuple):
     """Kernels of :attr:`PeriodicZreTable.values` (cached per spindle speed).
 
@@ -822,8 +812,12 @@ def _periodic_kernels(parts: tuple[CutGeometry, ...], spindle_hz: float, zeta: t
     static correction's coefficients included (:class:`CutGeometry` ``static_hat``).
     """
     geo = parts[0]
-    half = geo.n_phi // 2
-    hq, _ = _receptances(geo.basis, geo.n_phi, spindle_hz, zeta)
+    n = geo.n_phi
+    half = n // 2
+    k = np.arange(-1, half + 2)
+    hq, _ = discrete_receptance(
+        geo.basis.omega, np.array(zeta), 1 / (spindle_hz * n), 2 * np.pi * k / n
+    )
     # one product of the receptances, shifted by each output harmonic l, with the coefficients
     coef, static = _kernel_coefficients(parts)
     shifted = np.concatenate([hq.T[1 - l : half + 2 - l] for l in _HARM_C], axis=1)  # (K, 3n)
