@@ -774,9 +774,11 @@ def _periodic_state(recurrence: PeriodicRecurrence, force: np.ndarray, active: n
     f = np.roll(force, -first, axis=1)[:, :a]
     inside = np.einsum("sjm,sm->sj", recurrence.impulse(lags)[:, pairs], f)
     after = recurrence.e * inside[:, -1] + recurrence.b1 * f[:, -1]  # no force there
-    x = np.concatenate([inside, recurrence.powers[:, : n - a] * after[:, None]], axis=1)
-    q, qd = 2 * x.real, 2 * (recurrence.lam[:, None] * x).real  # from the run's first sample
-    return np.roll(q, first, axis=1), np.roll(qd, first, axis=1)
+    x = np.empty(force.shape, complex)  # from the run's first sample on
+    x[:, :a] = inside
+    np.multiply(recurrence.powers[:, : n - a], after[:, None], out=x[:, a:])
+    x = np.roll(x, first, axis=1)
+    return 2 * x.real, 2 * (recurrence.lam[:, None] * x).real
 
 
 @lru_cache(maxsize=2)  # ~4.7 MiB each (two parts, 192 rows); machine-only
