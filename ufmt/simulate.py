@@ -328,7 +328,7 @@ def _run(
         elif len(sources) == 1:
             pv_by_source[name] = metrics["pv_nm"]
         else:
-            pv_by_source[name] = float(alone[name]) * 1e9
+            pv_by_source[name] = alone[name] * 1e9
     per = response.periods
     metrics["zre_peak_nm"] = _mean_peak(response.z_re, per) * 1e9
     metrics["tip_acc_peak_mm_s2"] = _mean_peak(response.tip_acc[:, 2], per) * 1e3

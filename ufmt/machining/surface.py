@@ -179,11 +179,15 @@ class Passes:
         z = np.broadcast_to(z, self.frac.shape)
         return Surface(self.x, self.y, z.min(axis=1) if z.shape[1] > 1 else z[:, 0], self.core)
 
-    def pv_each(self, terms) -> np.ndarray:
-        """PV [m] of the surface of each of ``terms`` alone (its :meth:`lower`): (S,)."""
-        z = np.stack([np.broadcast_to(t, self.slide.shape) for t in terms])
-        z = np.minimum(z[:, 0], z[:, 1]).min(axis=2).reshape(len(z), -1)
-        return z.max(axis=1) - z.min(axis=1)
+    def pv_each(self, terms) -> list[float]:
+        """PV [m] of the surface of each of ``terms`` alone (its :meth:`lower`)."""
+        pv = []
+        for z in terms:
+            if np.ndim(z) == self.slide.ndim:  # else the same at both passes
+                z = np.minimum(z[0], z[1])
+            z = np.min(z, axis=-2)  # the lower arc (a term of phi alone is the same on every row)
+            pv.append(float(z.max() - z.min()))
+        return pv
 
 
 def surface_passes(
