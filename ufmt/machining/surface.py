@@ -39,7 +39,7 @@ psd2_patch=...)``), as a shop measures PSD2 on sub-apertures.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import lru_cache
+from functools import cached_property, lru_cache
 
 import numpy as np
 import scipy.fft
@@ -82,7 +82,7 @@ class Surface:
         """Boolean mask (Ny,) of the evenly spaced rows."""
         return np.ones(self.y.size, bool) if self.core is None else self.core
 
-    @property
+    @cached_property
     def spacing(self) -> tuple[float, float]:
         """Spacing (hx, hy) [m] of the evenly spaced grid."""
         y = self.y[self.core_rows]
@@ -448,6 +448,7 @@ def surface_metrics(
     aperture = surface.z[np.ix_(in_y, in_x)]
     flat_aperture = flat[np.ix_(in_y[core], in_x)]
     fit, form = _legendre_fit(x, y, z)
+    waviness = z - fit
     out = {
         "pv_nm": _pv(surface.z) * 1e9,
         "pv_tilt_removed_nm": _pv(surface.z - plane_all) * 1e9,
@@ -455,8 +456,8 @@ def surface_metrics(
         "pv_aperture_nm": _pv(aperture) * 1e9,
         "rms_aperture_nm": _rms(flat_aperture) * 1e9,
         "form_pv_nm": _pv(form) * 1e9,
-        "waviness_pv_nm": _pv(z - fit) * 1e9,
-        "waviness_rms_nm": _rms(z - fit) * 1e9,
+        "waviness_pv_nm": _pv(waviness) * 1e9,
+        "waviness_rms_nm": _rms(waviness) * 1e9,
     }
     out.update(band_rms(surface if band_surface is None else band_surface))
     out["grid_spacing_mm"] = max(surface.spacing) * 1e3
