@@ -12,9 +12,11 @@ from ufmt.machining.frf import tool_workpiece_receptance
 from ufmt.machining.process import Process
 from ufmt.machining.response import (
     _outputs,
+    _periodic_state,
     cut_geometry,
     discrete_receptance,
     discretise,
+    periodic_recurrence,
     periodic_response,
     real_recurrence,
     record_slide,
@@ -129,6 +131,42 @@ def test_periodic_receptance_is_the_steady_state_of_the_recurrence():
     hq, _ = discrete_receptance([w], [zeta], dt, 2 * np.pi * np.fft.rfftfreq(n))
     steady = np.fft.irfft(hq[0] * np.fft.rfft(period), n)
     np.testing.assert_allclose(q, steady, rtol=0, atol=1e-12 * np.abs(steady).max())
+
+
+def test_periodic_impulse_response_is_the_inverse_dft_of_the_receptance():
+    """q and q' of the periodic steady state under one unit force sample per period, at every
+    lag, equal the inverse DFTs of H_q and H_v (the receptances are their DFTs)."""
+    n, dt = 64, 1e-3
+    omega = 2 * np.pi * np.array([3.0, 30.0, 200.0])
+    zeta = np.array([0.01, 0.05, 0.3])
+    recurrence = periodic_recurrence(omega, zeta, dt, n)
+    lam = recurrence.lam
+    exact = np.exp(np.outer(lam * dt, np.arange(n)))
+    np.testing.assert_allclose(recurrence.powers, exact, rtol=1e-13)
+    z = recurrence.impulse(np.arange(n))
+    receptances = discrete_receptance(omega, zeta, dt, 2 * np.pi * np.arange(n) / n)
+    for h, rate in zip(receptances, (np.ones(3), lam), strict=True):
+        expected = np.fft.ifft(h, axis=1)
+        got = 2 * (rate[:, None] * z).real
+        scale = np.abs(got).max()
+        np.testing.assert_allclose(got, expected.real, rtol=0, atol=1e-12 * scale)
+        np.testing.assert_allclose(expected.imag, 0.0, atol=1e-12 * scale)
+
+
+def test_periodic_state_of_a_force_on_a_run_is_the_receptance_times_its_spectrum():
+    """q and q' of a force that is zero outside a run of samples wrapping around sample 0
+    (sum over the run, free decay after it) equal irfft(H rfft(f))."""
+    n, dt = 64, 1e-3
+    omega = 2 * np.pi * np.array([3.0, 30.0, 200.0])
+    zeta = np.array([0.01, 0.05, 0.3])
+    active = np.zeros(n, bool)
+    active[np.arange(-5, 9)] = True
+    force = np.random.default_rng(2).normal(size=(3, n)) * active
+    q, qd = _periodic_state(periodic_recurrence(omega, zeta, dt, n), force, active)
+    theta = 2 * np.pi * np.fft.rfftfreq(n)
+    for got, h in zip((q, qd), discrete_receptance(omega, zeta, dt, theta), strict=True):
+        expected = np.fft.irfft(h * np.fft.rfft(force, axis=1), n, axis=1)
+        np.testing.assert_allclose(got, expected, rtol=0, atol=1e-12 * np.abs(expected).max())
 
 
 # --- the cutting response ----------------------------------------------------------------------

@@ -395,6 +395,8 @@ def _physics(model: Model, process: Mapping[str, float], basis_key) -> dict:
 def _hinge_changes(base: Model, model: Model) -> tuple:
     """The hinges whose stiffness ``model`` changed from ``base``: a design's identity (a
     design that restates calibrated values is the calibrated design)."""
+    if model is base:
+        return ()
     return tuple(
         (new.name, tuple(float(v) for v in new.stiffness6))
         for new, old in zip(model.hinges, base.hinges, strict=True)

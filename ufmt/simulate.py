@@ -209,7 +209,7 @@ def simulate(
         from ufmt.model.load import load_model
 
         model = load_model(model)
-    machine = machine_of(model)
+    machine = _machine(model)
     if basis is None:
         from ufmt.machining.modal import modal_basis
 
@@ -233,6 +233,12 @@ def simulate(
         aperture_margin=aperture_margin,
         psd2_patch=psd2_patch,
     )
+
+
+@lru_cache(maxsize=8)
+def _machine(model) -> Machine:
+    """The model's validated machine (cached per model object; models are immutable)."""
+    return machine_of(model)
 
 
 @lru_cache(maxsize=8)
@@ -312,6 +318,7 @@ def _run(
             heights(patch_passes, name) for name in acting if name != "feed_marks"
         )
         metrics["psd2_rms_nm"] = band_rms(patch)["psd2_rms_nm"]
+    alone = dict(zip(terms, passes.pv_each(terms.values()), strict=True)) if terms else {}
     pv_by_source = {}
     for name in SOURCES:
         if name not in sources:
@@ -321,7 +328,7 @@ def _run(
         elif len(sources) == 1:
             pv_by_source[name] = metrics["pv_nm"]
         else:
-            pv_by_source[name] = float(np.ptp(passes.lower([terms[name]]).z)) * 1e9
+            pv_by_source[name] = alone[name] * 1e9
     per = response.periods
     metrics["zre_peak_nm"] = _mean_peak(response.z_re, per) * 1e9
     metrics["tip_acc_peak_mm_s2"] = _mean_peak(response.tip_acc[:, 2], per) * 1e3

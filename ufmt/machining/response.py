@@ -14,20 +14,21 @@ assumption of (b):
 (a) time domain, :func:`time_response`: every revolution of the whole cut, each modal equation
     advanced by the exact recurrence of its first-order-hold solution (:func:`discretise`,
     :func:`real_recurrence`, run by ``scipy.signal.lfilter``), from zero initial conditions.
-(b) periodic, :func:`periodic_response`: for a fixed slide position Y the force is periodic in
-    the spindle period; its periodic steady state is obtained per harmonic with the receptance
-    of the same exact recurrence (FFT, receptance, inverse FFT). The slide moves only
-    v/f = 10-80 um per revolution while the slowest mode settles in a few revolutions, so the
-    steady state at each Y is taken as the response while the slide passes Y (quasi-static in
-    Y), tabulated at ``table_rows`` slide positions. Where the leading arc crosses the whole
-    plate width the chip pattern is the same every revolution and (a) converges to (b)
-    exactly (tests/test_response.py). Where the arc's top enters and leaves the plate, the
-    table's resolution in Y limits (b): the points along the plate's entry and exit edges are
-    cut just as the tip crosses an edge, where z_re changes within a revolution or two, and
-    they can set the whole-plate PV. Measured on the prior UFMT model (four processes of
-    Table 1), the whole-plate PV of (b) is 0.6-5.6 % below (a) with 96 rows, 0.05-2.4 % with
-    the default 192 and 0.02-0.7 % with 384 (cost of (b) roughly linear in the rows). Use (a)
-    for reference values, (b) for fast studies.
+(b) periodic, :func:`periodic_response`: for a fixed slide position Y the force is periodic in the
+    spindle period; its periodic steady state is obtained per harmonic with the receptance of the
+    same exact recurrence (FFT, receptance, inverse FFT), or at a few samples as a sum over the
+    cutting angles with the recurrence's periodic impulse response (its inverse DFT). The slide
+    moves only v/f = 10-80 um per revolution while the slowest mode settles in a few revolutions, so
+    the steady state at each Y is taken as the response while the slide passes Y (quasi-static in
+    Y), tabulated at ``table_rows`` slide positions. Where the leading arc crosses the whole plate
+    width the chip pattern is the same every revolution and (a) converges to (b) exactly
+    (tests/test_response.py). Where the arc's top enters and leaves the plate, the table's
+    resolution in Y limits (b): the points along the plate's entry and exit edges are cut just as
+    the tip crosses an edge, where z_re changes within a revolution or two, and they can set the
+    whole-plate PV. Measured on the prior UFMT model (four processes of Table 1), the whole-plate PV
+    of (b) is 0.6-5.6 % below (a) with 96 rows, 0.05-2.4 % with the default 192 and 0.02-0.7 % with
+    384 (cost of (b) roughly linear in the rows). Use (a) for reference values, (b) for fast
+    studies.
 
 Both paths solve each force part (cutting "area" and ploughing "edge", see
 :mod:`ufmt.machining.cutting`) with its own :class:`CutGeometry`; the response is linear, so
@@ -49,8 +50,9 @@ the middle of that band is taken. A per-mode array overrides it.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
-from functools import lru_cache
+from functools import cached_property, lru_cache
 
 import numpy as np
 from scipy.signal import lfilter
@@ -118,6 +120,8 @@ def _phi1_phi2(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     xs = np.where(small, 1.0, x)
     p1 = np.expm1(xs) / xs
     p2 = (p1 - 1.0) / xs
+    if not small.any():
+        return p1, p2
     t = np.where(small, x, 0.0)
     s1 = 1 + t / 2 + t**2 / 6 + t**3 / 24 + t**4 / 120 + t**5 / 720
     s2 = 0.5 + t / 6 + t**2 / 24 + t**3 / 120 + t**4 / 720 + t**5 / 5040
@@ -158,6 +162,50 @@ def discrete_receptance(omega, zeta, dt: float, theta) -> tuple[np.ndarray, np.n
     tf_p = (b0 + b1 * zp) / (1.0 - e * zp)
     tf_m = (b0 + b1 * zm) / (1.0 - e * zm)
     return tf_p + np.conj(tf_m), lam * tf_p + np.conj(lam * tf_m)
+
+
+@dataclass(frozen=True, eq=False)
+class PeriodicRecurrence:
+    """The exact recurrence (:func:`discretise`) over a period of N samples.
+
+    lam, e, b0, b1 (n,) as :func:`discretise` returns them; powers (n, N) E^l for
+    l = 0..N - 1, the product of E^(B a) and E^b for l = B a + b (B ~ sqrt(N): two short
+    tables of exponentials); period (n,) E^N.
+    """
+
+    lam: np.ndarray
+    e: np.ndarray
+    b0: np.ndarray
+    b1: np.ndarray
+    powers: np.ndarray
+    period: np.ndarray
+
+    def impulse(self, lags) -> np.ndarray:
+        """Complex state z_l (n, ...) at integer ``lags`` in 0..N - 1 of the periodic steady
+        state under one unit force sample per period, at sample 0.
+
+        z_l = (b0 E^l + b1 E^((l - 1) mod N)) / (1 - E^N); q = 2 Re z [s^2] and
+        q' = 2 Re(lambda z) [s], whose DFTs over the period are :func:`discrete_receptance`'s
+        H_q and H_v.
+        """
+        lags = np.asarray(lags)
+        flat = lags.ravel()
+        previous = self.powers[:, flat - 1]  # index -1 is E^(N - 1)
+        z = (self.b0[:, None] * self.powers[:, flat] + self.b1[:, None] * previous) / (
+            1.0 - self.period[:, None]
+        )
+        return z.reshape(-1, *lags.shape)
+
+
+def periodic_recurrence(omega, zeta, dt: float, n_samples: int) -> PeriodicRecurrence:
+    """:class:`PeriodicRecurrence` of modes ``omega`` [rad/s], ``zeta``, step ``dt`` [s] over
+    ``n_samples`` samples."""
+    lam, e, b0, b1 = discretise(omega, zeta, dt)
+    step = math.isqrt(n_samples - 1) + 1
+    fine = np.exp(np.outer(lam, dt * np.arange(step)))
+    coarse = np.exp(np.outer(lam, dt * step * np.arange(-(-n_samples // step))))
+    powers = (coarse[:, :, None] * fine[:, None, :]).reshape(lam.size, -1)[:, :n_samples]
+    return PeriodicRecurrence(lam, e, b0, b1, powers, np.exp(lam * (dt * n_samples)))
 
 
 def real_recurrence(omega, zeta, dt: float) -> tuple[np.ndarray, np.ndarray]:
@@ -299,7 +347,7 @@ def cut_geometry(
     trig = np.stack(
         [np.ones(n_phi), np.cos(phases), np.sin(phases), np.cos(2 * phases), np.sin(2 * phases)]
     )
-    table_y, row_knots, spectra, active = _pattern_tables(machine, n_phi, table_rows, part)
+    table_y, row_knots, spectra, active, _ = _pattern_tables(machine, n_phi, table_rows, part)
     dtip, ddtip = tool_tip_rates(phases, machine, 1 / (2 * np.pi))  # d/dphi, d^2/dphi^2
     static_tool = static_work = static_hat = None
     if residual is not None:
@@ -360,7 +408,8 @@ def _pattern_tables(machine: Machine, n_phi: int, table_rows: int, part: str):
     """Machine-only tables of :func:`cut_geometry` (cached per machine, not per design).
 
     Returns table_y, row_knots, the extended half spectra (N/2 + 7, M) of the chip pattern of
-    ``part`` at the table rows and the active angles (N,); all read-only.
+    ``part`` at the table rows, the active angles (N,) and the pattern on them (M, active); all
+    read-only.
     """
     phases = 2 * np.pi * np.arange(n_phi) / n_phi
     cell = 2 * np.pi / n_phi
@@ -371,9 +420,10 @@ def _pattern_tables(machine: Machine, n_phi: int, table_rows: int, part: str):
     pattern = np.zeros((table_y.size, n_phi))
     pattern[:, active] = chip_factor_cells(phases[active], table_y[:, None], machine, cell, part)
     spectra = np.ascontiguousarray(_extend(np.fft.rfft(pattern, axis=1)).T)  # (N/2 + 7, M)
-    for a in (table_y, spectra, active):
+    cutting = pattern[:, active]
+    for a in (table_y, spectra, active, cutting):
         a.setflags(write=False)
-    return table_y, row_knots, spectra, active
+    return table_y, row_knots, spectra, active, cutting
 
 
 def _table_rows(machine: Machine, rows: int, uniform: float = UNIFORM_SHARE):
@@ -429,6 +479,163 @@ class ZreTable:
     drift: float
     row_knots: tuple[float, float, np.ndarray]
 
+    def columns(self, phi: np.ndarray) -> np.ndarray:
+        """Table columns at angles phi (arcs, Nx) [rad], 4-point Lagrange in phi [m]:
+        (rows, arcs * Nx)."""
+        samples, weights = _cubic_weights(phi, self.values.shape[1] - 3)
+        padded = np.mod(samples + 1, self.values.shape[1])  # column c holds sample c - 1
+        return sum(self.values[:, padded[i]] * weights[i] for i in range(4))
+
+
+def _cubic_weights(phi: np.ndarray, n_phi: int) -> tuple[np.ndarray, np.ndarray]:
+    """The four samples around each angle phi [rad] and their 4-point Lagrange weights.
+
+    Returns samples (4, arcs * Nx) in -1..N + 1 (sample j at angle 2 pi j / N) and weights
+    (4, arcs * Nx).
+    """
+    u = np.ravel(phi) * (n_phi / (2 * np.pi))
+    j0 = np.minimum(u.astype(int), n_phi - 1)
+    t = u - j0
+    weights = np.stack(
+        [
+            -t * (t - 1) * (t - 2) / 6,
+            (t + 1) * (t - 1) * (t - 2) / 2,
+            -(t + 1) * t * (t - 2) / 2,
+            (t + 1) * t * (t - 1) / 6,
+        ]
+    )
+    return j0 + np.arange(-1, 3)[:, None], weights
+
+
+@dataclass(frozen=True, eq=False)
+class PeriodicZreTable:
+    """The periodic path's z_re table (:class:`ZreTable` layout, drift 0), evaluated where it
+    is read.
+
+    The chip pattern is zero except on the few ``active`` angles of the cut, so z_re at a
+    sample j is a short sum over them: z_re[i, j] = sum_(part, p) amp Y_i^p
+    sum_m T_(part, p)[j, m] A_part[i, m] with the periodic impulse response of the exact
+    recurrence (:meth:`PeriodicRecurrence.impulse`) in the kernels T, the static correction on
+    their diagonal. :meth:`columns` evaluates the samples the surface reads (a few tens);
+    ``values``, the whole table by the harmonics (:func:`periodic_response`), is computed on
+    first use. parts: the force parts' geometries; amps [m^2 or m] their amplitudes times the
+    force scale; spindle_hz [Hz]; zeta (n,) modal damping.
+    """
+
+    parts: tuple[CutGeometry, ...]
+    amps: np.ndarray
+    spindle_hz: float
+    zeta: tuple[float, ...]
+    row_y: np.ndarray
+    row_knots: tuple[float, float, np.ndarray]
+    drift: float = 0.0
+
+    @cached_property
+    def values(self) -> np.ndarray:
+        """The whole table (rows, N + 3) [m], padded periodically (see :class:`ZreTable`)."""
+        geo = self.parts[0]
+        n = geo.n_phi
+        half = n // 2
+        kern = _periodic_kernels(self.parts, self.spindle_hz, self.zeta)
+        # z_re[k, i] = sum_(d, part, p) amp K[k, (d, part, p)] Y_i^p A_part[k - d, i]: one
+        # small product per harmonic over a strided view of the stacked spectra (no copy)
+        stacked = _stacked_spectra(geo.machine, n, geo.table_rows, self.part_names)
+        rows = stacked.shape[3]
+        view = np.lib.stride_tricks.as_strided(
+            stacked,
+            shape=(half + 1, 7 * stacked.shape[1] * 3, rows),
+            strides=(stacked.strides[0], stacked.strides[2], stacked.strides[3]),
+            writeable=False,
+        )
+        zk = np.matmul(kern * np.repeat(np.tile(self.amps, 7), 3), view)[:, 0]  # (N/2 + 1, M)
+        values = np.empty((rows, n + 3))
+        table = values[:, 1 : n + 1]
+        np.fft.irfft(zk.T, n=n, axis=1, out=table)
+        values[:, 0], values[:, n + 1 :] = table[:, -1], table[:, :2]
+        values.setflags(write=False)
+        return values
+
+    @property
+    def part_names(self) -> tuple[str, ...]:
+        """The force parts ("area", "edge") of ``parts``."""
+        return tuple(g.part for g in self.parts)
+
+    def columns(self, phi: np.ndarray) -> np.ndarray:
+        """Table columns at angles phi (arcs, Nx) [rad], 4-point Lagrange in phi [m]:
+        (rows, arcs * Nx), from the samples the stencils touch only."""
+        geo = self.parts[0]
+        n = geo.n_phi
+        plan = _column_plan(self.parts, tuple(np.ravel(phi).tolist()))
+        z = _recurrence(geo.basis, n, self.spindle_hz, self.zeta).impulse(plan.lags)
+        h = 2 * z.real.T  # q of the impulse response at the lags (L, n)
+        # kernels of c^(a) and w^(b) (a, b = 0: at Y = 0, 1: rate in Y) for each angle m
+        # and sample k: sum_s c^(a)_s[k] h_s[k - m] w^(b)_s[m]
+        active, samples = plan.lag_index.shape
+        ch = h[plan.lag_index][:, :, None, :] * plan.c  # (A, K, 2, n)
+        kern = np.matmul(ch.reshape(active, 2 * samples, -1), plan.w)
+        kern = kern.reshape(active, samples, 2, len(self.parts), 2)
+        powers = np.stack(  # of Y: p = a + b
+            [kern[..., 0, :, 0], kern[..., 0, :, 1] + kern[..., 1, :, 0], kern[..., 1, :, 1]],
+            axis=-1,
+        )  # (A, K, P, 3)
+        powers += plan.static
+        powers *= self.amps[:, None]
+        at_samples = powers.transpose(0, 2, 3, 1).reshape(-1, samples) @ plan.stencil
+        return plan.patterns @ at_samples
+
+
+@dataclass(frozen=True)
+class _ColumnPlan:
+    """Process-independent data of :meth:`PeriodicZreTable.columns` at C angles, which read
+    K samples.
+
+    lags (L,) the distinct lags (sample - active angle) mod N and lag_index (A, K) each pair's;
+    c (K, 2, n) the relative z translation at the samples at Y = 0 and its rate in Y [m, m/m];
+    w (A, n, 2 P) each part's modal force at the active angles at Y = 0 and its rate in Y;
+    static (A, K, P, 3) the static correction's z per power of Y where sample = angle;
+    stencil (K, C) the Lagrange weights of the samples at each angle;
+    patterns (M, A P 3) of :func:`_stacked_patterns`.
+    """
+
+    lags: np.ndarray
+    lag_index: np.ndarray
+    c: np.ndarray
+    w: np.ndarray
+    static: np.ndarray
+    stencil: np.ndarray
+    patterns: np.ndarray
+
+
+@lru_cache(maxsize=4)
+def _column_plan(parts: tuple[CutGeometry, ...], phi: tuple[float, ...]) -> _ColumnPlan:
+    """The :class:`_ColumnPlan` of angles ``phi`` [rad] (cached per geometry and angles)."""
+    geo = parts[0]
+    samples, weights = _cubic_weights(np.array(phi), geo.n_phi)
+    j, where = np.unique(np.mod(samples, geo.n_phi), return_inverse=True)
+    stencil = np.zeros((j.size, len(phi)))
+    for i in range(4):  # the four samples of a stencil are distinct
+        stencil[where.reshape(samples.shape)[i], np.arange(len(phi))] = weights[i]
+    active = np.flatnonzero(geo.active)
+    lags, lag_index = np.unique(np.mod(j - active[:, None], geo.n_phi), return_inverse=True)
+    c = np.stack([geo.c[:, j].T, np.broadcast_to(geo.c_y, (j.size, geo.c_y.size))], axis=1)
+    w = np.stack([a[:, active].T for g in parts for a in (g.w, g.w_y)], axis=2)
+    static = np.zeros((active.size, j.size, len(parts), 3))
+    hit_a, hit_k = np.nonzero(active[:, None] == j)
+    for i, g in enumerate(parts):
+        if g.static_tool is not None:  # the static correction acts at the sample itself
+            rel = g.static_tool[:, j[hit_k], 2] - g.static_work[:, j[hit_k], 2]
+            static[hit_a, hit_k, i] = rel.T
+    names = tuple(g.part for g in parts)
+    return _ColumnPlan(
+        lags,
+        lag_index.reshape(active.size, j.size),
+        c,
+        np.ascontiguousarray(w),
+        static,
+        stencil,
+        _stacked_patterns(geo.machine, geo.n_phi, geo.table_rows, names),
+    )
+
 
 @dataclass(frozen=True, eq=False)
 class Response:
@@ -451,7 +658,7 @@ class Response:
     z_re: np.ndarray
     period: float
     periods: int
-    table: ZreTable
+    table: ZreTable | PeriodicZreTable
 
 
 def _outputs(geo: CutGeometry, j, slide, q, qd, qdd, spindle_hz: float):
@@ -468,73 +675,49 @@ def _outputs(geo: CutGeometry, j, slide, q, qd, qdd, spindle_hz: float):
     arm_work = geo.tip[j] - b.body_centers[m.workpiece_body]
     arm_work[:, 1] += slide
     moved = q.T @ np.concatenate([tool, work], axis=1)  # (T, 12) both bodies' motions
-    disp = [
-        moved[:, :3] + _cross(moved[:, 3:6], arm_tool),
-        moved[:, 6:9] + _cross(moved[:, 9:], arm_work),
-    ]
     om = 2 * np.pi * spindle_hz
     accel = qdd.T @ tool  # (T, 6)
-    acc = (
-        accel[:, :3]
-        + _cross(accel[:, 3:], arm_tool)
-        + 2 * _cross(qd.T @ tool[:, 3:], om * geo.dtip[j])
-        + _cross(moved[:, 3:6], om**2 * geo.ddtip[j])
-    )
-    return disp[0], acc, disp[1]
+    rot = np.stack([moved[:, 3:6], moved[:, 9:], accel[:, 3:], qd.T @ tool[:, 3:], moved[:, 3:6]])
+    arm = np.stack([arm_tool, arm_work, arm_tool, 2 * om * geo.dtip[j], om**2 * geo.ddtip[j]])
+    turn = _cross(rot, arm)  # (5, T, 3)
+    acc = accel[:, :3] + turn[2] + turn[3] + turn[4]
+    return moved[:, :3] + turn[0], acc, moved[:, 6:9] + turn[1]
 
 
 def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """a x b for (T, 3) arrays (np.cross without its axis handling: the record window's
-    outputs take five of them per response)."""
-    a0, a1, a2 = a[:, 0], a[:, 1], a[:, 2]
-    b0, b1, b2 = b[:, 0], b[:, 1], b[:, 2]
-    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=1)
+    """a x b for (..., 3) arrays (np.cross without its axis handling)."""
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
 
 
 def periodic_response(geo, process, zeta=DEFAULT_ZETA, force_scale: float = 1.0) -> Response:
     """Periodic steady state at each tabulated slide position (path b).
 
-    Per harmonic k: z_re[k] = sum_s sum_l c_hat[s,l] H_s[k-l] sum_m w_hat[s,m] A[k-l-m]
-    = sum_d K_d[k] A[k-d], with A the spectrum of the chip factor (``spectra`` of ``geo``) and
-    H_s the receptance of :func:`discrete_receptance`; with the workpiece arm's Y terms the
-    kernels are a quadratic in Y, sum_p Y^p K_pd. The record window is one spindle period at
-    the slide position of :func:`record_slide`. The kernels and the record window's modal
-    spectra per unit pattern depend on the spindle speed only: they are cached per (geometry,
-    spindle speed, damping), so another feed or depth at a known spindle speed costs the
-    scaled sum over k and one inverse FFT.
+    The table (:class:`PeriodicZreTable`) is evaluated where it is read: at the few samples
+    of the cut the surface reads, by the periodic impulse response over the active angles; the
+    whole table by the harmonics on first use of its ``values``: per harmonic k,
+    z_re[k] = sum_s sum_l c_hat[s,l] H_s[k-l] sum_m w_hat[s,m] A[k-l-m] = sum_d K_d[k] A[k-d],
+    with A the spectrum of the chip factor (``spectra`` of ``geo``) and H_s the receptance of
+    :func:`discrete_receptance`; with the workpiece arm's Y terms the kernels are a quadratic
+    in Y, sum_p Y^p K_pd. The record window is one spindle period at the slide position of
+    :func:`record_slide`: the modal force there summed over the cut's angles with the periodic
+    impulse response, free decay after them (:class:`PeriodicRecurrence`, cached per spindle
+    speed and damping; the force per unit amplitude cached per geometry).
 
     ``geo``: one :class:`CutGeometry` or a sequence of them, the force parts of one force on
-    the same basis, machine, n_phi and table rows: their spectra are summed (each times its
-    part's amplitude) before the inverse FFT, so the parts cost one transform.
+    the same basis, machine, n_phi and table rows: their responses are summed (each times its
+    part's amplitude) before any transform, so the parts cost one.
     """
     parts = (geo,) if isinstance(geo, CutGeometry) else tuple(geo)
     geo = parts[0]
     zeta = modal_damping(zeta, geo.basis.n_modes)
     f = process.spindle_hz
     n = geo.n_phi
-    half = n // 2
     amps = np.array([force_scale * part_amplitude(process, geo.machine, g.part) for g in parts])
-    kern, hq, hv = _periodic_kernels(parts, f, tuple(zeta.tolist()))
-    # z_re[k, i] = sum_(d, part, p) amp K[k, (d, part, p)] Y_i^p A_part[k - d, i]: one small
-    # product per harmonic over a strided view of the stacked spectra (no copy)
-    stacked = _stacked_spectra(geo.machine, n, geo.table_rows, tuple(g.part for g in parts))
-    rows = stacked.shape[3]
-    view = np.lib.stride_tricks.as_strided(
-        stacked,
-        shape=(half + 1, 7 * stacked.shape[1] * 3, rows),
-        strides=(stacked.strides[0], stacked.strides[2], stacked.strides[3]),
-        writeable=False,
-    )
-    zk = np.matmul(kern * np.repeat(np.tile(amps, 7), 3), view)[:, 0]  # (N/2 + 1, M)
-    values = np.empty((rows, n + 3))
-    table = values[:, 1 : n + 1]
-    np.fft.irfft(zk.T, n=n, axis=1, out=table)
-    values[:, 0], values[:, n + 1 :] = table[:, -1], table[:, :2]
-
     units = [_record_unit(g) for g in parts]
-    fk = sum(amp * u.fk for amp, u in zip(amps, units, strict=True))
-    q, qd = np.split(np.fft.irfft(np.concatenate([hq * fk, hv * fk]), n=n, axis=1), 2)
     fs = sum(amp * u.fs for amp, u in zip(amps, units, strict=True))
+    q, qd = _periodic_state(_recurrence(geo.basis, n, f, tuple(zeta.tolist())), fs, geo.active)
     b = geo.basis
     qdd = fs - (2 * zeta * b.omega)[:, None] * qd - (b.omega**2)[:, None] * q
     y_rec = record_slide(geo.machine)
@@ -554,8 +737,48 @@ def periodic_response(geo, process, zeta=DEFAULT_ZETA, force_scale: float = 1.0)
         z_re=tip[:, 2] - work[:, 2],
         period=1.0 / f,
         periods=1,
-        table=ZreTable(values, geo.table_y, 0.0, geo.row_knots),
+        table=PeriodicZreTable(parts, amps, f, tuple(zeta.tolist()), geo.table_y, geo.row_knots),
     )
+
+
+@lru_cache(maxsize=4)  # ~0.3 MiB each
+def _recurrence(basis: ModalBasis, n_phi: int, spindle_hz: float, zeta: tuple):
+    """:func:`periodic_recurrence` of the basis at the spindle frequency [Hz] (cached per
+    spindle speed and damping)."""
+    return periodic_recurrence(basis.omega, np.array(zeta), 1 / (spindle_hz * n_phi), n_phi)
+
+
+@lru_cache(maxsize=8)
+def _cut_run(active: bytes):
+    """The circular run of the ``active`` samples (N bools as bytes): its first sample and
+    length, the distinct lags (L,) between its samples mod N and each pair's (A, A)."""
+    active = np.frombuffer(active, dtype=bool)
+    n = active.size
+    first = int(np.flatnonzero(active & ~np.roll(active, 1))[0])
+    a = int(np.count_nonzero(active))
+    lags, pairs = np.unique(
+        np.mod(np.subtract.outer(np.arange(a), np.arange(a)), n), return_inverse=True
+    )
+    return first, a, lags, pairs.reshape(a, a)
+
+
+def _periodic_state(recurrence: PeriodicRecurrence, force: np.ndarray, active: np.ndarray):
+    """Periodic steady state (q, q') (n, N) [m, m/s per unit modal force] of the recurrence
+    under the modal force (n, N), zero outside the circular run of ``active`` (N,) samples.
+
+    Within the run: its sum with the periodic impulse response; after it, the free decay E^l
+    of the state after the run's last sample.
+    """
+    first, a, lags, pairs = _cut_run(active.tobytes())
+    n = active.size
+    f = np.roll(force, -first, axis=1)[:, :a]
+    inside = np.einsum("sjm,sm->sj", recurrence.impulse(lags)[:, pairs], f)
+    after = recurrence.e * inside[:, -1] + recurrence.b1 * f[:, -1]  # no force there
+    x = np.empty(force.shape, complex)  # from the run's first sample on
+    x[:, :a] = inside
+    np.multiply(recurrence.powers[:, : n - a], after[:, None], out=x[:, a:])
+    x = np.roll(x, first, axis=1)
+    return 2 * x.real, 2 * (recurrence.lam[:, None] * x).real
 
 
 @lru_cache(maxsize=2)  # ~4.7 MiB each (two parts, 192 rows); machine-only
@@ -569,29 +792,40 @@ def _stacked_spectra(machine: Machine, n_phi: int, table_rows: int, parts: tuple
     return out
 
 
+@lru_cache(maxsize=2)  # machine-only
+def _stacked_patterns(machine: Machine, n_phi: int, table_rows: int, parts: tuple[str, ...]):
+    """The parts' chip patterns on the active angles times Y^p at each row, (M, A P 3) in the
+    order (angle, part, power p) (cached per machine: every design of a sweep shares it)."""
+    tables = [_pattern_tables(machine, n_phi, table_rows, part) for part in parts]
+    powers = tables[0][0][:, None, None, None] ** np.arange(3)  # (M, 1, 1, 3)
+    out = (np.stack([t[4] for t in tables], axis=2)[..., None] * powers).reshape(
+        powers.shape[0], -1
+    )
+    out.setflags(write=False)
+    return out
+
+
 @lru_cache(maxsize=16)
 def _periodic_kernels(parts: tuple[CutGeometry, ...], spindle_hz: float, zeta: tuple):
-    """Kernels and receptances of :func:`periodic_response` (cached per spindle speed).
+    """Kernels of :attr:`PeriodicZreTable.values` (cached per spindle speed).
 
     Returns kern (N/2 + 1, 1, 21 P): for harmonic k and (shift, part, power p of Y) the kernel
     K_pd[k] of that part with d = 3 - shift (the order of the strided spectra view), the
-    static correction's coefficients included (:class:`CutGeometry` ``static_hat``), and
-    hq, hv (n, N/2 + 1) the receptances at harmonics 0..N/2.
+    static correction's coefficients included (:class:`CutGeometry` ``static_hat``).
     """
     geo = parts[0]
     n = geo.n_phi
     half = n // 2
-    dt = 1.0 / (spindle_hz * n)
     k = np.arange(-1, half + 2)
-    hq, hv = discrete_receptance(geo.basis.omega, np.array(zeta), dt, 2 * np.pi * k / n)
+    hq, _ = discrete_receptance(
+        geo.basis.omega, np.array(zeta), 1 / (spindle_hz * n), 2 * np.pi * k / n
+    )
     # one product of the receptances, shifted by each output harmonic l, with the coefficients
     coef, static = _kernel_coefficients(parts)
     shifted = np.concatenate([hq.T[1 - l : half + 2 - l] for l in _HARM_C], axis=1)  # (K, 3n)
     kern = (shifted @ coef + static).reshape(half + 1, 1, -1)
-    hq, hv = hq[:, 1 : half + 2], hv[:, 1 : half + 2]
-    for a in (kern, hq, hv):
-        a.setflags(write=False)
-    return kern, hq, hv
+    kern.setflags(write=False)
+    return kern
 
 
 @lru_cache(maxsize=8)
@@ -627,12 +861,10 @@ def _kernel_coefficients(parts: tuple[CutGeometry, ...]) -> tuple[np.ndarray, np
 class _RecordUnit:
     """Record-window quantities of one force part per unit amplitude (process-independent).
 
-    fk (n, N/2 + 1) half spectrum of the modal force; fs (n, N) the modal force; force (N, 3)
-    the force on the tool [N per unit]; static_tip, static_work (N, 3) or None the static
-    correction's displacements.
+    fs (n, N) the modal force; force (N, 3) the force on the tool [N per unit]; static_tip,
+    static_work (N, 3) or None the static correction's displacements.
     """
 
-    fk: np.ndarray
     fs: np.ndarray
     force: np.ndarray
     static_tip: np.ndarray | None
@@ -643,24 +875,18 @@ class _RecordUnit:
 def _record_unit(geo: CutGeometry) -> _RecordUnit:
     """The record window of :func:`periodic_response` per unit amplitude (cached per geometry)."""
     n = geo.n_phi
-    half = n // 2
     y_rec = record_slide(geo.machine)
     chip = chip_factor_cells(geo.phases, y_rec, geo.machine, 2 * np.pi / n, geo.part)
-    chip_ext = _extend(np.fft.rfft(chip))
-    w_hat = geo.w_hat + y_rec * geo.w_y_hat
-    fk = w_hat[:, :1] * chip_ext[None, 5 : 5 + half + 1]
-    for mi in range(1, 5):
-        fk += w_hat[:, mi : mi + 1] * chip_ext[None, 5 - mi : 5 - mi + half + 1]
     fs = (geo.w + y_rec * geo.w_y) * chip
     force = chip[:, None] * force_vector(geo.phases, geo.machine, geo.coefficients, geo.part)
     static_tip = static_work = None
     if geo.static_tool is not None:
         s_tool, s_work = geo.static_at(np.arange(n), np.full(n, y_rec))
         static_tip, static_work = chip[:, None] * s_tool, chip[:, None] * s_work
-    for a in (fk, fs, force, static_tip, static_work):
+    for a in (fs, force, static_tip, static_work):
         if a is not None:
             a.setflags(write=False)
-    return _RecordUnit(fk, fs, force, static_tip, static_work)
+    return _RecordUnit(fs, force, static_tip, static_work)
 
 
 def time_response(

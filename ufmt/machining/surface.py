@@ -39,12 +39,12 @@ psd2_patch=...)``), as a shop measures PSD2 on sub-apertures.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import lru_cache
+from functools import cached_property, lru_cache
 
 import numpy as np
-from scipy.fft import next_fast_len
+import scipy.fft
 
-from ufmt.machining.response import ZreTable
+from ufmt.machining.response import PeriodicZreTable, ZreTable
 from ufmt.model.machine import Machine
 
 #: Grid spacing (x, y) [m]: x finer, as the x-profile of a pass carries the vibration of the
@@ -82,7 +82,7 @@ class Surface:
         """Boolean mask (Ny,) of the evenly spaced rows."""
         return np.ones(self.y.size, bool) if self.core is None else self.core
 
-    @property
+    @cached_property
     def spacing(self) -> tuple[float, float]:
         """Spacing (hx, hy) [m] of the evenly spaced grid."""
         y = self.y[self.core_rows]
@@ -108,7 +108,7 @@ def _grid(machine: Machine, spacing, window=None):
             raise ValueError(f"window {window!r} must lie inside the plate")
     # nodes on the edges, at most ``spacing`` apart; counts rounded up to fast FFT lengths
     nx, ny = (
-        next_fast_len(int(np.ceil(v / h - 1e-9)) + 1, real=True)
+        scipy.fft.next_fast_len(int(np.ceil(v / h - 1e-9)) + 1, real=True)
         for v, h in ((x1 - x0, hx), (y1 - y0, hy))
     )
     x = np.linspace(x0, x1, nx)
@@ -136,9 +136,9 @@ class Passes:
     x (Nx,), y (Ny,) grid [m] and core (Ny,) its evenly spaced rows (see :class:`Surface`);
     phi (arcs, Nx) [rad] the pass angle of each column, cos its cosine; frac (Ny, arcs, Nx)
     how far the point lies from the earlier pass's path towards the later one (0..1, in
-    revolutions); slide_lo (Ny, arcs, Nx) [m] the slide position of the earlier pass, the later
-    one ``feed_per_rev`` further. Every term of the surface is a pair (earlier, later) of
-    heights on this layout; :meth:`lower` takes the lower pass (tool interference).
+    revolutions); slide (2, Ny, arcs, Nx) [m] the slide positions of the earlier and the later
+    pass (``feed_per_rev`` further). Every term of the surface is an array of heights (earlier,
+    later) broadcasting to ``slide``; :meth:`lower` takes the lower pass (tool interference).
     """
 
     x: np.ndarray
@@ -147,44 +147,47 @@ class Passes:
     phi: np.ndarray
     cos: np.ndarray
     frac: np.ndarray
-    slide_lo: np.ndarray
+    slide: np.ndarray
     feed_per_rev: float
     spacing: tuple[float, float]
     window: tuple | None
 
-    def dynamic(self, table: ZreTable, machine: Machine) -> tuple[np.ndarray, np.ndarray]:
+    def dynamic(self, table: ZreTable | PeriodicZreTable, machine: Machine) -> np.ndarray:
         """z_re of ``table`` [m] at both passes (cubic in phi, linear in the table's rows)."""
         arcs = self.phi.shape[0]
         pairs = _table_pairs(table, machine, self.spacing, self.window, arcs)
-        y_lo = self.slide_lo - table.drift * (self.phi / (2 * np.pi))
+        slide = self.slide - table.drift * (self.phi / (2 * np.pi)) if table.drift else self.slide
         columns = np.arange(self.phi.size).reshape(arcs, -1)
-        return (
-            _lookup(pairs, table.row_knots, y_lo, columns),
-            _lookup(pairs, table.row_knots, y_lo + self.feed_per_rev, columns),
-        )
+        return _lookup(pairs, table.row_knots, slide, columns)
 
-    def geometric(self, geometric) -> tuple[np.ndarray, np.ndarray]:
+    def geometric(self, geometric) -> np.ndarray:
         """Heights [m] of a geometric z(phi, Y) (:func:`~ufmt.machining.sources.geometric_z`)."""
-        return geometric(self.phi, self.slide_lo), geometric(
-            self.phi, self.slide_lo + self.feed_per_rev
-        )
+        return geometric(self.phi, self.slide)
 
-    def feed_marks(self, nose_radius: float) -> tuple[np.ndarray, np.ndarray]:
+    def feed_marks(self, nose_radius: float) -> np.ndarray:
         """Nose scallops [m]: d^2 / (2 r_n) at normal distance d from each pass's path."""
         d2 = (self.feed_per_rev * self.cos) ** 2 / (2 * nose_radius)
-        return self.frac**2 * d2, (1 - self.frac) ** 2 * d2
+        return np.stack([self.frac, 1 - self.frac]) ** 2 * d2
 
     def lower(self, terms) -> Surface:
-        """The surface of the summed ``terms`` (pairs of heights): the lower pass everywhere."""
+        """The surface of the summed ``terms`` (heights at both passes): the lower pass
+        everywhere."""
         terms = list(terms)
-        if terms:
-            z_lo = sum(t[0] for t in terms)
-            z_hi = sum(t[1] for t in terms)
-            z = np.minimum(z_lo, z_hi)
-        else:
-            z = np.zeros(self.frac.shape)
+        z = sum(terms[1:], terms[0]) if terms else np.zeros(())
+        if np.ndim(z) == self.slide.ndim:  # else the same at both passes
+            z = np.minimum(z[0], z[1])
         z = np.broadcast_to(z, self.frac.shape)
         return Surface(self.x, self.y, z.min(axis=1) if z.shape[1] > 1 else z[:, 0], self.core)
+
+    def pv_each(self, terms) -> list[float]:
+        """PV [m] of the surface of each of ``terms`` alone (its :meth:`lower`)."""
+        pv = []
+        for z in terms:
+            if np.ndim(z) == self.slide.ndim:  # else the same at both passes
+                z = np.minimum(z[0], z[1])
+            z = np.min(z, axis=-2)  # the lower arc (a term of phi alone is the same on every row)
+            pv.append(float(z.max() - z.min()))
+        return pv
 
 
 def surface_passes(
@@ -208,12 +211,13 @@ def surface_passes(
     # revolutions since Y_start when the arc passes the point; the two bracketing revolutions
     rho = (y[:, None, None] - machine.tool_radius * cos - y_start) / feed_per_rev - turn
     k = np.floor(rho)
-    slide_lo = y_start + feed_per_rev * (k + turn)  # slide position of the earlier pass
-    return Passes(x, y, core, phi, cos, rho - k, slide_lo, feed_per_rev, spacing, window)
+    slide = y_start + feed_per_rev * (k + turn)  # slide position of the earlier pass
+    slide = np.stack([slide, slide + feed_per_rev])
+    return Passes(x, y, core, phi, cos, rho - k, slide, feed_per_rev, spacing, window)
 
 
 def machined_surface(
-    table: ZreTable | None,
+    table: ZreTable | PeriodicZreTable | None,
     machine: Machine,
     feed_per_rev: float,
     spacing=DEFAULT_SPACING,
@@ -250,31 +254,14 @@ def machined_surface(
 
 
 @lru_cache(maxsize=1)  # one simulation reads its table for the total and each source alone
-def _table_pairs(table: ZreTable, machine: Machine, spacing, window, arcs: int) -> np.ndarray:
-    """:func:`_columns` of ``table`` at the grid's pass angles, each row with the next one as
-    its imaginary part: (rows - 1, arcs * Nx) complex, so that a lookup is one gather of both
-    (cached per table, grid)."""
-    phi = _grid(machine, spacing, window)[3][:arcs]
-    cols = _columns(table.values, phi)
+def _table_pairs(table, machine: Machine, spacing, window, arcs: int) -> np.ndarray:
+    """The table's columns at the grid's pass angles (``table.columns``), each row with the
+    next one as its imaginary part: (rows - 1, arcs * Nx) complex, so that a lookup is one
+    gather of both (cached per table, grid)."""
+    cols = table.columns(_grid(machine, spacing, window)[3][:arcs])
     pairs = cols[:-1] + 1j * cols[1:]
     pairs.setflags(write=False)
     return pairs
-
-
-def _columns(values: np.ndarray, phi: np.ndarray) -> np.ndarray:
-    """Table columns at angles phi (arcs, Nx), 4-point Lagrange in phi: (rows, arcs * Nx)."""
-    rows, n3 = values.shape
-    u = phi * ((n3 - 3) / (2 * np.pi))
-    j0 = np.minimum(u.astype(int), n3 - 4)
-    t = u - j0
-    w = (
-        -t * (t - 1) * (t - 2) / 6,
-        (t + 1) * (t - 1) * (t - 2) / 2,
-        -(t + 1) * t * (t - 2) / 2,
-        (t + 1) * t * (t - 1) / 6,
-    )
-    cols = sum(values[:, j0 + i] * w[i] for i in range(4))
-    return cols.reshape(rows, -1)
 
 
 def _lookup(pairs: np.ndarray, row_knots, slide: np.ndarray, columns: np.ndarray) -> np.ndarray:
@@ -349,7 +336,7 @@ def band_rms(surface: Surface) -> dict[str, float]:
     flat = z - _plane(x, y, z)
     hx, hy = surface.spacing
     win, norm, masks = _spectral(x.size, y.size, hx, hy)
-    power = np.abs(np.fft.rfft2(flat * win)) ** 2
+    power = np.abs(scipy.fft.rfft2(flat * win)) ** 2
     return {
         f"{name}_rms_nm": float(np.sqrt(np.sum(power * mask)) * norm) * 1e9
         if band_resolved(surface, name)
@@ -358,12 +345,48 @@ def band_rms(surface: Surface) -> dict[str, float]:
     }
 
 
+@dataclass(frozen=True)
+class _GridFit:
+    """Process-independent parts of the plane and Legendre fits on an evenly spaced grid.
+
+    xc (Nx,), yc (Ny,) the coordinates less their means [m] and xx, yy their sums of squares
+    [m^2]; fu (6, Nx), gv (6, Ny) the factors of the six Legendre terms (each f(u) g(v)) and
+    normal (6, 6) their normal equations.
+    """
+
+    xc: np.ndarray
+    yc: np.ndarray
+    xx: float
+    yy: float
+    fu: np.ndarray
+    gv: np.ndarray
+    normal: np.ndarray
+
+
+def _grid_fit(x: np.ndarray, y: np.ndarray) -> _GridFit:
+    """The :class:`_GridFit` of the grid x (Nx,), y (Ny,) [m] (cached per grid)."""
+    return _grid_fit_of(x.tobytes(), y.tobytes())
+
+
+@lru_cache(maxsize=16)
+def _grid_fit_of(x_bytes: bytes, y_bytes: bytes) -> _GridFit:
+    x, y = np.frombuffer(x_bytes), np.frombuffer(y_bytes)
+    xc, yc = x - x.mean(), y - y.mean()
+    u = (2 * x - x[0] - x[-1]) / (x[-1] - x[0])
+    v = (2 * y - y[0] - y[-1]) / (y[-1] - y[0])
+    one_u, one_v = np.ones_like(u), np.ones_like(v)
+    fu = np.stack([one_u, u, one_u, 1.5 * u**2 - 0.5, u, one_u])  # (6, Nx)
+    gv = np.stack([one_v, one_v, v, one_v, v, 1.5 * v**2 - 0.5])  # (6, Ny)
+    normal = (fu @ fu.T) * (gv @ gv.T)
+    return _GridFit(xc, yc, float(xc @ xc), float(yc @ yc), fu, gv, normal)
+
+
 def _plane(x: np.ndarray, y: np.ndarray, z: np.ndarray) -> np.ndarray:
     """Best-fit plane of z (Ny, Nx) on an evenly spaced grid (three means: 1, x, y orthogonal)."""
-    xc, yc = x - x.mean(), y - y.mean()
-    bx = (z @ xc).sum() / (y.size * (xc @ xc))
-    by = (yc @ z).sum() / (x.size * (yc @ yc))
-    return z.mean() + bx * xc[None, :] + by * yc[:, None]
+    g = _grid_fit(x, y)
+    bx = (z @ g.xc).sum() / (y.size * g.xx)
+    by = (g.yc @ z).sum() / (x.size * g.yy)
+    return z.mean() + bx * g.xc[None, :] + by * g.yc[:, None]
 
 
 def _legendre_fit(x: np.ndarray, y: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -373,17 +396,22 @@ def _legendre_fit(x: np.ndarray, y: np.ndarray, z: np.ndarray) -> tuple[np.ndarr
     (P2(u), u v, P2(v) with u, v the coordinates scaled to [-1, 1]), both (Ny, Nx). Every term
     is a product f(u) g(v), so the normal equations are sums over u and v separately.
     """
-    u = (2 * x - x[0] - x[-1]) / (x[-1] - x[0])
-    v = (2 * y - y[0] - y[-1]) / (y[-1] - y[0])
-    one_u, one_v = np.ones_like(u), np.ones_like(v)
-    fu = np.stack([one_u, u, one_u, 1.5 * u**2 - 0.5, u, one_u])  # (6, Nx)
-    gv = np.stack([one_v, one_v, v, one_v, v, 1.5 * v**2 - 0.5])  # (6, Ny)
-    normal = (fu @ fu.T) * (gv @ gv.T)
-    rhs = ((gv @ z) * fu).sum(axis=1)
-    coef = np.linalg.solve(normal, rhs)
-    fit = (gv.T * coef) @ fu
-    form = (gv[3:].T * coef[3:]) @ fu[3:]
+    g = _grid_fit(x, y)
+    rhs = ((g.gv @ z) * g.fu).sum(axis=1)
+    coef = np.linalg.solve(g.normal, rhs)
+    fit = (g.gv.T * coef) @ g.fu
+    form = (g.gv[3:].T * coef[3:]) @ g.fu[3:]
     return fit, form
+
+
+def _pv(z: np.ndarray) -> float:
+    """Peak to valley of z [its unit] (np.ptp without its dispatch)."""
+    return float(z.max() - z.min())
+
+
+def _rms(z: np.ndarray) -> float:
+    """Root mean square of z [its unit]."""
+    return float(np.sqrt(np.square(z).sum() / z.size))
 
 
 def surface_metrics(
@@ -406,7 +434,7 @@ def surface_metrics(
     x, y, z = surface.x, surface.y[core], surface.z[core]
     plane = _plane(x, y, z)
     # the plane extended to every row (the refined edge rows too)
-    xc, yc = x - x.mean(), surface.y - y.mean()
+    xc, yc = _grid_fit(x, y).xc, surface.y - y.mean()
     slope_x = (plane[0, -1] - plane[0, 0]) / (x[-1] - x[0])
     slope_y = (plane[-1, 0] - plane[0, 0]) / (y[-1] - y[0])
     plane_all = plane.mean() + slope_x * xc[None, :] + slope_y * yc[:, None]
@@ -420,15 +448,16 @@ def surface_metrics(
     aperture = surface.z[np.ix_(in_y, in_x)]
     flat_aperture = flat[np.ix_(in_y[core], in_x)]
     fit, form = _legendre_fit(x, y, z)
+    waviness = z - fit
     out = {
-        "pv_nm": float(np.ptp(surface.z)) * 1e9,
-        "pv_tilt_removed_nm": float(np.ptp(surface.z - plane_all)) * 1e9,
-        "rms_nm": float(np.sqrt(np.mean(flat**2))) * 1e9,
-        "pv_aperture_nm": float(np.ptp(aperture)) * 1e9,
-        "rms_aperture_nm": float(np.sqrt(np.mean(flat_aperture**2))) * 1e9,
-        "form_pv_nm": float(np.ptp(form)) * 1e9,
-        "waviness_pv_nm": float(np.ptp(z - fit)) * 1e9,
-        "waviness_rms_nm": float(np.sqrt(np.mean((z - fit) ** 2))) * 1e9,
+        "pv_nm": _pv(surface.z) * 1e9,
+        "pv_tilt_removed_nm": _pv(surface.z - plane_all) * 1e9,
+        "rms_nm": _rms(flat) * 1e9,
+        "pv_aperture_nm": _pv(aperture) * 1e9,
+        "rms_aperture_nm": _rms(flat_aperture) * 1e9,
+        "form_pv_nm": _pv(form) * 1e9,
+        "waviness_pv_nm": _pv(waviness) * 1e9,
+        "waviness_rms_nm": _rms(waviness) * 1e9,
     }
     out.update(band_rms(surface if band_surface is None else band_surface))
     out["grid_spacing_mm"] = max(surface.spacing) * 1e3

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import copy
 import datetime
+import functools
 import math
 import numbers
 import re
@@ -95,6 +96,7 @@ _STIFFNESS_ALLOWED = ">= 0, 0 = released, inf = rigid"
 # public API
 
 
+@functools.cache
 def packaged_path(name: str = "ufmt.toml") -> Path:
     """A file packaged in ``ufmt/data`` (default: the calibrated UFMT model)."""
     return Path(str(resources.files("ufmt") / "data" / name))
