@@ -659,9 +659,12 @@ def test_paper_trends_hold_in_a_small_sweep_of_the_model(tmp_path, monkeypatch):
         rows = table[table["group"] == group].sort_values(group)
         return rows["pv_nm"].to_numpy()
 
-    # paper section 4.3: stiffer angular head bearing, faster spindle, lower feed, smaller
-    # depth of cut each give a smoother surface
-    assert np.all(np.diff(pv("head_angular_stiffness_Nm_rad")) < 0)
+    # paper section 4.3: faster spindle, lower feed, smaller depth of cut each give a smoother
+    # surface. (Its stiffer angular head bearing is not reproduced on the calibrated model: the
+    # total PV moves by ~1 %, not monotonically over 0.3x-3x, through the geometric sources;
+    # the vibration part rises: tests/test_paper_findings.py, a strict expected failure.)
+    angular = pv("head_angular_stiffness_Nm_rad")
+    assert np.ptp(angular) < 0.02 * angular.mean()  # the finding reported in the README
     assert np.all(np.diff(pv("rpm")) < 0)
     assert np.all(np.diff(pv("feed_mm_min")) > 0)
     assert np.all(np.diff(pv("depth_um")) > 0)
