@@ -39,9 +39,16 @@ from ufmt.errors import StudyError
 from ufmt.model.machine import Machine
 from ufmt.model.schema import Model
 
-PARAMETER_KEYS = ("key", "band", "start", "scale", "unit", "reason")
+PARAMETER_KEYS = ("key", "band", "start", "scale", "unit", "reason", "fit")
 TARGET_KEYS = ("metric", "reference", "factor", "kind", "unit", "scale_nm", "weight", "note")
-RESPONSE_KEYS = ("method", "diff_step", "max_evaluations", "starts", "parameter", "target")
+RESPONSE_KEYS = (
+    "method",
+    "diff_step",
+    "max_evaluations",
+    "starts",
+    "parameter",
+    "target",
+)
 KINDS = ("value", "positive")
 SCALES = ("log", "linear")
 CENTRE_FRACTION = 0.5  # the "middle part": the central half of the plate in x and in y
@@ -58,6 +65,7 @@ class FitParameter:
     scale: str = "log"
     unit: str = ""
     reason: str = ""
+    fit: bool = True  # False: held at ``start`` (a documented value the data cannot identify)
 
     def _map(self, value: float) -> float:
         return math.log(value) if self.scale == "log" else value
@@ -167,6 +175,9 @@ def read_response_settings(table, reference: Mapping, where: str) -> ResponseSet
         start = _number(label, t, "start")
         if not band[0] <= start <= band[1]:
             _fail(label, f"field 'start': {start!r} must lie in the band {band!r}")
+        fit = t.get("fit", True)
+        if not isinstance(fit, bool):
+            _fail(label, f"field 'fit': {fit!r} must be true or false")
         if t["key"] not in known:
             skipped.append(t["key"])
             continue
@@ -178,6 +189,7 @@ def read_response_settings(table, reference: Mapping, where: str) -> ResponseSet
                 scale,
                 str(t.get("unit", "")),
                 str(t.get("reason", "")),
+                fit,
             )
         )
     targets = []
@@ -317,7 +329,9 @@ def fit_response(
     from ufmt.machining.modal import modal_basis
 
     basis = modal_basis(model) if basis is None else basis
-    params = settings.parameters
+    held = {p.key: p.start for p in settings.parameters if not p.fit}
+    model = with_values(model, held)
+    params = tuple(p for p in settings.parameters if p.fit)
 
     def metrics_at(x) -> dict[str, float]:
         values = {p.key: p.from_x(v) for p, v in zip(params, x, strict=True)}
@@ -346,7 +360,8 @@ def fit_response(
                     max_nfev=settings.max_evaluations,
                 )
                 x, evaluations = sol.x, evaluations + int(sol.nfev)
-            values = {p.key: float(rounded(p.from_x(v))[0]) for p, v in zip(params, x, strict=True)}
+            fitted = {p.key: float(rounded(p.from_x(v))[0]) for p, v in zip(params, x, strict=True)}
+            values = {p.key: (held | fitted)[p.key] for p in settings.parameters}
             final = response_metrics(with_values(model, values), process, basis, settings.method)
             res = np.array([t.residual(final[t.metric]) for t in settings.targets])
             if best is None or res @ res < best[2] @ best[2]:
