@@ -180,3 +180,24 @@ def test_restarts_keep_the_lowest_cost_and_stay_deterministic(model, basis):
     assert max(alone) > 2 * min(alone)  # the restarts matter here
     assert fit.cost == pytest.approx(min(alone), rel=1e-9)
     assert fit_response(model, several, REFERENCE, basis).values == fit.values
+
+
+def test_held_parameters_keep_their_documented_value(model, basis):
+    """``fit = false``: the key is applied at its start value and not searched (oracle: the
+    metrics at that value are the fit's); a non-boolean flag is one clear error."""
+    truth = response_metrics(with_values(model, TRUTH), REFERENCE, basis, "periodic")
+    reference = {"truth": {"zre_peak_nm": truth["zre_peak_nm"]}}
+    parameters = [
+        {"key": "force_scale", "band": [0.3, 3.0], "start": 1.0},
+        {"key": "spindle_tilt_rad", "band": [0.0, 2e-5], "start": 4e-6, "scale": "linear"},
+    ]
+    parameters[1]["fit"] = False
+    targets = [{"metric": "zre_peak_nm", "reference": "truth.zre_peak_nm"}]
+    fit = fit_response(model, _settings(parameters, targets, reference), REFERENCE, basis)
+    assert fit.values["spindle_tilt_rad"] == 4e-6
+    assert fit.values["force_scale"] == pytest.approx(TRUTH["force_scale"], rel=1e-5)
+    held = response_metrics(with_values(model, fit.values), REFERENCE, basis, "periodic")
+    assert fit.metrics == pytest.approx(held, rel=1e-12, nan_ok=True)
+    parameters[1]["fit"] = "no"
+    with pytest.raises(StudyError, match="field 'fit'"):
+        _settings(parameters, targets, reference)
