@@ -386,11 +386,12 @@ def _newton(system, omega, lo, hi, mult, rtol):
             # columns of U_all constant in ω (identity blocks of segments, rigid hinge
             # rows...) add nothing to tr(U⁻¹ dU): solve only for the others
             moving = np.flatnonzero(np.any(u[1] != u[0], axis=(0, 1)))
+            c_moving = c[:, :, moving]
         u0 = u[0]
         du = u[1][:, :, moving]
         du -= u0[:, :, moving]
         du *= r[act] / h[:, None, None]
-        du *= c[act][:, :, moving]
+        du *= c_moving[act]
         u0 *= r[act]
         u0 *= c[act]
         with np.errstate(all="ignore"):
@@ -398,7 +399,7 @@ def _newton(system, omega, lo, hi, mult, rtol):
             # Aberth: the other clusters' current roots are divided out of det U_all
             others = mult[None, :] / (wa[:, None] - w[None, :])
             others[np.arange(act.size), act] = 0.0
-            trace = np.einsum("nii->n", product[:, moving, :])
+            trace = product[:, moving, np.arange(moving.size)].sum(axis=1)
             step = mult[act] / (trace - others.sum(axis=1))
         finite = np.isfinite(step)
         step = np.where(finite, step, 0.0)  # exactly singular: ω is the root
