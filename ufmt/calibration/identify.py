@@ -1009,6 +1009,7 @@ def provenance_header(
         )
         for p in response.settings.parameters:
             flag = "  AT BOUND" if p.key in response.at_bound else ""
+            flag = flag if p.fit else "  held"
             lines.append(
                 f"#   {p.key} = {response.values[p.key]:.6g} {p.unit}  "
                 f"[{p.band[0]:g}, {p.band[1]:g}]{flag}"

@@ -130,6 +130,14 @@ def _number(where, table, key, default=None, positive=False) -> float:
     return float(v)
 
 
+def _count(where, table, key) -> int:
+    """An integer field >= 1 (default 1)."""
+    value = table.get(key, 1)
+    if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+        _fail(where, f"field {key!r}: {value!r} must be an integer >= 1")
+    return value
+
+
 def _lookup(reference: Mapping, dotted: str, where: str) -> float:
     value = reference
     for part in dotted.split("."):
@@ -233,7 +241,7 @@ def read_response_settings(table, reference: Mapping, where: str) -> ResponseSet
         method,
         _number(where, table, "diff_step", 1e-2, positive=True),
         int(_number(where, table, "max_evaluations", 200, positive=True)),
-        int(_number(where, table, "starts", 1, positive=True)),
+        _count(where, table, "starts"),
     )
 
 

@@ -626,14 +626,11 @@ def _column_plan(parts: tuple[CutGeometry, ...], phi: tuple[float, ...]) -> _Col
             rel = g.static_tool[:, j[hit_k], 2] - g.static_work[:, j[hit_k], 2]
             static[hit_a, hit_k, i] = rel.T
     names = tuple(g.part for g in parts)
+    arrays = (lags, lag_index.reshape(active.size, j.size), c, np.ascontiguousarray(w), static)
+    for a in (*arrays, stencil):  # cached: shared by every later call
+        a.setflags(write=False)
     return _ColumnPlan(
-        lags,
-        lag_index.reshape(active.size, j.size),
-        c,
-        np.ascontiguousarray(w),
-        static,
-        stencil,
-        _stacked_patterns(geo.machine, geo.n_phi, geo.table_rows, names),
+        *arrays, stencil, _stacked_patterns(geo.machine, geo.n_phi, geo.table_rows, names)
     )
 
 
@@ -744,8 +741,11 @@ def periodic_response(geo, process, zeta=DEFAULT_ZETA, force_scale: float = 1.0)
 @lru_cache(maxsize=4)  # ~0.3 MiB each
 def _recurrence(basis: ModalBasis, n_phi: int, spindle_hz: float, zeta: tuple):
     """:func:`periodic_recurrence` of the basis at the spindle frequency [Hz] (cached per
-    spindle speed and damping)."""
-    return periodic_recurrence(basis.omega, np.array(zeta), 1 / (spindle_hz * n_phi), n_phi)
+    spindle speed and damping; its arrays read-only)."""
+    out = periodic_recurrence(basis.omega, np.array(zeta), 1 / (spindle_hz * n_phi), n_phi)
+    for a in (out.lam, out.e, out.b0, out.b1, out.powers, out.period):
+        a.setflags(write=False)
+    return out
 
 
 @lru_cache(maxsize=8)
@@ -759,7 +759,10 @@ def _cut_run(active: bytes):
     lags, pairs = np.unique(
         np.mod(np.subtract.outer(np.arange(a), np.arange(a)), n), return_inverse=True
     )
-    return first, a, lags, pairs.reshape(a, a)
+    pairs = pairs.reshape(a, a)
+    for arr in (lags, pairs):  # cached: shared by every later call
+        arr.setflags(write=False)
+    return first, a, lags, pairs
 
 
 def _periodic_state(recurrence: PeriodicRecurrence, force: np.ndarray, active: np.ndarray):

@@ -173,9 +173,7 @@ class Passes:
         """The surface of the summed ``terms`` (heights at both passes): the lower pass
         everywhere."""
         terms = list(terms)
-        z = sum(terms[1:], terms[0]) if terms else np.zeros(())
-        if np.ndim(z) == self.slide.ndim:  # else the same at both passes
-            z = np.minimum(z[0], z[1])
+        z = self._lower_pass(sum(terms[1:], terms[0]) if terms else np.zeros(()))
         z = np.broadcast_to(z, self.frac.shape)
         return Surface(self.x, self.y, z.min(axis=1) if z.shape[1] > 1 else z[:, 0], self.core)
 
@@ -183,11 +181,15 @@ class Passes:
         """PV [m] of the surface of each of ``terms`` alone (its :meth:`lower`)."""
         pv = []
         for z in terms:
-            if np.ndim(z) == self.slide.ndim:  # else the same at both passes
-                z = np.minimum(z[0], z[1])
-            z = np.min(z, axis=-2)  # the lower arc (a term of phi alone is the same on every row)
+            # the lower arc (a term of phi alone is the same on every row)
+            z = np.min(self._lower_pass(z), axis=-2)
             pv.append(float(z.max() - z.min()))
         return pv
+
+    def _lower_pass(self, z):
+        """The lower of a term's heights at the two passes (stacked on its first axis); a term
+        without that axis is the same at both passes and is returned as is."""
+        return np.minimum(z[0], z[1]) if np.ndim(z) == self.slide.ndim else z
 
 
 def surface_passes(
@@ -370,6 +372,7 @@ def _grid_fit(x: np.ndarray, y: np.ndarray) -> _GridFit:
 
 @lru_cache(maxsize=16)
 def _grid_fit_of(x_bytes: bytes, y_bytes: bytes) -> _GridFit:
+    """The :class:`_GridFit` of grid axes x, y [m] (float64 bytes); cached, read-only."""
     x, y = np.frombuffer(x_bytes), np.frombuffer(y_bytes)
     xc, yc = x - x.mean(), y - y.mean()
     u = (2 * x - x[0] - x[-1]) / (x[-1] - x[0])
@@ -378,6 +381,8 @@ def _grid_fit_of(x_bytes: bytes, y_bytes: bytes) -> _GridFit:
     fu = np.stack([one_u, u, one_u, 1.5 * u**2 - 0.5, u, one_u])  # (6, Nx)
     gv = np.stack([one_v, one_v, v, one_v, v, 1.5 * v**2 - 0.5])  # (6, Ny)
     normal = (fu @ fu.T) * (gv @ gv.T)
+    for a in (xc, yc, fu, gv, normal):
+        a.setflags(write=False)
     return _GridFit(xc, yc, float(xc @ xc), float(yc @ yc), fu, gv, normal)
 
 

@@ -168,7 +168,9 @@ def _gauss_points(beam: Beam, omega_max: float) -> int:
     The integrands are products of two fields made of e^{±βs}, e^{±iβs} (β the largest
     bending, axial or torsional wavenumber), so the g-point rule errs by at most about
     c^(2g+1) (g!)^4 / ((2g + 1) ((2g)!)^3) relative, c = 2βL (the remainder of the rule
-    for e^{cx} on [0, 1]); the smallest g with that below GAUSS_RTOL, at most GAUSS_POINTS.
+    for e^{cx} on [0, 1]); the smallest g with that below GAUSS_RTOL, at least 4 (exact for
+    the product of two static cubic fields, which the exponentials cancel down to at small
+    βL) and at most GAUSS_POINTS.
     """
     w2 = omega_max**2
     rho, e_mod = beam.density, beam.youngs_modulus
@@ -176,7 +178,7 @@ def _gauss_points(beam: Beam, omega_max: float) -> int:
     axial = rho * w2 / e_mod
     torsion = rho * beam.polar_moment * w2 / (beam.shear_modulus * beam.torsion_constant)
     c = 2.0 * beam.length * max(bending**0.25, np.sqrt(axial), np.sqrt(torsion), 1e-3)
-    g = np.arange(2, GAUSS_POINTS + 1)
+    g = np.arange(4, GAUSS_POINTS + 1)
     log_error = (
         (2 * g + 1) * np.log(c) + 4 * gammaln(g + 1) - np.log(2 * g + 1) - 3 * gammaln(2 * g + 1)
     )

@@ -21,6 +21,7 @@ from ufmt.mstmm import elements
 from ufmt.mstmm.topology import Topology, build_topology, drop_redundant_rigid
 
 CUT = np.diag(np.r_[np.ones(6), -np.ones(6)])  # C = diag(I3, I3, -I3, -I3)
+CUT.flags.writeable = False
 GROWTH_LIMIT = 1e8  # condition growth allowed along a transfer path before segmenting
 
 
@@ -86,7 +87,7 @@ def _sum_plan(cols_a: bytes, cols_b: bytes):
         return _frozen(np.concatenate([a, b])), None, None, None
     at = np.array([pos[int(b[j])] for j in shared], dtype=int)
     rest = np.array([j for j in range(b.size) if int(b[j]) not in pos], dtype=int)
-    return _frozen(np.concatenate([a, b[rest]])), at, shared, rest
+    return _frozen(np.concatenate([a, b[rest]])), _frozen(at), _frozen(shared), _frozen(rest)
 
 
 def _key(cols: np.ndarray) -> bytes:
@@ -162,8 +163,8 @@ def _other_input(lever: tuple, p_out: tuple) -> np.ndarray:
     return _frozen(elements.rigid_body_other_input(1, np.array(lever), np.array(p_out))[0].copy())
 
 
-FREE_TIP = np.eye(12, 6)  # a free tip's state: six unknown displacements, zero forces
-REACTION = -np.eye(12, 6, -6)  # the ground's reactions enter the root's force rows
+FREE_TIP = _frozen(np.eye(12, 6))  # a free tip's state: six unknown displacements, no forces
+REACTION = _frozen(-np.eye(12, 6, -6))  # the ground's reactions enter the root's force rows
 
 
 class TransferSystem:
