@@ -77,7 +77,9 @@ from ufmt.calibration.frequencies import (
     tool_tip_neighbours,
     validate,
 )
-from ufmt.errors import StudyError, closest_name
+from ufmt.calibration.tables import fail as _fail
+from ufmt.calibration.tables import read_band
+from ufmt.errors import closest_name
 from ufmt.model.load import load_model, model_to_toml
 from ufmt.model.schema import Model
 from ufmt.tomlfile import read_toml
@@ -225,10 +227,6 @@ class Calibration:
     response: dict | None = None  # the [response] table (ufmt.calibration.response_fit)
 
 
-def _fail(where: str, problem: str):
-    raise StudyError(f"{where}: {problem}")
-
-
 def _suggest(word, choices) -> str:
     close = closest_name(word, choices)
     return f" (did you mean {close!r}?)" if close else ""
@@ -351,16 +349,9 @@ def _parameters(where: str, tables, model: Model) -> tuple[Parameter, ...]:
             or len(set(comps)) != len(comps)
         ):
             _fail(label, f"field 'components': {comps!r} must list distinct 0, 1, 2 (x, y, z)")
-        band = t.get("band")
-        if (
-            not isinstance(band, list)
-            or len(band) != 2
-            or not all(isinstance(b, int | float) and math.isfinite(b) for b in band)
-            or not 0 < band[0] <= 1 <= band[1]
-        ):
-            _fail(
-                label, f"field 'band': {band!r} must be [lower, upper] with 0 < lower <= 1 <= upper"
-            )
+        band = read_band(
+            label, t.get("band"), lambda lo, hi: 0 < lo <= 1 <= hi, "0 < lower <= 1 <= upper"
+        )
         for h in hinges:
             values = getattr(model.hinge(h), fld)
             for c in comps:
@@ -378,9 +369,7 @@ def _parameters(where: str, tables, model: Model) -> tuple[Parameter, ...]:
                     )
                 seen_entries[(h, fld, c)] = name
         reason = t.get("reason", "")
-        out.append(
-            Parameter(name, tuple(hinges), fld, tuple(comps), tuple(map(float, band)), reason)
-        )
+        out.append(Parameter(name, tuple(hinges), fld, tuple(comps), band, reason))
     return tuple(out)
 
 

@@ -35,7 +35,8 @@ import numpy as np
 import pandas as pd
 from scipy.optimize import least_squares
 
-from ufmt.errors import StudyError
+from ufmt.calibration.tables import fail as _fail
+from ufmt.calibration.tables import read_band
 from ufmt.model.machine import Machine
 from ufmt.model.schema import Model
 
@@ -117,10 +118,6 @@ def known_machine_keys() -> tuple[str, ...]:
     return tuple(f.name for f in dataclasses.fields(Machine))
 
 
-def _fail(where: str, problem: str):
-    raise StudyError(f"{where}: {problem}")
-
-
 def _number(where, table, key, default=None, positive=False) -> float:
     v = table.get(key, default)
     if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
@@ -167,22 +164,15 @@ def read_response_settings(table, reference: Mapping, where: str) -> ResponseSet
         for key in t:
             if key not in PARAMETER_KEYS:
                 _fail(label, f"unknown field {key!r}; fields: {list(PARAMETER_KEYS)}")
-        band = t.get("band")
-        if (
-            not isinstance(band, list)
-            or len(band) != 2
-            or not all(isinstance(b, int | float) and math.isfinite(b) for b in band)
-            or not band[0] < band[1]
-        ):
-            _fail(label, f"field 'band': {band!r} must be [lower, upper] with lower < upper")
+        band = read_band(label, t.get("band"), lambda lo, hi: lo < hi, "lower < upper")
         scale = t.get("scale", "log")
         if scale not in SCALES:
             _fail(label, f"field 'scale': {scale!r} is not one of {', '.join(SCALES)}")
         if scale == "log" and band[0] <= 0:
-            _fail(label, f"field 'band': {band!r} must be > 0 for scale 'log'")
+            _fail(label, f"field 'band': {list(band)!r} must be > 0 for scale 'log'")
         start = _number(label, t, "start")
         if not band[0] <= start <= band[1]:
-            _fail(label, f"field 'start': {start!r} must lie in the band {band!r}")
+            _fail(label, f"field 'start': {start!r} must lie in the band {list(band)!r}")
         fit = t.get("fit", True)
         if not isinstance(fit, bool):
             _fail(label, f"field 'fit': {fit!r} must be true or false")
@@ -192,7 +182,7 @@ def read_response_settings(table, reference: Mapping, where: str) -> ResponseSet
         parameters.append(
             FitParameter(
                 t["key"],
-                (float(band[0]), float(band[1])),
+                band,
                 start,
                 scale,
                 str(t.get("unit", "")),
