@@ -77,9 +77,10 @@ from ufmt.calibration.frequencies import (
     tool_tip_neighbours,
     validate,
 )
+from ufmt.calibration.tables import check_keys as _check_keys
 from ufmt.calibration.tables import fail as _fail
 from ufmt.calibration.tables import read_band
-from ufmt.errors import closest_name
+from ufmt.calibration.tables import suggest as _suggest
 from ufmt.model.load import load_model, model_to_toml
 from ufmt.model.schema import Model
 from ufmt.tomlfile import read_toml
@@ -225,17 +226,6 @@ class Calibration:
     settings: Settings
     constraint: Constraint | None = None
     response: dict | None = None  # the [response] table (ufmt.calibration.response_fit)
-
-
-def _suggest(word, choices) -> str:
-    close = closest_name(word, choices)
-    return f" (did you mean {close!r}?)" if close else ""
-
-
-def _check_keys(where: str, table: dict, allowed) -> None:
-    for key in table:
-        if key not in allowed:
-            _fail(where, f"unknown field {key!r}{_suggest(key, allowed)}; fields: {list(allowed)}")
 
 
 def load_calibration(

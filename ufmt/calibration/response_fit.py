@@ -35,8 +35,8 @@ import numpy as np
 import pandas as pd
 from scipy.optimize import least_squares
 
+from ufmt.calibration.tables import check_keys, read_band
 from ufmt.calibration.tables import fail as _fail
-from ufmt.calibration.tables import read_band
 from ufmt.model.machine import Machine
 from ufmt.model.schema import Model
 
@@ -151,9 +151,7 @@ def read_response_settings(table, reference: Mapping, where: str) -> ResponseSet
     where = f"{where}: [response]"
     if not isinstance(table, Mapping):
         _fail(where, "must be a table")
-    for key in table:
-        if key not in RESPONSE_KEYS:
-            _fail(where, f"unknown field {key!r}; fields: {list(RESPONSE_KEYS)}")
+    check_keys(where, table, RESPONSE_KEYS)
     known = known_machine_keys()
     parameters, skipped = [], []
     for i, t in enumerate(table.get("parameter", [])):
@@ -161,9 +159,7 @@ def read_response_settings(table, reference: Mapping, where: str) -> ResponseSet
         if not isinstance(t, Mapping) or not isinstance(t.get("key"), str):
             _fail(label, "must be a table with a 'key' (a [machine] field name)")
         label = f"{where}: parameter {t['key']!r}"
-        for key in t:
-            if key not in PARAMETER_KEYS:
-                _fail(label, f"unknown field {key!r}; fields: {list(PARAMETER_KEYS)}")
+        check_keys(label, t, PARAMETER_KEYS)
         band = read_band(label, t.get("band"), lambda lo, hi: lo < hi, "lower < upper")
         scale = t.get("scale", "log")
         if scale not in SCALES:
@@ -196,9 +192,7 @@ def read_response_settings(table, reference: Mapping, where: str) -> ResponseSet
         if not isinstance(t, Mapping) or not isinstance(t.get("metric"), str):
             _fail(label, "must be a table with a 'metric'")
         label = f"{where}: target {t['metric']!r}"
-        for key in t:
-            if key not in TARGET_KEYS:
-                _fail(label, f"unknown field {key!r}; fields: {list(TARGET_KEYS)}")
+        check_keys(label, t, TARGET_KEYS)
         kind = t.get("kind", "value")
         if kind not in KINDS:
             _fail(label, f"field 'kind': {kind!r} is not one of {', '.join(KINDS)}")
