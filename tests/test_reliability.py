@@ -47,6 +47,11 @@ REPO = HERE.parents[1]
 PY = [sys.executable, "-m", "ufmt.cli"]
 
 
+def _run(study, results, jobs=1):
+    """``run_study`` without progress bars or plots."""
+    return run_study(study, Execution(jobs=jobs), results=results, progress=False, plots=False)
+
+
 # ---------------------------------------------------------------------------------------------
 # cheap study functions (signature of ufmt.evaluate)
 
@@ -305,13 +310,7 @@ def test_a_study_declares_its_own_design_parameter_with_did_you_mean(tmp_path):
     parameter = "head_z_N_m"
     values = [1e8, 3e8]
     """
-    out = run_study(
-        study_file(tmp_path, "declared", body, "declared_k"),
-        Execution(jobs=1),
-        results=tmp_path / "r",
-        progress=False,
-        plots=False,
-    )
+    out = _run(study_file(tmp_path, "declared", body, "declared_k"), tmp_path / "r")
     table = (out / "points.csv").read_text(encoding="utf-8").splitlines()
     assert [float(line.split(",")[3]) for line in table[1:]] == [1e8, 3e8]  # pv = set value
     typo = body.replace('field = "stiffness"', 'field = "stifness"')
@@ -357,7 +356,7 @@ def test_a_second_run_into_locked_results_refuses_with_one_line(tmp_path):
     with _locked(tmp_path / "r" / "locked"):
         with pytest.raises(StudyError, match="another ufmt run .* is writing these results"):
             run_study(study, Execution(jobs=1), results=tmp_path / "r", progress=False)
-    run_study(study, Execution(jobs=1), results=tmp_path / "r", progress=False, plots=False)
+    _run(study, tmp_path / "r")
 
 
 @pytest.mark.slow
@@ -375,20 +374,14 @@ def _reference(tmp_path: Path, name: str, body: str) -> bytes:
     """points.csv of an uninterrupted run of the fast twin (line_pv)."""
     twin = tmp_path / "reference"
     twin.mkdir(exist_ok=True)
-    out = run_study(
-        study_file(twin, name, body),
-        Execution(jobs=1),
-        results=twin / "r",
-        progress=False,
-        plots=False,
-    )
+    out = _run(study_file(twin, name, body), twin / "r")
     return (out / "points.csv").read_bytes()
 
 
 def test_two_study_files_with_one_name_cannot_share_results(tmp_path):
     first = study_file(tmp_path, "a", 'name = "same"\n' + RPM_SWEEP.format(n=3))
     second = study_file(tmp_path, "b", 'name = "same"\n' + RPM_SWEEP.format(n=4))
-    run_study(first, Execution(jobs=1), results=tmp_path / "r", progress=False, plots=False)
+    _run(first, tmp_path / "r")
     with pytest.raises(StudyError, match=r"another study file with the name 'same' \(a.toml\)"):
         run_study(second, Execution(jobs=1), results=tmp_path / "r", progress=False)
 
@@ -407,10 +400,10 @@ def test_corrupt_rows_are_recomputed_to_the_same_table(tmp_path, corrupt):
     body = RPM_SWEEP.format(n=5)
     reference = _reference(tmp_path, "rows", body)
     study = study_file(tmp_path, "rows", body)
-    out = run_study(study, Execution(jobs=1), results=tmp_path / "r", progress=False, plots=False)
+    out = _run(study, tmp_path / "r")
     lines = reference.splitlines(keepends=True)
     (out / "points.csv").write_bytes(b"".join(lines[:4]) + corrupt)
-    out = run_study(study, Execution(jobs=1), results=tmp_path / "r", progress=False, plots=False)
+    out = _run(study, tmp_path / "r")
     assert (out / "points.csv").read_bytes() == reference
     run = read_meta(out)["run"]
     assert run["points_reused"] == 3 and run["points_new"] == 2
@@ -423,14 +416,14 @@ def test_comments_and_another_clone_keep_the_rows(tmp_path):
         (clone / "model.toml").write_bytes(ufmt.packaged_path().read_bytes())
     body = 'model = "../model.toml"\n' + RPM_SWEEP.format(n=3)
     study_a = study_file(clone_a / "studies", "s", body)
-    run_study(study_a, Execution(jobs=1), results=clone_a / "r", progress=False, plots=False)
+    _run(study_a, clone_a / "r")
     # the same study in another place, with comments added to the study and the model file
     study_b = study_file(clone_b / "studies", "s", "# a comment\n" + body + "# another\n")
     with (clone_b / "model.toml").open("a", encoding="utf-8") as f:
         f.write("\n# a comment on the model\n")
     (clone_b / "r").mkdir()
     os.replace(clone_a / "r" / "s", clone_b / "r" / "s")  # committed results, new clone
-    out = run_study(study_b, Execution(jobs=1), results=clone_b / "r", progress=False, plots=False)
+    out = _run(study_b, clone_b / "r")
     assert read_meta(out)["run"]["points_reused"] == 3
     assert load_study(study_a).content_sha256 != ""
 
@@ -508,7 +501,7 @@ def test_sigterm_stops_the_workers_and_leaves_meta_interrupted(tmp_path):
     while time.monotonic() < deadline and [c for c in children if _alive(c)]:
         time.sleep(0.1)
     assert not [c for c in children if _alive(c)]
-    out = run_study(study, Execution(jobs=2), results=results, progress=False, plots=False)
+    out = _run(study, results, jobs=2)
     assert (out / "points.csv").read_bytes() == _reference(tmp_path, "term", body)
 
 
@@ -520,13 +513,13 @@ def test_sigterm_in_process_interrupts_and_a_rerun_resumes(tmp_path):
     timer = threading.Timer(1.0, os.kill, (os.getpid(), signal.SIGTERM))
     timer.start()
     with pytest.raises(KeyboardInterrupt):
-        run_study(study, Execution(jobs=1), results=results, progress=False, plots=False)
+        _run(study, results)
     timer.join()
     assert read_meta(results / "term")["status"] == "interrupted"
     assert signal.getsignal(signal.SIGTERM) == signal.SIG_DFL  # the handler is restored
     saved = (results / "term" / "points.csv").read_bytes().count(b"\n") - 1
     assert 1 <= saved < 12
-    out = run_study(study, Execution(jobs=1), results=results, progress=False, plots=False)
+    out = _run(study, results)
     assert read_meta(out)["run"]["points_reused"] == saved
     assert (out / "points.csv").read_bytes() == _reference(tmp_path, "term", body)
 
@@ -556,13 +549,7 @@ def test_meta_json_is_strict_json(tmp_path):
         "c": {"d": None},
     }
     body = RPM_SWEEP.format(n=3)
-    out = run_study(
-        study_file(tmp_path, "strict", body, "always_fails"),
-        Execution(jobs=1),
-        results=tmp_path / "r",
-        progress=False,
-        plots=False,
-    )
+    out = _run(study_file(tmp_path, "strict", body, "always_fails"), tmp_path / "r")
     json.loads((out / "meta.json").read_text(encoding="utf-8"), parse_constant=_refuse)
 
 
@@ -586,7 +573,7 @@ def test_progress_totals_are_fixed_in_advance(tmp_path):
     refine_steps = 1
     """
     study = study_file(tmp_path, "opt", body, "line_pv")
-    out = run_study(study, Execution(jobs=1), results=tmp_path / "r", progress=False, plots=False)
+    out = _run(study, tmp_path / "r")
     requested = read_meta(out)["run"]
     budget = planned_points(load_study(study))
     assert requested["points_new"] + requested["points_reused"] <= budget
