@@ -105,6 +105,20 @@ def _class_reference(model, modes) -> Reference:
     )
 
 
+def _exact_settings(n_modes: int, elements: int) -> Settings:
+    """Identification settings that fit to the targets exactly: no regularisation, no shape
+    penalty, no global start."""
+    return Settings(
+        regularisation=0.0,
+        tolerance_percent=1e-6,
+        max_iterations=40,
+        shape_penalty=0.0,
+        global_start=False,
+        n_modes=n_modes,
+        elements_per_beam=elements,
+    )
+
+
 def test_recovers_known_stiffnesses_from_perturbed_model_frequencies(prior):
     """+-25..30 % on six factors; modes 2/3 and others change order, so pair by class."""
     truth_model = apply_parameters(prior, PARAMETERS, np.log(TRUE_SCALES))
@@ -112,15 +126,7 @@ def test_recovers_known_stiffnesses_from_perturbed_model_frequencies(prior):
     modes = modeset_from_dofs(truth_model, truth.assembled, truth.frequencies_hz, truth.shapes)
     numbers = tuple(range(1, N_MODES + 1))
     targets = Targets(numbers, np.asarray(truth.frequencies_hz))
-    settings = Settings(
-        regularisation=0.0,
-        tolerance_percent=1e-6,
-        max_iterations=40,
-        shape_penalty=0.0,
-        global_start=False,
-        n_modes=N_MODES,
-        elements_per_beam=ELEMENTS,
-    )
+    settings = _exact_settings(N_MODES, ELEMENTS)
     result = identify(prior, PARAMETERS, targets, settings, _class_reference(prior, modes))
     np.testing.assert_allclose(result.scales, TRUE_SCALES, rtol=5e-3)
     assert np.max(np.abs(result.evaluation.errors_percent)) < 1e-3
@@ -202,15 +208,7 @@ def test_bearing_constraint_moves_the_axial_load_to_the_head_bearing():
     )
     f, shapes = ReducedModel.build(prior, params, 4).solve(np.zeros(2), 20)
     targets = Targets((18,), f[17:18])
-    settings = Settings(
-        regularisation=0.0,
-        tolerance_percent=1e-6,
-        max_iterations=40,
-        shape_penalty=0.0,
-        global_start=False,
-        n_modes=20,
-        elements_per_beam=4,
-    )
+    settings = _exact_settings(20, 4)
     free = identify(prior, params, targets, settings)
     assert free.scales == pytest.approx([1.0, 1.0])  # the prior already matches
     constraint = Constraint(("h25",), factor=2.0, max_change_percent=5.0, modes=(18,))
