@@ -2,8 +2,9 @@
 
 State vector at a point (paper eq. 2.1): ``[x y z θx θy θz mx my mz qx qy qz]``; transfer runs
 from the tip (input end) to the root (output end). ``q`` is the force that the tip-side element
-exerts on the root-side one; the torque ``m`` has the opposite sense (paper eq. 3.1). Every
-function returns an array of shape ``(n_omega, 12, 12)``.
+exerts on the root-side one; the torque ``m`` has the opposite sense (paper eq. 3.1). The
+transfer matrices are ``(n_omega, 12, 12)``, except the other-input matrix of a body, which is
+the same at every ω, ``(12, 12)``.
 """
 
 from __future__ import annotations
@@ -55,13 +56,14 @@ def rigid_body_first_input(
     return base[None] + w2 * inertial[None]
 
 
-def rigid_body_other_input(n_omega: int, p_in, p_out) -> np.ndarray:
-    """U_{i,Ik}, k ≥ 2, of a rigid or virtual body (paper eqs. 2.9, 2.11): forces only."""
+def rigid_body_other_input(p_in, p_out) -> np.ndarray:
+    """U_{i,Ik}, k ≥ 2, of a rigid or virtual body (paper eqs. 2.9, 2.11): forces only;
+    (12, 12), the same at every ω."""
     u = np.zeros((12, 12))
     u[6:9, 6:9] = I3
     u[6:9, 9:12] = tilde(np.asarray(p_out, dtype=float) - p_in)
     u[9:12, 9:12] = I3
-    return np.broadcast_to(u, (n_omega, 12, 12))
+    return u
 
 
 def hinge(

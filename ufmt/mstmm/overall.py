@@ -121,7 +121,7 @@ def _hinge_matrix(stiffness6: tuple) -> np.ndarray:
 
 
 @functools.lru_cache(maxsize=4096)
-def _rigid_parts(mass, inertia: tuple, com: tuple, p_in: tuple, p_out: tuple):
+def _rigid_body_parts(mass, inertia: tuple, com: tuple, p_in: tuple, p_out: tuple):
     """Constant and ω² parts (12, 12) of a rigid body's U_{i,I1} (eq. 2.8), shared by every
     design with the same body (a stiffness sweep builds them once)."""
     both = elements.rigid_body_first_input(
@@ -160,7 +160,7 @@ def _geometric_map(lever: tuple, rigid: bool) -> np.ndarray:
 @functools.lru_cache(maxsize=4096)
 def _other_input(lever: tuple, p_out: tuple) -> np.ndarray:
     """U_{i,Ik}, k >= 2 (eqs. 2.9, 2.11), constant (12, 12)."""
-    return _frozen(elements.rigid_body_other_input(1, np.array(lever), np.array(p_out))[0].copy())
+    return _frozen(elements.rigid_body_other_input(np.array(lever), np.array(p_out)))
 
 
 FREE_TIP = _frozen(np.eye(12, 6))  # a free tip's state: six unknown displacements, no forces
@@ -244,7 +244,7 @@ class TransferSystem:
         """Constant and ω² parts (12, 12) of U_{i,I1} (eq. 2.8), cached per body."""
         b = node.body
         points = (b.center_of_mass, self.topology.first_input_point(node.name), node.output_point)
-        return _rigid_parts(b.mass, tuple(np.ravel(b.inertia)), *(tuple(p) for p in points))
+        return _rigid_body_parts(b.mass, tuple(np.ravel(b.inertia)), *(tuple(p) for p in points))
 
     def _edge_output(self, index: int, state_in: State, omega: np.ndarray) -> State:
         out = state_in.transfer(self._edge_matrix(index, omega))
