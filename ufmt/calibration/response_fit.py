@@ -3,7 +3,8 @@
 The ``[response]`` table of ``calibration.toml`` declares
 
 * ``[[response.parameter]]``: a ``[machine]`` key, its documented band and start value, and
-  whether it is searched in ``log`` (scale factors) or ``linear`` coordinates. A key the model
+  whether it is searched in ``log`` (scale factors) or ``linear`` coordinates, or held at its
+  start (``fit = false``). A key the model
   loader does not know (not a field of :class:`ufmt.model.machine.Machine`) is skipped with a
   note, so the file can list parameters that later versions of the loader add. A key whose
   current value is a pair (``workpiece_size``) is set to (v, v).
@@ -17,9 +18,10 @@ reflective, in coordinates that map each band onto [0, 1], so ``diff_step`` is a
 the band) of the weighted residuals at the reference process (sections 3.3,
 4.2: 300 rpm, 15 mm/min, 4 um). PV is a maximum over the surface, so the cost has kinks where
 local searches stop; ``starts`` > 1 restarts the search from the documented start values and
-``starts - 1`` Latin-hypercube points of the bands (fixed seed) and keeps the lowest cost, so
-that rounding-level changes of the physics do not move the result to another kink. The
-fitted values are rounded to
+``starts - 1`` Latin-hypercube points of the bands (fixed seed) and keeps the lowest cost.
+Restarts do not make an underdetermined fit identifiable: a key the targets cannot pin down is
+declared ``fit = false`` and held at its documented ``start`` (docs/ufmt-model.md, 'Which keys
+are fitted'). The fitted values are rounded to
 :data:`ufmt.calibration.identify.SIGNIFICANT` digits. A value at a band's edge means the
 measurements ask for more than the band allows: it is reported (``at_bound``), not widened.
 """
