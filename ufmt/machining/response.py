@@ -243,10 +243,8 @@ class CutGeometry:
     2, 1 and 1): w_hat, w_y_hat (n, 5) and c_hat (n, 3) hold their complex Fourier coefficients
     (harmonics -2..2, -1..1), w_trig, w_y_trig (n, 5) and c_trig (3, n) the real ones on
     ``trig`` (5, N) = [1, cos, sin, cos 2phi, sin 2phi]. table_y (M,) slide positions [m] of
-    the periodic table and row_knots their row coordinate (see :class:`ZreTable`); spectra
-    (N/2 + 7, M): the half spectrum of the chip factor at each table row, extended by three
-    harmonics at both ends (harmonic k in entry k + 3); active (N,) the angles that cut at
-    some slide position.
+    the periodic table and row_knots their row coordinate (see :class:`ZreTable`); active (N,)
+    the angles that cut at some slide position.
     """
 
     basis: ModalBasis
@@ -271,7 +269,6 @@ class CutGeometry:
     trig: np.ndarray
     table_y: np.ndarray
     row_knots: tuple[float, float, np.ndarray]
-    spectra: np.ndarray
     active: np.ndarray
     part: str = "area"
     static_tool: np.ndarray | None = None
@@ -347,7 +344,7 @@ def cut_geometry(
     trig = np.stack(
         [np.ones(n_phi), np.cos(phases), np.sin(phases), np.cos(2 * phases), np.sin(2 * phases)]
     )
-    table_y, row_knots, spectra, active, _ = _pattern_tables(machine, n_phi, table_rows, part)
+    table_y, row_knots, _, active, _ = _pattern_tables(machine, n_phi, table_rows, part)
     dtip, ddtip = tool_tip_rates(phases, machine, 1 / (2 * np.pi))  # d/dphi, d^2/dphi^2
     static_tool = static_work = static_hat = None
     if residual is not None:
@@ -382,7 +379,6 @@ def cut_geometry(
         trig=trig,
         table_y=table_y,
         row_knots=row_knots,
-        spectra=spectra,
         active=active,
         part=part,
         static_tool=static_tool,
@@ -695,7 +691,7 @@ def periodic_response(geo, process, zeta=DEFAULT_ZETA, force_scale: float = 1.0)
     of the cut the surface reads, by the periodic impulse response over the active angles; the
     whole table by the harmonics on first use of its ``values``: per harmonic k,
     z_re[k] = sum_s sum_l c_hat[s,l] H_s[k-l] sum_m w_hat[s,m] A[k-l-m] = sum_d K_d[k] A[k-d],
-    with A the spectrum of the chip factor (``spectra`` of ``geo``) and H_s the receptance of
+    with A the spectrum of the chip factor (:func:`_stacked_spectra`) and H_s the receptance of
     :func:`discrete_receptance`; with the workpiece arm's Y terms the kernels are a quadratic
     in Y, sum_p Y^p K_pd. The record window is one spindle period at the slide position of
     :func:`record_slide`: the modal force there summed over the cut's angles with the periodic
