@@ -294,6 +294,16 @@ def test_packaged_calibration_loads(prior):
             r"calibration\.toml: \[settings\]: unknown field 'regularization' \(did you mean "
             r"'regularisation'\?\)",
         ),
+        (  # [response] is checked when the file is loaded, before any identification
+            "starts = 12",
+            "starts = 0",
+            r"calibration\.toml: \[response\]: field 'starts': 0 must be an integer >= 1",
+        ),
+        (
+            'key = "force_scale"',
+            'key = "force_scale"\nfit = "no"',
+            r"calibration\.toml: \[response\]: parameter 'force_scale': field 'fit': 'no' must be",
+        ),
     ],
 )
 def test_bad_calibration_input_names_file_and_field(tmp_path, old, new, message):

@@ -225,7 +225,7 @@ class Calibration:
     targets: Targets
     settings: Settings
     constraint: Constraint | None = None
-    response: dict | None = None  # the [response] table (ufmt.calibration.response_fit)
+    response: object = None  # ResponseSettings of [response] (ufmt.calibration.response_fit)
 
 
 def load_calibration(
@@ -256,6 +256,11 @@ def load_calibration(
     if not isinstance(name, str) or not name:
         _fail(where, f"field 'output_name': {name!r} must be a non-empty string")
     constraint = _constraint(where, data.get("constraint"), model)
+    response = None
+    if data.get("response") is not None:  # checked now, not after the identification
+        from ufmt.calibration.response_fit import read_response_settings
+
+        response = read_response_settings(data["response"], read_toml(reference_path), where)
     calibration = Calibration(
         where,
         prior_path,
@@ -266,7 +271,7 @@ def load_calibration(
         targets,
         settings,
         constraint,
-        data.get("response"),
+        response,
     )
     return calibration, model, reference
 
@@ -1042,14 +1047,13 @@ def calibrate(
     fit = None
     if calibration.response is not None:
         from ufmt.calibration.response import reference_process
-        from ufmt.calibration.response_fit import fit_response, read_response_settings, with_values
+        from ufmt.calibration.response_fit import fit_response, with_values
         from ufmt.machining.modal import basis_from_shapes
 
-        paper = read_toml(calibration.reference)
         fit = fit_response(
             identified,
-            read_response_settings(calibration.response, paper, calibration.source),
-            reference_process(paper),
+            calibration.response,
+            reference_process(read_toml(calibration.reference)),
             basis_from_shapes(check.solution.shapes),
             progress=progress,
         )
