@@ -182,36 +182,38 @@ class TransferSystem:
         """Choose the nodes after which the transfer is segmented for ω up to 2π·fmax_hz.
 
         Long transfer products lose the small solution components next to the growing ones
-        (mω²/k per stage at high frequency). Following each path from the tips, the condition
-        number of every stage (body then parent element, physically scaled) is multiplied up;
-        where it passes GROWTH_LIMIT the node's output state becomes 12 new unknowns S with 12
-        equations Z_out - S = 0. The matrix grows, but its determinant is exactly det U_all
-        (Schur complement with an identity block), so roots and null vectors are unchanged.
+        (mω²/k per stage at high frequency). Following each path from the tips, the stages
+        (body then parent element, physically scaled) are multiplied up; where the condition
+        number of the product since the last segment passes GROWTH_LIMIT (the worst path into
+        a multi-input body counts) the node's output state becomes 12 new unknowns S with 12
+        equations Z_out - S = 0. (The product of the stages' own condition numbers, a bound,
+        put up to a third more segments than needed on the packaged model.) The matrix grows,
+        but its determinant is exactly det U_all (Schur complement with an identity block), so
+        roots and null vectors are unchanged.
         """
         topo = self.topology
         w = np.array([2 * np.pi * fmax_hz])
         scale = _physical_scaling(self.model)
-        stages = []
+        path: dict[str, np.ndarray] = {}  # product of the stages since the last segment
+        chosen = []
         for name in topo.order:
             node = topo.nodes[name]
             stage = np.broadcast_to(self._edge_matrix(node.parent_edge, w), (1, 12, 12))[0]
             if node.kind == "rigid":
                 stage = stage @ self._rigid_first_input(node, w)[0]
-            stages.append(stage)
-        conds = np.linalg.cond(scale[:, None] * np.array(stages) / scale[None, :])
-        growth: dict[str, float] = {}
-        chosen = []
-        for name, g in zip(topo.order, conds, strict=True):
-            node = topo.nodes[name]
+            stage = scale[:, None] * stage / scale[None, :]
             upstream = [
-                growth[topo.edges[i].input_node]
+                path[topo.edges[i].input_node]
                 for i, role in node.inputs
                 if role == "edge" and topo.edges[i].tree
             ]
-            growth[name] = g * max(upstream, default=1.0)
-            if growth[name] > GROWTH_LIMIT:
+            products = np.array([stage @ p for p in upstream] or [stage])
+            conds = np.linalg.cond(products)
+            worst = int(np.argmax(conds))
+            path[name] = products[worst]
+            if conds[worst] > GROWTH_LIMIT:
                 chosen.append(name)
-                growth[name] = 1.0
+                path[name] = np.eye(12)
         self.segments = tuple(chosen)
         return self.segments
 
