@@ -10,6 +10,7 @@ Repeated roots are made mass-orthogonal; all shapes are normalised to unit modal
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -18,10 +19,17 @@ from scipy.special import gammaln
 from ufmt.model.schema import Beam, RigidBody
 from ufmt.mstmm import elements
 from ufmt.mstmm.overall import TransferSystem, equilibrate
-from ufmt.mstmm.roots import OFF_ROOT, batched_solve
+from ufmt.mstmm.roots import OFF_ROOT, batched_solve, orthonormal
 
 GAUSS_POINTS = 16  # per beam at most (modal-mass integrals to ~1e-12 up to βL ≈ 15)
 GAUSS_RTOL = 1e-15  # fewer points where the Gauss error bound allows (see _gauss_points)
+_GAUSS_ORDERS = np.arange(4, GAUSS_POINTS + 1)
+# log of the g-point rule's error bound without its c^(2g+1) factor (see _gauss_points)
+_GAUSS_LOG_FACTOR = (
+    4 * gammaln(_GAUSS_ORDERS + 1)
+    - np.log(2 * _GAUSS_ORDERS + 1)
+    - 3 * gammaln(2 * _GAUSS_ORDERS + 1)
+)
 
 
 @dataclass(frozen=True, eq=False)
@@ -66,7 +74,7 @@ def null_vectors(u: np.ndarray, u_near: np.ndarray, multiplicity: int) -> np.nda
     start = np.random.default_rng(0).standard_normal((a.shape[-1], multiplicity))
     x = np.broadcast_to(start, (a.shape[0], *start.shape))
     for _ in range(2):
-        x, _ = np.linalg.qr(batched_solve(a, x))
+        x = orthonormal(batched_solve(a, x))
     return c[:, 0, :, None] * x
 
 
@@ -147,7 +155,7 @@ def _beam_field(system, beam: Beam, states, z, omega, fractions=None):
     z_in = _apply(states[("edge_in", index)], z)
     length = beam.length
     if fractions is None:
-        x, wts = np.polynomial.legendre.leggauss(_gauss_points(beam, omega.max(initial=0.0)))
+        x, wts = _gauss_legendre(_gauss_points(beam, omega.max(initial=0.0)))
         s = 0.5 * (x + 1.0) * length
         wts = 0.5 * wts * length
     else:  # fractions from the beam's start; the transfer runs from its input end
@@ -178,12 +186,17 @@ def _gauss_points(beam: Beam, omega_max: float) -> int:
     axial = rho * w2 / e_mod
     torsion = rho * beam.polar_moment * w2 / (beam.shear_modulus * beam.torsion_constant)
     c = 2.0 * beam.length * max(bending**0.25, np.sqrt(axial), np.sqrt(torsion), 1e-3)
-    g = np.arange(4, GAUSS_POINTS + 1)
-    log_error = (
-        (2 * g + 1) * np.log(c) + 4 * gammaln(g + 1) - np.log(2 * g + 1) - 3 * gammaln(2 * g + 1)
-    )
-    fine = g[log_error <= np.log(GAUSS_RTOL)]
+    log_error = (2 * _GAUSS_ORDERS + 1) * np.log(c) + _GAUSS_LOG_FACTOR
+    fine = _GAUSS_ORDERS[log_error <= np.log(GAUSS_RTOL)]
     return int(fine[0]) if fine.size else GAUSS_POINTS
+
+
+@functools.lru_cache(maxsize=GAUSS_POINTS)
+def _gauss_legendre(points: int) -> tuple[np.ndarray, np.ndarray]:
+    """Gauss-Legendre nodes and weights on [-1, 1] (read-only, computed once per order)."""
+    x, w = np.polynomial.legendre.leggauss(points)
+    x.flags.writeable = w.flags.writeable = False
+    return x, w
 
 
 def beam_shape(system: TransferSystem, shapes: ModeShapes, beam_name: str, fractions):

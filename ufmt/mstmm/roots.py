@@ -417,7 +417,7 @@ def _newton(system, omega, lo, hi, mult, rtol):
             x = np.broadcast_to(start[:, :m], (sel.size, start.shape[0], m))
             with np.errstate(all="ignore"):
                 for _ in range(2):
-                    x, _ = np.linalg.qr(product[sel] @ x[:, moving, :])
+                    x = orthonormal(product[sel] @ x[:, moving, :])
             for k, j in enumerate(act[sel]):
                 basis[j] = c[j, 0, :, None] * np.real(x[k])
     ok = done.copy()
@@ -425,6 +425,16 @@ def _newton(system, omega, lo, hi, mult, rtol):
     close = np.flatnonzero(np.diff(w[order]) <= 1e-9 * w[order][1:])
     ok[order[close]] = ok[order[close + 1]] = False
     return w, ok, basis
+
+
+def orthonormal(x: np.ndarray) -> np.ndarray:
+    """Orthonormal basis (…, n, m) of each block's columns: the Q of a QR, with its sign
+    convention (LAPACK's Householder makes R's diagonal -sign(x_0)·|x| for one column, the
+    only case it is shortcut for: most roots are simple)."""
+    if x.shape[-1] > 1:
+        return np.linalg.qr(x)[0]
+    first = x[..., :1, :]
+    return x / (np.where(np.signbit(first), 1.0, -1.0) * np.linalg.norm(x, axis=-2, keepdims=True))
 
 
 def batched_solve(a: np.ndarray, b: np.ndarray) -> np.ndarray:
