@@ -164,8 +164,10 @@ def _beam_field(system, beam: Beam, states, z, omega, fractions=None):
         s = (1.0 - f if reversed_ else f) * length
         wts = np.full(s.size, np.nan)
     n = omega.size  # one batch over every (point, mode) pair
-    u = elements.beam(np.tile(omega, s.size), beam, p_in, p_out, length=np.repeat(s, n))
-    motion = np.einsum("gnij,nj->ngi", u.reshape(s.size, n, 12, 12)[:, :, :6], z_in)
+    local = elements.beam_local(np.tile(omega, s.size), beam, length=np.repeat(s, n))
+    t = system.beam_rotation(index)  # only the displacement rows of the global transfer
+    u = t[None, :6, :6] @ local[:, :6, :] @ t.T[None]
+    motion = np.einsum("gnij,nj->ngi", u.reshape(s.size, n, 6, 12), z_in)
     positions = p_in + np.outer(s / length, p_out - p_in)
     return positions, wts, motion
 
@@ -258,11 +260,10 @@ def _mass_inner(model, shapes: ModeShapes, i: int, j: int) -> float:
 def _orthonormalise_repeated(model, shapes: ModeShapes) -> ModeShapes:
     """Gram-Schmidt in the mass inner product within each group of repeated roots."""
     f = shapes.frequencies_hz
-    for i in range(f.size):
-        for j in range(i):
-            if abs(f[i] - f[j]) <= 1e-9 * f[i]:
-                c = _mass_inner(model, shapes, i, j) / _mass_inner(model, shapes, j, j)
-                _combine(shapes, i, j, -c)
+    close = np.abs(f[:, None] - f[None, :]) <= 1e-9 * f[:, None]
+    for i, j in zip(*np.nonzero(np.tril(close, -1)), strict=True):  # i, then j ascending
+        c = _mass_inner(model, shapes, i, j) / _mass_inner(model, shapes, j, j)
+        _combine(shapes, i, j, -c)
     return shapes
 
 

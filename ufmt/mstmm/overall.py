@@ -232,10 +232,16 @@ class TransferSystem:
         e = self.topology.edges[index]
         if e.kind == "hinge":
             return _hinge_matrix(tuple(e.element.stiffness6))
+        return elements.beam(omega, e.element, rotation=self.beam_rotation(index))
+
+    def beam_rotation(self, index: int) -> np.ndarray:
+        """(12, 12) rotation of beam edge ``index`` from its local frame (input end to output
+        end) to the global frame (:func:`ufmt.mstmm.elements.beam_rotation`), computed once."""
         if index not in self._beam_rotations:
+            e = self.topology.edges[index]
             p_in, p_out = e.point_at(e.input_node), e.point_at(e.output_node)
             self._beam_rotations[index] = elements.beam_rotation(e.element, p_in, p_out)
-        return elements.beam(omega, e.element, rotation=self._beam_rotations[index])
+        return self._beam_rotations[index]
 
     def _rigid_first_input(self, node, omega: np.ndarray) -> np.ndarray:
         """U_{i,I1} (eq. 2.8) as (n_omega, 12, 12)."""
