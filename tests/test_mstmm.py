@@ -280,3 +280,23 @@ def test_gauss_points_of_the_beam_fields_meet_their_error_bound():
         c = 2 * beam.length * (beam.density * beam.area * omega**2 / ei) ** 0.25
         if c > 0 and g < GAUSS_POINTS:
             assert w @ np.exp(c * x) == pytest.approx(np.expm1(c) / c, rel=1e-14)
+
+
+def test_topology_shared_by_stiffness_designs_gives_the_fresh_u_all():
+    """Designs that change stiffness values share the cached topology (oracle: U_all of a
+    topology built from scratch for each design, bitwise); a released direction is a new
+    structure (more unknowns), never a cache hit."""
+    from ufmt.mstmm.topology import _released, build_topology, redundant_rigid
+
+    base = load_model(packaged_path("ufmt-prior.toml"))
+    h = next(h for h in base.hinges if np.all(np.isfinite(h.stiffness6) & (h.stiffness6 > 0)))
+    omega = 2 * np.pi * np.array([37.0, 410.0])
+    TransferSystem(base)  # the structure is now cached
+    for six in (h.stiffness6 * 3.0, np.r_[0.0, h.stiffness6[1:]]):
+        design = base.with_hinge(h.name, stiffness=six[:3], rotational_stiffness=six[3:])
+        system = TransferSystem(design, fmax_hz=500.0)
+        fresh = TransferSystem(design, fmax_hz=500.0)
+        fresh.topology = build_topology(_released(design, redundant_rigid(design)))
+        assert system.order == fresh.order
+        assert np.array_equal(system.evaluate(omega), fresh.evaluate(omega))
+    assert TransferSystem(design).order > TransferSystem(base).order

@@ -18,7 +18,7 @@ import numpy as np
 
 from ufmt.model.schema import GROUND, Model
 from ufmt.mstmm import elements
-from ufmt.mstmm.topology import Topology, build_topology, drop_redundant_rigid
+from ufmt.mstmm.topology import Topology, transfer_topology
 
 CUT = np.diag(np.r_[np.ones(6), -np.ones(6)])  # C = diag(I3, I3, -I3, -I3)
 CUT.flags.writeable = False
@@ -172,7 +172,7 @@ class TransferSystem:
 
     def __init__(self, model: Model, fmax_hz: float | None = None):
         self.model = model
-        self.topology: Topology = build_topology(drop_redundant_rigid(model))
+        self.topology: Topology = transfer_topology(model)
         self.segments: tuple[str, ...] = ()
         self._beam_rotations: dict[int, np.ndarray] = {}
         if fmax_hz is not None:

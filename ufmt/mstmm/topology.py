@@ -14,7 +14,8 @@ ground take their input at ground (zero displacement, six unknown reactions).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+import threading
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy.linalg import qr
@@ -258,8 +259,57 @@ def _layout_unknowns(nodes, edges, order) -> Topology:
     )
 
 
-def drop_redundant_rigid(model: Model) -> Model:
-    """The model with every redundant rigid hinge direction released.
+def transfer_topology(model: Model) -> Topology:
+    """The topology of ``model`` with its redundant rigid directions released.
+
+    It depends on the bodies (the same objects) and on where the hinges are and which of their
+    directions are rigid, elastic or released, not on the stiffness values: it is built once
+    per such structure (the last TOPOLOGIES_KEPT) and shared by the designs of a stiffness
+    study, each with its hinge edges bound to its own hinges.
+    """
+    key = (
+        model.bodies,
+        tuple(
+            (
+                h.name,
+                tuple(h.between),
+                tuple(map(float, h.at)),
+                h.rigid.tobytes(),
+                h.released.tobytes(),
+            )
+            for h in model.hinges
+        ),
+    )
+    with _TOPOLOGIES_LOCK:  # dask workers may run designs in threads
+        if key not in _TOPOLOGIES:
+            redundant = redundant_rigid(model)
+            _TOPOLOGIES[key] = (build_topology(_released(model, redundant)), redundant)
+            while len(_TOPOLOGIES) > TOPOLOGIES_KEPT:
+                del _TOPOLOGIES[next(iter(_TOPOLOGIES))]
+        topology, redundant = _TOPOLOGIES[key]
+    model = _released(model, redundant)
+    edges = [
+        replace(e, element=model.hinge(e.name)) if e.kind == "hinge" else e for e in topology.edges
+    ]
+    return replace(topology, edges=edges)
+
+
+TOPOLOGIES_KEPT = 8
+_TOPOLOGIES: dict = {}  # structure key -> (topology, redundant rigid directions)
+_TOPOLOGIES_LOCK = threading.Lock()
+
+
+def _released(model: Model, directions) -> Model:
+    """``model`` with the hinge directions ``directions`` ((hinge, direction) pairs) released."""
+    for name, j in directions:
+        six = model.hinge(name).stiffness6.copy()
+        six[j] = 0.0
+        model = model.with_hinge(name, stiffness=six[:3], rotational_stiffness=six[3:])
+    return model
+
+
+def redundant_rigid(model: Model) -> list[tuple[str, int]]:
+    """The rigid hinge directions (hinge, direction) that repeat other rigid restrictions.
 
     A rigid direction that repeats a restriction already imposed by other rigid directions
     adds nothing kinematically, but it leaves a self-stress that no displacement sees: U_all
@@ -267,7 +317,7 @@ def drop_redundant_rigid(model: Model) -> Model:
     Every body gets six small-motion dofs [r; θ] at a reference point (centre of mass, or the
     hinge point for virtual bodies and beam ends); a rigid direction j of a hinge at P
     constrains e_j·(u_a(P) - u_b(P)) with u(P) = [r + θ × (P - ref); θ]; ground is fixed.
-    Independent rows are picked by pivoted QR, dependent ones released.
+    Independent rows are picked by pivoted QR; the dependent ones are returned.
     """
     beams = {b.name: b for b in model.bodies if isinstance(b, Beam)}
     refs: dict[str, np.ndarray] = {}
@@ -291,7 +341,7 @@ def drop_redundant_rigid(model: Model) -> Model:
             rows.append(entries)
             owners.append((h.name, int(j)))
     if not rows:
-        return model
+        return []
     g = np.zeros((len(rows), 6 * len(nodes)))
     for r, entries in enumerate(rows):
         for k, vec in entries:
@@ -300,10 +350,4 @@ def drop_redundant_rigid(model: Model) -> Model:
     _, rr, piv = qr(g.T, pivoting=True, mode="economic")
     diag = np.abs(np.diag(rr))
     rank = int(np.sum(diag > 1e-9 * diag[0])) if diag.size else 0
-    for r in piv[rank:]:
-        name, j = owners[r]
-        h = model.hinge(name)
-        six = h.stiffness6.copy()
-        six[j] = 0.0
-        model = model.with_hinge(name, stiffness=six[:3], rotational_stiffness=six[3:])
-    return model
+    return [owners[r] for r in piv[rank:]]
