@@ -175,6 +175,7 @@ class TransferSystem:
         self.topology: Topology = transfer_topology(model)
         self.segments: tuple[str, ...] = ()
         self._beam_rotations: dict[int, np.ndarray] = {}
+        self._constant_parts: dict = {}  # hinge edge index or rigid node name -> matrices
         if fmax_hz is not None:
             self.segment_for(fmax_hz)
 
@@ -231,7 +232,9 @@ class TransferSystem:
         """Transfer matrix of edge ``index``: (12, 12) if constant in ω, else (n, 12, 12)."""
         e = self.topology.edges[index]
         if e.kind == "hinge":
-            return _hinge_matrix(tuple(e.element.stiffness6))
+            if index not in self._constant_parts:
+                self._constant_parts[index] = _hinge_matrix(tuple(e.element.stiffness6))
+            return self._constant_parts[index]
         return elements.beam(omega, e.element, rotation=self.beam_rotation(index))
 
     def beam_rotation(self, index: int) -> np.ndarray:
@@ -250,9 +253,14 @@ class TransferSystem:
 
     def _rigid_parts(self, node) -> tuple[np.ndarray, np.ndarray]:
         """Constant and ω² parts (12, 12) of U_{i,I1} (eq. 2.8), cached per body."""
-        b = node.body
-        points = (b.center_of_mass, self.topology.first_input_point(node.name), node.output_point)
-        return _rigid_body_parts(b.mass, tuple(np.ravel(b.inertia)), *(tuple(p) for p in points))
+        if node.name not in self._constant_parts:
+            b = node.body
+            first = self.topology.first_input_point(node.name)
+            points = (b.center_of_mass, first, node.output_point)
+            self._constant_parts[node.name] = _rigid_body_parts(
+                b.mass, tuple(np.ravel(b.inertia)), *(tuple(p) for p in points)
+            )
+        return self._constant_parts[node.name]
 
     def _edge_output(self, index: int, state_in: State, omega: np.ndarray) -> State:
         out = state_in.transfer(self._edge_matrix(index, omega))
