@@ -9,7 +9,9 @@ from ufmt.model.schema import Beam
 from ufmt.mstmm import elements
 from ufmt.mstmm.modes import GAUSS_POINTS, _gauss_points, mode_shapes
 from ufmt.mstmm.overall import TransferSystem
+from ufmt.mstmm.reduced import ConstantColumns
 from ufmt.mstmm.roots import natural_frequencies
+from ufmt.mstmm.solve import solve_modes
 
 INF = float("inf")
 RIGID = {"stiffness": [INF] * 3, "rotational_stiffness": [INF] * 3}
@@ -300,3 +302,28 @@ def test_topology_shared_by_stiffness_designs_gives_the_fresh_u_all():
         assert system.order == fresh.order
         assert np.array_equal(system.evaluate(omega), fresh.evaluate(omega))
     assert TransferSystem(design).order > TransferSystem(base).order
+
+
+def test_eliminating_the_constant_columns_keeps_det_and_null_vectors():
+    """S(ω) of ufmt.mstmm.reduced: det U_all / det S is one constant over ω (Schur
+    complement property), the eliminated columns are ω-independent at a third set of
+    frequencies, and S's null vectors at the roots complete to null vectors of U_all."""
+    model = load_model(packaged_path("ufmt-prior.toml"))
+    system = TransferSystem(model, fmax_hz=800.0)
+    omega = 2 * np.pi * np.array([3.0, 40.0, 155.0, 420.0, 790.0])
+    u = system.evaluate(omega)
+    reduction = ConstantColumns.of(u, system.evaluate(omega * 1.013))
+    assert 0 < reduction.order < system.size
+    other = system.evaluate(omega * 0.97)
+    assert np.array_equal(other[:, :, reduction.constant], u[:, :, reduction.constant])
+    sign_u, log_u = np.linalg.slogdet(u)
+    sign_s, log_s = np.linalg.slogdet(reduction.reduce(u))
+    assert np.all(sign_u * sign_s == sign_u[0] * sign_s[0])
+    np.testing.assert_allclose(log_u - log_s, log_u[0] - log_s[0], rtol=0, atol=1e-11)
+    f = solve_modes(model, count=12, shapes=False).frequencies_hz
+    at_roots = system.evaluate(2 * np.pi * f)
+    _, _, vh = np.linalg.svd(reduction.reduce(at_roots))
+    z = reduction.null_vectors(at_roots, vh[:, -1, :, None])[:, :, 0]
+    residual = np.linalg.norm(np.einsum("nij,nj->ni", at_roots, z), axis=1)
+    scale = np.linalg.norm(at_roots, axis=(1, 2)) * np.linalg.norm(z, axis=1)
+    assert np.all(residual <= 1e-12 * scale)

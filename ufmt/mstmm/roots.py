@@ -36,6 +36,7 @@ import numpy as np
 
 from ufmt.errors import UfmtError
 from ufmt.mstmm.overall import TransferSystem, equilibrate
+from ufmt.mstmm.reduced import ConstantColumns
 
 TWO_PI = 2.0 * np.pi
 STEPS = np.array([3e-2, 1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7])
@@ -357,21 +358,23 @@ def _newton(system, omega, lo, hi, mult, rtol):
 
     Returns (roots, certified, null bases): a cluster is certified when its last step is
     below ``rtol`` or, being below ACCEPT_STEP, contracted superlinearly from the previous
-    one, inside [lo, hi]. Rows and columns are scaled once per cluster, off the root (at
-    the first ω + dω), so that the LU solves see O(1) entries (the scaling cancels in
-    tr(U⁻¹ dU)). The null space comes with the last step for free: near a root of
-    multiplicity m, U⁻¹ dU/dω has m eigenvalues ≈ 1/(ω - ω_k), all others O(1), so two
-    products with an m-column block (QR after each) give an orthonormal basis (size, m) of
-    the null space, accurate to the relative distance of the last iterate from the root.
+    one, inside [lo, hi]. The iteration works on S(ω), U_all with its ω-independent columns
+    eliminated (:mod:`ufmt.mstmm.reduced`: det U_all = const · det S, so the same roots and
+    tr(S⁻¹ dS) = tr(U⁻¹ dU) at about half the LU cost). Rows and columns are scaled once per
+    cluster, off the root (at the first ω + dω), so that the LU solves see O(1) entries (the
+    scaling cancels in the trace). The null space comes with the last step for free: near a
+    root of multiplicity m, S⁻¹ dS/dω has m eigenvalues ≈ 1/(ω - ω_k), all others O(1), so
+    two products with an m-column block (QR after each) give a basis of S's null space,
+    accurate to the relative distance of the last iterate from the root, completed to U_all's
+    (size, m).
     A step that would leave the window (a neighbouring root pulls Newton too far) goes half
     way to the window's end instead; such a step never counts as converged.
     """
     w = omega.astype(float).copy()
     n = w.size
     r = c = None  # the scaling, from the first evaluation (one walk of the transfer graph)
+    reduction = None  # U_all's ω-independent columns eliminated (ufmt.mstmm.reduced)
     previous = np.full(n, np.inf)
-    start = np.random.default_rng(0).standard_normal((system.size, int(mult.max())))
-    matrix_shape = (system.size, system.size)
     basis: dict[int, np.ndarray] = {}
     done = np.zeros(n, dtype=bool)
     for _ in range(NEWTON_ITERATIONS):
@@ -380,26 +383,24 @@ def _newton(system, omega, lo, hi, mult, rtol):
             break
         wa = w[act]
         h = DERIVATIVE_STEP * wa
-        u = system.evaluate(np.concatenate([wa, wa + h])).reshape(2, act.size, *matrix_shape)
+        u = system.evaluate(np.concatenate([wa, wa + h]))
+        if reduction is None:
+            reduction = ConstantColumns.of(u[: act.size], u[act.size :])
+            start = np.random.default_rng(0).standard_normal((reduction.order, int(mult.max())))
+        s0, s1 = reduction.reduce(u).reshape(2, act.size, reduction.order, reduction.order)
         if r is None:  # at ω(1 + DERIVATIVE_STEP): off the root even from an exact start
-            r, c = equilibrate(u[1])
-            # columns of U_all constant in ω (identity blocks of segments, rigid hinge
-            # rows...) add nothing to tr(U⁻¹ dU): solve only for the others
-            moving = np.flatnonzero(np.any(u[1] != u[0], axis=(0, 1)))
-            c_moving = c[:, :, moving]
-        u0 = u[0]
-        du = u[1][:, :, moving]
-        du -= u0[:, :, moving]
-        du *= r[act] / h[:, None, None]
-        du *= c_moving[act]
-        u0 *= r[act]
-        u0 *= c[act]
+            r, c = equilibrate(s1)
+        ds = s1 - s0
+        ds *= r[act] / h[:, None, None]
+        ds *= c[act]
+        s0 *= r[act]
+        s0 *= c[act]
         with np.errstate(all="ignore"):
-            product = batched_solve(u0, du)  # U⁻¹ dU[:, moving], scaled
+            product = batched_solve(s0, ds)  # S⁻¹ dS/dω, scaled
             # Aberth: the other clusters' current roots are divided out of det U_all
             others = mult[None, :] / (wa[:, None] - w[None, :])
             others[np.arange(act.size), act] = 0.0
-            trace = product[:, moving, np.arange(moving.size)].sum(axis=1)
+            trace = np.trace(product, axis1=1, axis2=2)
             step = mult[act] / (trace - others.sum(axis=1))
         finite = np.isfinite(step)
         step = np.where(finite, step, 0.0)  # exactly singular: ω is the root
@@ -417,9 +418,10 @@ def _newton(system, omega, lo, hi, mult, rtol):
             x = np.broadcast_to(start[:, :m], (sel.size, start.shape[0], m))
             with np.errstate(all="ignore"):
                 for _ in range(2):
-                    x = orthonormal(product[sel] @ x[:, moving, :])
+                    x = orthonormal(product[sel] @ x)
+            z = reduction.null_vectors(u[sel], c[act[sel], 0, :, None] * np.real(x))
             for k, j in enumerate(act[sel]):
-                basis[j] = c[j, 0, :, None] * np.real(x[k])
+                basis[j] = z[k]
     ok = done.copy()
     order = np.flatnonzero(ok)[np.argsort(w[ok])]  # two clusters on one root: both fail
     close = np.flatnonzero(np.diff(w[order]) <= 1e-9 * w[order][1:])
