@@ -71,20 +71,29 @@ class ConstantColumns:
         """Order of S."""
         return self.moving.size
 
-    def reduce(self, u: np.ndarray) -> np.ndarray:
-        """S(ω) (n, m, m) of U_all(ω) (n, size, size); also dS/dω of dU_all/dω (linear)."""
-        n, size = u.shape[0], u.shape[-1]
-        rows = np.concatenate([self.other_rows, self.rest_rows, self.pivot_rows])
-        flat = (rows[:, None] * size + self.moving[None, :]).ravel()  # one gather
-        a = np.take(u.reshape(n, -1), flat, axis=1).reshape(n, rows.size, self.order)
-        s, a_p = a[:, : self.order], a[:, self.order :]
-        s[:, : self.other_rows.size] -= self.combine @ a_p
+    @property
+    def layout(self) -> tuple[np.ndarray, np.ndarray]:
+        """(rows, columns) of U_all that S is made of, in the order :meth:`reduce` reads them:
+        o, r, then p rows; the ω-dependent columns."""
+        return np.concatenate([self.other_rows, self.rest_rows, self.pivot_rows]), self.moving
+
+    def arrange(self, u: np.ndarray) -> np.ndarray:
+        """U_all (n, size, size) cut to :attr:`layout` (n, size, m)."""
+        rows, columns = self.layout
+        flat = (rows[:, None] * u.shape[-1] + columns[None, :]).ravel()  # one gather
+        return np.take(u.reshape(u.shape[0], -1), flat, axis=1).reshape(u.shape[0], rows.size, -1)
+
+    def reduce(self, a: np.ndarray) -> np.ndarray:
+        """S(ω) (n, m, m) from U_all(ω) in :attr:`layout` (n, size, m), in place (a view of
+        ``a``); dS/dω from dU_all/dω likewise (the map is linear)."""
+        s = a[:, : self.order]
+        s[:, : self.other_rows.size] -= self.combine @ a[:, self.order :]
         return s
 
-    def null_vectors(self, u: np.ndarray, z_moving: np.ndarray) -> np.ndarray:
-        """U_all's null vectors (n, size, q) from S's (n, m, q) at the same ω (u: U_all)."""
-        a_p = u[:, self.pivot_rows][:, :, self.moving]
-        z = np.empty((u.shape[0], u.shape[-1], z_moving.shape[-1]), dtype=z_moving.dtype)
+    def null_vectors(self, a: np.ndarray, z_moving: np.ndarray) -> np.ndarray:
+        """U_all's null vectors (n, size, q) from S's (n, m, q), with U_all at the same ω in
+        :attr:`layout` (n, size, m) (only its pivot rows are read)."""
+        z = np.empty((a.shape[0], a.shape[1], z_moving.shape[-1]), dtype=z_moving.dtype)
         z[:, self.moving] = z_moving
-        z[:, self.constant] = -np.linalg.solve(self.pivot_block, a_p @ z_moving)
+        z[:, self.constant] = -np.linalg.solve(self.pivot_block, a[:, self.order :] @ z_moving)
         return z

@@ -387,6 +387,7 @@ def _newton(system, omega, lo, hi, mult, rtol):
         if reduction is None:
             reduction = ConstantColumns.of(u[: act.size], u[act.size :])
             start = np.random.default_rng(0).standard_normal((reduction.order, int(mult.max())))
+        u = reduction.arrange(u)
         s0, s1 = reduction.reduce(u).reshape(2, act.size, reduction.order, reduction.order)
         if r is None:  # at ω(1 + DERIVATIVE_STEP): off the root even from an exact start
             r, c = equilibrate(s1)
