@@ -9,7 +9,7 @@ from ufmt.model.schema import Beam
 from ufmt.mstmm import elements
 from ufmt.mstmm.modes import GAUSS_POINTS, _gauss_points, mode_shapes
 from ufmt.mstmm.overall import TransferSystem
-from ufmt.mstmm.reduced import ConstantColumns
+from ufmt.mstmm.reduced import ConstantParts
 from ufmt.mstmm.roots import natural_frequencies
 from ufmt.mstmm.solve import solve_modes
 
@@ -304,15 +304,16 @@ def test_topology_shared_by_stiffness_designs_gives_the_fresh_u_all():
     assert TransferSystem(design).order > TransferSystem(base).order
 
 
-def test_eliminating_the_constant_columns_keeps_det_and_null_vectors():
-    """S(ω) of ufmt.mstmm.reduced: det U_all / det S is one constant over ω (Schur
-    complement property), the eliminated columns are ω-independent at a third set of
-    frequencies, and S's null vectors at the roots complete to null vectors of U_all."""
+def test_eliminating_the_constant_columns_and_rows_keeps_det_and_null_vectors():
+    """S'(ω) of ufmt.mstmm.reduced (ω-independent columns and rows eliminated): det U_all /
+    det S' is one constant over ω (Schur complement property), the eliminated columns are
+    ω-independent at a third set of frequencies, and S''s null vectors at the roots complete
+    to null vectors of U_all."""
     model = load_model(packaged_path("ufmt-prior.toml"))
     system = TransferSystem(model, fmax_hz=800.0)
     omega = 2 * np.pi * np.array([3.0, 40.0, 155.0, 420.0, 790.0])
     u = system.evaluate(omega)
-    reduction = ConstantColumns.of(u, system.evaluate(omega * 1.013))
+    reduction = ConstantParts.of(u, system.evaluate(omega * 1.013))
     assert 0 < reduction.order < system.size
     other = system.evaluate(omega * 0.97)
     assert np.array_equal(other[:, :, reduction.constant], u[:, :, reduction.constant])

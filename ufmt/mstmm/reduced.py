@@ -1,19 +1,25 @@
-"""U_all with its ω-independent columns eliminated exactly (for the Newton iteration on det).
+"""U_all with its ω-independent columns and rows eliminated exactly (for Newton on det).
 
-About a quarter of U_all's columns do not depend on ω: the ground reactions, the released
-directions' jumps, the cut states in the geometric equations. With B those columns, A(ω) the
-others and a row permutation P chosen by scaled partial pivoting on B,
+About a quarter of U_all's columns do not depend on ω (the ground reactions, the released
+directions' jumps, the cut states in the geometric equations), and after they are gone some
+rows do not either (geometric equations between rigid points). Both are eliminated with
+constant factors, chosen once per solve by scaled partial pivoting:
 
-    P U_all = [[B_p, A_p(ω)], [B_o, A_o(ω)], [0, A_r(ω)]],  B_o = G' B_p,
+1. Columns. With B the ω-independent columns and A(ω) the others, a row permutation gives
+   P U_all = [[B_p, A_p], [B_o, A_o], [0, A_r]] with B_o = G B_p (p: one pivot row per
+   constant column, o: the other rows B touches, r: the rest). Subtracting G times the
+   pivot rows from the o rows leaves [[B_p, A_p], [0, S]], S = [A_o - G A_p; A_r], so
+   det U_all = ± det B_p · det S, and a null vector z_m of S completes to U_all's with
+   z_c = -B_p⁻¹ A_p z_m.
+2. Rows. S's ω-independent rows R = [R_p, R_o, 0] (a column permutation; p: one pivot
+   column per constant row, o: the other columns R touches) force z_p = -C z_o with
+   C = R_p⁻¹ R_o. Subtracting the p columns times C from the o columns leaves the constant
+   rows as [R_p, 0, 0], so det S = ± det R_p · det S', S' the other rows' o and r columns,
+   and a null vector [z_o; z_r] of S' completes to S's with z_p = -C z_o.
 
-(p: one pivot row per constant column, o: the other rows B touches, r: the rows it does not)
-so subtracting G' times the pivot rows from the o rows leaves the block triangular form
-
-    [[B_p, A_p], [0, S(ω)]],  S = [A_o - G' A_p; A_r],  det U_all = ± det B_p · det S(ω).
-
-det B_p is a constant: S has the same roots as U_all, tr(S⁻¹ dS/dω) = tr(U_all⁻¹ dU_all/dω)
-and a null vector z_m of S gives U_all's as [z_c; z_m] with z_c = -B_p⁻¹ A_p z_m. The order
-drops from 102 to 75 on the packaged model, so each LU and solve costs about half.
+det B_p and det R_p are constants: S' has the same roots as U_all and
+tr(S'⁻¹ dS'/dω) = tr(U_all⁻¹ dU_all/dω). On the packaged model the order drops from 102
+to 64, so each LU and solve of the Newton iteration costs about a third.
 """
 
 from __future__ import annotations
@@ -24,76 +30,101 @@ import numpy as np
 import scipy.linalg as sla
 
 
-@dataclass(frozen=True, eq=False)
-class ConstantColumns:
-    """The elimination of U_all's ω-independent columns (module docstring).
+def _pivots(block: np.ndarray, scale: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Rows of ``block`` (t, k) (rank k) in pivot order, and G (t - k, k) with
+    block[other] = G block[pivots], by partial pivoting on the rows scaled by ``scale``."""
+    t, k = block.shape
+    if k == 0:
+        return np.arange(t), np.zeros((t, 0))
+    perm, lower, _ = sla.lu(block / scale[:, None], p_indices=True)
+    order = np.argsort(perm)  # block / scale = lower[perm] @ upper
+    g = sla.solve_triangular(lower[:k], lower[k:].T, trans="T", lower=True, unit_diagonal=True)
+    return order, scale[order[k:], None] * g.T / scale[order[:k]][None, :]
 
-    moving (m,): columns of U_all that depend on ω, in S's column order; constant (k,): the
-    others; pivot_rows (k,), other_rows, rest_rows: the rows p, o and r; combine (o, k): G';
-    pivot_block (k, k): B_p.
+
+@dataclass(frozen=True, eq=False)
+class ConstantParts:
+    """The elimination of U_all's ω-independent columns and rows (module docstring).
+
+    rows, columns: the rows and ω-dependent columns of U_all that :meth:`reduce` reads, in
+    its order (o, r, p rows of step 1; o, r, p columns of step 2); constant: the eliminated
+    columns; row_combine (o, k): G; pivot_block (k, k): B_p; kept: positions of S's
+    non-constant rows; column_combine (k2, o2): C.
     """
 
-    moving: np.ndarray
+    rows: np.ndarray
+    columns: np.ndarray
     constant: np.ndarray
-    pivot_rows: np.ndarray
-    other_rows: np.ndarray
-    rest_rows: np.ndarray
-    combine: np.ndarray
+    row_combine: np.ndarray
     pivot_block: np.ndarray
+    kept: np.ndarray
+    column_combine: np.ndarray
 
     @classmethod
-    def of(cls, u_a: np.ndarray, u_b: np.ndarray) -> ConstantColumns:
-        """The elimination for U_all evaluated at two sets of frequencies (n, size, size)
-        (a column is ω-independent when it is bitwise equal in both)."""
+    def of(cls, u_a: np.ndarray, u_b: np.ndarray) -> ConstantParts:
+        """The elimination for U_all at two sets of frequencies (n, size, size): a column or
+        row is ω-independent when it is bitwise equal in both."""
         size = u_a.shape[-1]
+        u0 = u_a[0]
         moving = np.flatnonzero(np.any(u_a != u_b, axis=(0, 1)))
         constant = np.setdiff1d(np.arange(size), moving)
-        b = u_a[0][:, constant]
-        touched = np.flatnonzero(np.any(b != 0.0, axis=1))
+        touched = np.flatnonzero(np.any(u0[:, constant] != 0.0, axis=1))
         # scaled partial pivoting: each row measured against its largest entry in U_all
-        scale = np.abs(u_a[0][touched]).max(axis=1)
-        perm, lower, _ = sla.lu(b[touched] / scale[:, None], p_indices=True)
-        order = np.argsort(perm)  # rows of b[touched] in pivot order
+        order, g = _pivots(u0[np.ix_(touched, constant)], np.abs(u0[touched]).max(axis=1))
         k = constant.size
-        pivots, others = touched[order[:k]], touched[order[k:]]
-        # G' = L_o L_p⁻¹ in the scaled rows, back to U_all's rows
-        g = sla.solve_triangular(
-            lower[:k], lower[k:].T, trans="T", lower=True, unit_diagonal=True
-        ).T
-        combine = scale[order[k:], None] * g / scale[order[:k]][None, :]
         rest = np.setdiff1d(np.arange(size), touched)
-        return cls(
-            moving, constant, pivots, others, rest, combine, u_a[0][np.ix_(pivots, constant)]
-        )
+        rows = np.concatenate([touched[order[k:]], rest, touched[order[:k]]])
+
+        def s_of(u):  # step 1 on U_all (n, size, size), columns in U_all's order
+            a = u[:, rows][:, :, moving]
+            a[:, : g.shape[0]] -= g @ a[:, size - k :]
+            return a[:, : moving.size]
+
+        s_a, s_b = s_of(u_a), s_of(u_b)
+        still = np.flatnonzero(~np.any(s_a != s_b, axis=(0, 2)))
+        kept = np.setdiff1d(np.arange(moving.size), still)
+        r = s_a[0][still]
+        touched2 = np.flatnonzero(np.any(r != 0.0, axis=0))
+        # columns measured against their largest entry in S
+        order2, g2 = _pivots(r[:, touched2].T, np.abs(s_a[0][:, touched2]).max(axis=0))
+        k2 = still.size
+        rest2 = np.setdiff1d(np.arange(moving.size), touched2)
+        columns = moving[np.concatenate([touched2[order2[k2:]], rest2, touched2[order2[:k2]]])]
+        pivot_block = u0[np.ix_(rows[size - k :], constant)]
+        return cls(rows, columns, constant, g, pivot_block, kept, g2.T)
 
     @property
     def order(self) -> int:
-        """Order of S."""
-        return self.moving.size
-
-    @property
-    def layout(self) -> tuple[np.ndarray, np.ndarray]:
-        """(rows, columns) of U_all that S is made of, in the order :meth:`reduce` reads them:
-        o, r, then p rows; the ω-dependent columns."""
-        return np.concatenate([self.other_rows, self.rest_rows, self.pivot_rows]), self.moving
+        """Order of S'."""
+        return self.kept.size
 
     def arrange(self, u: np.ndarray) -> np.ndarray:
-        """U_all (n, size, size) cut to :attr:`layout` (n, size, m)."""
-        rows, columns = self.layout
-        flat = (rows[:, None] * u.shape[-1] + columns[None, :]).ravel()  # one gather
-        return np.take(u.reshape(u.shape[0], -1), flat, axis=1).reshape(u.shape[0], rows.size, -1)
+        """U_all (n, size, size) cut to :attr:`rows` and :attr:`columns`, one gather."""
+        flat = (self.rows[:, None] * u.shape[-1] + self.columns[None, :]).ravel()
+        return np.take(u.reshape(u.shape[0], -1), flat, axis=1).reshape(
+            u.shape[0], self.rows.size, self.columns.size
+        )
 
     def reduce(self, a: np.ndarray) -> np.ndarray:
-        """S(ω) (n, m, m) from U_all(ω) in :attr:`layout` (n, size, m), in place (a view of
-        ``a``); dS/dω from dU_all/dω likewise (the map is linear)."""
-        s = a[:, : self.order]
-        s[:, : self.other_rows.size] -= self.combine @ a[:, self.order :]
-        return s
+        """S'(ω) (n, m', m') from U_all(ω) arranged (:meth:`arrange`); ``a``'s o rows are
+        changed in place, its pivot rows are kept for :meth:`null_vectors`. dS'/dω from
+        dU_all/dω likewise (the map is linear)."""
+        k, k2 = self.constant.size, self.column_combine.shape[0]
+        size, m = self.rows.size, self.columns.size
+        a[:, : self.row_combine.shape[0]] -= self.row_combine @ a[:, size - k :]
+        s = a[:, self.kept]  # S's non-constant rows (a copy)
+        s[:, :, : self.column_combine.shape[1]] -= s[:, :, m - k2 :] @ self.column_combine
+        return s[:, :, : m - k2]
 
-    def null_vectors(self, a: np.ndarray, z_moving: np.ndarray) -> np.ndarray:
-        """U_all's null vectors (n, size, q) from S's (n, m, q), with U_all at the same ω in
-        :attr:`layout` (n, size, m) (only its pivot rows are read)."""
-        z = np.empty((a.shape[0], a.shape[1], z_moving.shape[-1]), dtype=z_moving.dtype)
-        z[:, self.moving] = z_moving
-        z[:, self.constant] = -np.linalg.solve(self.pivot_block, a[:, self.order :] @ z_moving)
+    def null_vectors(self, a: np.ndarray, z_reduced: np.ndarray) -> np.ndarray:
+        """U_all's null vectors (n, size, q) from S''s (n, m', q), with ``a`` the
+        :meth:`arrange` d U_all at the same ω (only its pivot rows are read)."""
+        k, o2 = self.constant.size, self.column_combine.shape[1]
+        z_p = -self.column_combine @ z_reduced[:, :o2]
+        z_m = np.concatenate([z_reduced, z_p], axis=1)  # in the order of ``columns``
+        size = self.rows.size
+        z = np.empty((a.shape[0], size, z_reduced.shape[-1]), dtype=z_reduced.dtype)
+        z[:, self.columns] = z_m
+        if k:
+            z[:, self.constant] = -np.linalg.solve(self.pivot_block, a[:, size - k :] @ z_m)
         return z

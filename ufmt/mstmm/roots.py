@@ -36,7 +36,7 @@ import numpy as np
 
 from ufmt.errors import UfmtError
 from ufmt.mstmm.overall import TransferSystem, equilibrate
-from ufmt.mstmm.reduced import ConstantColumns
+from ufmt.mstmm.reduced import ConstantParts
 
 TWO_PI = 2.0 * np.pi
 STEPS = np.array([3e-2, 1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7])
@@ -359,21 +359,21 @@ def _newton(system, omega, lo, hi, mult, rtol):
     Returns (roots, certified, null bases): a cluster is certified when its last step is
     below ``rtol`` or, being below ACCEPT_STEP, contracted superlinearly from the previous
     one, inside [lo, hi]. The iteration works on S(ω), U_all with its ω-independent columns
-    eliminated (:mod:`ufmt.mstmm.reduced`: det U_all = const · det S, so the same roots and
-    tr(S⁻¹ dS) = tr(U⁻¹ dU) at about half the LU cost). Rows and columns are scaled once per
-    cluster, off the root (at the first ω + dω), so that the LU solves see O(1) entries (the
-    scaling cancels in the trace). The null space comes with the last step for free: near a
-    root of multiplicity m, S⁻¹ dS/dω has m eigenvalues ≈ 1/(ω - ω_k), all others O(1), so
-    two products with an m-column block (QR after each) give a basis of S's null space,
-    accurate to the relative distance of the last iterate from the root, completed to U_all's
-    (size, m).
-    A step that would leave the window (a neighbouring root pulls Newton too far) goes half
-    way to the window's end instead; such a step never counts as converged.
+    and rows eliminated (:mod:`ufmt.mstmm.reduced`: det U_all = const · det S, so the same
+    roots and tr(S⁻¹ dS) = tr(U⁻¹ dU) at about a third of the LU cost). Rows and columns
+    are scaled once per cluster, off the root (at the first ω + dω), so that the LU solves
+    see O(1) entries (the scaling cancels in the trace). The null space comes with the last
+    step for free: near a root of multiplicity m, S⁻¹ dS/dω has m eigenvalues
+    ≈ 1/(ω - ω_k), all others O(1), so two products with an m-column block (QR after each)
+    give a basis of S's null space, accurate to the relative distance of the last iterate
+    from the root, completed to U_all's (size, m). A step that would leave the window (a
+    neighbouring root pulls Newton too far) goes half way to the window's end instead; such
+    a step never counts as converged.
     """
     w = omega.astype(float).copy()
     n = w.size
     r = c = None  # the scaling, from the first evaluation (one walk of the transfer graph)
-    reduction = None  # U_all's ω-independent columns eliminated (ufmt.mstmm.reduced)
+    reduction = None  # U_all's ω-independent columns and rows eliminated (ufmt.mstmm.reduced)
     previous = np.full(n, np.inf)
     basis: dict[int, np.ndarray] = {}
     done = np.zeros(n, dtype=bool)
@@ -385,7 +385,7 @@ def _newton(system, omega, lo, hi, mult, rtol):
         h = DERIVATIVE_STEP * wa
         u = system.evaluate(np.concatenate([wa, wa + h]))
         if reduction is None:
-            reduction = ConstantColumns.of(u[: act.size], u[act.size :])
+            reduction = ConstantParts.of(u[: act.size], u[act.size :])
             start = np.random.default_rng(0).standard_normal((reduction.order, int(mult.max())))
         u = reduction.arrange(u)
         s0, s1 = reduction.reduce(u).reshape(2, act.size, reduction.order, reduction.order)
