@@ -36,6 +36,8 @@ from threadpoolctl import threadpool_limits
 
 from ufmt.assembled import assemble, assembled_modes, reduced_matrices
 from ufmt.model.load import load_model, packaged_path
+from ufmt.mstmm.overall import TransferSystem
+from ufmt.mstmm.reduced import ConstantParts
 from ufmt.mstmm.solve import continuation, solve_modes
 
 MODES = 30
@@ -107,9 +109,14 @@ def main() -> None:
         for name, mesh in sorted({c for cs in candidates.values() for c in cs}):
             calls[(name, mesh)] = lambda fn=SOLVERS[name], e=mesh: fn(model, e)
         seconds = interleaved_medians(calls)
+    system = TransferSystem(model, fmax_hz=float(f[-1]))
+    u = system.evaluate(2 * np.pi * f[[0, 0, -1]] * np.array([1.0, 1.0 + 1e-7, 1.0]))
+    newton_order = ConstantParts.of(u).order
     print(
         f"{MODES} modes with shapes, packaged model, 1 BLAS thread on both sides; "
-        f"U_all order {mst.order}, {mst.frequencies_hz.size}/{mst.expected} roots"
+        f"U_all order {mst.order}, {system.size} with {len(system.segments)} segments, "
+        f"{newton_order} after its ω-independent parts are eliminated (the Newton matrix); "
+        f"{mst.frequencies_hz.size}/{mst.expected} roots"
     )
     print("assembled vs MSTMM, max |f/f_MSTMM - 1| by elements per beam (x elements² for SVD):")
     print("   el  " + "  ".join(f"{name:>21s}" for name in SOLVERS) + "   error x el²")

@@ -313,7 +313,7 @@ def test_eliminating_the_constant_columns_and_rows_keeps_det_and_null_vectors():
     system = TransferSystem(model, fmax_hz=800.0)
     omega = 2 * np.pi * np.array([3.0, 40.0, 155.0, 420.0, 790.0])
     u = system.evaluate(omega)
-    reduction = ConstantParts.of(u, system.evaluate(omega * 1.013))
+    reduction = ConstantParts.of(np.concatenate([u[:2], system.evaluate(omega[:1] * 1.013)]))
     assert 0 < reduction.order < system.size
     other = system.evaluate(omega * 0.97)
     assert np.array_equal(other[:, :, reduction.constant], u[:, :, reduction.constant])

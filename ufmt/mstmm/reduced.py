@@ -61,12 +61,13 @@ class ConstantParts:
     column_combine: np.ndarray
 
     @classmethod
-    def of(cls, u_a: np.ndarray, u_b: np.ndarray) -> ConstantParts:
-        """The elimination for U_all at two sets of frequencies (n, size, size): a column or
-        row is ω-independent when it is bitwise equal in both."""
-        size = u_a.shape[-1]
-        u0 = u_a[0]
-        moving = np.flatnonzero(np.any(u_a != u_b, axis=(0, 1)))
+    def of(cls, samples: np.ndarray) -> ConstantParts:
+        """The elimination for U_all sampled at a few distinct frequencies (q, size, size),
+        q >= 2, some close and some far apart: a column or row is ω-independent when it is
+        bitwise equal in all of them."""
+        size = samples.shape[-1]
+        u0 = samples[0]
+        moving = np.flatnonzero(np.any(samples[1:] != u0, axis=(0, 1)))
         constant = np.setdiff1d(np.arange(size), moving)
         touched = np.flatnonzero(np.any(u0[:, constant] != 0.0, axis=1))
         # scaled partial pivoting: each row measured against its largest entry in U_all
@@ -80,13 +81,13 @@ class ConstantParts:
             a[:, : g.shape[0]] -= g @ a[:, size - k :]
             return a[:, : moving.size]
 
-        s_a, s_b = s_of(u_a), s_of(u_b)
-        still = np.flatnonzero(~np.any(s_a != s_b, axis=(0, 2)))
+        s = s_of(samples)
+        still = np.flatnonzero(~np.any(s[1:] != s[0], axis=(0, 2)))
         kept = np.setdiff1d(np.arange(moving.size), still)
-        r = s_a[0][still]
+        r = s[0][still]
         touched2 = np.flatnonzero(np.any(r != 0.0, axis=0))
         # columns measured against their largest entry in S
-        order2, g2 = _pivots(r[:, touched2].T, np.abs(s_a[0][:, touched2]).max(axis=0))
+        order2, g2 = _pivots(r[:, touched2].T, np.abs(s[0][:, touched2]).max(axis=0))
         k2 = still.size
         rest2 = np.setdiff1d(np.arange(moving.size), touched2)
         columns = moving[np.concatenate([touched2[order2[k2:]], rest2, touched2[order2[:k2]]])]

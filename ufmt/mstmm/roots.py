@@ -385,7 +385,8 @@ def _newton(system, omega, lo, hi, mult, rtol):
         h = DERIVATIVE_STEP * wa
         u = system.evaluate(np.concatenate([wa, wa + h]))
         if reduction is None:
-            reduction = ConstantParts.of(u[: act.size], u[act.size :])
+            # ω-independent parts: equal at ω_0, ω_0 + dω and the last (distant) ω
+            reduction = ConstantParts.of(u[[0, act.size, act.size - 1]])
             start = np.random.default_rng(0).standard_normal((reduction.order, int(mult.max())))
         u = reduction.arrange(u)
         s0, s1 = reduction.reduce(u).reshape(2, act.size, reduction.order, reduction.order)
