@@ -449,3 +449,24 @@ def test_massless_mechanism_is_a_model_error():
     )
     with pytest.raises(ModelError, match=r"body 'hub': massless mechanism.*\(rx\)"):
         assembled_modes(model)
+
+
+def test_stiffness_independent_parts_are_shared_and_give_the_fresh_solution():
+    """A design that changes a stiffness value reuses the cached bases, zero-mode count and
+    mass factor; frequencies and shapes equal a solve with the cache emptied (bitwise)."""
+    import ufmt.assembled as assembled_module
+    from ufmt.model.load import load_model, packaged_path
+
+    base = load_model(packaged_path("ufmt-prior.toml"))
+    h = next(h for h in base.hinges if np.all(np.isfinite(h.stiffness6) & (h.stiffness6 > 0)))
+    six = 2.5 * h.stiffness6
+    design = base.with_hinge(h.name, stiffness=six[:3], rotational_stiffness=six[3:])
+    assembled_modes(base, count=20, elements_per_beam=6)
+    kept = len(assembled_module._STRUCTURES)
+    shared = assembled_modes(design, count=20, elements_per_beam=6)
+    assert len(assembled_module._STRUCTURES) == kept  # a cache hit
+    assembled_module._STRUCTURES.clear()
+    fresh = assembled_modes(design, count=20, elements_per_beam=6)
+    assert np.array_equal(shared.frequencies_hz, fresh.frequencies_hz)
+    assert np.array_equal(shared.shapes, fresh.shapes)
+    assert shared.rigid_body_modes == fresh.rigid_body_modes

@@ -29,7 +29,9 @@ threshold on small frequencies.
 
 from __future__ import annotations
 
+import hashlib
 import math
+import threading
 from dataclasses import dataclass
 
 import numpy as np
@@ -526,13 +528,60 @@ def _times_basis(a: np.ndarray, basis: np.ndarray, unit=None) -> np.ndarray:
     return out
 
 
-def _condensed(am: AssembledModel):
-    """Massive and massless bases, ``F_a``, ``F_red = (I - P_b) F_a`` and the QR of F_b
-    (see :func:`_solve`)."""
+@dataclass(frozen=True, eq=False)
+class _Structure:
+    """The parts of the eigen-solution that do not depend on the stiffness values: bases T_a,
+    T_b (:func:`_split_massless`), T_a's unit columns, the zero-mode count, the Jacobi
+    scaling S and the Cholesky factor of ``S M_a S`` (see :func:`_solve`)."""
+
+    t_a: np.ndarray
+    t_b: np.ndarray
+    unit_a: tuple[np.ndarray, np.ndarray]
+    zero_modes: int
+    scale: np.ndarray
+    chol: np.ndarray
+
+
+STRUCTURES_KEPT = 8
+_STRUCTURES: dict = {}  # digest of (constraints, springs, masses) -> _Structure
+_STRUCTURES_LOCK = threading.Lock()  # dask workers may run designs in threads
+
+
+def _structure(am: AssembledModel) -> _Structure:
+    """:class:`_Structure` of ``am``, built once per mesh, constraints, spring directions and
+    masses (the designs of a stiffness study share it)."""
+    digest = hashlib.blake2b(digest_size=16)
+    for a in (am.constraints, am.spring_directions, am.M, am.massless):
+        digest.update(np.ascontiguousarray(a).tobytes())
+        digest.update(repr(a.shape).encode())
+    key = digest.digest()
+    with _STRUCTURES_LOCK:
+        cached = _STRUCTURES.get(key)
+    if cached is not None:
+        return cached
     basis, independent = _constraint_basis(am.constraints, am.massless)
     t_a, t_b = _split_massless(am, basis, independent)
     _check_no_massless_mechanism(am, t_b)
-    f_a = _times_basis(am.deformation, t_a)
+    unit_a = _unit_columns(t_a)
+    m_a = _reduced_mass(am, t_a, unit_a)
+    scale = 1.0 / np.sqrt(np.diag(m_a))
+    chol = np.linalg.cholesky(scale[:, None] * m_a * scale[None, :])
+    structure = _Structure(t_a, t_b, unit_a, _zero_mode_count(am), scale, chol)
+    for a in (t_a, t_b, scale, chol, *unit_a):
+        a.flags.writeable = False
+    with _STRUCTURES_LOCK:
+        _STRUCTURES[key] = structure
+        while len(_STRUCTURES) > STRUCTURES_KEPT:
+            del _STRUCTURES[next(iter(_STRUCTURES))]
+    return structure
+
+
+def _condensed(am: AssembledModel):
+    """Massive and massless bases, ``F_a``, ``F_red = (I - P_b) F_a`` and the QR of F_b
+    (see :func:`_solve`)."""
+    structure = _structure(am)
+    t_a, t_b = structure.t_a, structure.t_b
+    f_a = _times_basis(am.deformation, t_a, structure.unit_a)
     f_b = _times_basis(am.deformation, t_b)
     scale_b = np.linalg.norm(f_b, axis=0)
     q_b, r_b = np.linalg.qr(f_b / scale_b)
@@ -546,12 +595,14 @@ def reduced_matrices(am: AssembledModel) -> tuple[np.ndarray, np.ndarray, int]:
     massless dofs, see :func:`_solve`), ``M_red = T_a^T M T_a``. For eigen-solvers that
     take (K, M), e.g. ``scipy.linalg.eigh(K, M, subset_by_index=...)`` (benchmarks)."""
     t_a, _, _, f_red, _ = _condensed(am)
-    return f_red.T @ f_red, _reduced_mass(am, t_a), _zero_mode_count(am)
+    structure = _structure(am)
+    return f_red.T @ f_red, _reduced_mass(am, t_a, structure.unit_a), structure.zero_modes
 
 
-def _reduced_mass(am: AssembledModel, t_a: np.ndarray) -> np.ndarray:
-    """``M_a = T_a^T M T_a`` [kg, kg m, kg m^2] on the massive coordinates."""
-    first, mixed = unit = _unit_columns(t_a)
+def _reduced_mass(am: AssembledModel, t_a: np.ndarray, unit) -> np.ndarray:
+    """``M_a = T_a^T M T_a`` [kg, kg m, kg m^2] on the massive coordinates (``unit``:
+    :func:`_unit_columns` of T_a)."""
+    first, mixed = unit
     m_t = _times_basis(am.M, t_a, unit)
     m_a = m_t[first]
     m_a[mixed] = t_a[:, mixed].T @ m_t
@@ -570,11 +621,9 @@ def _solve(am: AssembledModel, with_shapes: bool = True):
     singular vectors v give ``a = S L^-T v`` (``a^T M_a a = 1``).
     """
     t_a, t_b, f_a, f_red, (q_b, r_b, scale_b) = _condensed(am)
-    zero_modes = _zero_mode_count(am)
+    structure = _structure(am)
+    zero_modes, scale, chol = structure.zero_modes, structure.scale, structure.chol
     n_modes = t_a.shape[1] - zero_modes
-    m_a = _reduced_mass(am, t_a)
-    scale = 1.0 / np.sqrt(np.diag(m_a))
-    chol = np.linalg.cholesky(scale[:, None] * m_a * scale[None, :])
     sigma, vh = _svd(sla.solve_triangular(chol, (f_red * scale).T, lower=True).T, with_shapes)
     omega = sigma[:n_modes][::-1]
     if not with_shapes:
