@@ -69,7 +69,7 @@ from ufmt.machining.cutting import (
     tool_tip,
     tool_tip_rates,
 )
-from ufmt.machining.static import ResidualFlexibility
+from ufmt.machining.static import ResidualFlexibility, point_map
 from ufmt.model.machine import Machine
 
 DEFAULT_ZETA = 0.03
@@ -314,20 +314,15 @@ def cut_geometry(
         raise ValueError(f"n_phi must be even and >= 8, got {n_phi}")
     if table_rows < 3:
         raise ValueError(f"table_rows must be >= 3, got {table_rows}")
-    phases = 2 * np.pi * np.arange(n_phi) / n_phi
-
+    bodies = (machine.tool_body, machine.workpiece_body)
+    maps = _part_maps(machine, _centers(basis, bodies), coefficients, n_phi, part)
+    shapes = np.concatenate([basis.body_shapes[b] for b in bodies], axis=1)  # (n, 12)
     mass = basis.modal_mass[:, None]
-    # workpiece arm grows by Y y_hat: rel(Y) = rel(0) - Y theta_work x y_hat
-    lever = -np.cross(basis.body_shapes[machine.workpiece_body][:, 3:], [0.0, 1.0, 0.0])
-
-    def shapes(samples):
-        ph = 2 * np.pi * np.arange(samples) / samples
-        tip, rel = _relative_shapes(basis, machine, samples)
-        k = force_vector(ph, machine, coefficients, part)
-        return tip, np.einsum("sjc,jc->sj", rel, k) / mass, lever @ k.T / mass, rel[:, :, 2]
-
-    def harmonics(values, orders):  # complex Fourier coefficients from 8 exact samples
-        return np.fft.fft(values, axis=1)[:, orders % 8] / 8
+    modal = shapes @ maps.modal
+    w, w_y, c = (modal[:, i * n_phi : (i + 1) * n_phi] for i in range(3))
+    w, w_y = w / mass, w_y / mass
+    hats = shapes @ maps.harmonics
+    w_hat, w_y_hat, c_hat = hats[:, :5] / mass, hats[:, 5:10] / mass, hats[:, 10:]
 
     def real_form(hat):  # coefficients of [1, cos, sin, cos 2phi, sin 2phi]
         return np.stack(
@@ -336,24 +331,14 @@ def cut_geometry(
             axis=1,
         )
 
-    tip, w, w_y, c = shapes(n_phi)
-    _, w8, w_y8, c8 = shapes(8)  # 8 samples resolve degree 2
-    w_hat, w_y_hat = harmonics(w8, _HARM_W), harmonics(w_y8, _HARM_W)
-    c_hat = harmonics(c8, _HARM_C)
     c_trig = np.stack([c_hat[:, 1].real, 2 * c_hat[:, 2].real, -2 * c_hat[:, 2].imag])
-    trig = np.stack(
-        [np.ones(n_phi), np.cos(phases), np.sin(phases), np.cos(2 * phases), np.sin(2 * phases)]
-    )
     table_y, row_knots, _, active, _ = _pattern_tables(machine, n_phi, table_rows, part)
-    dtip, ddtip = tool_tip_rates(phases, machine, 1 / (2 * np.pi))  # d/dphi, d^2/dphi^2
     static_tool = static_work = static_hat = None
     if residual is not None:
-        # quadratic in Y from three exact evaluations (the workpiece point moves with Y)
-        k = force_vector(phases, machine, coefficients, part)
-        samples = [residual.relative(tip, tip + [0.0, y, 0.0], k) for y in (-1.0, 0.0, 1.0)]
-        fit = np.array([[0.0, 1.0, 0.0], [-0.5, 0.0, 0.5], [0.5, -1.0, 0.5]])
-        static_tool = np.einsum("pk,knc->pnc", fit, np.stack([t for t, _ in samples]))
-        static_work = np.einsum("pk,knc->pnc", fit, np.stack([w for _, w in samples]))
+        static_maps = _part_maps(
+            machine, tuple(residual.centers.ravel().tolist()), coefficients, n_phi, part
+        )
+        static_tool, static_work = static_maps.static(residual.matrix)
         rel = np.fft.fft(static_tool[..., 2] - static_work[..., 2], axis=1) / n_phi
         static_hat = rel[:, np.arange(-3, 4) % n_phi]
     return CutGeometry(
@@ -362,21 +347,21 @@ def cut_geometry(
         coefficients=coefficients,
         n_phi=n_phi,
         table_rows=table_rows,
-        phases=phases,
-        tip=tip,
-        dtip=dtip,
-        ddtip=ddtip,
+        phases=maps.phases,
+        tip=maps.tip,
+        dtip=maps.dtip,
+        ddtip=maps.ddtip,
         w=w,
         w_y=w_y,
         c=c,
-        c_y=lever[:, 2],
+        c_y=modal[:, 3 * n_phi],
         w_hat=w_hat,
         w_y_hat=w_y_hat,
         c_hat=c_hat,
         w_trig=real_form(w_hat),
         w_y_trig=real_form(w_y_hat),
         c_trig=c_trig,
-        trig=trig,
+        trig=maps.trig,
         table_y=table_y,
         row_knots=row_knots,
         active=active,
@@ -387,16 +372,99 @@ def cut_geometry(
     )
 
 
-@lru_cache(maxsize=4)  # both force parts of the last two designs
-def _relative_shapes(basis: ModalBasis, machine: Machine, samples: int):
-    """Tool tip (N, 3) [m] at ``samples`` equally spaced angles and the relative translation
-    (V_tool - V_work)(tip) (n, N, 3) of every mode there (shared by the force parts)."""
-    tip = tool_tip(2 * np.pi * np.arange(samples) / samples, machine)
-    rel = basis.point_shapes(machine.tool_body, tip)
-    rel = rel - basis.point_shapes(machine.workpiece_body, tip)
-    for a in (tip, rel):
+def _centers(basis: ModalBasis, bodies: tuple[str, ...]) -> tuple[float, ...]:
+    """The bodies' centres of mass [m], flattened (a cache key of :func:`_part_maps`)."""
+    return tuple(np.concatenate([basis.body_centers[b] for b in bodies]).tolist())
+
+
+@dataclass(frozen=True, eq=False)
+class _PartMaps:
+    """Design-independent maps of :func:`cut_geometry` for one force part (all read-only).
+
+    The mode shapes enter the geometry only through the tool and workpiece bodies' motions
+    v (n, 12) = [r_tool, theta_tool, r_work, theta_work] (paper eq. 3.11 with a point force):
+    modal (12, 3 N + 1) maps them to [w M_s, w_y M_s, c, c_y] at the N angles and harmonics
+    (12, 13) to [w_hat M_s (5), w_y_hat M_s (5), c_hat (3)]. phases, tip, dtip, ddtip, trig as
+    in :class:`CutGeometry`. The static correction's maps: t_tool, t_work (N, 3, 6) the
+    translation maps of the tip on each body at Y = 0 (:func:`~ufmt.machining.static.point_map`),
+    t_y (3, 6) the workpiece map's rate in Y, wrench (2, N, 12) the bodies' load per unit
+    pattern at Y = 0 and its rate in Y.
+    """
+
+    phases: np.ndarray
+    tip: np.ndarray
+    dtip: np.ndarray
+    ddtip: np.ndarray
+    trig: np.ndarray
+    modal: np.ndarray
+    harmonics: np.ndarray
+    t_tool: np.ndarray
+    t_work: np.ndarray
+    t_y: np.ndarray
+    wrench: np.ndarray
+
+    def static(self, matrix: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Residual-flexibility displacement of tool tip and workpiece point per unit pattern
+        as a quadratic in Y, each (3, N, 3) [m] (:class:`CutGeometry` static_tool,
+        static_work), from the residual flexibility ``matrix`` (12, 12)."""
+        u = self.wrench @ matrix.T  # (2, N, 12): the bodies' displacement at Y = 0, its rate
+        tool = np.einsum("jci,pji->pjc", self.t_tool, u[..., :6])
+        work = np.einsum("jci,pji->pjc", self.t_work, u[..., 6:])
+        turn = u[..., 6:] @ self.t_y.T  # the arm's rate in Y times the displacement
+        return (
+            np.concatenate([tool, np.zeros((1, *tool.shape[1:]))]),
+            np.stack([work[0], work[1] + turn[0], turn[1]]),
+        )
+
+
+@lru_cache(maxsize=4)  # ~0.6 MiB each: both force parts of two machines
+def _part_maps(
+    machine: Machine,
+    centers: tuple[float, ...],
+    coefficients: ForceCoefficients,
+    n_phi: int,
+    part: str,
+) -> _PartMaps:
+    """The :class:`_PartMaps` of ``machine`` with tool and workpiece centres of mass
+    ``centers`` (6,) [m] (cached per machine, not per design)."""
+    c_tool, c_work = np.reshape(centers, (2, 3))
+    y_hat = np.array([0.0, 1.0, 0.0])
+
+    def modal_maps(samples):  # (12, 3, samples): w M_s, w_y M_s and c per unit body motion
+        phi = 2 * np.pi * np.arange(samples) / samples
+        tip = tool_tip(phi, machine)
+        k = force_vector(phi, machine, coefficients, part)
+        rel = np.concatenate([point_map(tip - c_tool), -point_map(tip - c_work)], axis=2)
+        lever = np.zeros((samples, 12))  # rel(Y) = rel(0) + Y y_hat x theta_work
+        lever[:, 9:] = np.cross(k, y_hat)  # (y_hat x theta) . k = theta . (k x y_hat)
+        return np.stack([np.einsum("jci,jc->ij", rel, k), lever.T, rel[:, 2].T], axis=1)
+
+    def harmonics(values, orders):  # complex Fourier coefficients from 8 exact samples
+        return np.fft.fft(values, axis=-1)[:, orders % 8] / 8
+
+    fine, coarse = modal_maps(n_phi), modal_maps(8)  # 8 samples resolve degree 2
+    c_y = np.zeros((12, 1))
+    c_y[9] = -1.0  # (y_hat x theta_work)_z
+    modal = np.concatenate([fine.reshape(12, -1), c_y], axis=1)
+    hats = [harmonics(coarse[:, 0], _HARM_W), harmonics(coarse[:, 1], _HARM_W)]
+    hats = np.concatenate([*hats, harmonics(coarse[:, 2], _HARM_C)], axis=1)
+    phases = 2 * np.pi * np.arange(n_phi) / n_phi
+    tip = tool_tip(phases, machine)
+    dtip, ddtip = tool_tip_rates(phases, machine, 1 / (2 * np.pi))  # d/dphi, d^2/dphi^2
+    trig = np.stack(
+        [np.ones(n_phi), np.cos(phases), np.sin(phases), np.cos(2 * phases), np.sin(2 * phases)]
+    )
+    k = force_vector(phases, machine, coefficients, part)
+    t_tool, t_work = point_map(tip - c_tool), point_map(tip - c_work)
+    t_y = point_map(y_hat) - point_map(np.zeros(3))
+    wrench = np.zeros((2, n_phi, 12))  # the workpiece takes the reaction -k
+    wrench[0, :, :6] = np.einsum("jci,jc->ji", t_tool, k)
+    wrench[0, :, 6:] = -np.einsum("jci,jc->ji", t_work, k)
+    wrench[1, :, 6:] = -k @ t_y
+    arrays = (phases, tip, dtip, ddtip, trig, modal, hats, t_tool, t_work, t_y, wrench)
+    for a in arrays:  # cached: shared by every design's geometry
         a.setflags(write=False)
-    return tip, rel
+    return _PartMaps(*arrays)
 
 
 @lru_cache(maxsize=4)  # ~1.6 MiB each: both force parts of two machines
@@ -606,28 +674,50 @@ class _ColumnPlan:
 def _column_plan(parts: tuple[CutGeometry, ...], phi: tuple[float, ...]) -> _ColumnPlan:
     """The :class:`_ColumnPlan` of angles ``phi`` [rad] (cached per geometry and angles)."""
     geo = parts[0]
-    samples, weights = _cubic_weights(np.array(phi), geo.n_phi)
-    j, where = np.unique(np.mod(samples, geo.n_phi), return_inverse=True)
-    stencil = np.zeros((j.size, len(phi)))
-    for i in range(4):  # the four samples of a stencil are distinct
-        stencil[where.reshape(samples.shape)[i], np.arange(len(phi))] = weights[i]
-    active = np.flatnonzero(geo.active)
-    lags, lag_index = np.unique(np.mod(j - active[:, None], geo.n_phi), return_inverse=True)
+    j, stencil, active, lags, lag_index, hits = _column_samples(
+        geo.n_phi, geo.active.tobytes(), phi
+    )
     c = np.stack([geo.c[:, j].T, np.broadcast_to(geo.c_y, (j.size, geo.c_y.size))], axis=1)
     w = np.stack([a[:, active].T for g in parts for a in (g.w, g.w_y)], axis=2)
     static = np.zeros((active.size, j.size, len(parts), 3))
-    hit_a, hit_k = np.nonzero(active[:, None] == j)
+    hit_a, hit_k = hits
     for i, g in enumerate(parts):
         if g.static_tool is not None:  # the static correction acts at the sample itself
             rel = g.static_tool[:, j[hit_k], 2] - g.static_work[:, j[hit_k], 2]
             static[hit_a, hit_k, i] = rel.T
     names = tuple(g.part for g in parts)
-    arrays = (lags, lag_index.reshape(active.size, j.size), c, np.ascontiguousarray(w), static)
-    for a in (*arrays, stencil):  # cached: shared by every later call
+    arrays = (c, np.ascontiguousarray(w), static)
+    for a in arrays:  # cached: shared by every later call
         a.setflags(write=False)
     return _ColumnPlan(
-        *arrays, stencil, _stacked_patterns(geo.machine, geo.n_phi, geo.table_rows, names)
+        lags,
+        lag_index,
+        *arrays,
+        stencil,
+        _stacked_patterns(geo.machine, geo.n_phi, geo.table_rows, names),
     )
+
+
+@lru_cache(maxsize=4)  # machine-only
+def _column_samples(n_phi: int, active: bytes, phi: tuple[float, ...]):
+    """The sample indices of :func:`_column_plan` (cached per angles, not per design).
+
+    ``active`` (N bools as bytes) the cut's angles. Returns the samples j (K,) the stencils
+    of ``phi`` [rad] read, the stencil (K, C), the active angles (A,), the lags (L,), their
+    lag_index (A, K) and the (angle, sample) index pairs where sample = angle; read-only.
+    """
+    samples, weights = _cubic_weights(np.array(phi), n_phi)
+    j, where = np.unique(np.mod(samples, n_phi), return_inverse=True)
+    stencil = np.zeros((j.size, len(phi)))
+    for i in range(4):  # the four samples of a stencil are distinct
+        stencil[where.reshape(samples.shape)[i], np.arange(len(phi))] = weights[i]
+    active = np.flatnonzero(np.frombuffer(active, dtype=bool))
+    lags, lag_index = np.unique(np.mod(j - active[:, None], n_phi), return_inverse=True)
+    lag_index = lag_index.reshape(active.size, j.size)
+    hits = np.nonzero(active[:, None] == j)
+    for a in (j, stencil, active, lags, lag_index, *hits):
+        a.setflags(write=False)
+    return j, stencil, active, lags, lag_index, hits
 
 
 @dataclass(frozen=True, eq=False)
@@ -873,19 +963,29 @@ class _RecordUnit:
 @lru_cache(maxsize=8)
 def _record_unit(geo: CutGeometry) -> _RecordUnit:
     """The record window of :func:`periodic_response` per unit amplitude (cached per geometry)."""
-    n = geo.n_phi
-    y_rec = record_slide(geo.machine)
-    chip = chip_factor_cells(geo.phases, y_rec, geo.machine, 2 * np.pi / n, geo.part)
+    y_rec, chip, force = _record_pattern(geo.machine, geo.coefficients, geo.n_phi, geo.part)
     fs = (geo.w + y_rec * geo.w_y) * chip
-    force = chip[:, None] * force_vector(geo.phases, geo.machine, geo.coefficients, geo.part)
     static_tip = static_work = None
     if geo.static_tool is not None:
-        s_tool, s_work = geo.static_at(np.arange(n), np.full(n, y_rec))
+        s_tool, s_work = geo.static_at(slice(None), y_rec)
         static_tip, static_work = chip[:, None] * s_tool, chip[:, None] * s_work
-    for a in (fs, force, static_tip, static_work):
+    for a in (fs, static_tip, static_work):
         if a is not None:
             a.setflags(write=False)
     return _RecordUnit(fs, force, static_tip, static_work)
+
+
+@lru_cache(maxsize=4)  # machine-only
+def _record_pattern(machine: Machine, coefficients: ForceCoefficients, n_phi: int, part: str):
+    """The record window's slide position [m], chip pattern (N,) and force on the tool per
+    unit amplitude (N, 3) [N] (cached per machine; arrays read-only)."""
+    phases = 2 * np.pi * np.arange(n_phi) / n_phi
+    y_rec = record_slide(machine)
+    chip = chip_factor_cells(phases, y_rec, machine, 2 * np.pi / n_phi, part)
+    force = chip[:, None] * force_vector(phases, machine, coefficients, part)
+    for a in (chip, force):
+        a.setflags(write=False)
+    return y_rec, chip, force
 
 
 def time_response(

@@ -55,8 +55,8 @@ class ResidualFlexibility:
         workpiece at ``work_points`` (both (..., 3) [m], broadcast). Returns the displacement
         of the tool point and of the workpiece point, each (..., 3).
         """
-        t_tool = _point_map(np.asarray(tool_points, float) - self.centers[0])
-        t_work = _point_map(np.asarray(work_points, float) - self.centers[1])
+        t_tool = point_map(np.asarray(tool_points, float) - self.centers[0])
+        t_work = point_map(np.asarray(work_points, float) - self.centers[1])
         forces = np.asarray(forces, dtype=float)
         wrench = np.concatenate(
             [
@@ -72,7 +72,7 @@ class ResidualFlexibility:
         )
 
 
-def _point_map(arm: np.ndarray) -> np.ndarray:
+def point_map(arm: np.ndarray) -> np.ndarray:
     """T (..., 3, 6): translation r + theta x arm = [I, -[arm]x] [r; theta] of a point."""
     arm = np.asarray(arm, dtype=float)
     out = np.zeros((*arm.shape[:-1], 3, 6))
