@@ -385,10 +385,9 @@ class _PartMaps:
     v (n, 12) = [r_tool, theta_tool, r_work, theta_work] (paper eq. 3.11 with a point force):
     modal (12, 3 N + 1) maps them to [w M_s, w_y M_s, c, c_y] at the N angles and harmonics
     (12, 13) to [w_hat M_s (5), w_y_hat M_s (5), c_hat (3)]. phases, tip, dtip, ddtip, trig as
-    in :class:`CutGeometry`. The static correction's maps: t_tool, t_work (N, 3, 6) the
-    translation maps of the tip on each body at Y = 0 (:func:`~ufmt.machining.static.point_map`),
-    t_y (3, 6) the workpiece map's rate in Y, wrench (2, N, 12) the bodies' load per unit
-    pattern at Y = 0 and its rate in Y.
+    in :class:`CutGeometry`. The static correction's: arms (N, 2, 3) [m] of the tip from the
+    tool's and the workpiece's centre of mass at Y = 0, wrench (2, N, 12) the bodies' load per
+    unit pattern at Y = 0 and its rate in Y [N, N m per unit].
     """
 
     phases: np.ndarray
@@ -398,23 +397,20 @@ class _PartMaps:
     trig: np.ndarray
     modal: np.ndarray
     harmonics: np.ndarray
-    t_tool: np.ndarray
-    t_work: np.ndarray
-    t_y: np.ndarray
+    arms: np.ndarray
     wrench: np.ndarray
 
     def static(self, matrix: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Residual-flexibility displacement of tool tip and workpiece point per unit pattern
         as a quadratic in Y, each (3, N, 3) [m] (:class:`CutGeometry` static_tool,
         static_work), from the residual flexibility ``matrix`` (12, 12)."""
-        u = self.wrench @ matrix.T  # (2, N, 12): the bodies' displacement at Y = 0, its rate
-        tool = np.einsum("jci,pji->pjc", self.t_tool, u[..., :6])
-        work = np.einsum("jci,pji->pjc", self.t_work, u[..., 6:])
-        turn = u[..., 6:] @ self.t_y.T  # the arm's rate in Y times the displacement
-        return (
-            np.concatenate([tool, np.zeros((1, *tool.shape[1:]))]),
-            np.stack([work[0], work[1] + turn[0], turn[1]]),
-        )
+        u = (self.wrench @ matrix.T).reshape(2, -1, 4, 3)  # (Y^0, Y^1; N; r, theta per body)
+        # a point at arm x moves r + theta x x; the workpiece arm grows by Y y_hat
+        moved = u[:, :, ::2] + _cross(u[:, :, 1::2], self.arms)  # (2, N, 2, 3)
+        theta = u[:, :, 3]
+        turn = np.stack([-theta[..., 2], np.zeros(theta.shape[:-1]), theta[..., 0]], axis=-1)
+        tool = np.concatenate([moved[:, :, 0], np.zeros((1, *turn.shape[1:]))])
+        return tool, np.stack([moved[0, :, 1], moved[1, :, 1] + turn[0], turn[1]])
 
 
 @lru_cache(maxsize=4)  # ~0.6 MiB each: both force parts of two machines
@@ -455,13 +451,13 @@ def _part_maps(
         [np.ones(n_phi), np.cos(phases), np.sin(phases), np.cos(2 * phases), np.sin(2 * phases)]
     )
     k = force_vector(phases, machine, coefficients, part)
-    t_tool, t_work = point_map(tip - c_tool), point_map(tip - c_work)
+    arms = np.stack([tip - c_tool, tip - c_work], axis=1)  # (N, 2, 3)
     t_y = point_map(y_hat) - point_map(np.zeros(3))
     wrench = np.zeros((2, n_phi, 12))  # the workpiece takes the reaction -k
-    wrench[0, :, :6] = np.einsum("jci,jc->ji", t_tool, k)
-    wrench[0, :, 6:] = -np.einsum("jci,jc->ji", t_work, k)
+    wrench[0, :, :6] = np.einsum("jci,jc->ji", point_map(arms[:, 0]), k)
+    wrench[0, :, 6:] = -np.einsum("jci,jc->ji", point_map(arms[:, 1]), k)
     wrench[1, :, 6:] = -k @ t_y
-    arrays = (phases, tip, dtip, ddtip, trig, modal, hats, t_tool, t_work, t_y, wrench)
+    arrays = (phases, tip, dtip, ddtip, trig, modal, hats, arms, wrench)
     for a in arrays:  # cached: shared by every design's geometry
         a.setflags(write=False)
     return _PartMaps(*arrays)
