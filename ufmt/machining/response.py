@@ -832,8 +832,8 @@ def _recurrence(basis: ModalBasis, n_phi: int, spindle_hz: float, zeta: tuple):
 
 @lru_cache(maxsize=8)
 def _cut_run(active: bytes):
-    """The circular run of the ``active`` samples (N bools as bytes): its first sample and
-    length, the distinct lags (L,) between its samples mod N and each pair's (A, A)."""
+    """The circular run of the ``active`` samples (N bools as bytes): its first sample, its
+    samples in order (A,), the distinct lags (L,) between them mod N and each pair's (A, A)."""
     active = np.frombuffer(active, dtype=bool)
     n = active.size
     first = int(np.flatnonzero(active & ~np.roll(active, 1))[0])
@@ -842,9 +842,10 @@ def _cut_run(active: bytes):
         np.mod(np.subtract.outer(np.arange(a), np.arange(a)), n), return_inverse=True
     )
     pairs = pairs.reshape(a, a)
-    for arr in (lags, pairs):  # cached: shared by every later call
+    run = (first + np.arange(a)) % n
+    for arr in (run, lags, pairs):  # cached: shared by every later call
         arr.setflags(write=False)
-    return first, a, lags, pairs
+    return first, run, lags, pairs
 
 
 def _periodic_state(recurrence: PeriodicRecurrence, force: np.ndarray, active: np.ndarray):
@@ -854,9 +855,9 @@ def _periodic_state(recurrence: PeriodicRecurrence, force: np.ndarray, active: n
     Within the run: its sum with the periodic impulse response; after it, the free decay E^l
     of the state after the run's last sample.
     """
-    first, a, lags, pairs = _cut_run(active.tobytes())
-    n = active.size
-    f = np.roll(force, -first, axis=1)[:, :a]
+    first, run, lags, pairs = _cut_run(active.tobytes())
+    n, a = active.size, run.size
+    f = force[:, run]
     inside = np.einsum("sjm,sm->sj", recurrence.impulse(lags)[:, pairs], f)
     after = recurrence.e * inside[:, -1] + recurrence.b1 * f[:, -1]  # no force there
     x = np.empty(force.shape, complex)  # from the run's first sample on
