@@ -227,12 +227,13 @@ class CutGeometry:
     force part, static correction).
 
     part: "area" or "edge" (:data:`~ufmt.machining.cutting.FORCE_PARTS`): the pattern and the
-    force vector below are that part's. static_tool, static_work (3, N, 3) or None: the
-    residual-flexibility displacement of the tool tip and of the workpiece point per unit
-    pattern, as a quadratic in Y (coefficients of Y^0, Y^1, Y^2); static_hat (3, 7) the
-    complex Fourier coefficients (harmonics -3..3) of their z difference per power of Y, which
-    the periodic path adds to its kernels (exact: force, arms and so the displacement of the
-    residual flexibility are trigonometric polynomials of degree <= 3 in phi).
+    force vector below are that part's. residual: the static correction (or None);
+    static_tool, static_work (3, N, 3) or None: the residual-flexibility displacement of the
+    tool tip and of the workpiece point per unit pattern, as a quadratic in Y (coefficients of
+    Y^0, Y^1, Y^2); static_hat (3, 7) the complex Fourier coefficients (harmonics -3..3) of
+    their z difference per power of Y, which the periodic path adds to its kernels (exact:
+    force, arms and so the displacement of the residual flexibility are trigonometric
+    polynomials of degree <= 3 in phi).
 
     phases (N,) [rad]; tip (N, 3) tool-tip position [m] and dtip, ddtip (N, 3) its first and
     second derivatives in phi [m]; w (n, N) modal force per unit chip area,
@@ -245,6 +246,11 @@ class CutGeometry:
     ``trig`` (5, N) = [1, cos, sin, cos 2phi, sin 2phi]. table_y (M,) slide positions [m] of
     the periodic table and row_knots their row coordinate (see :class:`ZreTable`); active (N,)
     the angles that cut at some slide position.
+
+    shapes (n, 12) the tool and workpiece bodies' motions, maps and static_maps their
+    :class:`_PartMaps` (centres of the basis and of the residual): w, w_y, c and the static
+    terms are products of them, formed at all N angles on first use (read-only); w, w_y and c
+    at a few samples by :meth:`modal_at` (the periodic path reads only those).
     """
 
     basis: ModalBasis
@@ -256,9 +262,6 @@ class CutGeometry:
     tip: np.ndarray
     dtip: np.ndarray
     ddtip: np.ndarray
-    w: np.ndarray
-    w_y: np.ndarray
-    c: np.ndarray
     c_y: np.ndarray
     w_hat: np.ndarray
     w_y_hat: np.ndarray
@@ -270,10 +273,68 @@ class CutGeometry:
     table_y: np.ndarray
     row_knots: tuple[float, float, np.ndarray]
     active: np.ndarray
+    shapes: np.ndarray
+    maps: _PartMaps
     part: str = "area"
-    static_tool: np.ndarray | None = None
-    static_work: np.ndarray | None = None
-    static_hat: np.ndarray | None = None
+    residual: ResidualFlexibility | None = None
+    static_maps: _PartMaps | None = None
+
+    def modal_at(self, samples) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """w, w_y and c (n, S) at the sample indices ``samples`` (S,) (a slice: all of them)."""
+        n = self.n_phi
+        maps = self.maps.modal[:, : 3 * n].reshape(12, 3, n)[:, :, samples].reshape(12, -1)
+        out = self.shapes @ maps
+        size = out.shape[1] // 3
+        mass = self.basis.modal_mass[:, None]
+        return out[:, :size] / mass, out[:, size : 2 * size] / mass, out[:, 2 * size :]
+
+    @cached_property
+    def _modal(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        out = self.modal_at(slice(None))
+        for a in out:  # cached: shared by every later read
+            a.setflags(write=False)
+        return out
+
+    @property
+    def w(self) -> np.ndarray:
+        """Modal force per unit pattern at Y = 0, (n, N) (class docstring)."""
+        return self._modal[0]
+
+    @property
+    def w_y(self) -> np.ndarray:
+        """Rate of w in Y, (n, N) (class docstring)."""
+        return self._modal[1]
+
+    @property
+    def c(self) -> np.ndarray:
+        """Relative z translation at Y = 0, (n, N) [m] (class docstring)."""
+        return self._modal[2]
+
+    @cached_property
+    def _static(self) -> tuple[np.ndarray, np.ndarray, np.ndarray] | tuple[None, None, None]:
+        if self.residual is None:
+            return None, None, None
+        tool, work = self.static_maps.static(self.residual.matrix)
+        rel = np.fft.fft(tool[..., 2] - work[..., 2], axis=1) / self.n_phi
+        out = (tool, work, rel[:, np.arange(-3, 4) % self.n_phi])
+        for a in out:  # cached: shared by every later read
+            a.setflags(write=False)
+        return out
+
+    @property
+    def static_tool(self) -> np.ndarray | None:
+        """Static correction of the tool tip per unit pattern, (3, N, 3) [m], or None."""
+        return self._static[0]
+
+    @property
+    def static_work(self) -> np.ndarray | None:
+        """Static correction of the workpiece point per unit pattern, (3, N, 3) [m], or None."""
+        return self._static[1]
+
+    @property
+    def static_hat(self) -> np.ndarray | None:
+        """Harmonics -3..3 of the static z difference per power of Y, (3, 7) [m], or None."""
+        return self._static[2]
 
     def static_at(self, j, slide_y) -> tuple[np.ndarray, np.ndarray]:
         """Static-correction displacement of tool tip and workpiece point per unit pattern.
@@ -317,10 +378,8 @@ def cut_geometry(
     bodies = (machine.tool_body, machine.workpiece_body)
     maps = _part_maps(machine, _centers(basis, bodies), coefficients, n_phi, part)
     shapes = np.concatenate([basis.body_shapes[b] for b in bodies], axis=1)  # (n, 12)
+    shapes.setflags(write=False)
     mass = basis.modal_mass[:, None]
-    modal = shapes @ maps.modal
-    w, w_y, c = (modal[:, i * n_phi : (i + 1) * n_phi] for i in range(3))
-    w, w_y = w / mass, w_y / mass
     hats = shapes @ maps.harmonics
     w_hat, w_y_hat, c_hat = hats[:, :5] / mass, hats[:, 5:10] / mass, hats[:, 10:]
 
@@ -333,14 +392,10 @@ def cut_geometry(
 
     c_trig = np.stack([c_hat[:, 1].real, 2 * c_hat[:, 2].real, -2 * c_hat[:, 2].imag])
     table_y, row_knots, _, active, _ = _pattern_tables(machine, n_phi, table_rows, part)
-    static_tool = static_work = static_hat = None
+    static_maps = None
     if residual is not None:
-        static_maps = _part_maps(
-            machine, tuple(residual.centers.ravel().tolist()), coefficients, n_phi, part
-        )
-        static_tool, static_work = static_maps.static(residual.matrix)
-        rel = np.fft.fft(static_tool[..., 2] - static_work[..., 2], axis=1) / n_phi
-        static_hat = rel[:, np.arange(-3, 4) % n_phi]
+        centers = tuple(residual.centers.ravel().tolist())
+        static_maps = _part_maps(machine, centers, coefficients, n_phi, part)
     return CutGeometry(
         basis=basis,
         machine=machine,
@@ -351,10 +406,7 @@ def cut_geometry(
         tip=maps.tip,
         dtip=maps.dtip,
         ddtip=maps.ddtip,
-        w=w,
-        w_y=w_y,
-        c=c,
-        c_y=modal[:, 3 * n_phi],
+        c_y=shapes @ maps.modal[:, 3 * n_phi],
         w_hat=w_hat,
         w_y_hat=w_y_hat,
         c_hat=c_hat,
@@ -365,10 +417,11 @@ def cut_geometry(
         table_y=table_y,
         row_knots=row_knots,
         active=active,
+        shapes=shapes,
+        maps=maps,
         part=part,
-        static_tool=static_tool,
-        static_work=static_work,
-        static_hat=static_hat,
+        residual=residual,
+        static_maps=static_maps,
     )
 
 
@@ -673,8 +726,9 @@ def _column_plan(parts: tuple[CutGeometry, ...], phi: tuple[float, ...]) -> _Col
     j, stencil, active, lags, lag_index, hits = _column_samples(
         geo.n_phi, geo.active.tobytes(), phi
     )
-    c = np.stack([geo.c[:, j].T, np.broadcast_to(geo.c_y, (j.size, geo.c_y.size))], axis=1)
-    w = np.stack([a[:, active].T for g in parts for a in (g.w, g.w_y)], axis=2)
+    c = geo.modal_at(j)[2]
+    c = np.stack([c.T, np.broadcast_to(geo.c_y, (j.size, geo.c_y.size))], axis=1)
+    w = np.stack([a.T for g in parts for a in g.modal_at(active)[:2]], axis=2)
     static = np.zeros((active.size, j.size, len(parts), 3))
     hit_a, hit_k = hits
     for i, g in enumerate(parts):
@@ -959,9 +1013,12 @@ class _RecordUnit:
 
 @lru_cache(maxsize=8)
 def _record_unit(geo: CutGeometry) -> _RecordUnit:
-    """The record window of :func:`periodic_response` per unit amplitude (cached per geometry)."""
-    y_rec, chip, force = _record_pattern(geo.machine, geo.coefficients, geo.n_phi, geo.part)
-    fs = (geo.w + y_rec * geo.w_y) * chip
+    """The record window of :func:`periodic_response` per unit amplitude (cached per geometry;
+    the modal force formed on the cutting samples only)."""
+    y_rec, chip, force, cut = _record_pattern(geo.machine, geo.coefficients, geo.n_phi, geo.part)
+    w, w_y, _ = geo.modal_at(cut)
+    fs = np.zeros((geo.basis.n_modes, geo.n_phi))
+    fs[:, cut] = (w + y_rec * w_y) * chip[cut]
     static_tip = static_work = None
     if geo.static_tool is not None:
         s_tool, s_work = geo.static_at(slice(None), y_rec)
@@ -974,15 +1031,17 @@ def _record_unit(geo: CutGeometry) -> _RecordUnit:
 
 @lru_cache(maxsize=4)  # machine-only
 def _record_pattern(machine: Machine, coefficients: ForceCoefficients, n_phi: int, part: str):
-    """The record window's slide position [m], chip pattern (N,) and force on the tool per
-    unit amplitude (N, 3) [N] (cached per machine; arrays read-only)."""
+    """The record window's slide position [m], chip pattern (N,), force on the tool per unit
+    amplitude (N, 3) [N] and the samples where the pattern is not zero (cached per machine;
+    arrays read-only)."""
     phases = 2 * np.pi * np.arange(n_phi) / n_phi
     y_rec = record_slide(machine)
     chip = chip_factor_cells(phases, y_rec, machine, 2 * np.pi / n_phi, part)
     force = chip[:, None] * force_vector(phases, machine, coefficients, part)
-    for a in (chip, force):
+    cut = np.flatnonzero(chip)
+    for a in (chip, force, cut):
         a.setflags(write=False)
-    return y_rec, chip, force
+    return y_rec, chip, force, cut
 
 
 def time_response(
