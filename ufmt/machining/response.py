@@ -736,7 +736,7 @@ def _column_plan(parts: tuple[CutGeometry, ...], phi: tuple[float, ...]) -> _Col
             rel = g.static_tool[:, j[hit_k], 2] - g.static_work[:, j[hit_k], 2]
             static[hit_a, hit_k, i] = rel.T
     names = tuple(g.part for g in parts)
-    arrays = (c, np.ascontiguousarray(w), static)
+    arrays = (np.ascontiguousarray(c), np.ascontiguousarray(w), static)
     for a in arrays:  # cached: shared by every later call
         a.setflags(write=False)
     return _ColumnPlan(
