@@ -7,7 +7,7 @@ from scipy.signal import lfilter
 
 from ufmt.errors import ModelError
 from ufmt.machining.basis import ModalBasis
-from ufmt.machining.cutting import ForceCoefficients
+from ufmt.machining.cutting import ForceCoefficients, force_vector, tool_tip
 from ufmt.machining.frf import tool_workpiece_receptance
 from ufmt.machining.process import Process
 from ufmt.machining.response import (
@@ -345,6 +345,32 @@ def test_frf_is_the_modal_sum_at_the_tip():
     rel = syn.point_shapes("head", [0.25 * np.sin(0.3), 0.25 * np.cos(0.3), 0.0])
     rel = rel - syn.point_shapes("slider", [0.25 * np.sin(0.3), 0.25 * np.cos(0.3), 0.0])
     assert h0.real == pytest.approx(np.sum(rel[:, 2] ** 2 / (2000.0 * syn.omega**2)), rel=1e-12)
+
+
+@pytest.mark.parametrize("part", ["area", "edge"])
+def test_geometry_is_the_modes_translation_at_the_tip(part):
+    """The geometry's modal force w, its rate w_y, the z translation c and c_y (body motions
+    times maps cached per machine) and their harmonics; oracle: ModalBasis.point_shapes of
+    both bodies at the tip, the workpiece's at its material point p + Y y (Y = 0 and 1 m)."""
+    m = read_machine(MACHINE)
+    basis = synthetic_basis(n=5)
+    geo = cut_geometry(basis, m, n_phi=64, part=part)
+    tip = tool_tip(geo.phases, m)
+    k = force_vector(geo.phases, m, ForceCoefficients(), part)
+    rel = [
+        basis.point_shapes("head", tip) - basis.point_shapes("slider", tip + [0.0, y, 0.0])
+        for y in (0.0, 1.0)
+    ]
+    mass = basis.modal_mass[:, None]
+    w = np.einsum("sjc,jc->sj", rel[0], k) / mass
+    w_y = np.einsum("sjc,jc->sj", rel[1] - rel[0], k) / mass
+    for got, want in ((geo.w, w), (geo.w_y, w_y), (geo.c, rel[0][..., 2])):
+        np.testing.assert_allclose(got, want, rtol=0, atol=1e-12 * np.abs(want).max())
+    np.testing.assert_allclose(geo.c_y, (rel[1] - rel[0])[:, 0, 2], rtol=1e-12)
+    for hat, want, orders in ((geo.w_hat, w, 2), (geo.w_y_hat, w_y, 2), (geo.c_hat, geo.c, 1)):
+        rebuilt = (hat @ np.exp(1j * np.outer(np.arange(-orders, orders + 1), geo.phases))).real
+        np.testing.assert_allclose(rebuilt, want, rtol=0, atol=1e-12 * np.abs(want).max())
+    assert not (geo.tip.flags.writeable or geo.trig.flags.writeable)  # shared per machine
 
 
 @pytest.mark.slow

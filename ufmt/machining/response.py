@@ -69,7 +69,7 @@ from ufmt.machining.cutting import (
     tool_tip,
     tool_tip_rates,
 )
-from ufmt.machining.static import ResidualFlexibility
+from ufmt.machining.static import ResidualFlexibility, point_map
 from ufmt.model.machine import Machine
 
 DEFAULT_ZETA = 0.03
@@ -227,12 +227,13 @@ class CutGeometry:
     force part, static correction).
 
     part: "area" or "edge" (:data:`~ufmt.machining.cutting.FORCE_PARTS`): the pattern and the
-    force vector below are that part's. static_tool, static_work (3, N, 3) or None: the
-    residual-flexibility displacement of the tool tip and of the workpiece point per unit
-    pattern, as a quadratic in Y (coefficients of Y^0, Y^1, Y^2); static_hat (3, 7) the
-    complex Fourier coefficients (harmonics -3..3) of their z difference per power of Y, which
-    the periodic path adds to its kernels (exact: force, arms and so the displacement of the
-    residual flexibility are trigonometric polynomials of degree <= 3 in phi).
+    force vector below are that part's. residual: the static correction (or None);
+    static_tool, static_work (3, N, 3) or None: the residual-flexibility displacement of the
+    tool tip and of the workpiece point per unit pattern, as a quadratic in Y (coefficients of
+    Y^0, Y^1, Y^2); static_hat (3, 7) the complex Fourier coefficients (harmonics -3..3) of
+    their z difference per power of Y, which the periodic path adds to its kernels (exact:
+    force, arms and so the displacement of the residual flexibility are trigonometric
+    polynomials of degree <= 3 in phi).
 
     phases (N,) [rad]; tip (N, 3) tool-tip position [m] and dtip, ddtip (N, 3) its first and
     second derivatives in phi [m]; w (n, N) modal force per unit chip area,
@@ -245,6 +246,11 @@ class CutGeometry:
     ``trig`` (5, N) = [1, cos, sin, cos 2phi, sin 2phi]. table_y (M,) slide positions [m] of
     the periodic table and row_knots their row coordinate (see :class:`ZreTable`); active (N,)
     the angles that cut at some slide position.
+
+    shapes (n, 12) the tool and workpiece bodies' motions, maps and static_maps their
+    :class:`_PartMaps` (centres of the basis and of the residual): w, w_y, c and the static
+    terms are products of them, formed at all N angles on first use (read-only); w, w_y and c
+    at a few samples by :meth:`modal_at` (the periodic path reads only those).
     """
 
     basis: ModalBasis
@@ -256,9 +262,6 @@ class CutGeometry:
     tip: np.ndarray
     dtip: np.ndarray
     ddtip: np.ndarray
-    w: np.ndarray
-    w_y: np.ndarray
-    c: np.ndarray
     c_y: np.ndarray
     w_hat: np.ndarray
     w_y_hat: np.ndarray
@@ -270,10 +273,68 @@ class CutGeometry:
     table_y: np.ndarray
     row_knots: tuple[float, float, np.ndarray]
     active: np.ndarray
+    shapes: np.ndarray
+    maps: _PartMaps
     part: str = "area"
-    static_tool: np.ndarray | None = None
-    static_work: np.ndarray | None = None
-    static_hat: np.ndarray | None = None
+    residual: ResidualFlexibility | None = None
+    static_maps: _PartMaps | None = None
+
+    def modal_at(self, samples) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """w, w_y and c (n, S) at the sample indices ``samples`` (S,) (a slice: all of them)."""
+        n = self.n_phi
+        maps = self.maps.modal[:, : 3 * n].reshape(12, 3, n)[:, :, samples].reshape(12, -1)
+        out = self.shapes @ maps
+        size = out.shape[1] // 3
+        mass = self.basis.modal_mass[:, None]
+        return out[:, :size] / mass, out[:, size : 2 * size] / mass, out[:, 2 * size :]
+
+    @cached_property
+    def _modal(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        out = self.modal_at(slice(None))
+        for a in out:  # cached: shared by every later read
+            a.setflags(write=False)
+        return out
+
+    @property
+    def w(self) -> np.ndarray:
+        """Modal force per unit pattern at Y = 0, (n, N) (class docstring)."""
+        return self._modal[0]
+
+    @property
+    def w_y(self) -> np.ndarray:
+        """Rate of w in Y, (n, N) (class docstring)."""
+        return self._modal[1]
+
+    @property
+    def c(self) -> np.ndarray:
+        """Relative z translation at Y = 0, (n, N) [m] (class docstring)."""
+        return self._modal[2]
+
+    @cached_property
+    def _static(self) -> tuple[np.ndarray, np.ndarray, np.ndarray] | tuple[None, None, None]:
+        if self.residual is None:
+            return None, None, None
+        tool, work = self.static_maps.static(self.residual.matrix)
+        rel = np.fft.fft(tool[..., 2] - work[..., 2], axis=1) / self.n_phi
+        out = (tool, work, rel[:, np.arange(-3, 4) % self.n_phi])
+        for a in out:  # cached: shared by every later read
+            a.setflags(write=False)
+        return out
+
+    @property
+    def static_tool(self) -> np.ndarray | None:
+        """Static correction of the tool tip per unit pattern, (3, N, 3) [m], or None."""
+        return self._static[0]
+
+    @property
+    def static_work(self) -> np.ndarray | None:
+        """Static correction of the workpiece point per unit pattern, (3, N, 3) [m], or None."""
+        return self._static[1]
+
+    @property
+    def static_hat(self) -> np.ndarray | None:
+        """Harmonics -3..3 of the static z difference per power of Y, (3, 7) [m], or None."""
+        return self._static[2]
 
     def static_at(self, j, slide_y) -> tuple[np.ndarray, np.ndarray]:
         """Static-correction displacement of tool tip and workpiece point per unit pattern.
@@ -314,20 +375,13 @@ def cut_geometry(
         raise ValueError(f"n_phi must be even and >= 8, got {n_phi}")
     if table_rows < 3:
         raise ValueError(f"table_rows must be >= 3, got {table_rows}")
-    phases = 2 * np.pi * np.arange(n_phi) / n_phi
-
+    bodies = (machine.tool_body, machine.workpiece_body)
+    maps = _part_maps(machine, _centers(basis, bodies), coefficients, n_phi, part)
+    shapes = np.concatenate([basis.body_shapes[b] for b in bodies], axis=1)  # (n, 12)
+    shapes.setflags(write=False)
     mass = basis.modal_mass[:, None]
-    # workpiece arm grows by Y y_hat: rel(Y) = rel(0) - Y theta_work x y_hat
-    lever = -np.cross(basis.body_shapes[machine.workpiece_body][:, 3:], [0.0, 1.0, 0.0])
-
-    def shapes(samples):
-        ph = 2 * np.pi * np.arange(samples) / samples
-        tip, rel = _relative_shapes(basis, machine, samples)
-        k = force_vector(ph, machine, coefficients, part)
-        return tip, np.einsum("sjc,jc->sj", rel, k) / mass, lever @ k.T / mass, rel[:, :, 2]
-
-    def harmonics(values, orders):  # complex Fourier coefficients from 8 exact samples
-        return np.fft.fft(values, axis=1)[:, orders % 8] / 8
+    hats = shapes @ maps.harmonics
+    w_hat, w_y_hat, c_hat = hats[:, :5] / mass, hats[:, 5:10] / mass, hats[:, 10:]
 
     def real_form(hat):  # coefficients of [1, cos, sin, cos 2phi, sin 2phi]
         return np.stack(
@@ -336,67 +390,130 @@ def cut_geometry(
             axis=1,
         )
 
-    tip, w, w_y, c = shapes(n_phi)
-    _, w8, w_y8, c8 = shapes(8)  # 8 samples resolve degree 2
-    w_hat, w_y_hat = harmonics(w8, _HARM_W), harmonics(w_y8, _HARM_W)
-    c_hat = harmonics(c8, _HARM_C)
     c_trig = np.stack([c_hat[:, 1].real, 2 * c_hat[:, 2].real, -2 * c_hat[:, 2].imag])
-    trig = np.stack(
-        [np.ones(n_phi), np.cos(phases), np.sin(phases), np.cos(2 * phases), np.sin(2 * phases)]
-    )
     table_y, row_knots, _, active, _ = _pattern_tables(machine, n_phi, table_rows, part)
-    dtip, ddtip = tool_tip_rates(phases, machine, 1 / (2 * np.pi))  # d/dphi, d^2/dphi^2
-    static_tool = static_work = static_hat = None
+    static_maps = None
     if residual is not None:
-        # quadratic in Y from three exact evaluations (the workpiece point moves with Y)
-        k = force_vector(phases, machine, coefficients, part)
-        samples = [residual.relative(tip, tip + [0.0, y, 0.0], k) for y in (-1.0, 0.0, 1.0)]
-        fit = np.array([[0.0, 1.0, 0.0], [-0.5, 0.0, 0.5], [0.5, -1.0, 0.5]])
-        static_tool = np.einsum("pk,knc->pnc", fit, np.stack([t for t, _ in samples]))
-        static_work = np.einsum("pk,knc->pnc", fit, np.stack([w for _, w in samples]))
-        rel = np.fft.fft(static_tool[..., 2] - static_work[..., 2], axis=1) / n_phi
-        static_hat = rel[:, np.arange(-3, 4) % n_phi]
+        centers = tuple(residual.centers.ravel().tolist())
+        static_maps = _part_maps(machine, centers, coefficients, n_phi, part)
     return CutGeometry(
         basis=basis,
         machine=machine,
         coefficients=coefficients,
         n_phi=n_phi,
         table_rows=table_rows,
-        phases=phases,
-        tip=tip,
-        dtip=dtip,
-        ddtip=ddtip,
-        w=w,
-        w_y=w_y,
-        c=c,
-        c_y=lever[:, 2],
+        phases=maps.phases,
+        tip=maps.tip,
+        dtip=maps.dtip,
+        ddtip=maps.ddtip,
+        c_y=shapes @ maps.modal[:, 3 * n_phi],
         w_hat=w_hat,
         w_y_hat=w_y_hat,
         c_hat=c_hat,
         w_trig=real_form(w_hat),
         w_y_trig=real_form(w_y_hat),
         c_trig=c_trig,
-        trig=trig,
+        trig=maps.trig,
         table_y=table_y,
         row_knots=row_knots,
         active=active,
+        shapes=shapes,
+        maps=maps,
         part=part,
-        static_tool=static_tool,
-        static_work=static_work,
-        static_hat=static_hat,
+        residual=residual,
+        static_maps=static_maps,
     )
 
 
-@lru_cache(maxsize=4)  # both force parts of the last two designs
-def _relative_shapes(basis: ModalBasis, machine: Machine, samples: int):
-    """Tool tip (N, 3) [m] at ``samples`` equally spaced angles and the relative translation
-    (V_tool - V_work)(tip) (n, N, 3) of every mode there (shared by the force parts)."""
-    tip = tool_tip(2 * np.pi * np.arange(samples) / samples, machine)
-    rel = basis.point_shapes(machine.tool_body, tip)
-    rel = rel - basis.point_shapes(machine.workpiece_body, tip)
-    for a in (tip, rel):
+def _centers(basis: ModalBasis, bodies: tuple[str, ...]) -> tuple[float, ...]:
+    """The bodies' centres of mass [m], flattened (a cache key of :func:`_part_maps`)."""
+    return tuple(np.concatenate([basis.body_centers[b] for b in bodies]).tolist())
+
+
+@dataclass(frozen=True, eq=False)
+class _PartMaps:
+    """Design-independent maps of :func:`cut_geometry` for one force part (all read-only).
+
+    The mode shapes enter the geometry only through the tool and workpiece bodies' motions
+    v (n, 12) = [r_tool, theta_tool, r_work, theta_work] (paper eq. 3.11 with a point force):
+    modal (12, 3 N + 1) maps them to [w M_s, w_y M_s, c, c_y] at the N angles and harmonics
+    (12, 13) to [w_hat M_s (5), w_y_hat M_s (5), c_hat (3)]. phases, tip, dtip, ddtip, trig as
+    in :class:`CutGeometry`. The static correction's: arms (N, 2, 3) [m] of the tip from the
+    tool's and the workpiece's centre of mass at Y = 0, wrench (2, N, 12) the bodies' load per
+    unit pattern at Y = 0 and its rate in Y [N, N m per unit].
+    """
+
+    phases: np.ndarray
+    tip: np.ndarray
+    dtip: np.ndarray
+    ddtip: np.ndarray
+    trig: np.ndarray
+    modal: np.ndarray
+    harmonics: np.ndarray
+    arms: np.ndarray
+    wrench: np.ndarray
+
+    def static(self, matrix: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Residual-flexibility displacement of tool tip and workpiece point per unit pattern
+        as a quadratic in Y, each (3, N, 3) [m] (:class:`CutGeometry` static_tool,
+        static_work), from the residual flexibility ``matrix`` (12, 12)."""
+        u = (self.wrench @ matrix.T).reshape(2, -1, 4, 3)  # (Y^0, Y^1; N; r, theta per body)
+        # a point at arm x moves r + theta x x; the workpiece arm grows by Y y_hat
+        moved = u[:, :, ::2] + _cross(u[:, :, 1::2], self.arms)  # (2, N, 2, 3)
+        theta = u[:, :, 3]
+        turn = np.stack([-theta[..., 2], np.zeros(theta.shape[:-1]), theta[..., 0]], axis=-1)
+        tool = np.concatenate([moved[:, :, 0], np.zeros((1, *turn.shape[1:]))])
+        return tool, np.stack([moved[0, :, 1], moved[1, :, 1] + turn[0], turn[1]])
+
+
+@lru_cache(maxsize=4)  # ~0.6 MiB each: both force parts of two machines
+def _part_maps(
+    machine: Machine,
+    centers: tuple[float, ...],
+    coefficients: ForceCoefficients,
+    n_phi: int,
+    part: str,
+) -> _PartMaps:
+    """The :class:`_PartMaps` of ``machine`` with tool and workpiece centres of mass
+    ``centers`` (6,) [m] (cached per machine, not per design)."""
+    c_tool, c_work = np.reshape(centers, (2, 3))
+    y_hat = np.array([0.0, 1.0, 0.0])
+
+    def modal_maps(samples):  # (12, 3, samples): w M_s, w_y M_s and c per unit body motion
+        phi = 2 * np.pi * np.arange(samples) / samples
+        tip = tool_tip(phi, machine)
+        k = force_vector(phi, machine, coefficients, part)
+        rel = np.concatenate([point_map(tip - c_tool), -point_map(tip - c_work)], axis=2)
+        lever = np.zeros((samples, 12))  # rel(Y) = rel(0) + Y y_hat x theta_work
+        lever[:, 9:] = np.cross(k, y_hat)  # (y_hat x theta) . k = theta . (k x y_hat)
+        return np.stack([np.einsum("jci,jc->ij", rel, k), lever.T, rel[:, 2].T], axis=1)
+
+    def harmonics(values, orders):  # complex Fourier coefficients from 8 exact samples
+        return np.fft.fft(values, axis=-1)[:, orders % 8] / 8
+
+    fine, coarse = modal_maps(n_phi), modal_maps(8)  # 8 samples resolve degree 2
+    c_y = np.zeros((12, 1))
+    c_y[9] = -1.0  # (y_hat x theta_work)_z
+    modal = np.concatenate([fine.reshape(12, -1), c_y], axis=1)
+    hats = [harmonics(coarse[:, 0], _HARM_W), harmonics(coarse[:, 1], _HARM_W)]
+    hats = np.concatenate([*hats, harmonics(coarse[:, 2], _HARM_C)], axis=1)
+    phases = 2 * np.pi * np.arange(n_phi) / n_phi
+    tip = tool_tip(phases, machine)
+    dtip, ddtip = tool_tip_rates(phases, machine, 1 / (2 * np.pi))  # d/dphi, d^2/dphi^2
+    trig = np.stack(
+        [np.ones(n_phi), np.cos(phases), np.sin(phases), np.cos(2 * phases), np.sin(2 * phases)]
+    )
+    k = force_vector(phases, machine, coefficients, part)
+    arms = np.stack([tip - c_tool, tip - c_work], axis=1)  # (N, 2, 3)
+    t_y = point_map(y_hat) - point_map(np.zeros(3))
+    wrench = np.zeros((2, n_phi, 12))  # the workpiece takes the reaction -k
+    wrench[0, :, :6] = np.einsum("jci,jc->ji", point_map(arms[:, 0]), k)
+    wrench[0, :, 6:] = -np.einsum("jci,jc->ji", point_map(arms[:, 1]), k)
+    wrench[1, :, 6:] = -k @ t_y
+    arrays = (phases, tip, dtip, ddtip, trig, modal, hats, arms, wrench)
+    for a in arrays:  # cached: shared by every design's geometry
         a.setflags(write=False)
-    return tip, rel
+    return _PartMaps(*arrays)
 
 
 @lru_cache(maxsize=4)  # ~1.6 MiB each: both force parts of two machines
@@ -606,28 +723,51 @@ class _ColumnPlan:
 def _column_plan(parts: tuple[CutGeometry, ...], phi: tuple[float, ...]) -> _ColumnPlan:
     """The :class:`_ColumnPlan` of angles ``phi`` [rad] (cached per geometry and angles)."""
     geo = parts[0]
-    samples, weights = _cubic_weights(np.array(phi), geo.n_phi)
-    j, where = np.unique(np.mod(samples, geo.n_phi), return_inverse=True)
-    stencil = np.zeros((j.size, len(phi)))
-    for i in range(4):  # the four samples of a stencil are distinct
-        stencil[where.reshape(samples.shape)[i], np.arange(len(phi))] = weights[i]
-    active = np.flatnonzero(geo.active)
-    lags, lag_index = np.unique(np.mod(j - active[:, None], geo.n_phi), return_inverse=True)
-    c = np.stack([geo.c[:, j].T, np.broadcast_to(geo.c_y, (j.size, geo.c_y.size))], axis=1)
-    w = np.stack([a[:, active].T for g in parts for a in (g.w, g.w_y)], axis=2)
+    j, stencil, active, lags, lag_index, hits = _column_samples(
+        geo.n_phi, geo.active.tobytes(), phi
+    )
+    c = geo.modal_at(j)[2]
+    c = np.stack([c.T, np.broadcast_to(geo.c_y, (j.size, geo.c_y.size))], axis=1)
+    w = np.stack([a.T for g in parts for a in g.modal_at(active)[:2]], axis=2)
     static = np.zeros((active.size, j.size, len(parts), 3))
-    hit_a, hit_k = np.nonzero(active[:, None] == j)
+    hit_a, hit_k = hits
     for i, g in enumerate(parts):
         if g.static_tool is not None:  # the static correction acts at the sample itself
             rel = g.static_tool[:, j[hit_k], 2] - g.static_work[:, j[hit_k], 2]
             static[hit_a, hit_k, i] = rel.T
     names = tuple(g.part for g in parts)
-    arrays = (lags, lag_index.reshape(active.size, j.size), c, np.ascontiguousarray(w), static)
-    for a in (*arrays, stencil):  # cached: shared by every later call
+    arrays = (np.ascontiguousarray(c), np.ascontiguousarray(w), static)
+    for a in arrays:  # cached: shared by every later call
         a.setflags(write=False)
     return _ColumnPlan(
-        *arrays, stencil, _stacked_patterns(geo.machine, geo.n_phi, geo.table_rows, names)
+        lags,
+        lag_index,
+        *arrays,
+        stencil,
+        _stacked_patterns(geo.machine, geo.n_phi, geo.table_rows, names),
     )
+
+
+@lru_cache(maxsize=4)  # machine-only
+def _column_samples(n_phi: int, active: bytes, phi: tuple[float, ...]):
+    """The sample indices of :func:`_column_plan` (cached per angles, not per design).
+
+    ``active`` (N bools as bytes) the cut's angles. Returns the samples j (K,) the stencils
+    of ``phi`` [rad] read, the stencil (K, C), the active angles (A,), the lags (L,), their
+    lag_index (A, K) and the (angle, sample) index pairs where sample = angle; read-only.
+    """
+    samples, weights = _cubic_weights(np.array(phi), n_phi)
+    j, where = np.unique(np.mod(samples, n_phi), return_inverse=True)
+    stencil = np.zeros((j.size, len(phi)))
+    for i in range(4):  # the four samples of a stencil are distinct
+        stencil[where.reshape(samples.shape)[i], np.arange(len(phi))] = weights[i]
+    active = np.flatnonzero(np.frombuffer(active, dtype=bool))
+    lags, lag_index = np.unique(np.mod(j - active[:, None], n_phi), return_inverse=True)
+    lag_index = lag_index.reshape(active.size, j.size)
+    hits = np.nonzero(active[:, None] == j)
+    for a in (j, stencil, active, lags, lag_index, *hits):
+        a.setflags(write=False)
+    return j, stencil, active, lags, lag_index, hits
 
 
 @dataclass(frozen=True, eq=False)
@@ -746,8 +886,8 @@ def _recurrence(basis: ModalBasis, n_phi: int, spindle_hz: float, zeta: tuple):
 
 @lru_cache(maxsize=8)
 def _cut_run(active: bytes):
-    """The circular run of the ``active`` samples (N bools as bytes): its first sample and
-    length, the distinct lags (L,) between its samples mod N and each pair's (A, A)."""
+    """The circular run of the ``active`` samples (N bools as bytes): its first sample, its
+    samples in order (A,), the distinct lags (L,) between them mod N and each pair's (A, A)."""
     active = np.frombuffer(active, dtype=bool)
     n = active.size
     first = int(np.flatnonzero(active & ~np.roll(active, 1))[0])
@@ -756,9 +896,10 @@ def _cut_run(active: bytes):
         np.mod(np.subtract.outer(np.arange(a), np.arange(a)), n), return_inverse=True
     )
     pairs = pairs.reshape(a, a)
-    for arr in (lags, pairs):  # cached: shared by every later call
+    run = (first + np.arange(a)) % n
+    for arr in (run, lags, pairs):  # cached: shared by every later call
         arr.setflags(write=False)
-    return first, a, lags, pairs
+    return first, run, lags, pairs
 
 
 def _periodic_state(recurrence: PeriodicRecurrence, force: np.ndarray, active: np.ndarray):
@@ -768,9 +909,9 @@ def _periodic_state(recurrence: PeriodicRecurrence, force: np.ndarray, active: n
     Within the run: its sum with the periodic impulse response; after it, the free decay E^l
     of the state after the run's last sample.
     """
-    first, a, lags, pairs = _cut_run(active.tobytes())
-    n = active.size
-    f = np.roll(force, -first, axis=1)[:, :a]
+    first, run, lags, pairs = _cut_run(active.tobytes())
+    n, a = active.size, run.size
+    f = force[:, run]
     inside = np.einsum("sjm,sm->sj", recurrence.impulse(lags)[:, pairs], f)
     after = recurrence.e * inside[:, -1] + recurrence.b1 * f[:, -1]  # no force there
     x = np.empty(force.shape, complex)  # from the run's first sample on
@@ -872,20 +1013,35 @@ class _RecordUnit:
 
 @lru_cache(maxsize=8)
 def _record_unit(geo: CutGeometry) -> _RecordUnit:
-    """The record window of :func:`periodic_response` per unit amplitude (cached per geometry)."""
-    n = geo.n_phi
-    y_rec = record_slide(geo.machine)
-    chip = chip_factor_cells(geo.phases, y_rec, geo.machine, 2 * np.pi / n, geo.part)
-    fs = (geo.w + y_rec * geo.w_y) * chip
-    force = chip[:, None] * force_vector(geo.phases, geo.machine, geo.coefficients, geo.part)
+    """The record window of :func:`periodic_response` per unit amplitude (cached per geometry;
+    the modal force formed on the cutting samples only)."""
+    y_rec, chip, force, cut = _record_pattern(geo.machine, geo.coefficients, geo.n_phi, geo.part)
+    w, w_y, _ = geo.modal_at(cut)
+    fs = np.zeros((geo.basis.n_modes, geo.n_phi))
+    fs[:, cut] = (w + y_rec * w_y) * chip[cut]
     static_tip = static_work = None
     if geo.static_tool is not None:
-        s_tool, s_work = geo.static_at(np.arange(n), np.full(n, y_rec))
+        s_tool, s_work = geo.static_at(slice(None), y_rec)
         static_tip, static_work = chip[:, None] * s_tool, chip[:, None] * s_work
-    for a in (fs, force, static_tip, static_work):
+    for a in (fs, static_tip, static_work):
         if a is not None:
             a.setflags(write=False)
     return _RecordUnit(fs, force, static_tip, static_work)
+
+
+@lru_cache(maxsize=4)  # machine-only
+def _record_pattern(machine: Machine, coefficients: ForceCoefficients, n_phi: int, part: str):
+    """The record window's slide position [m], chip pattern (N,), force on the tool per unit
+    amplitude (N, 3) [N] and the samples where the pattern is not zero (cached per machine;
+    arrays read-only)."""
+    phases = 2 * np.pi * np.arange(n_phi) / n_phi
+    y_rec = record_slide(machine)
+    chip = chip_factor_cells(phases, y_rec, machine, 2 * np.pi / n_phi, part)
+    force = chip[:, None] * force_vector(phases, machine, coefficients, part)
+    cut = np.flatnonzero(chip)
+    for a in (chip, force, cut):
+        a.setflags(write=False)
+    return y_rec, chip, force, cut
 
 
 def time_response(

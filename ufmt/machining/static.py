@@ -55,8 +55,8 @@ class ResidualFlexibility:
         workpiece at ``work_points`` (both (..., 3) [m], broadcast). Returns the displacement
         of the tool point and of the workpiece point, each (..., 3).
         """
-        t_tool = _point_map(np.asarray(tool_points, float) - self.centers[0])
-        t_work = _point_map(np.asarray(work_points, float) - self.centers[1])
+        t_tool = point_map(np.asarray(tool_points, float) - self.centers[0])
+        t_work = point_map(np.asarray(work_points, float) - self.centers[1])
         forces = np.asarray(forces, dtype=float)
         wrench = np.concatenate(
             [
@@ -72,7 +72,7 @@ class ResidualFlexibility:
         )
 
 
-def _point_map(arm: np.ndarray) -> np.ndarray:
+def point_map(arm: np.ndarray) -> np.ndarray:
     """T (..., 3, 6): translation r + theta x arm = [I, -[arm]x] [r; theta] of a point."""
     arm = np.asarray(arm, dtype=float)
     out = np.zeros((*arm.shape[:-1], 3, 6))
@@ -106,22 +106,22 @@ _STRUCTURES_LOCK = threading.Lock()  # dask workers may evaluate in threads
 STRUCTURE_CACHE = 4
 
 
-def _structure_key(model, bodies: tuple[str, ...]):
+def _structure_key(model, bodies: tuple[str, ...], stiffness6: np.ndarray):
     return (
         model.bodies,  # identity-hashed bodies: shared by every design of one loaded model
-        tuple(
-            (h.name, h.between, h.at.tobytes(), h.rigid.tobytes(), h.released.tobytes())
-            for h in model.hinges
-        ),
+        tuple((h.name, h.between, h.at.tobytes()) for h in model.hinges),
+        np.isinf(stiffness6).tobytes(),  # the rigid directions of every hinge
+        (stiffness6 == 0.0).tobytes(),  # the released ones
         bodies,
     )
 
 
-def _structure(model, bodies: tuple[str, ...]) -> _Structure:
-    """The :class:`_Structure` of ``model`` (assembled once per structure key)."""
+def _structure(model, bodies: tuple[str, ...], stiffness6: np.ndarray) -> _Structure:
+    """The :class:`_Structure` of ``model`` (assembled once per structure key), whose hinges'
+    ``stiffness6`` rows are ``stiffness6`` (H, 6)."""
     from ufmt.assembled import assemble
 
-    key = _structure_key(model, bodies)
+    key = _structure_key(model, bodies, stiffness6)
     with _STRUCTURES_LOCK:
         found = _STRUCTURES.pop(key, None)
     if found is None:
@@ -190,8 +190,8 @@ def static_flexibility(model, bodies: tuple[str, ...]) -> np.ndarray:
     released spindle rotation: the model's zero-frequency modes) carry no static correction
     (pseudo-inverse on the elastic motions); ModelError if nothing is restrained.
     """
-    st = _structure(model, tuple(bodies))
     k = np.array([h.stiffness6 for h in model.hinges]).reshape(-1, 6)
+    st = _structure(model, tuple(bodies), k)
     k = k[st.spring_hinge, st.spring_direction]
     k_red = st.k_beams + (st.directions.T * k) @ st.directions
     try:
