@@ -329,3 +329,17 @@ def test_eliminating_the_constant_columns_and_rows_keeps_det_and_null_vectors():
     residual = np.linalg.norm(np.einsum("nij,nj->ni", at_roots, z), axis=1)
     scale = np.linalg.norm(at_roots, axis=(1, 2)) * np.linalg.norm(z, axis=1)
     assert np.all(residual <= 1e-12 * scale)
+
+
+def test_mode_shapes_have_their_largest_translation_positive():
+    """Sign convention (stable under rounding): in every mode the first translation within
+    1e-6 of the largest, in body order, is positive."""
+    shapes = solve_modes(load_model(packaged_path("ufmt-prior.toml")), count=30).shapes
+    n = shapes.frequencies_hz.size
+    t = np.concatenate(
+        [v[:, :3] for v in shapes.rigid.values()]
+        + [m[:, :, :3].reshape(n, -1) for _, _, m in shapes.beams.values()],
+        axis=1,
+    )
+    first = np.argmax(np.abs(t) >= (1 - 1e-6) * np.abs(t).max(axis=1, keepdims=True), axis=1)
+    assert np.all(t[np.arange(n), first] > 0)

@@ -39,8 +39,9 @@ class ModeShapes:
     frequencies_hz (n,); z_all (n, size) boundary (and segment) unknowns; rigid: body ->
     (n, 6) motion [r_C (m); θ (rad)] per unit modal mass; virtual: body -> (n, 6) motion at
     its point; beams: beam -> (positions (g, 3) [m],
-    weights (g,) [m], motion (n, g, 6)). Shapes have unit modal mass; ``modal_mass`` (n,) [kg]
-    is the modal mass of each shape scaled to a largest translation of 1 (eq. 3.11). Points
+    weights (g,) [m], motion (n, g, 6)). Shapes have unit modal mass, signed so that each
+    mode's largest translation is positive; ``modal_mass`` (n,) [kg] is the modal mass of
+    each shape scaled to a largest translation of +1 (eq. 3.11). Points
     of rigid bodies: ``ufmt.machining.modal.basis_from_shapes(shapes).point_shapes``; points
     along beams: :func:`beam_shape`.
     """
@@ -125,21 +126,26 @@ def mode_shapes(system: TransferSystem, frequencies_hz, null_space=None) -> Mode
             virtual[body.name] = _apply(states[("node_out", body.name)], z)[:, :6]
     shapes = ModeShapes(f, z, rigid, virtual, beams, np.ones(f.size), centers)
     _orthonormalise_repeated(model, shapes)
-    peak = np.max(
-        np.abs(
-            np.concatenate(
-                [v[:, :3] for v in rigid.values()]
-                + [m[:, :, :3].reshape(f.size, -1) for _, _, m in beams.values()]
-                + [np.zeros((f.size, 1))],
-                axis=1,
-            )
-        ),
-        axis=1,
-    )
-    peak[peak == 0] = 1.0
-    shapes = _scaled(shapes, 1.0 / peak)
+    shapes = _scaled(shapes, 1.0 / _signed_peak(shapes))
     mass = modal_mass(model, shapes.rigid, shapes.beams)
     return replace(_scaled(shapes, 1.0 / np.sqrt(mass)), modal_mass=mass)
+
+
+def _signed_peak(shapes: ModeShapes) -> np.ndarray:
+    """Per mode, the largest translation of any body [m], with its sign: dividing by it makes
+    the mode's largest translation +1 (the first in body order among those within 1e-6 of the
+    largest, so that rounding cannot flip a mode's sign); 1 for a mode without translation."""
+    n = shapes.frequencies_hz.size
+    translations = np.concatenate(
+        [v[:, :3] for v in shapes.rigid.values()]
+        + [m[:, :, :3].reshape(n, -1) for _, _, m in shapes.beams.values()]
+        + [np.zeros((n, 1))],
+        axis=1,
+    )
+    size = np.abs(translations)
+    first = np.argmax(size >= (1.0 - 1e-6) * size.max(axis=1, keepdims=True), axis=1)
+    peak = translations[np.arange(n), first]
+    return np.where(peak == 0.0, 1.0, peak)
 
 
 def _beam_field(system, beam: Beam, states, z, omega, fractions=None):
