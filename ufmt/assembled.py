@@ -548,10 +548,11 @@ _STRUCTURES_LOCK = threading.Lock()  # dask workers may run designs in threads
 
 
 def _structure(am: AssembledModel) -> _Structure:
-    """:class:`_Structure` of ``am``, built once per mesh, constraints, spring directions and
-    masses (the designs of a stiffness study share it)."""
+    """:class:`_Structure` of ``am``, built once per mesh (node positions), constraints,
+    spring directions and masses (the designs of a stiffness study share it)."""
     digest = hashlib.blake2b(digest_size=16)
-    for a in (am.constraints, am.spring_directions, am.M, am.massless):
+    positions = [am.node_positions[name] for name in am.body_dofs]
+    for a in (am.constraints, am.spring_directions, am.M, am.massless, *positions):
         digest.update(np.ascontiguousarray(a).tobytes())
         digest.update(repr(a.shape).encode())
     key = digest.digest()
@@ -576,10 +577,9 @@ def _structure(am: AssembledModel) -> _Structure:
     return structure
 
 
-def _condensed(am: AssembledModel):
+def _condensed(am: AssembledModel, structure: _Structure):
     """Massive and massless bases, ``F_a``, ``F_red = (I - P_b) F_a`` and the QR of F_b
-    (see :func:`_solve`)."""
-    structure = _structure(am)
+    (see :func:`_solve`); ``structure``: :func:`_structure` of ``am``."""
     t_a, t_b = structure.t_a, structure.t_b
     f_a = _times_basis(am.deformation, t_a, structure.unit_a)
     f_b = _times_basis(am.deformation, t_b)
@@ -594,8 +594,8 @@ def reduced_matrices(am: AssembledModel) -> tuple[np.ndarray, np.ndarray, int]:
     of zero-frequency modes: ``K_red = F_red^T F_red`` (exact static condensation of the
     massless dofs, see :func:`_solve`), ``M_red = T_a^T M T_a``. For eigen-solvers that
     take (K, M), e.g. ``scipy.linalg.eigh(K, M, subset_by_index=...)`` (benchmarks)."""
-    t_a, _, _, f_red, _ = _condensed(am)
     structure = _structure(am)
+    t_a, _, _, f_red, _ = _condensed(am, structure)
     return f_red.T @ f_red, _reduced_mass(am, t_a, structure.unit_a), structure.zero_modes
 
 
@@ -620,8 +620,8 @@ def _solve(am: AssembledModel, with_shapes: bool = True):
     ``S M_a S = L L^T``, omega are the singular values of ``F_red S L^-T`` and the right
     singular vectors v give ``a = S L^-T v`` (``a^T M_a a = 1``).
     """
-    t_a, t_b, f_a, f_red, (q_b, r_b, scale_b) = _condensed(am)
     structure = _structure(am)
+    t_a, t_b, f_a, f_red, (q_b, r_b, scale_b) = _condensed(am, structure)
     zero_modes, scale, chol = structure.zero_modes, structure.scale, structure.chol
     n_modes = t_a.shape[1] - zero_modes
     sigma, vh = _svd(sla.solve_triangular(chol, (f_red * scale).T, lower=True).T, with_shapes)

@@ -748,7 +748,7 @@ def _column_plan(parts: tuple[CutGeometry, ...], phi: tuple[float, ...]) -> _Col
     )
 
 
-@lru_cache(maxsize=4)  # machine-only
+@lru_cache(maxsize=4)  # per angle grid and cut mask, not per design
 def _column_samples(n_phi: int, active: bytes, phi: tuple[float, ...]):
     """The sample indices of :func:`_column_plan` (cached per angles, not per design).
 

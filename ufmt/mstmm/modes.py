@@ -134,7 +134,8 @@ def mode_shapes(system: TransferSystem, frequencies_hz, null_space=None) -> Mode
 def _signed_peak(shapes: ModeShapes) -> np.ndarray:
     """Per mode, the largest translation of any body [m], with its sign: dividing by it makes
     the mode's largest translation +1 (the first in body order among those within 1e-6 of the
-    largest, so that rounding cannot flip a mode's sign); 1 for a mode without translation."""
+    largest, so that rounding is unlikely to flip a mode's sign); 1 for a mode without
+    translation."""
     n = shapes.frequencies_hz.size
     translations = np.concatenate(
         [v[:, :3] for v in shapes.rigid.values()]

@@ -47,6 +47,7 @@ DERIVATIVE_STEP = 1e-7  # relative forward-difference step for dU/dω
 ACCEPT_STEP = 1e-8  # a contracting Newton step this small (relative) ends the iteration
 CONTRACTION = 0.1  # |step_k| <= CONTRACTION |step_k-1|: superlinear, right multiplicity
 CLUSTER_RTOL = 1e-6  # estimates closer than this (relative) are one repeated root
+NULL_SPACE_PRODUCTS = 3  # products of S⁻¹ dS with the start block (see _newton)
 
 
 @dataclass(frozen=True)
@@ -364,16 +365,18 @@ def _newton(system, omega, lo, hi, mult, rtol):
     are scaled once per cluster, off the root (at the first ω + dω), so that the LU solves
     see O(1) entries (the scaling cancels in the trace). The null space comes with the last
     step for free: near a root of multiplicity m, S⁻¹ dS/dω has m eigenvalues
-    ≈ 1/(ω - ω_k), all others O(1), so two products with an m-column block (QR after each)
-    give a basis of S's null space, accurate to the relative distance of the last iterate
-    from the root, completed to U_all's (size, m). A step that would leave the window (a
-    neighbouring root pulls Newton too far) goes half way to the window's end instead; such
-    a step never counts as converged.
+    ≈ 1/(ω - ω_k), all others O(1), so each product with an m-column block (QR after each)
+    shrinks the other components by about the relative distance δ of the last iterate from
+    the root. Three products give a basis of S's null space to O(δ²) or rounding (two left
+    errors of order δ on S, a 6 % wrong shape on a test model), completed to U_all's
+    (size, m). A step that would leave the window (a neighbouring root pulls Newton too far)
+    goes half way to the window's end instead; such a step never counts as converged.
     """
     w = omega.astype(float).copy()
     n = w.size
     r = c = None  # the scaling, from the first evaluation (one walk of the transfer graph)
     reduction = None  # U_all's ω-independent columns and rows eliminated (ufmt.mstmm.reduced)
+    start = None  # the start block of the null-space products
     previous = np.full(n, np.inf)
     basis: dict[int, np.ndarray] = {}
     done = np.zeros(n, dtype=bool)
@@ -383,11 +386,14 @@ def _newton(system, omega, lo, hi, mult, rtol):
             break
         wa = w[act]
         h = DERIVATIVE_STEP * wa
-        u = system.evaluate(np.concatenate([wa, wa + h]))
         if reduction is None:
-            # ω-independent parts: equal at ω_0, ω_0 + dω and the last (distant) ω
-            reduction = ConstantParts.of(u[[0, act.size, act.size - 1]])
+            # ω-independent parts: bitwise equal at ω_0, ω_0 + dω and a distant 0.61 ω_0
+            u = system.evaluate(np.concatenate([wa, wa + h, [0.61 * wa[0]]]))
+            reduction = ConstantParts.of(u[[0, act.size, -1]])
+            u = u[:-1]
             start = np.random.default_rng(0).standard_normal((reduction.order, int(mult.max())))
+        else:
+            u = system.evaluate(np.concatenate([wa, wa + h]))
         u = reduction.arrange(u)
         s0, s1 = reduction.reduce(u).reshape(2, act.size, reduction.order, reduction.order)
         if r is None:  # at ω(1 + DERIVATIVE_STEP): off the root even from an exact start
@@ -419,9 +425,13 @@ def _newton(system, omega, lo, hi, mult, rtol):
             sel = np.flatnonzero(done[act] & (mult[act] == m))
             x = np.broadcast_to(start[:, :m], (sel.size, start.shape[0], m))
             with np.errstate(all="ignore"):
-                for _ in range(2):
+                for _ in range(NULL_SPACE_PRODUCTS):
                     x = orthonormal(product[sel] @ x)
-            z = reduction.null_vectors(u[sel], c[act[sel], 0, :, None] * np.real(x))
+            # completed with U_all's pivot rows at the root, not at the iterate (first order
+            # in the step from the two evaluations: an O(step²) error instead of O(step))
+            t = (new[sel] - wa[sel]) / h[sel]
+            at_root = u[sel] + t[:, None, None] * (u[act.size + sel] - u[sel])
+            z = reduction.null_vectors(at_root, c[act[sel], 0, :, None] * np.real(x))
             for k, j in enumerate(act[sel]):
                 basis[j] = z[k]
     ok = done.copy()
@@ -432,9 +442,9 @@ def _newton(system, omega, lo, hi, mult, rtol):
 
 
 def orthonormal(x: np.ndarray) -> np.ndarray:
-    """Orthonormal basis (…, n, m) of each block's columns: the Q of a QR, with its sign
-    convention (LAPACK's Householder makes R's diagonal -sign(x_0)·|x| for one column, the
-    only case it is shortcut for: most roots are simple)."""
+    """Orthonormal basis (…, n, m) of each block's columns: the Q of a QR. One column (most
+    roots are simple) is normalised with LAPACK's sign, R's diagonal -sign(x_0)·|x| (Q differs
+    in sign from LAPACK's only when x is a multiple of e_1, which a random start never is)."""
     if x.shape[-1] > 1:
         return np.linalg.qr(x)[0]
     first = x[..., :1, :]
