@@ -24,6 +24,7 @@ import pytest
 from ufmt.errors import StudyError
 from ufmt.evaluate import apply_design, design_value, evaluate
 from ufmt.model.load import design_lines, load_model, packaged_path
+from ufmt.recent import Recent
 from ufmt.studies.optimise import (
     Space,
     fit_convex_quadratic,
@@ -744,7 +745,7 @@ def test_evaluate_reuses_the_basis_and_caches_on_the_model_content(tmp_path, mon
 
     evaluate_module = importlib.import_module("ufmt.evaluate")  # ufmt.evaluate is the function
     monkeypatch.setenv("UFMT_CACHE_DIR", str(tmp_path / "cache"))
-    monkeypatch.setattr(evaluate_module, "_BASES", {})
+    monkeypatch.setattr(evaluate_module, "_BASES", Recent(evaluate_module.BASIS_CACHE))
     model = tmp_path / "ufmt.toml"
     model.write_bytes(packaged_path().read_bytes())
     computed = []
@@ -765,7 +766,7 @@ def test_evaluate_reuses_the_basis_and_caches_on_the_model_content(tmp_path, mon
         raise RuntimeError("modal basis must not be recomputed")
 
     monkeypatch.setattr(ufmt.machining.modal, "modal_basis", broken)
-    monkeypatch.setattr(evaluate_module, "_BASES", {})
+    monkeypatch.setattr(evaluate_module, "_BASES", Recent(evaluate_module.BASIS_CACHE))
     cached = evaluate({}, {}, model)  # served from the disk cache
     assert same_record(cached, first)  # psd2_rms_nm is NaN (unresolved band) in both
     with model.open("a", encoding="utf-8") as f:

@@ -31,7 +31,6 @@ from __future__ import annotations
 
 import hashlib
 import math
-import threading
 from dataclasses import dataclass
 
 import numpy as np
@@ -39,6 +38,7 @@ import scipy.linalg as sla
 
 from ufmt.errors import ModelError
 from ufmt.model.schema import GROUND, Beam, Model, RigidBody, VirtualBody
+from ufmt.recent import Recent
 
 COMPONENTS = ("x", "y", "z", "rx", "ry", "rz")
 
@@ -543,8 +543,7 @@ class _Structure:
 
 
 STRUCTURES_KEPT = 8
-_STRUCTURES: dict = {}  # digest of (constraints, springs, masses) -> _Structure
-_STRUCTURES_LOCK = threading.Lock()  # dask workers may run designs in threads
+_STRUCTURES = Recent(STRUCTURES_KEPT)  # digest of (mesh, constraints, springs, masses)
 
 
 def _structure(am: AssembledModel) -> _Structure:
@@ -555,11 +554,11 @@ def _structure(am: AssembledModel) -> _Structure:
     for a in (am.constraints, am.spring_directions, am.M, am.massless, *positions):
         digest.update(np.ascontiguousarray(a).tobytes())
         digest.update(repr(a.shape).encode())
-    key = digest.digest()
-    with _STRUCTURES_LOCK:
-        cached = _STRUCTURES.get(key)
-    if cached is not None:
-        return cached
+    return _STRUCTURES.get(digest.digest(), lambda: _build_structure(am))
+
+
+def _build_structure(am: AssembledModel) -> _Structure:
+    """:class:`_Structure` of ``am`` (see :func:`_structure`)."""
     basis, independent = _constraint_basis(am.constraints, am.massless)
     t_a, t_b = _split_massless(am, basis, independent)
     _check_no_massless_mechanism(am, t_b)
@@ -567,14 +566,9 @@ def _structure(am: AssembledModel) -> _Structure:
     m_a = _reduced_mass(am, t_a, unit_a)
     scale = 1.0 / np.sqrt(np.diag(m_a))
     chol = np.linalg.cholesky(scale[:, None] * m_a * scale[None, :])
-    structure = _Structure(t_a, t_b, unit_a, _zero_mode_count(am), scale, chol)
     for a in (t_a, t_b, scale, chol, *unit_a):
         a.flags.writeable = False
-    with _STRUCTURES_LOCK:
-        _STRUCTURES[key] = structure
-        while len(_STRUCTURES) > STRUCTURES_KEPT:
-            del _STRUCTURES[next(iter(_STRUCTURES))]
-    return structure
+    return _Structure(t_a, t_b, unit_a, _zero_mode_count(am), scale, chol)
 
 
 def _condensed(am: AssembledModel, structure: _Structure):

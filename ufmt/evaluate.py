@@ -40,7 +40,6 @@ import hashlib
 import math
 import os
 import re
-import threading
 import warnings
 from collections.abc import Mapping
 from dataclasses import fields, is_dataclass
@@ -53,6 +52,7 @@ from ufmt.errors import StudyError, closest_name
 from ufmt.machining.sources import SOURCES
 from ufmt.model.load import check_hinge_values, packaged_path
 from ufmt.model.schema import DesignParameter, Model
+from ufmt.recent import Recent
 
 N_MODES = 30  # modes in the modal basis (paper section 3.2 uses the first 30)
 N_FREQUENCIES = 6  # natural frequencies reported in each record
@@ -404,8 +404,7 @@ def _hinge_changes(base: Model, model: Model) -> tuple:
     )
 
 
-_BASES: dict = {}  # (model_sha, hinge changes) -> ModalBasis, least recently used first
-_BASES_LOCK = threading.Lock()  # dask workers may evaluate in threads
+_BASES = Recent(BASIS_CACHE)  # (model_sha, hinge changes) -> ModalBasis
 
 
 def _modal_basis(model, key):
@@ -413,12 +412,4 @@ def _modal_basis(model, key):
     that process changes on a known design reuse it."""
     from ufmt.machining.modal import modal_basis
 
-    with _BASES_LOCK:
-        basis = _BASES.pop(key, None)
-    if basis is None:
-        basis = modal_basis(model, N_MODES)
-    with _BASES_LOCK:
-        _BASES[key] = basis
-        while len(_BASES) > BASIS_CACHE:
-            del _BASES[next(iter(_BASES))]
-    return basis
+    return _BASES.get(key, lambda: modal_basis(model, N_MODES))

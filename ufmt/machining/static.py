@@ -21,7 +21,6 @@ P = [T_tool(p), -T_work(q)], T(x) = [I, -[(x - C)]x] the translation of point x 
 
 from __future__ import annotations
 
-import threading
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -30,6 +29,7 @@ import scipy.linalg as sla
 from ufmt.errors import ModelError
 from ufmt.machining.basis import ModalBasis
 from ufmt.model.machine import Machine
+from ufmt.recent import Recent
 
 
 @dataclass(frozen=True, eq=False)
@@ -99,11 +99,10 @@ class _Structure:
     loads: np.ndarray
 
 
+STRUCTURE_CACHE = 4
 #: Structures of the last few models (key: bodies, hinge geometry and which directions are
 #: rigid or released), so that a design change (hinge stiffnesses only) costs one small solve.
-_STRUCTURES: dict = {}
-_STRUCTURES_LOCK = threading.Lock()  # dask workers may evaluate in threads
-STRUCTURE_CACHE = 4
+_STRUCTURES = Recent(STRUCTURE_CACHE)
 
 
 def _structure_key(model, bodies: tuple[str, ...], stiffness6: np.ndarray):
@@ -119,58 +118,53 @@ def _structure_key(model, bodies: tuple[str, ...], stiffness6: np.ndarray):
 def _structure(model, bodies: tuple[str, ...], stiffness6: np.ndarray) -> _Structure:
     """The :class:`_Structure` of ``model`` (assembled once per structure key), whose hinges'
     ``stiffness6`` rows are ``stiffness6`` (H, 6)."""
+    key = _structure_key(model, bodies, stiffness6)
+    return _STRUCTURES.get(key, lambda: _build_structure(model, bodies))
+
+
+def _build_structure(model, bodies: tuple[str, ...]) -> _Structure:
+    """:class:`_Structure` of ``model`` (see :func:`_structure`)."""
     from ufmt.assembled import assemble
 
-    key = _structure_key(model, bodies, stiffness6)
-    with _STRUCTURES_LOCK:
-        found = _STRUCTURES.pop(key, None)
-    if found is None:
-        # one cubic frame element per beam is exact in statics (no load between the nodes);
-        # springs at zero give the beams alone, at one their unit direction rows d_j
-        def with_springs(value):
-            hinges = []
-            for h in model.hinges:
-                finite = ~(h.rigid | h.released)
-                k = np.where(finite, value, h.stiffness6)
-                hinges.append(replace(h, stiffness=k[:3], rotational_stiffness=k[3:]))
-            return replace(model, hinges=tuple(hinges))
+    # one cubic frame element per beam is exact in statics (no load between the nodes);
+    # springs at zero give the beams alone, at one their unit direction rows d_j
+    def with_springs(value):
+        hinges = []
+        for h in model.hinges:
+            finite = ~(h.rigid | h.released)
+            k = np.where(finite, value, h.stiffness6)
+            hinges.append(replace(h, stiffness=k[:3], rotational_stiffness=k[3:]))
+        return replace(model, hinges=tuple(hinges))
 
-        beams = assemble(with_springs(0.0), elements_per_beam=1)
-        springs = assemble(with_springs(1.0), elements_per_beam=1)
-        finite = [
-            (i, j)
-            for i, h in enumerate(model.hinges)
-            for j in np.flatnonzero(~(h.rigid | h.released))
-        ]
-        d = springs.deformation[springs.deformation.shape[0] - len(finite) :]
-        dofs = []
-        for name in bodies:
-            body_dofs = beams.body_dofs[name]
-            if body_dofs.shape[0] != 1:
-                raise ModelError(
-                    f"{model.source}: machine: body {name!r} is a beam; the static correction "
-                    "needs rigid tool and workpiece bodies"
-                )
-            dofs.append(body_dofs[0])
-        dofs = np.concatenate(dofs)
-        if len(beams.constraints):
-            rows = beams.constraints / np.linalg.norm(beams.constraints, axis=1, keepdims=True)
-            basis = sla.null_space(rows, rcond=1e-9)
-        else:
-            basis = np.eye(beams.K.shape[0])
-        index = np.array(finite, dtype=int).reshape(-1, 2)
-        found = _Structure(
-            k_beams=basis.T @ beams.K @ basis,
-            directions=d @ basis,
-            spring_hinge=index[:, 0],
-            spring_direction=index[:, 1],
-            loads=basis[dofs].T,
-        )
-    with _STRUCTURES_LOCK:
-        _STRUCTURES[key] = found
-        while len(_STRUCTURES) > STRUCTURE_CACHE:
-            del _STRUCTURES[next(iter(_STRUCTURES))]
-    return found
+    beams = assemble(with_springs(0.0), elements_per_beam=1)
+    springs = assemble(with_springs(1.0), elements_per_beam=1)
+    finite = [
+        (i, j) for i, h in enumerate(model.hinges) for j in np.flatnonzero(~(h.rigid | h.released))
+    ]
+    d = springs.deformation[springs.deformation.shape[0] - len(finite) :]
+    dofs = []
+    for name in bodies:
+        body_dofs = beams.body_dofs[name]
+        if body_dofs.shape[0] != 1:
+            raise ModelError(
+                f"{model.source}: machine: body {name!r} is a beam; the static correction "
+                "needs rigid tool and workpiece bodies"
+            )
+        dofs.append(body_dofs[0])
+    dofs = np.concatenate(dofs)
+    if len(beams.constraints):
+        rows = beams.constraints / np.linalg.norm(beams.constraints, axis=1, keepdims=True)
+        basis = sla.null_space(rows, rcond=1e-9)
+    else:
+        basis = np.eye(beams.K.shape[0])
+    index = np.array(finite, dtype=int).reshape(-1, 2)
+    return _Structure(
+        k_beams=basis.T @ beams.K @ basis,
+        directions=d @ basis,
+        spring_hinge=index[:, 0],
+        spring_direction=index[:, 1],
+        loads=basis[dofs].T,
+    )
 
 
 #: Eigenvalues of the reduced stiffness below this fraction of the largest are mechanisms

@@ -14,7 +14,6 @@ ground take their input at ground (zero displacement, six unknown reactions).
 
 from __future__ import annotations
 
-import threading
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -23,6 +22,7 @@ from scipy.linalg import qr
 from ufmt.errors import ModelError
 from ufmt.model.schema import GROUND, Beam, Hinge, Model, RigidBody
 from ufmt.mstmm.elements import tilde
+from ufmt.recent import Recent
 
 #: Unknown label kinds of the overall state vector Z_all.
 DISPLACEMENT_NAMES = ("x", "y", "z", "θx", "θy", "θz")
@@ -280,13 +280,12 @@ def transfer_topology(model: Model) -> Topology:
             for h in model.hinges
         ),
     )
-    with _TOPOLOGIES_LOCK:  # dask workers may run designs in threads
-        if key not in _TOPOLOGIES:
-            redundant = redundant_rigid(model)
-            _TOPOLOGIES[key] = (build_topology(_released(model, redundant)), redundant)
-            while len(_TOPOLOGIES) > TOPOLOGIES_KEPT:
-                del _TOPOLOGIES[next(iter(_TOPOLOGIES))]
-        topology, redundant = _TOPOLOGIES[key]
+
+    def build():
+        redundant = redundant_rigid(model)
+        return build_topology(_released(model, redundant)), redundant
+
+    topology, redundant = _TOPOLOGIES.get(key, build)
     model = _released(model, redundant)
     edges = [
         replace(e, element=model.hinge(e.name)) if e.kind == "hinge" else e for e in topology.edges
@@ -295,8 +294,7 @@ def transfer_topology(model: Model) -> Topology:
 
 
 TOPOLOGIES_KEPT = 8
-_TOPOLOGIES: dict = {}  # structure key -> (topology, redundant rigid directions)
-_TOPOLOGIES_LOCK = threading.Lock()
+_TOPOLOGIES = Recent(TOPOLOGIES_KEPT)  # structure key -> (topology, redundant directions)
 
 
 def _released(model: Model, directions) -> Model:
