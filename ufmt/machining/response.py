@@ -58,6 +58,7 @@ import numpy as np
 from scipy.signal import lfilter
 from threadpoolctl import threadpool_limits
 
+from ufmt.assembled import point_motion
 from ufmt.machining.basis import ModalBasis
 from ufmt.machining.cutting import (
     ForceCoefficients,
@@ -69,7 +70,7 @@ from ufmt.machining.cutting import (
     tool_tip,
     tool_tip_rates,
 )
-from ufmt.machining.static import ResidualFlexibility, point_map
+from ufmt.machining.static import ResidualFlexibility
 from ufmt.model.machine import Machine
 
 DEFAULT_ZETA = 0.03
@@ -483,7 +484,7 @@ def _part_maps(
         phi = 2 * np.pi * np.arange(samples) / samples
         tip = tool_tip(phi, machine)
         k = force_vector(phi, machine, coefficients, part)
-        rel = np.concatenate([point_map(tip - c_tool), -point_map(tip - c_work)], axis=2)
+        rel = np.concatenate([_translation(tip - c_tool), -_translation(tip - c_work)], axis=2)
         lever = np.zeros((samples, 12))  # rel(Y) = rel(0) + Y y_hat x theta_work
         lever[:, 9:] = np.cross(k, y_hat)  # (y_hat x theta) . k = theta . (k x y_hat)
         return np.stack([np.einsum("jci,jc->ij", rel, k), lever.T, rel[:, 2].T], axis=1)
@@ -505,10 +506,10 @@ def _part_maps(
     )
     k = force_vector(phases, machine, coefficients, part)
     arms = np.stack([tip - c_tool, tip - c_work], axis=1)  # (N, 2, 3)
-    t_y = point_map(y_hat) - point_map(np.zeros(3))
+    t_y = _translation(y_hat) - _translation(np.zeros(3))
     wrench = np.zeros((2, n_phi, 12))  # the workpiece takes the reaction -k
-    wrench[0, :, :6] = np.einsum("jci,jc->ji", point_map(arms[:, 0]), k)
-    wrench[0, :, 6:] = -np.einsum("jci,jc->ji", point_map(arms[:, 1]), k)
+    wrench[0, :, :6] = np.einsum("jci,jc->ji", _translation(arms[:, 0]), k)
+    wrench[0, :, 6:] = -np.einsum("jci,jc->ji", _translation(arms[:, 1]), k)
     wrench[1, :, 6:] = -k @ t_y
     arrays = (phases, tip, dtip, ddtip, trig, modal, hats, arms, wrench)
     for a in arrays:  # cached: shared by every design's geometry
@@ -815,6 +816,12 @@ def _outputs(geo: CutGeometry, j, slide, q, qd, qdd, spindle_hz: float):
     turn = _cross(rot, arm)  # (5, T, 3)
     acc = accel[:, :3] + turn[2] + turn[3] + turn[4]
     return moved[:, :3] + turn[0], acc, moved[:, 6:9] + turn[1]
+
+
+def _translation(arm: np.ndarray) -> np.ndarray:
+    """(..., 3, 6) maps [r; θ] -> r + θ × arm of points at ``arm`` (..., 3) [m] from a body's
+    reference point: the translation rows of :func:`ufmt.assembled.point_motion`."""
+    return point_motion(arm)[..., :3, :]
 
 
 def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:

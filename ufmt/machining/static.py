@@ -26,6 +26,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 import scipy.linalg as sla
 
+from ufmt.assembled import point_motion
 from ufmt.errors import ModelError
 from ufmt.machining.basis import ModalBasis
 from ufmt.model.machine import Machine
@@ -55,8 +56,8 @@ class ResidualFlexibility:
         workpiece at ``work_points`` (both (..., 3) [m], broadcast). Returns the displacement
         of the tool point and of the workpiece point, each (..., 3).
         """
-        t_tool = point_map(np.asarray(tool_points, float) - self.centers[0])
-        t_work = point_map(np.asarray(work_points, float) - self.centers[1])
+        t_tool = point_motion(np.asarray(tool_points, float) - self.centers[0])[..., :3, :]
+        t_work = point_motion(np.asarray(work_points, float) - self.centers[1])[..., :3, :]
         forces = np.asarray(forces, dtype=float)
         wrench = np.concatenate(
             [
@@ -70,19 +71,6 @@ class ResidualFlexibility:
             np.einsum("...ij,...j->...i", t_tool, u[..., :6]),
             np.einsum("...ij,...j->...i", t_work, u[..., 6:]),
         )
-
-
-def point_map(arm: np.ndarray) -> np.ndarray:
-    """T (..., 3, 6): translation r + theta x arm = [I, -[arm]x] [r; theta] of a point."""
-    arm = np.asarray(arm, dtype=float)
-    out = np.zeros((*arm.shape[:-1], 3, 6))
-    out[..., [0, 1, 2], [0, 1, 2]] = 1.0
-    ax, ay, az = arm[..., 0], arm[..., 1], arm[..., 2]
-    # theta x arm = -[arm]x theta
-    out[..., 0, 4], out[..., 0, 5] = az, -ay
-    out[..., 1, 3], out[..., 1, 5] = -az, ax
-    out[..., 2, 3], out[..., 2, 4] = ay, -ax
-    return out
 
 
 @dataclass(frozen=True, eq=False)
@@ -105,20 +93,10 @@ STRUCTURE_CACHE = 4
 _STRUCTURES = Recent(STRUCTURE_CACHE)
 
 
-def _structure_key(model, bodies: tuple[str, ...], stiffness6: np.ndarray):
-    return (
-        model.bodies,  # identity-hashed bodies: shared by every design of one loaded model
-        tuple((h.name, h.between, h.at.tobytes()) for h in model.hinges),
-        np.isinf(stiffness6).tobytes(),  # the rigid directions of every hinge
-        (stiffness6 == 0.0).tobytes(),  # the released ones
-        bodies,
-    )
-
-
-def _structure(model, bodies: tuple[str, ...], stiffness6: np.ndarray) -> _Structure:
-    """The :class:`_Structure` of ``model`` (assembled once per structure key), whose hinges'
-    ``stiffness6`` rows are ``stiffness6`` (H, 6)."""
-    key = _structure_key(model, bodies, stiffness6)
+def _structure(model, bodies: tuple[str, ...]) -> _Structure:
+    """The :class:`_Structure` of ``model`` (assembled once per
+    :meth:`~ufmt.model.schema.Model.structure_key` and bodies)."""
+    key = (model.structure_key(), bodies)
     return _STRUCTURES.get(key, lambda: _build_structure(model, bodies))
 
 
@@ -184,8 +162,8 @@ def static_flexibility(model, bodies: tuple[str, ...]) -> np.ndarray:
     released spindle rotation: the model's zero-frequency modes) carry no static correction
     (pseudo-inverse on the elastic motions); ModelError if nothing is restrained.
     """
+    st = _structure(model, tuple(bodies))
     k = np.array([h.stiffness6 for h in model.hinges]).reshape(-1, 6)
-    st = _structure(model, tuple(bodies), k)
     k = k[st.spring_hinge, st.spring_direction]
     k_red = st.k_beams + (st.directions.T * k) @ st.directions
     try:

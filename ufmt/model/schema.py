@@ -183,6 +183,18 @@ class Model:
                 return h
         raise KeyError(f"unknown hinge {name!r}; hinges are {[h.name for h in self.hinges]}")
 
+    def structure_key(self) -> tuple:
+        """The model's identity apart from its stiffness values (a key for what the designs
+        of a stiffness study share): its bodies (the same objects), where each hinge is and
+        which of its directions are rigid or released."""
+        stiffness6 = np.array([h.stiffness6 for h in self.hinges]).reshape(-1, 6)
+        return (
+            self.bodies,  # identity-hashed bodies: shared by every design of one loaded model
+            tuple((h.name, tuple(h.between), h.at.tobytes()) for h in self.hinges),
+            np.isinf(stiffness6).tobytes(),  # the rigid directions of every hinge
+            (stiffness6 == 0.0).tobytes(),  # the released ones
+        )
+
     def with_hinge(self, name: str, **changes) -> Model:
         """A copy with hinge ``name`` changed, e.g. ``stiffness=[...]`` (values as in Hinge)."""
         self.hinge(name)

@@ -262,30 +262,17 @@ def _layout_unknowns(nodes, edges, order) -> Topology:
 def transfer_topology(model: Model) -> Topology:
     """The topology of ``model`` with its redundant rigid directions released.
 
-    It depends on the bodies (the same objects) and on where the hinges are and which of their
-    directions are rigid, elastic or released, not on the stiffness values: it is built once
-    per such structure (the last TOPOLOGIES_KEPT) and shared by the designs of a stiffness
-    study, each with its hinge edges bound to its own hinges.
+    It depends on :meth:`~ufmt.model.schema.Model.structure_key` (bodies, hinge places,
+    rigid and released directions), not on the stiffness values: it is built once per such
+    structure (the last TOPOLOGIES_KEPT) and shared by the designs of a stiffness study, each
+    with its hinge edges bound to its own hinges.
     """
-    key = (
-        model.bodies,
-        tuple(
-            (
-                h.name,
-                tuple(h.between),
-                tuple(map(float, h.at)),
-                h.rigid.tobytes(),
-                h.released.tobytes(),
-            )
-            for h in model.hinges
-        ),
-    )
 
     def build():
         redundant = redundant_rigid(model)
         return build_topology(_released(model, redundant)), redundant
 
-    topology, redundant = _TOPOLOGIES.get(key, build)
+    topology, redundant = _TOPOLOGIES.get(model.structure_key(), build)
     model = _released(model, redundant)
     edges = [
         replace(e, element=model.hinge(e.name)) if e.kind == "hinge" else e for e in topology.edges
