@@ -150,58 +150,50 @@ def _axial(omega2, stiffness, inertia_per_length, length):
     return np.cos(bl), length * sinc, b2 * length * sinc
 
 
+# where beam_local's entries go: axial (x, qx), torsion (θx, mx), then the 16 entries of
+# bending in the x1-y plane (y, θz, mz, qy) and in the x1-z plane (z, θy, my, qz)
+_TWIST = ((0, 0), (0, 9), (9, 0), (9, 9), (3, 3), (3, 6), (6, 3), (6, 6))
+_PLANES = ((1, 5, 8, 10), (2, 4, 7, 11))
+_ROWS, _COLS = np.array(_TWIST + tuple((a, b) for p in _PLANES for a in p for b in p)).T
+
+
 def beam_local(omega: np.ndarray, beam: Beam, length: float | None = None) -> np.ndarray:
     """Transfer matrix of an Euler-Bernoulli beam in its own axes (paper eqs. 2.12, 3.3).
 
     Derived from eq. 3.3 in the state conventions of this module (the printed eq. 2.12 mixes
-    λy and λz and has sign slips). Local axes: x1 along the beam from input to output; bending
-    in the x1-y plane uses I_z (θz = v'), in the x1-z plane I_y (θy = -w'). ``length`` [m]
-    gives the transfer over a part of the beam (default: the whole beam); an array of the
-    shape of ``omega`` gives one length per frequency.
+    λy and λz and has sign slips). Local axes: x1 along the beam from input to output; axial
+    q = -N, N = EA u'; torsion m = +GJ θ'; bending in the x1-y plane uses I_z (θz = v',
+    mz = EI v'', qy = EI v'''), in the x1-z plane I_y (θy = -w', my = -EI w'', qz = EI w''').
+    ``length`` [m] gives the transfer over a part of the beam (default: the whole beam); an
+    array of the shape of ``omega`` gives one length per frequency. Axial and torsion, and
+    the two bending planes, are computed together (rows of 2) and scattered at once.
     """
     w2 = np.asarray(omega, dtype=float) ** 2
-    n = w2.size
     L = beam.length if length is None else np.asarray(length, dtype=float)
-    rho, E, G = beam.density, beam.youngs_modulus, beam.shear_modulus
-    A, Iy, Iz = beam.area, beam.second_moment_y, beam.second_moment_z
-    u = np.zeros((n, 12, 12))
-    # axial: x, qx  (q = -N, N = EA u')
-    c, sl, bs = _axial(w2, E * A, rho * A, L)
-    u[:, 0, 0] = c
-    u[:, 0, 9] = -sl / (E * A)
-    u[:, 9, 0] = E * A * bs
-    u[:, 9, 9] = c
-    # torsion: θx, mx  (m = +GJ θ')
-    gj = G * beam.torsion_constant
-    c, sl, bs = _axial(w2, gj, rho * beam.polar_moment, L)
-    u[:, 3, 3] = c
-    u[:, 3, 6] = sl / gj
-    u[:, 6, 3] = -gj * bs
-    u[:, 6, 6] = c
-    for ei, (d, th, m, q, sgn) in (
-        (E * Iz, (1, 5, 8, 10, 1.0)),  # y, θz, mz, qy: θz = v', mz = EI v'', qy = EI v'''
-        (E * Iy, (2, 4, 7, 11, -1.0)),  # z, θy, my, qz: θy = -w', my = -EI w'', qz = EI w'''
-    ):
-        lam4 = rho * A * w2 / ei
-        s, t, uu, v = _krylov_scaled(lam4 * L**4)
-        T_l, U_l2, V_l3 = L * t, L**2 * uu, L**3 * v  # T/λ, U/λ², V/λ³
-        lV, l2U, l3T = lam4 * V_l3, lam4 * U_l2, lam4 * T_l  # λV, λ²U, λ³T
-        u[:, d, d] = s
-        u[:, d, th] = sgn * T_l
-        u[:, d, m] = sgn * U_l2 / ei
-        u[:, d, q] = V_l3 / ei
-        u[:, th, d] = sgn * lV
-        u[:, th, th] = s
-        u[:, th, m] = T_l / ei
-        u[:, th, q] = sgn * U_l2 / ei
-        u[:, m, d] = sgn * ei * l2U
-        u[:, m, th] = ei * lV
-        u[:, m, m] = s
-        u[:, m, q] = sgn * T_l
-        u[:, q, d] = ei * l3T
-        u[:, q, th] = sgn * ei * l2U
-        u[:, q, m] = sgn * lV
-        u[:, q, q] = s
+    rho, E, A = beam.density, beam.youngs_modulus, beam.area
+    # axial (EA, ρA) and torsion (GJ, ρI_p)
+    k = np.array([[E * A], [beam.shear_modulus * beam.torsion_constant]])
+    c, sl, bs = _axial(w2, k, np.array([[rho * A], [rho * beam.polar_moment]]), L)
+    sgn = np.array([[-1.0], [1.0]])
+    twist = np.stack([c, sgn * sl / k, -sgn * k * bs, c], axis=1)  # (2, 4, n)
+    # bending with EI_z (x1-y plane, sign +1) and EI_y (x1-z plane, sign -1)
+    ei = np.array([[E * beam.second_moment_z], [E * beam.second_moment_y]])
+    sgn = np.array([[1.0], [-1.0]])
+    lam4 = rho * A * w2 / ei
+    s, t, uu, v = _krylov_scaled(lam4 * L**4)
+    T_l, U_l2, V_l3 = L * t, L**2 * uu, L**3 * v  # T/λ, U/λ², V/λ³
+    lV, l2U, l3T = lam4 * V_l3, lam4 * U_l2, lam4 * T_l  # λV, λ²U, λ³T
+    bend = np.stack(
+        [
+            *(s, sgn * T_l, sgn * U_l2 / ei, V_l3 / ei),
+            *(sgn * lV, s, T_l / ei, sgn * U_l2 / ei),
+            *(sgn * ei * l2U, ei * lV, s, sgn * T_l),
+            *(ei * l3T, sgn * ei * l2U, sgn * lV, s),
+        ],
+        axis=1,
+    )  # (2, 16, n)
+    u = np.zeros((w2.size, 12, 12))
+    u[:, _ROWS, _COLS] = np.concatenate([twist.reshape(8, -1), bend.reshape(32, -1)]).T
     return u
 
 
