@@ -117,15 +117,19 @@ class ConstantParts:
         s[:, :, : self.column_combine.shape[1]] -= s[:, :, m - k2 :] @ self.column_combine
         return s[:, :, : m - k2]
 
-    def null_vectors(self, a: np.ndarray, z_reduced: np.ndarray) -> np.ndarray:
-        """U_all's null vectors (n, size, q) from S''s (n, m', q), with ``a`` the
-        :meth:`arrange` d U_all at the same ω (only its pivot rows are read)."""
-        k, o2 = self.constant.size, self.column_combine.shape[1]
+    def pivot_rows(self, a: np.ndarray) -> np.ndarray:
+        """The pivot rows (n, k, columns) of an :meth:`arrange` d U_all (a view): all that
+        :meth:`null_vectors` reads of it."""
+        return a[:, self.rows.size - self.constant.size :]
+
+    def null_vectors(self, pivot_rows: np.ndarray, z_reduced: np.ndarray) -> np.ndarray:
+        """U_all's null vectors (n, size, q) from S''s (n, m', q), with ``pivot_rows`` those
+        (:meth:`pivot_rows`) of U_all at the same ω."""
+        o2 = self.column_combine.shape[1]
         z_p = -self.column_combine @ z_reduced[:, :o2]
         z_m = np.concatenate([z_reduced, z_p], axis=1)  # in the order of ``columns``
-        size = self.rows.size
-        z = np.empty((a.shape[0], size, z_reduced.shape[-1]), dtype=z_reduced.dtype)
+        z = np.empty((z_m.shape[0], self.rows.size, z_m.shape[-1]), dtype=z_reduced.dtype)
         z[:, self.columns] = z_m
-        if k:
-            z[:, self.constant] = -np.linalg.solve(self.pivot_block, a[:, size - k :] @ z_m)
+        if self.constant.size:
+            z[:, self.constant] = -np.linalg.solve(self.pivot_block, pivot_rows @ z_m)
         return z

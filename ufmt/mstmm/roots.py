@@ -424,13 +424,15 @@ def _newton(system, omega, lo, hi, mult, rtol):
         for m in np.unique(mult[act[done[act]]]):
             sel = np.flatnonzero(done[act] & (mult[act] == m))
             x = np.broadcast_to(start[:, :m], (sel.size, start.shape[0], m))
+            p = product[sel]
             with np.errstate(all="ignore"):
                 for _ in range(NULL_SPACE_PRODUCTS):
-                    x = orthonormal(product[sel] @ x)
+                    x = orthonormal(p @ x)
             # completed with U_all's pivot rows at the root, not at the iterate (first order
             # in the step from the two evaluations: an O(step²) error instead of O(step))
             t = (new[sel] - wa[sel]) / h[sel]
-            at_root = u[sel] + t[:, None, None] * (u[act.size + sel] - u[sel])
+            pivots = reduction.pivot_rows(u)
+            at_root = pivots[sel] + t[:, None, None] * (pivots[act.size + sel] - pivots[sel])
             z = reduction.null_vectors(at_root, c[act[sel], 0, :, None] * np.real(x))
             for k, j in enumerate(act[sel]):
                 basis[j] = z[k]
