@@ -90,18 +90,40 @@ def _rigid_motion_from_state(s: np.ndarray, point, com) -> np.ndarray:
     return np.concatenate([r, s[:, 3:6]], axis=1)
 
 
-def mode_shapes(system: TransferSystem, frequencies_hz, null_space=None) -> ModeShapes:
+def shape_state_keys(system: TransferSystem) -> tuple:
+    """The state maps (:meth:`TransferSystem.states` keys) :func:`mode_shapes` reads: each
+    rigid body's first input, each virtual body's output, each beam's input end."""
+    keys = []
+    for body in system.model.bodies:
+        if isinstance(body, RigidBody):
+            keys.append(("node_in", body.name, 0))
+        elif isinstance(body, Beam):
+            keys.append(("edge_in", _beam_edge(system.topology, body.name)))
+        else:
+            keys.append(("node_out", body.name))
+    return tuple(keys)
+
+
+def _beam_edge(topo, name: str) -> int:
+    """Index of the beam edge of body ``name``."""
+    return next(i for i, e in enumerate(topo.edges) if e.kind == "beam" and e.name == name)
+
+
+def mode_shapes(system: TransferSystem, frequencies_hz, null_space=None, states=None) -> ModeShapes:
     """Mass-normalised mode shapes at the given natural frequencies [Hz] (ascending).
 
     ``null_space`` (n, size): null vectors of U_all already known per root (from the Newton
     iteration, :attr:`ufmt.mstmm.roots.Roots.null_vectors`); rows of NaN, or None, are
-    computed here by :func:`null_vectors`.
+    computed here by :func:`null_vectors`. ``states``: the state maps of
+    :func:`shape_state_keys` at the roots if already known (:attr:`Roots.states`), else one
+    walk makes them.
     """
     f = np.asarray(frequencies_hz, dtype=float)
     topo = system.topology
     model = system.model
     omega = 2 * np.pi * f
-    states = system.states(omega)
+    if states is None:
+        states = system.states(omega)
     z = np.full((f.size, system.size), np.nan) if null_space is None else np.array(null_space)
     # groups of repeated roots share a null space; one batched solve per multiplicity
     first = np.flatnonzero(np.r_[True, np.abs(np.diff(f)) > 1e-9 * f[1:]])
@@ -156,7 +178,7 @@ def _beam_field(system, beam: Beam, states, z, omega, fractions=None):
     Returns (positions (g, 3) [m], quadrature weights (g,) [m], motion (n, g, 6)).
     """
     topo = system.topology
-    index = next(i for i, e in enumerate(topo.edges) if e.kind == "beam" and e.name == beam.name)
+    index = _beam_edge(topo, beam.name)
     e = topo.edges[index]
     p_in, p_out = e.point_at(e.input_node), e.point_at(e.output_node)
     z_in = _apply(states[("edge_in", index)], z)

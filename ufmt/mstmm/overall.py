@@ -275,6 +275,12 @@ class TransferSystem:
         omega = np.atleast_1d(np.asarray(omega, dtype=float))
         return _assemble(self._walk(omega, False)[0], omega.size, self.size)
 
+    def evaluate_with_states(self, omega) -> tuple[np.ndarray, dict]:
+        """U_all(ω) (n_omega, n, n) and every state map (:meth:`states`) from one walk."""
+        omega = np.atleast_1d(np.asarray(omega, dtype=float))
+        rows, states = self._walk(omega, True)
+        return _assemble(rows, omega.size, self.size), states
+
     def states(self, omega) -> dict:
         """Every state map at ω [rad/s]: ``("node_in", node, k)`` (k-th input end),
         ``("node_out", node)``, ``("edge_in", edge)`` and ``("edge_out", edge)`` to State

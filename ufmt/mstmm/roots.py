@@ -35,7 +35,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ufmt.errors import UfmtError
-from ufmt.mstmm.overall import TransferSystem, equilibrate
+from ufmt.mstmm.overall import State, TransferSystem, equilibrate
 from ufmt.mstmm.reduced import ConstantParts
 
 TWO_PI = 2.0 * np.pi
@@ -61,6 +61,9 @@ class Roots:
     # (n, size) null vectors of U_all per root, an orthonormal basis over a repeated root
     # (NaN rows for roots of the fallback scan: see ufmt.mstmm.modes.null_vectors)
     null_vectors: np.ndarray | None = None
+    # state maps (ufmt.mstmm.overall.State) at each root, of the keys natural_frequencies
+    # was asked for, when every root came from the Newton iteration (else None)
+    states: dict | None = None
 
 
 class RootsLostError(UfmtError):
@@ -258,14 +261,16 @@ def _clusters(est: np.ndarray, rel: float = CLUSTER_RTOL) -> list[np.ndarray]:
 
 
 def natural_frequencies(
-    system: TransferSystem, fmax_hz: float, estimates_hz, rtol: float = 1e-12
+    system: TransferSystem, fmax_hz: float, estimates_hz, rtol: float = 1e-12, state_keys=()
 ) -> Roots:
     """Every natural frequency in (0, fmax_hz] [Hz], to relative precision ``rtol``.
 
     ``estimates_hz`` are the assembled model's nonzero frequencies (ascending, repeated roots
     repeated); they bracket and count the roots, the MSTMM values are computed independently.
     A root the assembled model counts but neither Newton nor the fallback scan finds is
-    listed in ``missing_hz`` (never dropped silently).
+    listed in ``missing_hz`` (never dropped silently). ``state_keys``: state maps
+    (:meth:`TransferSystem.states` keys) wanted at the roots, taken from the Newton walks
+    (see ``_newton``) when every root comes from them (:attr:`Roots.states`).
     """
     system.segment_for(fmax_hz)
     est = np.sort(np.asarray(estimates_hz, dtype=float))
@@ -279,7 +284,9 @@ def natural_frequencies(
     lo = np.array([a for _, _, a, _ in windows])
     hi = np.array([b for _, _, _, b in windows])
     mult = np.array([len(idx) for idx, _, _, _ in windows])
-    root, ok, basis = _newton(system, TWO_PI * centre, TWO_PI * lo, TWO_PI * hi, mult, rtol)
+    root, ok, basis, walked = _newton(
+        system, TWO_PI * centre, TWO_PI * lo, TWO_PI * hi, mult, rtol, state_keys
+    )
     root /= TWO_PI
     found = np.repeat(root[ok], mult[ok])
     vectors = [basis[j].T for j in np.flatnonzero(ok)]
@@ -301,13 +308,18 @@ def natural_frequencies(
     keep = np.flatnonzero(found <= fmax_hz)
     order = keep[np.argsort(found[keep], kind="stable")]
     found, vectors = found[order], vectors[order]
+    states = None
+    if state_keys and ok.all() and split_hz.size == 0:  # every root from the first Newton
+        states = {
+            key: State(m.cols, np.repeat(m.arr, mult, axis=0)[order]) for key, m in walked.items()
+        }
     missing = [
         np.full(m - np.sum((found >= a) & (found <= b)), c)
         for c, a, b, m in zip(centre, lo, hi, mult, strict=True)
         if c <= fmax_hz and np.sum((found >= a) & (found <= b)) < m
     ]
     missing_hz = np.concatenate(missing) if missing else np.zeros(0)
-    return Roots(found, expected, missing_hz, int(mult[ok].sum()), vectors)
+    return Roots(found, expected, missing_hz, int(mult[ok].sum()), vectors, states)
 
 
 def _split_clusters(system, root_hz, failed, estimates_hz, lo_hz, hi_hz, certified_hz, rtol):
@@ -337,7 +349,7 @@ def _split_clusters(system, root_hz, failed, estimates_hz, lo_hz, hi_hz, certifi
         starts.append(root_hz[j] + spread * np.linspace(-0.5, 0.5, e.size))
         owner.append(np.full(e.size, j))
     start, owner = np.concatenate(starts), np.concatenate(owner)
-    w, ok, basis = _newton(
+    w, ok, basis, _ = _newton(
         system,
         TWO_PI * start,
         TWO_PI * lo_hz[owner],
@@ -354,7 +366,7 @@ def _split_clusters(system, root_hz, failed, estimates_hz, lo_hz, hi_hz, certifi
     return solved, hz[keep], vectors
 
 
-def _newton(system, omega, lo, hi, mult, rtol):
+def _newton(system, omega, lo, hi, mult, rtol, state_keys=()):
     """Multiplicity-corrected Newton on det U_all, batched over clusters [rad/s].
 
     Returns (roots, certified, null bases): a cluster is certified when its last step is
@@ -371,6 +383,11 @@ def _newton(system, omega, lo, hi, mult, rtol):
     errors of order δ on S, a 6 % wrong shape on a test model), completed to U_all's
     (size, m). A step that would leave the window (a neighbouring root pulls Newton too far)
     goes half way to the window's end instead; such a step never counts as converged.
+
+    The state maps of ``state_keys`` come at the roots for free as well: the walks that
+    evaluate U_all keep them, and each is interpolated to the root from ω and ω + dω, like
+    the pivot rows (an O(step · dω) error, ≤ 1e-15 relative: the step is ≤ ACCEPT_STEP ω).
+    Returns (roots, certified, null bases, {key: State (clusters, 12, k)}).
     """
     w = omega.astype(float).copy()
     n = w.size
@@ -380,6 +397,7 @@ def _newton(system, omega, lo, hi, mult, rtol):
     previous = np.full(n, np.inf)
     basis: dict[int, np.ndarray] = {}
     done = np.zeros(n, dtype=bool)
+    at_roots: dict = {}  # state key -> State at each cluster's root
     for _ in range(NEWTON_ITERATIONS):
         act = np.flatnonzero(~done)
         if act.size == 0:
@@ -388,12 +406,12 @@ def _newton(system, omega, lo, hi, mult, rtol):
         h = DERIVATIVE_STEP * wa
         if reduction is None:
             # ω-independent parts: bitwise equal at ω_0, ω_0 + dω and a distant 0.61 ω_0
-            u = system.evaluate(np.concatenate([wa, wa + h, [0.61 * wa[0]]]))
+            u, walked = _walk(system, np.concatenate([wa, wa + h, [0.61 * wa[0]]]), state_keys)
             reduction = ConstantParts.of(u[[0, act.size, -1]])
             u = u[:-1]
             start = np.random.default_rng(0).standard_normal((reduction.order, int(mult.max())))
         else:
-            u = system.evaluate(np.concatenate([wa, wa + h]))
+            u, walked = _walk(system, np.concatenate([wa, wa + h]), state_keys)
         u = reduction.arrange(u)
         s0, s1 = reduction.reduce(u).reshape(2, act.size, reduction.order, reduction.order)
         if r is None:  # at ω(1 + DERIVATIVE_STEP): off the root even from an exact start
@@ -436,11 +454,24 @@ def _newton(system, omega, lo, hi, mult, rtol):
             z = reduction.null_vectors(at_root, c[act[sel], 0, :, None] * np.real(x))
             for k, j in enumerate(act[sel]):
                 basis[j] = z[k]
+            for key, m in walked.items():
+                if key not in at_roots:
+                    at_roots[key] = State(m.cols, np.empty((n, *m.arr.shape[1:])))
+                a0 = m.arr[sel]
+                at_roots[key].arr[act[sel]] = a0 + t[:, None, None] * (m.arr[act.size + sel] - a0)
     ok = done.copy()
     order = np.flatnonzero(ok)[np.argsort(w[ok])]  # two clusters on one root: both fail
     close = np.flatnonzero(np.diff(w[order]) <= 1e-9 * w[order][1:])
     ok[order[close]] = ok[order[close + 1]] = False
-    return w, ok, basis
+    return w, ok, basis, at_roots
+
+
+def _walk(system: TransferSystem, omega: np.ndarray, state_keys) -> tuple[np.ndarray, dict]:
+    """U_all at ω and the state maps of ``state_keys`` (none: U_all's walk only)."""
+    if not state_keys:
+        return system.evaluate(omega), {}
+    u, states = system.evaluate_with_states(omega)
+    return u, {key: states[key] for key in state_keys}
 
 
 def orthonormal(x: np.ndarray) -> np.ndarray:
@@ -508,7 +539,7 @@ def continued_roots(
     below = np.maximum.accumulate(below)
     above = np.where(np.r_[block[1:] != block[:-1], True], above, np.inf)
     above = np.minimum.accumulate(above[::-1])[::-1]
-    root, ok, basis = _newton(
+    root, ok, basis, _ = _newton(
         system, TWO_PI * start[first], TWO_PI * below, TWO_PI * above, mult, rtol
     )
     root_hz = root / TWO_PI

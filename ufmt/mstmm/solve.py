@@ -22,8 +22,8 @@ from threadpoolctl import ThreadpoolController
 from ufmt.assembled import assembled_modes
 from ufmt.errors import UfmtError
 from ufmt.model.schema import Beam, Model
-from ufmt.mstmm.modes import ModeShapes, kinetic_terms, mode_shapes
-from ufmt.mstmm.overall import TransferSystem
+from ufmt.mstmm.modes import ModeShapes, kinetic_terms, mode_shapes, shape_state_keys
+from ufmt.mstmm.overall import State, TransferSystem
 from ufmt.mstmm.roots import RootsLostError, continued_roots, natural_frequencies
 
 DEFAULT_FMAX_HZ = 1000.0
@@ -298,7 +298,8 @@ def _solve_modes(model, fmax_hz, count, method, shapes) -> ModalSolution:
             return ModalSolution(
                 f, 0, "assembled", f.size, asm.rigid_body_modes, None, time.perf_counter() - t0
             )
-        roots = natural_frequencies(system, fmax, est)
+        keys = shape_state_keys(system) if shapes else ()
+        roots = natural_frequencies(system, fmax, est, state_keys=keys)
         if roots.missing_hz.size == 0 or not _has_beams(model):
             break
     if roots.missing_hz.size:
@@ -310,7 +311,8 @@ def _solve_modes(model, fmax_hz, count, method, shapes) -> ModalSolution:
             + " Hz"
         )
     f, z = roots.frequencies_hz[:count], roots.null_vectors[:count]
-    modes = mode_shapes(system, f, z) if shapes and f.size else None
+    states = None if roots.states is None else _first(roots.states, f.size)
+    modes = mode_shapes(system, f, z, states) if shapes and f.size else None
     if tracking:
         _remember(_CONTINUATION.get(), model, roots.frequencies_hz, asm.rigid_body_modes)
     return ModalSolution(
@@ -322,6 +324,11 @@ def _solve_modes(model, fmax_hz, count, method, shapes) -> ModalSolution:
         modes,
         time.perf_counter() - t0,
     )
+
+
+def _first(states: dict, count: int) -> dict:
+    """The state maps at the first ``count`` roots."""
+    return {key: State(m.cols, m.arr[:count]) for key, m in states.items()}
 
 
 def _has_beams(model: Model) -> bool:
