@@ -451,9 +451,10 @@ def test_massless_mechanism_is_a_model_error():
         assembled_modes(model)
 
 
-def test_stiffness_independent_parts_are_shared_and_give_the_fresh_solution():
-    """A design that changes a stiffness value reuses the cached bases, zero-mode count and
-    mass factor; frequencies and shapes equal a solve with the cache emptied (bitwise)."""
+def test_stiffness_independent_parts_are_shared_and_give_the_fresh_solution(monkeypatch):
+    """A design that changes a stiffness value reuses the cached mesh, mass matrix, beam
+    elements and hinge maps (the frame), bases, zero-mode count and mass factor; its K,
+    deformation rows, frequencies and shapes equal those with the caches emptied (bitwise)."""
     import ufmt.assembled as assembled_module
     from ufmt.model.load import load_model, packaged_path
 
@@ -463,9 +464,19 @@ def test_stiffness_independent_parts_are_shared_and_give_the_fresh_solution():
     design = base.with_hinge(h.name, stiffness=six[:3], rotational_stiffness=six[3:])
     assembled_modes(base, count=20, elements_per_beam=6)
     kept = len(assembled_module._STRUCTURES)
+    built = []
+    monkeypatch.setattr(
+        assembled_module, "_frame", lambda *a: built.append(a) or pytest.fail("frame rebuilt")
+    )
     shared = assembled_modes(design, count=20, elements_per_beam=6)
-    assert len(assembled_module._STRUCTURES) == kept  # a cache hit
+    shared_am = assemble(design, elements_per_beam=6)
+    assert len(assembled_module._STRUCTURES) == kept and not built  # cache hits
+    monkeypatch.undo()
     assembled_module._STRUCTURES.clear()
+    assembled_module._FRAMES.clear()
+    fresh_am = assemble(design, elements_per_beam=6)
+    for name in ("K", "M", "deformation", "constraints", "spring_directions", "massless"):
+        assert np.array_equal(getattr(shared_am, name), getattr(fresh_am, name)), name
     fresh = assembled_modes(design, count=20, elements_per_beam=6)
     assert np.array_equal(shared.frequencies_hz, fresh.frequencies_hz)
     assert np.array_equal(shared.shapes, fresh.shapes)

@@ -250,10 +250,65 @@ def assemble(
     elements_per_beam : frame elements per beam. Default: :func:`elements_for` at ``fmax_hz``
         [Hz] and ``rtol`` (at most ``max_elements_per_beam``), or DEFAULT_ELEMENTS_PER_BEAM
         without ``fmax_hz``.
+
+    Everything but the hinge stiffness values (:class:`_Frame`) is built once per structure
+    and mesh and shared by the designs of a stiffness study.
     """
     if elements_per_beam is not None and elements_per_beam < 1:
         raise ValueError(f"elements_per_beam must be >= 1, got {elements_per_beam}")
-    positions, counts = _mesh(model, elements_per_beam, fmax_hz, rtol, max_elements_per_beam)
+    mesh = (elements_per_beam, fmax_hz, rtol, max_elements_per_beam)
+    frame = _FRAMES.get((model.structure_key(), mesh), lambda: _frame(model, *mesh))
+    stiffness = np.array([hinge.stiffness6 for hinge in model.hinges]).reshape(-1)
+    rigid = np.isinf(stiffness)
+    finite = ~rigid & (stiffness > 0.0)
+    springs = frame.directions[finite]
+    K = frame.K.copy()
+    _add_springs(springs, stiffness[finite], K)
+    return AssembledModel(
+        K=K,
+        M=frame.M,
+        deformation=np.concatenate(
+            [frame.beam_rows, np.sqrt(stiffness[finite])[:, None] * springs]
+        ),
+        spring_directions=springs / np.linalg.norm(springs, axis=1, keepdims=True),
+        constraints=frame.directions[rigid],
+        massless=frame.massless,
+        dof_labels=frame.labels,
+        body_dofs=frame.body_dofs,
+        node_positions=frame.positions,
+        elements_per_beam=frame.counts,
+        mesh_error={}
+        if fmax_hz is None
+        else {name: mesh_error(model.body(name), c, fmax_hz) for name, c in frame.counts.items()},
+        source=model.source,
+    )
+
+
+@dataclass(frozen=True, eq=False)
+class _Frame:
+    """The stiffness-free part of an assembled model: the mesh (``positions``, ``counts``),
+    dofs (``body_dofs``, ``labels``), M, the beams' K and deformation rows (``beam_rows``),
+    the virtual bodies' dofs (``massless``) and every hinge direction's relative-motion row
+    (``directions`` (6 hinges, n)). Arrays are read-only: designs share them."""
+
+    positions: dict[str, np.ndarray]
+    counts: dict[str, int]
+    body_dofs: dict[str, np.ndarray]
+    labels: tuple[tuple[str, int, str], ...]
+    K: np.ndarray
+    M: np.ndarray
+    beam_rows: np.ndarray
+    massless: np.ndarray
+    directions: np.ndarray
+
+
+FRAMES_KEPT = 8
+_FRAMES = Recent(FRAMES_KEPT)  # (Model.structure_key(), mesh arguments) -> _Frame
+
+
+def _frame(model: Model, elements_per_beam, fmax_hz, rtol, max_elements) -> _Frame:
+    """:class:`_Frame` of ``model`` on its mesh (see :func:`assemble`)."""
+    positions, counts = _mesh(model, elements_per_beam, fmax_hz, rtol, max_elements)
     body_dofs: dict[str, np.ndarray] = {}
     labels: list[tuple[str, int, str]] = []
     for body in model.bodies:
@@ -261,13 +316,9 @@ def assemble(
         body_dofs[body.name] = len(labels) + np.arange(6 * n_nodes).reshape(n_nodes, 6)
         labels += [(body.name, i, c) for i in range(n_nodes) for c in COMPONENTS]
     n = len(labels)
-    stiffness = np.array([hinge.stiffness6 for hinge in model.hinges]).reshape(-1)
-    rigid = np.isinf(stiffness)
-    finite = ~rigid & (stiffness > 0.0)
-    beam_rows = 6 * sum(counts.values())  # deformation rows: beam elements, then springs
     K = np.zeros((n, n))
     M = np.zeros((n, n))
-    deformation = np.zeros((beam_rows + np.count_nonzero(finite), n))
+    beam_rows = np.zeros((6 * sum(counts.values()), n))  # deformation rows of beam elements
     massless = np.zeros(n, dtype=bool)
     row = 0
     for body in model.bodies:
@@ -279,28 +330,14 @@ def assemble(
         elif isinstance(body, VirtualBody):
             massless[dofs[0]] = True
         else:
-            rows = deformation[row : row + 6 * counts[body.name]]
+            rows = beam_rows[row : row + 6 * counts[body.name]]
             _add_beam(body, dofs, positions[body.name], K, M, rows)
             row += len(rows)
     directions = _relative_motion(model, body_dofs, positions, n).reshape(-1, n)
-    springs = directions[finite]
-    _add_springs(springs, stiffness[finite], K)
-    deformation[beam_rows:] = np.sqrt(stiffness[finite])[:, None] * springs
-    return AssembledModel(
-        K=K,
-        M=M,
-        deformation=deformation,
-        spring_directions=springs / np.linalg.norm(springs, axis=1, keepdims=True),
-        constraints=directions[rigid],
-        massless=massless,
-        dof_labels=tuple(labels),
-        body_dofs=body_dofs,
-        node_positions=positions,
-        elements_per_beam=counts,
-        mesh_error={}
-        if fmax_hz is None
-        else {name: mesh_error(model.body(name), c, fmax_hz) for name, c in counts.items()},
-        source=model.source,
+    for a in (K, M, beam_rows, massless, directions, *positions.values(), *body_dofs.values()):
+        a.flags.writeable = False
+    return _Frame(
+        positions, counts, body_dofs, tuple(labels), K, M, beam_rows, massless, directions
     )
 
 
