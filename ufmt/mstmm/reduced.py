@@ -67,13 +67,14 @@ class ConstantParts:
         bitwise equal in all of them."""
         size = samples.shape[-1]
         u0 = samples[0]
-        moving = np.flatnonzero(np.any(samples[1:] != u0, axis=(0, 1)))
-        constant = np.setdiff1d(np.arange(size), moving)
-        touched = np.flatnonzero(np.any(u0[:, constant] != 0.0, axis=1))
+        moves = np.any(samples[1:] != u0, axis=(0, 1))
+        moving, constant = np.flatnonzero(moves), np.flatnonzero(~moves)
+        touches = np.any(u0[:, constant] != 0.0, axis=1)
+        touched = np.flatnonzero(touches)
         # scaled partial pivoting: each row measured against its largest entry in U_all
         order, g = _pivots(u0[np.ix_(touched, constant)], np.abs(u0[touched]).max(axis=1))
         k = constant.size
-        rest = np.setdiff1d(np.arange(size), touched)
+        rest = np.flatnonzero(~touches)
         rows = np.concatenate([touched[order[k:]], rest, touched[order[:k]]])
 
         def s_of(u):  # step 1 on U_all (n, size, size), columns in U_all's order
@@ -82,14 +83,15 @@ class ConstantParts:
             return a[:, : moving.size]
 
         s = s_of(samples)
-        still = np.flatnonzero(~np.any(s[1:] != s[0], axis=(0, 2)))
-        kept = np.setdiff1d(np.arange(moving.size), still)
+        changes = np.any(s[1:] != s[0], axis=(0, 2))
+        still, kept = np.flatnonzero(~changes), np.flatnonzero(changes)
         r = s[0][still]
-        touched2 = np.flatnonzero(np.any(r != 0.0, axis=0))
+        touches2 = np.any(r != 0.0, axis=0)
+        touched2 = np.flatnonzero(touches2)
         # columns measured against their largest entry in S
         order2, g2 = _pivots(r[:, touched2].T, np.abs(s[0][:, touched2]).max(axis=0))
         k2 = still.size
-        rest2 = np.setdiff1d(np.arange(moving.size), touched2)
+        rest2 = np.flatnonzero(~touches2)
         columns = moving[np.concatenate([touched2[order2[k2:]], rest2, touched2[order2[:k2]]])]
         pivot_block = u0[np.ix_(rows[size - k :], constant)]
         return cls(rows, columns, constant, g, pivot_block, kept, g2.T)
