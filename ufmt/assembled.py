@@ -220,6 +220,9 @@ class AssembledModel:
     elements_per_beam : beam name -> number of frame elements.
     mesh_error : beam name -> :func:`mesh_error` at the mesh frequency (empty without one).
     source : the model's file, for messages.
+
+    M, massless and the arrays in body_dofs and node_positions are read-only: the designs of
+    a stiffness study share them (see :func:`assemble`).
     """
 
     K: np.ndarray
@@ -274,9 +277,9 @@ def assemble(
         constraints=frame.directions[rigid],
         massless=frame.massless,
         dof_labels=frame.labels,
-        body_dofs=frame.body_dofs,
-        node_positions=frame.positions,
-        elements_per_beam=frame.counts,
+        body_dofs=dict(frame.body_dofs),  # the dicts are the design's own, their arrays shared
+        node_positions=dict(frame.positions),
+        elements_per_beam=dict(frame.counts),
         mesh_error={}
         if fmax_hz is None
         else {name: mesh_error(model.body(name), c, fmax_hz) for name, c in frame.counts.items()},
