@@ -311,7 +311,7 @@ def natural_frequencies(
     states = None
     if state_keys and ok.all() and split_hz.size == 0:  # every root from the first Newton
         states = {
-            key: State(m.cols, np.repeat(m.arr, mult, axis=0)[order]) for key, m in walked.items()
+            key: State(s.cols, np.repeat(s.arr, mult, axis=0)[order]) for key, s in walked.items()
         }
     missing = [
         np.full(m - np.sum((found >= a) & (found <= b)), c)
@@ -369,25 +369,25 @@ def _split_clusters(system, root_hz, failed, estimates_hz, lo_hz, hi_hz, certifi
 def _newton(system, omega, lo, hi, mult, rtol, state_keys=()):
     """Multiplicity-corrected Newton on det U_all, batched over clusters [rad/s].
 
-    Returns (roots, certified, null bases): a cluster is certified when its last step is
-    below ``rtol`` or, being below ACCEPT_STEP, contracted superlinearly from the previous
-    one, inside [lo, hi]. The iteration works on S(ω), U_all with its ω-independent columns
-    and rows eliminated (:mod:`ufmt.mstmm.reduced`: det U_all = const · det S, so the same
-    roots and tr(S⁻¹ dS) = tr(U⁻¹ dU) at about a third of the LU cost). Rows and columns
-    are scaled once per cluster, off the root (at the first ω + dω), so that the LU solves
-    see O(1) entries (the scaling cancels in the trace). The null space comes with the last
-    step for free: near a root of multiplicity m, S⁻¹ dS/dω has m eigenvalues
-    ≈ 1/(ω - ω_k), all others O(1), so each product with an m-column block (QR after each)
+    Returns (roots, certified, null bases, state maps): a cluster is certified when its last
+    step is below ``rtol`` or, being below ACCEPT_STEP, contracted superlinearly from the
+    previous one, inside [lo, hi]. The iteration works on S(ω), U_all with its ω-independent
+    columns and rows eliminated (:mod:`ufmt.mstmm.reduced`: det U_all = const · det S, so
+    the same roots and tr(S⁻¹ dS) = tr(U⁻¹ dU) at about a third of the LU cost). Rows and
+    columns are scaled once per cluster, off the root (at the first ω + dω), so that the LU
+    solves see O(1) entries (the scaling cancels in the trace). The null space comes with
+    the last step for free: near a root of multiplicity m, S⁻¹ dS/dω has m eigenvalues ≈
+    1/(ω - ω_k), all others O(1), so each product with an m-column block (QR after each)
     shrinks the other components by about the relative distance δ of the last iterate from
     the root. Three products give a basis of S's null space to O(δ²) or rounding (two left
-    errors of order δ on S, a 6 % wrong shape on a test model), completed to U_all's
-    (size, m). A step that would leave the window (a neighbouring root pulls Newton too far)
-    goes half way to the window's end instead; such a step never counts as converged.
+    errors of order δ on S, a 6 % wrong shape on a test model), completed to U_all's (size,
+    m). A step that would leave the window (a neighbouring root pulls Newton too far) goes
+    half way to the window's end instead; such a step never counts as converged.
 
-    The state maps of ``state_keys`` come at the roots for free as well: the walks that
-    evaluate U_all keep them, and each is interpolated to the root from ω and ω + dω, like
-    the pivot rows (an O(step · dω) error, ≤ 1e-15 relative: the step is ≤ ACCEPT_STEP ω).
-    Returns (roots, certified, null bases, {key: State (clusters, 12, k)}).
+    The state maps of ``state_keys`` come at the roots for free as well ({key: State
+    (clusters, 12, k)}): the walks that evaluate U_all keep them, and each is interpolated
+    to the root from ω and ω + dω, like the pivot rows (an error of order step · dω times
+    the maps' second derivative: ≤ 1e-14 of each map's largest entry, measured).
     """
     w = omega.astype(float).copy()
     n = w.size
@@ -454,11 +454,13 @@ def _newton(system, omega, lo, hi, mult, rtol, state_keys=()):
             z = reduction.null_vectors(at_root, c[act[sel], 0, :, None] * np.real(x))
             for k, j in enumerate(act[sel]):
                 basis[j] = z[k]
-            for key, m in walked.items():
+            for key, walked_map in walked.items():
+                arr = walked_map.arr
                 if key not in at_roots:
-                    at_roots[key] = State(m.cols, np.empty((n, *m.arr.shape[1:])))
-                a0 = m.arr[sel]
-                at_roots[key].arr[act[sel]] = a0 + t[:, None, None] * (m.arr[act.size + sel] - a0)
+                    at_roots[key] = State(walked_map.cols, np.empty((n, *arr.shape[1:])))
+                at_roots[key].arr[act[sel]] = arr[sel] + t[:, None, None] * (
+                    arr[act.size + sel] - arr[sel]
+                )
     ok = done.copy()
     order = np.flatnonzero(ok)[np.argsort(w[ok])]  # two clusters on one root: both fail
     close = np.flatnonzero(np.diff(w[order]) <= 1e-9 * w[order][1:])
