@@ -29,7 +29,6 @@ threshold on small frequencies.
 
 from __future__ import annotations
 
-import hashlib
 import math
 from dataclasses import dataclass
 
@@ -219,6 +218,10 @@ class AssembledModel:
     node_positions : body name -> (n_nodes, 3) [m].
     elements_per_beam : beam name -> number of frame elements.
     mesh_error : beam name -> :func:`mesh_error` at the mesh frequency (empty without one).
+    structure_key : what everything but the stiffness values is built from (the model's
+        :meth:`~ufmt.model.schema.Model.structure_key` and the mesh arguments): the key of
+        the cached stiffness-free parts, here (:class:`_Frame`) and in the solution
+        (:class:`_Structure`).
     source : the model's file, for messages.
 
     M, massless and the arrays in body_dofs and node_positions are read-only: the designs of
@@ -236,6 +239,7 @@ class AssembledModel:
     node_positions: dict[str, np.ndarray]
     elements_per_beam: dict[str, int]
     mesh_error: dict[str, float]
+    structure_key: tuple
     source: str = "<memory>"
 
 
@@ -260,7 +264,8 @@ def assemble(
     if elements_per_beam is not None and elements_per_beam < 1:
         raise ValueError(f"elements_per_beam must be >= 1, got {elements_per_beam}")
     mesh = (elements_per_beam, fmax_hz, rtol, max_elements_per_beam)
-    frame = _FRAMES.get((model.structure_key(), mesh), lambda: _frame(model, *mesh))
+    key = (model.structure_key(), mesh)
+    frame = _FRAMES.get(key, lambda: _frame(model, *mesh))
     stiffness = np.array([hinge.stiffness6 for hinge in model.hinges]).reshape(-1)
     rigid = np.isinf(stiffness)
     finite = ~rigid & (stiffness > 0.0)
@@ -283,6 +288,7 @@ def assemble(
         mesh_error={}
         if fmax_hz is None
         else {name: mesh_error(model.body(name), c, fmax_hz) for name, c in frame.counts.items()},
+        structure_key=key,
         source=model.source,
     )
 
@@ -583,18 +589,14 @@ class _Structure:
 
 
 STRUCTURES_KEPT = 8
-_STRUCTURES = Recent(STRUCTURES_KEPT)  # digest of (mesh, constraints, springs, masses)
+_STRUCTURES = Recent(STRUCTURES_KEPT)  # AssembledModel.structure_key -> _Structure
 
 
 def _structure(am: AssembledModel) -> _Structure:
-    """:class:`_Structure` of ``am``, built once per mesh (node positions), constraints,
-    spring directions and masses (the designs of a stiffness study share it)."""
-    digest = hashlib.blake2b(digest_size=16)
-    positions = [am.node_positions[name] for name in am.body_dofs]
-    for a in (am.constraints, am.spring_directions, am.M, am.massless, *positions):
-        digest.update(np.ascontiguousarray(a).tobytes())
-        digest.update(repr(a.shape).encode())
-    return _STRUCTURES.get(digest.digest(), lambda: _build_structure(am))
+    """:class:`_Structure` of ``am``, built once per :attr:`AssembledModel.structure_key`
+    (mesh, constraints, spring directions and masses: the designs of a stiffness study
+    share it)."""
+    return _STRUCTURES.get(am.structure_key, lambda: _build_structure(am))
 
 
 def _build_structure(am: AssembledModel) -> _Structure:
