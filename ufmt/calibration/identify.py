@@ -58,14 +58,7 @@ from scipy.optimize import differential_evolution
 from threadpoolctl import threadpool_limits
 from tqdm import tqdm
 
-from ufmt.assembled import (
-    AssembledModel,
-    _constraint_basis,
-    _split_massless,
-    _svd,
-    _zero_mode_count,
-    assemble,
-)
+from ufmt.assembled import AssembledModel, _structure, _svd, assemble
 from ufmt.calibration.frequencies import (
     ModeSet,
     Reference,
@@ -496,11 +489,8 @@ class ReducedModel:
         beams = am.deformation.shape[0] - len(labels)
         owner = np.concatenate([np.full(beams, -1), _spring_owners(labels, parameters)])
         row_hinges = np.array([""] * beams + [h for h, _ in labels])
-        basis, independent = _constraint_basis(am.constraints, am.massless)
-        t_a, t_b = _split_massless(am, basis, independent)
-        m_a = t_a.T @ am.M @ t_a
-        scale = 1.0 / np.sqrt(np.diag(m_a))
-        chol = np.linalg.cholesky(scale[:, None] * m_a * scale[None, :])
+        structure = _structure(am)  # bases, mass scaling and factor, zero-mode count
+        t_a, t_b, scale, chol = structure.t_a, structure.t_b, structure.scale, structure.chol
         normalise = scale[:, None] * sla.solve_triangular(chol.T, np.eye(len(scale)), lower=False)
         return cls(
             model=model,
@@ -512,7 +502,7 @@ class ReducedModel:
             f_b=am.deformation @ t_b,
             t_a=t_a @ normalise,
             t_b=t_b,
-            zero_modes=_zero_mode_count(am),
+            zero_modes=structure.zero_modes,
         )
 
     def row_weights(self, u) -> np.ndarray:
