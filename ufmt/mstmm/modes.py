@@ -91,17 +91,19 @@ def _rigid_motion_from_state(s: np.ndarray, point, com) -> np.ndarray:
 
 
 def shape_state_keys(system: TransferSystem) -> tuple:
-    """The state maps (:meth:`TransferSystem.states` keys) :func:`mode_shapes` reads: each
-    rigid body's first input, each virtual body's output, each beam's input end."""
-    keys = []
-    for body in system.model.bodies:
-        if isinstance(body, RigidBody):
-            keys.append(("node_in", body.name, 0))
-        elif isinstance(body, Beam):
-            keys.append(("edge_in", _beam_edge(system.topology, body.name)))
-        else:
-            keys.append(("node_out", body.name))
-    return tuple(keys)
+    """The state maps (:meth:`TransferSystem.states` keys) :func:`mode_shapes` reads, one per
+    body (:func:`_state_key`)."""
+    return tuple(_state_key(system.topology, body) for body in system.model.bodies)
+
+
+def _state_key(topo, body) -> tuple:
+    """The state map a body's motion is read from: a rigid body's first input, a beam's
+    input end, a virtual body's output."""
+    if isinstance(body, RigidBody):
+        return ("node_in", body.name, 0)
+    if isinstance(body, Beam):
+        return ("edge_in", _beam_edge(topo, body.name))
+    return ("node_out", body.name)
 
 
 def _beam_edge(topo, name: str) -> int:
@@ -139,13 +141,13 @@ def mode_shapes(system: TransferSystem, frequencies_hz, null_space=None, states=
     for body in model.bodies:
         if isinstance(body, RigidBody):
             point = topo.first_input_point(body.name)
-            s = _apply(states[("node_in", body.name, 0)], z)
+            s = _apply(states[_state_key(topo, body)], z)
             rigid[body.name] = _rigid_motion_from_state(s, point, body.center_of_mass)
             centers[body.name] = body.center_of_mass
         elif isinstance(body, Beam):
             beams[body.name] = _beam_field(system, body, states, z, omega)
         else:
-            virtual[body.name] = _apply(states[("node_out", body.name)], z)[:, :6]
+            virtual[body.name] = _apply(states[_state_key(topo, body)], z)[:, :6]
     shapes = ModeShapes(f, z, rigid, virtual, beams, np.ones(f.size), centers)
     _orthonormalise_repeated(model, shapes)
     shapes = _scaled(shapes, 1.0 / _signed_peak(shapes))
@@ -181,7 +183,7 @@ def _beam_field(system, beam: Beam, states, z, omega, fractions=None):
     index = _beam_edge(topo, beam.name)
     e = topo.edges[index]
     p_in, p_out = e.point_at(e.input_node), e.point_at(e.output_node)
-    z_in = _apply(states[("edge_in", index)], z)
+    z_in = _apply(states[_state_key(topo, beam)], z)
     length = beam.length
     if fractions is None:
         x, wts = _gauss_legendre(_gauss_points(beam, omega.max(initial=0.0)))
