@@ -1,4 +1,4 @@
-"""Process validation, machine geometry, fly-cutting kinematics and force (issue 4, item 2)."""
+"""Process validation, machine geometry, fly-cutting kinematics and force."""
 
 import math
 import warnings
@@ -9,6 +9,7 @@ from machine_table import MACHINE
 
 from ufmt.errors import ModelError, ProcessError
 from ufmt.machining.basis import ModalBasis
+from ufmt.machining.cut_geometry import cut_geometry
 from ufmt.machining.cutting import (
     ForceCoefficients,
     chip_factor,
@@ -19,7 +20,6 @@ from ufmt.machining.cutting import (
     tool_tip_rates,
 )
 from ufmt.machining.process import Process, ProcessRangeWarning
-from ufmt.machining.response import cut_geometry
 from ufmt.model.machine import machine_of, read_machine
 from ufmt.model.schema import Model
 

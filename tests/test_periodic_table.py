@@ -1,4 +1,4 @@
-"""The periodic path's z_re table read where the surface reads it (issue 9): from the few
+"""The periodic path's z_re table read where the surface reads it: from the few
 samples the stencils touch, by the periodic impulse response, it equals the whole table
 computed by the harmonics (an independent evaluation) read at the same angles."""
 
@@ -7,9 +7,11 @@ import pytest
 from test_response import SMALL, synthetic_basis
 from test_static import random_residual
 
+from ufmt.machining.cut_geometry import cut_geometry
+from ufmt.machining.periodic_path import periodic_response
 from ufmt.machining.process import Process
-from ufmt.machining.response import ZreTable, cut_geometry, periodic_response
-from ufmt.machining.surface import _grid
+from ufmt.machining.response import ZreTable
+from ufmt.machining.surface import surface_grid
 from ufmt.model.machine import read_machine
 
 
@@ -25,7 +27,9 @@ def test_columns_from_few_samples_equal_the_whole_table_read_there(residual, n_p
     table = periodic_response(geos, Process(260, 11, 5)).table
     whole = ZreTable(table.values, table.row_y, table.drift, table.row_knots)
     # both arcs of a surface grid, and angles anywhere on the circle
-    phi = np.concatenate([_grid(m, (2e-3, 2e-3))[3].ravel(), np.linspace(0, 2 * np.pi, 37)[:-1]])
+    phi = np.concatenate(
+        [surface_grid(m, (2e-3, 2e-3))[3].ravel(), np.linspace(0, 2 * np.pi, 37)[:-1]]
+    )
     expected = whole.columns(phi)
     assert np.abs(expected).max() > 0
     np.testing.assert_allclose(

@@ -1,4 +1,4 @@
-"""Modal response to the cutting force: closed forms, the two paths, linearity (issue 4)."""
+"""Modal response to the cutting force: closed forms, the two paths, linearity."""
 
 import numpy as np
 import pytest
@@ -7,22 +7,20 @@ from scipy.signal import lfilter
 
 from ufmt.errors import ModelError
 from ufmt.machining.basis import ModalBasis
+from ufmt.machining.cut_geometry import cut_geometry
 from ufmt.machining.cutting import ForceCoefficients, force_vector, tool_tip
 from ufmt.machining.frf import tool_workpiece_receptance
+from ufmt.machining.periodic_path import periodic_response, periodic_state
 from ufmt.machining.process import Process
-from ufmt.machining.response import (
-    _outputs,
-    _periodic_state,
-    cut_geometry,
+from ufmt.machining.recurrence import (
     discrete_receptance,
     discretise,
     periodic_recurrence,
-    periodic_response,
     real_recurrence,
-    record_slide,
-    time_response,
 )
-from ufmt.machining.surface import machined_surface, steady_region
+from ufmt.machining.response import combine, record_slide, tool_and_workpiece_motion
+from ufmt.machining.surface import DEFAULT_SPACING, steady_region, surface_passes
+from ufmt.machining.time_path import time_response
 from ufmt.model.machine import read_machine
 from ufmt.model.schema import Model
 from ufmt.simulate import simulate
@@ -53,6 +51,13 @@ def synthetic_basis(n=6, seed=3, f_lo=8.0, f_hi=400.0, slider_turns=True):
         body_shapes=shapes,
         body_centers={"head": [0, 0, 0.15], "slider": [0, 0, -0.15], "bed": [0, 0, -1.0]},
     )
+
+
+def dynamic_surface(table, machine, feed_per_rev, spacing=DEFAULT_SPACING, trailing_arc=False):
+    """The surface of z_re alone, composed as ufmt.simulate composes its surfaces: the lower
+    pass of the source heights on one set of passes."""
+    passes = surface_passes(machine, feed_per_rev, spacing, trailing_arc)
+    return passes.lower([passes.dynamic(table, machine)])
 
 
 def heave_basis(f_hz=50.0, mass=100.0):
@@ -162,7 +167,7 @@ def test_periodic_state_of_a_force_on_a_run_is_the_receptance_times_its_spectrum
     active = np.zeros(n, bool)
     active[np.arange(-5, 9)] = True
     force = np.random.default_rng(2).normal(size=(3, n)) * active
-    q, qd = _periodic_state(periodic_recurrence(omega, zeta, dt, n), force, active)
+    q, qd = periodic_state(periodic_recurrence(omega, zeta, dt, n), force, active)
     theta = 2 * np.pi * np.fft.rfftfreq(n)
     for got, h in zip((q, qd), discrete_receptance(omega, zeta, dt, theta), strict=True):
         expected = np.fft.irfft(h * np.fft.rfft(force, axis=1), n, axis=1)
@@ -204,7 +209,9 @@ def test_spinning_tip_acceleration_is_the_second_derivative_of_its_displacement(
     t = (np.arange(1000, 1003) - 1) * dt  # three samples around j = 1000
     nu = np.array([20.0, 50.0, 90.0])[:, None]
     q, qd, qdd = np.cos(nu * t), -nu * np.sin(nu * t), -(nu**2) * np.cos(nu * t)
-    tip, acc, _ = _outputs(geo, np.arange(999, 1002), np.zeros(3), q, qd, qdd, spindle_hz)
+    tip, acc, _ = tool_and_workpiece_motion(
+        geo, np.arange(999, 1002), np.zeros(3), q, qd, qdd, spindle_hz
+    )
     second = (tip[0] - 2 * tip[1] + tip[2]) / dt**2
     np.testing.assert_allclose(acc[1], second, rtol=1e-4, atol=1e-6 * np.abs(acc[1]).max())
 
@@ -231,7 +238,7 @@ def still():
 
 def surfaces(case):
     _, m, p, per, tim = case
-    return [machined_surface(r.table, m, p.feed_per_rev_m, spacing=1e-3) for r in (per, tim)]
+    return [dynamic_surface(r.table, m, p.feed_per_rev_m, spacing=1e-3) for r in (per, tim)]
 
 
 def settle(case):
@@ -241,7 +248,7 @@ def settle(case):
 
 
 def test_periodic_and_time_paths_agree_over_the_steady_part(turning, still):
-    """Issue 4: PV of the two paths within 1 % over the steady part of the workpiece."""
+    """PV of the two paths within 1 % over the steady part of the workpiece."""
     for case in (turning, still):
         s_per, s_tim = surfaces(case)
         steady = steady_region(s_tim, case[1], settle=settle(case))
@@ -380,8 +387,8 @@ def test_full_size_paths_agree():
     m = read_machine(MACHINE)
     p = Process(300, 15, 4)
     geo = cut_geometry(basis, m)
-    s_per = machined_surface(periodic_response(geo, p).table, m, p.feed_per_rev_m)
-    s_tim = machined_surface(time_response(geo, p).table, m, p.feed_per_rev_m)
+    s_per = dynamic_surface(periodic_response(geo, p).table, m, p.feed_per_rev_m)
+    s_tim = dynamic_surface(time_response(geo, p).table, m, p.feed_per_rev_m)
     assert np.ptp(s_tim.z) == pytest.approx(np.ptp(s_per.z), rel=0.01)
 
 
@@ -402,7 +409,7 @@ def test_pv_converges_with_the_force_sampling():
 def test_time_path_skips_the_negligible_free_decay_after_the_cut(monkeypatch):
     """Blocks after the cut whose state is below 1e-20 of the response are set to zero: the
     z_re table agrees with the full recurrence to 1e-18 of its largest value."""
-    import ufmt.machining.response as response
+    import ufmt.machining.time_path as time_path
 
     m = read_machine(SMALL)
     geo = cut_geometry(synthetic_basis(n=5), m, n_phi=64)
@@ -413,10 +420,10 @@ def test_time_path_skips_the_negligible_free_decay_after_the_cut(monkeypatch):
         calls.append(1)
         return lfilter(*args, **kwargs)
 
-    monkeypatch.setattr(response, "lfilter", counted)
+    monkeypatch.setattr(time_path, "lfilter", counted)
     fast = time_response(geo, p, block_samples=128)
     n_fast = len(calls)
-    monkeypatch.setattr(response, "NEGLIGIBLE_STATE", 0.0)  # never skip
+    monkeypatch.setattr(time_path, "NEGLIGIBLE_STATE", 0.0)  # never skip
     full = time_response(geo, p, block_samples=128)
     assert n_fast < 0.9 * (len(calls) - n_fast)  # blocks were skipped
     scale = np.abs(full.table.values).max()
@@ -427,8 +434,6 @@ def test_time_path_skips_the_negligible_free_decay_after_the_cut(monkeypatch):
 def test_time_path_of_both_force_parts_is_the_sum_of_each_part():
     """Linearity: one pass with the modal forces of both parts summed equals the two parts run
     separately and added (table, record window, force)."""
-    from ufmt.machining.response import combine
-
     m = read_machine(SMALL)
     basis = synthetic_basis(n=5)
     p = Process(300, 15, 4)

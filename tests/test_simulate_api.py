@@ -1,4 +1,4 @@
-"""``ufmt.simulate`` result API and the ``ufmt simulate --json`` contract (issue 8)."""
+"""``ufmt.simulate`` result API and the ``ufmt simulate --json`` contract."""
 
 import json
 import math

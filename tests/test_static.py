@@ -8,6 +8,7 @@ from packaged_unit import packaged_model
 from test_response import SMALL, synthetic_basis
 
 from ufmt.assembled import assemble
+from ufmt.machining.cut_geometry import cut_geometry
 from ufmt.machining.cutting import (
     ForceCoefficients,
     chip_factor_cells,
@@ -17,9 +18,10 @@ from ufmt.machining.cutting import (
 )
 from ufmt.machining.frf import tool_workpiece_receptance
 from ufmt.machining.modal import modal_basis
+from ufmt.machining.periodic_path import periodic_response
 from ufmt.machining.process import Process
-from ufmt.machining.response import cut_geometry, periodic_response, time_response
 from ufmt.machining.static import ResidualFlexibility, residual_flexibility, static_flexibility
+from ufmt.machining.time_path import time_response
 from ufmt.model.machine import machine_of, read_machine
 
 

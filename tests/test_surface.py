@@ -1,13 +1,16 @@
-"""Machined surface (paper eq. 4.1, tool interference) and its metrics (issue 4, item 4)."""
+"""Machined surface (paper eq. 4.1, tool interference) and its metrics."""
 
 import numpy as np
 import pytest
 from machine_table import MACHINE
+from test_response import dynamic_surface
 
 from ufmt.machining.basis import ModalBasis
+from ufmt.machining.cut_geometry import cut_geometry
+from ufmt.machining.periodic_path import periodic_response
 from ufmt.machining.process import Process
-from ufmt.machining.response import ZreTable, cut_geometry, periodic_response
-from ufmt.machining.surface import DEFAULT_SPACING, Surface, machined_surface, surface_metrics
+from ufmt.machining.response import ZreTable
+from ufmt.machining.surface import DEFAULT_SPACING, Surface, surface_metrics, surface_passes
 from ufmt.model.machine import read_machine
 
 N_PHI = 512
@@ -47,7 +50,7 @@ def test_surface_reads_z_re_at_the_leading_arc_angle(rotation, offset):
     """z_re(phi) only: z(x, y) = z_re(asin((x - s_x) / (sigma R))) (eq. 4.1), every y."""
     m = read_machine({**MACHINE, "rotation": rotation, "spindle_axis_xy": [offset, 0.0]})
     table = table_of(lambda phi, y: 1e-7 * np.cos(3 * phi) + 2e-8 * np.sin(phi) + 0 * y)
-    s = machined_surface(table, m, feed_per_rev=5e-5)
+    s = dynamic_surface(table, m, feed_per_rev=5e-5)
     phi = lead_angle(s.x, m)
     expect = 1e-7 * np.cos(3 * phi) + 2e-8 * np.sin(phi)
     # 4-point interpolation in phi: error ~ (3 dphi)^4 / 24 of the amplitude
@@ -63,7 +66,7 @@ def test_surface_reads_z_re_at_the_slide_position_of_the_pass():
     m = read_machine(MACHINE)
     delta = 5e-5
     table = table_of(lambda phi, y: 3e-7 * y + 0 * phi)
-    s = machined_surface(table, m, feed_per_rev=delta)
+    s = dynamic_surface(table, m, feed_per_rev=delta)
     phi = lead_angle(s.x, m)
     turn = np.mod(phi, 2 * np.pi)[None, :] / (2 * np.pi)
     slide = s.y[:, None] - 0.25 * np.cos(phi)[None, :]
@@ -78,7 +81,7 @@ def test_time_tables_drift_with_the_slide_within_a_revolution():
     delta = 5e-5
     rows = m.cut_span[0] + delta * np.arange(int(0.92 / delta))
     table = table_of(lambda phi, y: 2e-7 * (y + delta * phi / (2 * np.pi)), rows, delta)
-    s = machined_surface(table, m, feed_per_rev=delta)
+    s = dynamic_surface(table, m, feed_per_rev=delta)
     phi = lead_angle(s.x, m)
     turn = np.mod(phi, 2 * np.pi)[None, :] / (2 * np.pi)
     slide = s.y[:, None] - 0.25 * np.cos(phi)[None, :]
@@ -92,8 +95,8 @@ def test_trailing_arc_passes_lower_the_surface_where_the_tool_sits_lower():
     """Tool interference: with back-cutting on, each point keeps the lower of its two passes."""
     m = read_machine(MACHINE)
     table = table_of(lambda phi, y: 1e-7 * np.cos(phi) + 0 * y)  # trailing arc (cos < 0) lower
-    lead = machined_surface(table, m, feed_per_rev=5e-5)
-    both = machined_surface(table, m, feed_per_rev=5e-5, trailing_arc=True)
+    lead = dynamic_surface(table, m, feed_per_rev=5e-5)
+    both = dynamic_surface(table, m, feed_per_rev=5e-5, trailing_arc=True)
     cos = np.cos(lead_angle(lead.x, m))
     np.testing.assert_allclose(lead.z, np.broadcast_to(1e-7 * cos, lead.z.shape), atol=1e-14)
     np.testing.assert_allclose(both.z, np.broadcast_to(-1e-7 * cos, lead.z.shape), atol=1e-14)
@@ -103,14 +106,16 @@ def test_kinematic_marks_are_scallops_of_the_nose_radius():
     """Flat z_re: marks between passes (v/f) cos(phi) apart, height d^2 / (8 r_n) at most."""
     m = read_machine(MACHINE)
     delta, nose = 4.37e-5, 2e-3  # feed per revolution incommensurate with the grid
-    s = machined_surface(table_of(lambda phi, y: 0 * phi + 0 * y), m, delta, nose_radius=nose)
+    passes = surface_passes(m, delta)
+    flat = table_of(lambda phi, y: 0 * phi + 0 * y)
+    s = passes.lower([passes.dynamic(flat, m), passes.feed_marks(nose)])
     bound = (delta * np.cos(lead_angle(s.x, m))) ** 2 / (8 * nose)
     assert s.z.min() >= 0
     assert np.all(s.z <= bound * (1 + 1e-9))
     # 205 rows sample the scallop densely: its crest is reached to within a few per cent
     assert np.all(s.z.max(axis=0) >= 0.95 * bound)
     with pytest.raises(ValueError, match="nose_radius must be > 0"):
-        machined_surface(table_of(lambda phi, y: 0 * phi + 0 * y), m, delta, nose_radius=-1.0)
+        passes.feed_marks(-1.0)
 
 
 def test_grid_convergence_of_the_pv():
@@ -120,7 +125,7 @@ def test_grid_convergence_of_the_pv():
     p = Process(200, 16, 8)
     table = periodic_response(cut_geometry(synthetic_basis(), m), p).table
     pv = {
-        h: surface_metrics(machined_surface(table, m, p.feed_per_rev_m, (h, 1.25 * h)))["pv_nm"]
+        h: surface_metrics(dynamic_surface(table, m, p.feed_per_rev_m, (h, 1.25 * h)))["pv_nm"]
         for h in (4e-3, 2e-3, 1e-3, 2.5e-4)
     }
     err = {h: abs(v / pv[2.5e-4] - 1) for h, v in pv.items() if h != 2.5e-4}

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
@@ -20,36 +21,25 @@ from pathlib import Path
 import numpy as np
 
 from ufmt.machining.basis import ModalBasis
-from ufmt.machining.cutting import FORCE_PARTS, ForceCoefficients
+from ufmt.machining.cut_geometry import DEFAULT_N_PHI, DEFAULT_TABLE_ROWS, cut_geometry
+from ufmt.machining.cutting import DEFAULT_COEFFICIENTS, FORCE_PARTS, ForceCoefficients
+from ufmt.machining.periodic_path import periodic_response
 from ufmt.machining.process import Process
-from ufmt.machining.response import (
-    DEFAULT_COEFFICIENTS,
-    DEFAULT_N_PHI,
-    DEFAULT_RECORD_PERIODS,
-    DEFAULT_TABLE_ROWS,
-    DEFAULT_ZETA,
-    Response,
-    cut_geometry,
-    modal_damping,
-    periodic_response,
-    time_response,
-)
-from ufmt.machining.sources import (
-    SOURCES,
-    check_sources,
-    geometric_z,
-    is_active,
-)
+from ufmt.machining.recurrence import DEFAULT_ZETA, modal_damping
+from ufmt.machining.response import Response
+from ufmt.machining.sources import SCALLOP, SOURCES, ErrorSource, acting_sources, check_sources
 from ufmt.machining.static import ResidualFlexibility, residual_flexibility
 from ufmt.machining.surface import (
     DEFAULT_APERTURE_MARGIN,
     DEFAULT_SPACING,
     PSD2_PATCH_SPACING,
+    Passes,
     Surface,
     band_rms,
     surface_metrics,
     surface_passes,
 )
+from ufmt.machining.time_path import DEFAULT_RECORD_PERIODS, time_response
 from ufmt.model.machine import Machine, machine_of
 
 METHODS = ("periodic", "time")
@@ -184,7 +174,7 @@ def simulate(
     process : :class:`Process` (rpm, feed_mm_min, depth_um).
     n_modes : modes kept (paper: 30).
     zeta : modal damping ratio, scalar or (n_modes,) array (default 0.03, see
-        :mod:`ufmt.machining.response`).
+        :mod:`ufmt.machining.recurrence`).
     method : "periodic" (frequency domain, milliseconds; quasi-static in the slide position,
         so a few per cent low where transients at the plate's entry and exit edges set the PV)
         or "time" (every revolution of the whole workpiece, exact recurrence, seconds; use it
@@ -193,9 +183,9 @@ def simulate(
     force_scale : factor on the force coefficients; default the model's ``machine.force_scale``
         (1 when absent).
     coefficients, n_phi, table_rows : force model and discretisation (see
-        :func:`ufmt.machining.response.cut_geometry`).
+        :func:`ufmt.machining.cut_geometry.cut_geometry`).
     spacing, trailing_arc : surface grid step [m] (one value or (x, y)) and back-cutting (off),
-        see :func:`ufmt.machining.surface.machined_surface`.
+        see :func:`ufmt.machining.surface.surface_passes`.
     record_periods : spindle periods in the time path's record window.
     sources : error sources switched on (default all of
         :data:`ufmt.machining.sources.SOURCES`).
@@ -215,11 +205,8 @@ def simulate(
 
         basis = modal_basis(model, n_modes)
     basis = _truncated(basis, n_modes)
-    return _run(
-        basis,
-        machine,
-        process,
-        residual=_residual(model, basis, machine) if static_correction else None,
+    residual = _residual(model, basis, machine) if static_correction else None
+    options = SimulationOptions(
         zeta=zeta,
         method=method,
         force_scale=machine.force_scale if force_scale is None else force_scale,
@@ -233,6 +220,27 @@ def simulate(
         aperture_margin=aperture_margin,
         psd2_patch=psd2_patch,
     )
+    return _run(basis, machine, process, residual, options)
+
+
+@dataclass(frozen=True, eq=False)
+class SimulationOptions:
+    """The options of one :func:`simulate` call that the run reads, as :func:`simulate` takes
+    them (its parameters hold their meaning and defaults); ``force_scale`` resolved (the
+    machine's where the call gave none)."""
+
+    zeta: float | np.ndarray
+    method: str
+    force_scale: float
+    coefficients: ForceCoefficients
+    n_phi: int
+    table_rows: int
+    spacing: float | tuple[float, float]
+    trailing_arc: bool
+    record_periods: int
+    sources: str | Iterable[str]
+    aperture_margin: float
+    psd2_patch: float | None
 
 
 @lru_cache(maxsize=8)
@@ -257,86 +265,38 @@ def _run(
     basis: ModalBasis,
     machine: Machine,
     process: Process,
-    *,
-    residual: ResidualFlexibility | None = None,
-    zeta=DEFAULT_ZETA,
-    method: str = "periodic",
-    force_scale: float = 1.0,
-    coefficients: ForceCoefficients = DEFAULT_COEFFICIENTS,
-    n_phi: int = DEFAULT_N_PHI,
-    table_rows: int = DEFAULT_TABLE_ROWS,
-    spacing: float | tuple[float, float] = DEFAULT_SPACING,
-    trailing_arc: bool = False,
-    record_periods: int = DEFAULT_RECORD_PERIODS,
-    sources=SOURCES,
-    aperture_margin: float = DEFAULT_APERTURE_MARGIN,
-    psd2_patch: float | None = None,
+    residual: ResidualFlexibility | None,
+    options: SimulationOptions,
 ) -> SimulationResult:
-    if method not in METHODS:
-        raise ValueError(f"method must be one of {METHODS}, got {method!r}")
+    """One simulation on a truncated ``basis``: the response, the surfaces and the metrics."""
+    if options.method not in METHODS:
+        raise ValueError(f"method must be one of {METHODS}, got {options.method!r}")
+    force_scale = options.force_scale
     if not (np.isfinite(force_scale) and force_scale > 0):
         raise ValueError(f"force_scale must be a finite number > 0, got {force_scale!r}")
-    sources = check_sources(sources)
-    zeta = modal_damping(zeta, basis.n_modes)
-    parts = [p for p in FORCE_PARTS if any(coefficients.vector(p))]
-    geos = [
-        cut_geometry(basis, machine, coefficients, n_phi, table_rows, part, residual)
-        for part in parts
-    ]
-    response = (  # the parts share one inverse FFT (periodic) or one recurrence (time)
-        periodic_response(geos, process, zeta, force_scale)
-        if method == "periodic"
-        else time_response(geos, process, zeta, force_scale, record_periods)
-    )
+    sources = check_sources(options.sources)
+    zeta = modal_damping(options.zeta, basis.n_modes)
+    response = _response(basis, machine, process, residual, zeta, options)
 
     # every surface reported (the total, the band surface, each source alone) is the lower
     # pass of a sum of per-source heights on one set of passes: each height is computed once
-    acting = [name for name in sources if is_active(name, machine)]
-
-    def heights(passes, name):
-        if name == "dynamic":
-            return passes.dynamic(response.table, machine)
-        if name == "feed_marks":
-            return passes.feed_marks(machine.nose_radius)
-        return passes.geometric(geometric_z(machine, (name,)))
-
-    passes = surface_passes(machine, process.feed_per_rev_m, spacing, trailing_arc)
-    terms = {name: heights(passes, name) for name in acting}
+    acting = acting_sources(sources, machine)
+    passes = surface_passes(machine, process.feed_per_rev_m, options.spacing, options.trailing_arc)
+    terms = {source.name: source.heights(passes, response.table, machine) for source in acting}
     total = passes.lower(terms.values())
     # the scallop's wavelength (v/f) cos(phi) <= 80 um lies below PSD2 (>= 120 um) for every
     # Table 1 process; on grids coarser than it, it would only alias into the bands
-    smooth = [t for name, t in terms.items() if name != "feed_marks"]
-    band_surface = passes.lower(smooth) if "feed_marks" in terms else total
-    metrics = surface_metrics(total, aperture_margin, band_surface)
-    if psd2_patch is not None:
-        half = psd2_patch / 2
-        window = ((-half, half), (-half, half))
-        patch_passes = surface_passes(
-            machine, process.feed_per_rev_m, PSD2_PATCH_SPACING, trailing_arc, window
-        )
-        patch = patch_passes.lower(
-            heights(patch_passes, name) for name in acting if name != "feed_marks"
-        )
-        metrics["psd2_rms_nm"] = band_rms(patch)["psd2_rms_nm"]
-    alone = dict(zip(terms, passes.pv_each(terms.values()), strict=True)) if terms else {}
-    pv_by_source = {}
-    for name in SOURCES:
-        if name not in sources:
-            pv_by_source[name] = None
-        elif name not in terms:
-            pv_by_source[name] = 0.0
-        elif len(sources) == 1:
-            pv_by_source[name] = metrics["pv_nm"]
-        else:
-            pv_by_source[name] = alone[name] * 1e9
-    per = response.periods
-    metrics["zre_peak_nm"] = _mean_peak(response.z_re, per) * 1e9
-    metrics["tip_acc_peak_mm_s2"] = _mean_peak(response.tip_acc[:, 2], per) * 1e3
-    metrics["force_peak_n"] = float(np.linalg.norm(response.force, axis=1).max())
-    metrics["force_scale"] = float(force_scale)
+    smooth = [terms[source.name] for source in acting if source.enters != SCALLOP]
+    scallops = any(source.enters == SCALLOP for source in acting)
+    band_surface = passes.lower(smooth) if scallops else total
+    metrics = surface_metrics(total, options.aperture_margin, band_surface)
+    if options.psd2_patch is not None:
+        metrics["psd2_rms_nm"] = _psd2_rms(response, machine, process, acting, options)
+    pv_by_source = _pv_by_source(sources, passes, terms, metrics["pv_nm"])
+    metrics.update(_record_metrics(response, force_scale))
     return SimulationResult(
         process=process,
-        method=method,
+        method=options.method,
         machine=machine,
         zeta=zeta,
         force_scale=float(force_scale),
@@ -347,6 +307,82 @@ def _run(
         pv_by_source_nm=pv_by_source,
         sources=sources,
     )
+
+
+def _response(
+    basis: ModalBasis,
+    machine: Machine,
+    process: Process,
+    residual: ResidualFlexibility | None,
+    zeta: np.ndarray,
+    options: SimulationOptions,
+) -> Response:
+    """The response of every force part with a non-zero coefficient, by ``options.method``:
+    the parts share one inverse FFT (periodic) or one recurrence (time)."""
+    coefficients = options.coefficients
+    parts = [p for p in FORCE_PARTS if any(coefficients.vector(p))]
+    geos = [
+        cut_geometry(
+            basis, machine, coefficients, options.n_phi, options.table_rows, part, residual
+        )
+        for part in parts
+    ]
+    if options.method == "periodic":
+        return periodic_response(geos, process, zeta, options.force_scale)
+    return time_response(geos, process, zeta, options.force_scale, options.record_periods)
+
+
+def _psd2_rms(
+    response: Response,
+    machine: Machine,
+    process: Process,
+    acting: tuple[ErrorSource, ...],
+    options: SimulationOptions,
+) -> float:
+    """psd2_rms_nm of the square patch of side ``options.psd2_patch`` [m] at the plate centre
+    (:data:`~ufmt.machining.surface.PSD2_PATCH_SPACING`), without the scallops."""
+    half = options.psd2_patch / 2
+    window = ((-half, half), (-half, half))
+    patch_passes = surface_passes(
+        machine, process.feed_per_rev_m, PSD2_PATCH_SPACING, options.trailing_arc, window
+    )
+    patch = patch_passes.lower(
+        source.heights(patch_passes, response.table, machine)
+        for source in acting
+        if source.enters != SCALLOP
+    )
+    return band_rms(patch)["psd2_rms_nm"]
+
+
+def _pv_by_source(
+    sources: tuple[str, ...], passes: Passes, terms: dict, pv_nm: float
+) -> dict[str, float | None]:
+    """PV [nm] of the surface of each source alone, in :data:`SOURCES` order: None where
+    switched off, 0 where it does not act, the total ``pv_nm`` where it is the only source."""
+    alone = dict(zip(terms, passes.pv_each(terms.values()), strict=True)) if terms else {}
+    pv_by_source = {}
+    for name in SOURCES:
+        if name not in sources:
+            pv_by_source[name] = None
+        elif name not in terms:
+            pv_by_source[name] = 0.0
+        elif len(sources) == 1:
+            pv_by_source[name] = pv_nm
+        else:
+            pv_by_source[name] = alone[name] * 1e9
+    return pv_by_source
+
+
+def _record_metrics(response: Response, force_scale: float) -> dict[str, float]:
+    """The record window's metrics: zre_peak_nm, tip_acc_peak_mm_s2, force_peak_n, and the
+    force_scale used."""
+    per = response.periods
+    return {
+        "zre_peak_nm": _mean_peak(response.z_re, per) * 1e9,
+        "tip_acc_peak_mm_s2": _mean_peak(response.tip_acc[:, 2], per) * 1e3,
+        "force_peak_n": float(np.linalg.norm(response.force, axis=1).max()),
+        "force_scale": float(force_scale),
+    }
 
 
 def _mean_peak(signal: np.ndarray, periods: int) -> float:

@@ -41,8 +41,7 @@ def implied_forces(model: Model, metrics: dict, process: Process) -> dict[str, d
     """
     from dataclasses import fields
 
-    from ufmt.machining.cutting import FORCE_PARTS, part_amplitude
-    from ufmt.machining.response import DEFAULT_COEFFICIENTS
+    from ufmt.machining.cutting import DEFAULT_COEFFICIENTS, FORCE_PARTS, part_amplitude
     from ufmt.model.machine import machine_of
 
     machine = machine_of(model)

@@ -77,6 +77,10 @@ class ForceCoefficients:
         raise ValueError(f"force part must be one of {FORCE_PARTS}, got {part!r}")
 
 
+#: The force coefficients of the default tool geometry (:class:`ForceCoefficients`).
+DEFAULT_COEFFICIENTS = ForceCoefficients()
+
+
 def edge_length(process, machine: Machine) -> float:
     """Engaged edge length b = sqrt(2 r_n a_p) of a round-nose tool [m]."""
     return float(np.sqrt(2.0 * machine.nose_radius * process.depth_m))

@@ -6,7 +6,7 @@ import numpy as np
 
 from ufmt.machining.basis import ModalBasis
 from ufmt.machining.cutting import tool_tip
-from ufmt.machining.response import DEFAULT_ZETA, modal_damping
+from ufmt.machining.recurrence import DEFAULT_ZETA, modal_damping
 from ufmt.machining.static import ResidualFlexibility
 from ufmt.model.machine import Machine
 

@@ -19,20 +19,106 @@ straightness   slide straightness in z along the feed: the workpiece rides s sin
                high, so the tool cuts -s sin(2 pi Y / L) relative to it (Y the slide position
                of the pass, 0 halfway).
 
-Each geometric term (the last three) is a function of the spindle angle and the slide position
-of the pass, added to z_re before the minimum over passes; all are linear in their amplitude.
+Each geometric term (the last three) is a height function z(phi, Y, machine) of the spindle
+angle and the slide position of the pass, added to z_re before the minimum over passes; all are
+linear in their amplitude, and a source whose amplitude is zero on a machine is inactive there.
+
+:data:`REGISTRY` holds one :class:`ErrorSource` per source, in the order of :data:`SOURCES`
+(the order of every per-source output). Adding a geometric source is one registry entry and its
+height function, plus its ``[machine]`` fields and bands in :mod:`ufmt.model.machine`.
 """
 
 from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
 
 from ufmt.errors import ModelError, closest_name
 from ufmt.model.machine import Machine
 
-SOURCES = ("dynamic", "feed_marks", "spindle_tilt", "error_motion", "straightness")
-#: Sources that move the tool relative to the workpiece by a closed form in (phi, Y).
-GEOMETRIC = ("spindle_tilt", "error_motion", "straightness")
+#: How a source enters the surface: the vibration response's z_re table, the tool nose's
+#: scallop between passes, or a height function z(phi, Y, machine) at each pass.
+VIBRATION = "vibration"
+SCALLOP = "scallop"
+HEIGHT = "height"
+
+
+@dataclass(frozen=True)
+class ErrorSource:
+    """One error source of the surface.
+
+    name: the source's name (``sources`` option, ``pv_by_source_nm`` key); enters: how it
+    enters the surface (:data:`VIBRATION`, :data:`SCALLOP` or :data:`HEIGHT`); amplitude: the
+    ``[machine]`` field of its amplitude (the source is inactive where it is zero; None: always
+    active); parameters: the other ``[machine]`` fields it reads; height: for :data:`HEIGHT`,
+    its tool height relative to the workpiece z(phi [rad], slide_y [m], machine) [m].
+    """
+
+    name: str
+    enters: str = HEIGHT
+    amplitude: str | None = None
+    parameters: tuple[str, ...] = ()
+    height: Callable[[np.ndarray, np.ndarray, Machine], np.ndarray] | None = None
+
+    @property
+    def fields(self) -> tuple[str, ...]:
+        """The ``[machine]`` fields the source reads (amplitude first)."""
+        return ((self.amplitude,) if self.amplitude else ()) + self.parameters
+
+    def is_active(self, machine: Machine) -> bool:
+        """False where the source's amplitude is zero on ``machine`` (its term is 0)."""
+        return self.amplitude is None or getattr(machine, self.amplitude) != 0.0
+
+    def heights(self, passes, table, machine: Machine) -> np.ndarray:
+        """Heights [m] of the source at both passes over every grid point of ``passes`` (a
+        :class:`~ufmt.machining.surface.Passes`); ``table`` the response's z_re table."""
+        if self.enters == VIBRATION:
+            return passes.dynamic(table, machine)
+        if self.enters == SCALLOP:
+            return passes.feed_marks(machine.nose_radius)
+        return passes.geometric(geometric_z(machine, (self.name,)))
+
+
+def spindle_tilt_z(phi, slide_y, machine: Machine) -> np.ndarray:
+    """Tool height from the spindle tilt, -beta R (1 - cos phi) [m] (independent of Y)."""
+    phi = np.asarray(phi, dtype=float)
+    return -machine.spindle_tilt_rad * machine.tool_radius * (1.0 - np.cos(phi))
+
+
+def error_motion_z(phi, slide_y, machine: Machine) -> np.ndarray:
+    """Tool height from the once-per-revolution axial error motion, e cos(phi - phi_0) [m]
+    (independent of Y)."""
+    phi = np.asarray(phi, dtype=float)
+    return machine.error_motion_m * np.cos(phi - np.radians(machine.error_motion_phase_deg))
+
+
+def straightness_z(phi, slide_y, machine: Machine) -> np.ndarray:
+    """Tool height relative to the workpiece from the slide's straightness [m] (independent
+    of phi)."""
+    y = np.asarray(slide_y, dtype=float)
+    return -machine.straightness_m * np.sin(2 * np.pi * y / machine.straightness_wavelength_m)
+
+
+REGISTRY = (
+    ErrorSource("dynamic", enters=VIBRATION),
+    ErrorSource("feed_marks", enters=SCALLOP, parameters=("nose_radius",)),
+    ErrorSource("spindle_tilt", amplitude="spindle_tilt_rad", height=spindle_tilt_z),
+    ErrorSource(
+        "error_motion",
+        amplitude="error_motion_m",
+        parameters=("error_motion_phase_deg",),
+        height=error_motion_z,
+    ),
+    ErrorSource(
+        "straightness",
+        amplitude="straightness_m",
+        parameters=("straightness_wavelength_m",),
+        height=straightness_z,
+    ),
+)
+SOURCES = tuple(source.name for source in REGISTRY)
 
 
 def check_sources(sources) -> tuple[str, ...]:
@@ -50,48 +136,23 @@ def check_sources(sources) -> tuple[str, ...]:
     return tuple(s for s in SOURCES if s in sources)
 
 
-def spindle_tilt_z(phi, machine: Machine) -> np.ndarray:
-    """Tool height from the spindle tilt, -beta R (1 - cos phi) [m]."""
-    phi = np.asarray(phi, dtype=float)
-    return -machine.spindle_tilt_rad * machine.tool_radius * (1.0 - np.cos(phi))
-
-
-def error_motion_z(phi, machine: Machine) -> np.ndarray:
-    """Tool height from the once-per-revolution axial error motion, e cos(phi - phi_0) [m]."""
-    phi = np.asarray(phi, dtype=float)
-    return machine.error_motion_m * np.cos(phi - np.radians(machine.error_motion_phase_deg))
-
-
-def straightness_z(slide_y, machine: Machine) -> np.ndarray:
-    """Tool height relative to the workpiece from the slide's straightness [m]."""
-    y = np.asarray(slide_y, dtype=float)
-    return -machine.straightness_m * np.sin(2 * np.pi * y / machine.straightness_wavelength_m)
-
-
-def is_active(source: str, machine: Machine) -> bool:
-    """False where a geometric source has zero amplitude on this machine (its term is 0)."""
-    amplitude = {
-        "spindle_tilt": machine.spindle_tilt_rad,
-        "error_motion": machine.error_motion_m,
-        "straightness": machine.straightness_m,
-    }
-    return amplitude.get(source, 1.0) != 0.0
+def acting_sources(sources, machine: Machine) -> tuple[ErrorSource, ...]:
+    """The registry entries of the names ``sources`` that act on ``machine``, in registry
+    order."""
+    return tuple(s for s in REGISTRY if s.name in sources and s.is_active(machine))
 
 
 def geometric_z(machine: Machine, sources):
-    """z(phi, slide_y) [m] of the geometric sources among ``sources``, or None if none acts."""
-    active = [s for s in sources if s in GEOMETRIC and is_active(s, machine)]
+    """z(phi, slide_y) [m] of the height sources among ``sources`` (names), or None if none
+    acts on ``machine``."""
+    active = [s for s in acting_sources(sources, machine) if s.enters == HEIGHT]
     if not active:
         return None
 
     def z(phi, slide_y):
         total = 0.0
-        if "spindle_tilt" in active:
-            total = total + spindle_tilt_z(phi, machine)
-        if "error_motion" in active:
-            total = total + error_motion_z(phi, machine)
-        if "straightness" in active:
-            total = total + straightness_z(slide_y, machine)
+        for source in active:
+            total = total + source.height(phi, slide_y, machine)
         return total
 
     return z

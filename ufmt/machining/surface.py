@@ -44,7 +44,8 @@ from functools import cached_property, lru_cache
 import numpy as np
 import scipy.fft
 
-from ufmt.machining.response import PeriodicZreTable, ZreTable
+from ufmt.machining.periodic_path import PeriodicZreTable
+from ufmt.machining.response import ZreTable
 from ufmt.model.machine import Machine
 
 #: Grid spacing (x, y) [m]: x finer, as the x-profile of a pass carries the vibration of the
@@ -90,7 +91,7 @@ class Surface:
 
 
 @lru_cache(maxsize=16)
-def _grid(machine: Machine, spacing, window=None):
+def surface_grid(machine: Machine, spacing, window=None):
     """Grid, core rows and the two pass angles of every column (cached per machine, spacing).
 
     ``window`` ((x0, x1), (y0, y1)) [m]: a patch of the plate instead of the whole plate
@@ -165,7 +166,10 @@ class Passes:
         return geometric(self.phi, self.slide)
 
     def feed_marks(self, nose_radius: float) -> np.ndarray:
-        """Nose scallops [m]: d^2 / (2 r_n) at normal distance d from each pass's path."""
+        """Nose scallops [m]: d^2 / (2 r_n) at normal distance d from each pass's path,
+        ``nose_radius`` r_n [m]."""
+        if not nose_radius > 0:
+            raise ValueError(f"nose_radius must be > 0 [m], got {nose_radius!r}")
         d2 = (self.feed_per_rev * self.cos) ** 2 / (2 * nose_radius)
         return np.stack([self.frac, 1 - self.frac]) ** 2 * d2
 
@@ -199,13 +203,21 @@ def surface_passes(
     trailing_arc: bool = False,
     window=None,
 ) -> Passes:
-    """The passes over the grid of ``spacing`` [m] (arguments of :func:`machined_surface`)."""
+    """The passes over the grid of ``spacing`` [m], the surface's terms' common frame.
+
+    ``spacing``: one step or (x, y) steps [m], the largest allowed. ``feed_per_rev`` [m]
+    spaces the revolutions; ``trailing_arc`` adds the trailing-arc passes (back-cutting);
+    ``window`` ((x0, x1), (y0, y1)) [m] evaluates a patch only. Each point takes the lower of
+    the two revolutions whose paths bracket it (:meth:`Passes.lower`); a periodic
+    (quasi-static) table gives each of them the steady state at its own slide position. Every
+    surface of one grid and feed (the total, each error source alone) shares one.
+    """
     if not feed_per_rev > 0:
         raise ValueError(f"feed_per_rev must be > 0 [m], got {feed_per_rev!r}")
     spacing = tuple(np.broadcast_to(np.asarray(spacing, dtype=float), (2,)).tolist())
     if window is not None:
         window = tuple(tuple(float(v) for v in w) for w in window)
-    x, y, core, phi, cos = _grid(machine, spacing, window)
+    x, y, core, phi, cos = surface_grid(machine, spacing, window)
     arcs = 2 if trailing_arc else 1
     phi, cos = phi[:arcs], cos[:arcs]
     turn = phi / (2 * np.pi)
@@ -218,49 +230,12 @@ def surface_passes(
     return Passes(x, y, core, phi, cos, rho - k, slide, feed_per_rev, spacing, window)
 
 
-def machined_surface(
-    table: ZreTable | PeriodicZreTable | None,
-    machine: Machine,
-    feed_per_rev: float,
-    spacing=DEFAULT_SPACING,
-    nose_radius: float | None = None,
-    trailing_arc: bool = False,
-    geometric=None,
-    window=None,
-) -> Surface:
-    """The machined surface (eq. 4.1 with tool interference) on a grid of ``spacing`` [m].
-
-    ``spacing``: one step or (x, y) steps [m], the largest allowed.
-
-    ``table``: the z_re of the cutting-force vibration (None: no vibration, the dynamic source
-    off). ``feed_per_rev`` [m] spaces the revolutions; ``nose_radius`` [m] turns on the feed
-    marks (tool-nose scallops); ``trailing_arc`` adds the trailing-arc passes to the minimum
-    (back-cutting); ``geometric`` z(phi, Y) [m] adds the geometric error sources at each pass's
-    angle and slide position (:func:`ufmt.machining.sources.geometric_z`); ``window``
-    ((x0, x1), (y0, y1)) [m] evaluates a patch only. Each point takes the lower of the two
-    revolutions whose paths bracket it; a periodic (quasi-static) table gives each of them the
-    steady state at its own slide position. (Several surfaces of one grid and feed share one
-    :func:`surface_passes`.)
-    """
-    if nose_radius is not None and not nose_radius > 0:
-        raise ValueError(f"nose_radius must be > 0 [m], got {nose_radius!r}")
-    passes = surface_passes(machine, feed_per_rev, spacing, trailing_arc, window)
-    terms = []
-    if table is not None:
-        terms.append(passes.dynamic(table, machine))
-    if geometric is not None:
-        terms.append(passes.geometric(geometric))
-    if nose_radius is not None:
-        terms.append(passes.feed_marks(nose_radius))
-    return passes.lower(terms)
-
-
 @lru_cache(maxsize=1)  # one simulation reads its table for the total and each source alone
 def _table_pairs(table, machine: Machine, spacing, window, arcs: int) -> np.ndarray:
     """The table's columns at the grid's pass angles (``table.columns``), each row with the
     next one as its imaginary part: (rows - 1, arcs * Nx) complex, so that a lookup is one
     gather of both (cached per table, grid)."""
-    cols = table.columns(_grid(machine, spacing, window)[3][:arcs])
+    cols = table.columns(surface_grid(machine, spacing, window)[3][:arcs])
     pairs = cols[:-1] + 1j * cols[1:]
     pairs.setflags(write=False)
     return pairs

@@ -1,0 +1,419 @@
+"""The periodic (frequency-domain) response path, path (b) of :mod:`ufmt.machining.response`.
+
+For a fixed slide position Y the cutting force is periodic in the spindle period; its periodic
+steady state is the response while the slide passes Y (quasi-static in Y). The z_re of the whole
+cut is a table over the slide positions of :func:`~ufmt.machining.cut_geometry.cut_geometry`
+(:class:`PeriodicZreTable`), evaluated where it is read: at the few samples the surface reads, as
+a sum over the cut's active angles with the periodic impulse response of the exact recurrence
+(:class:`~ufmt.machining.recurrence.PeriodicRecurrence`); the whole table on first use of its
+``values``, per harmonic with the recurrence's receptance (kernels of the modal force and output
+shapes, :func:`~ufmt.machining.recurrence.discrete_receptance`) times the spectra of the chip
+pattern. The record window is one spindle period at :func:`~ufmt.machining.response.record_slide`.
+
+Process-independent parts are cached per geometry or per machine (the pattern's spectra), the
+recurrence and the kernels per spindle speed and damping, so a sweep over designs or processes
+repeats only what changes.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cached_property, lru_cache
+
+import numpy as np
+
+from ufmt.machining.basis import ModalBasis
+from ufmt.machining.cut_geometry import OUTPUT_HARMONICS, CutGeometry, pattern_tables
+from ufmt.machining.cutting import (
+    ForceCoefficients,
+    chip_factor_cells,
+    force_vector,
+    part_amplitude,
+)
+from ufmt.machining.recurrence import (
+    DEFAULT_ZETA,
+    PeriodicRecurrence,
+    discrete_receptance,
+    modal_damping,
+    periodic_recurrence,
+)
+from ufmt.machining.response import (
+    Response,
+    cubic_weights,
+    record_slide,
+    tool_and_workpiece_motion,
+)
+from ufmt.model.machine import Machine
+
+
+@dataclass(frozen=True, eq=False)
+class PeriodicZreTable:
+    """The periodic path's z_re table (:class:`~ufmt.machining.response.ZreTable` layout,
+    drift 0), evaluated where it is read.
+
+    The chip pattern is zero except on the few ``active`` angles of the cut, so z_re at a
+    sample j is a short sum over them: z_re[i, j] = sum_(part, p) amp Y_i^p
+    sum_m T_(part, p)[j, m] A_part[i, m] with the periodic impulse response of the exact
+    recurrence (:meth:`PeriodicRecurrence.impulse`) in the kernels T, the static correction on
+    their diagonal. :meth:`columns` evaluates the samples the surface reads (a few tens);
+    ``values``, the whole table by the harmonics (:func:`periodic_response`), is computed on
+    first use. parts: the force parts' geometries; amps [m^2 or m] their amplitudes times the
+    force scale; spindle_hz [Hz]; zeta (n,) modal damping.
+    """
+
+    parts: tuple[CutGeometry, ...]
+    amps: np.ndarray
+    spindle_hz: float
+    zeta: tuple[float, ...]
+    row_y: np.ndarray
+    row_knots: tuple[float, float, np.ndarray]
+    drift: float = 0.0
+
+    @cached_property
+    def values(self) -> np.ndarray:
+        """The whole table (rows, N + 3) [m], padded periodically (see
+        :class:`~ufmt.machining.response.ZreTable`)."""
+        geo = self.parts[0]
+        n = geo.n_phi
+        half = n // 2
+        kern = _periodic_kernels(self.parts, self.spindle_hz, self.zeta)
+        # z_re[k, i] = sum_(d, part, p) amp K[k, (d, part, p)] Y_i^p A_part[k - d, i]: one
+        # small product per harmonic over a strided view of the stacked spectra (no copy)
+        stacked = _stacked_spectra(geo.machine, n, geo.table_rows, self.part_names)
+        rows = stacked.shape[3]
+        view = np.lib.stride_tricks.as_strided(
+            stacked,
+            shape=(half + 1, 7 * stacked.shape[1] * 3, rows),
+            strides=(stacked.strides[0], stacked.strides[2], stacked.strides[3]),
+            writeable=False,
+        )
+        zk = np.matmul(kern * np.repeat(np.tile(self.amps, 7), 3), view)[:, 0]  # (N/2 + 1, M)
+        values = np.empty((rows, n + 3))
+        table = values[:, 1 : n + 1]
+        np.fft.irfft(zk.T, n=n, axis=1, out=table)
+        values[:, 0], values[:, n + 1 :] = table[:, -1], table[:, :2]
+        values.setflags(write=False)
+        return values
+
+    @property
+    def part_names(self) -> tuple[str, ...]:
+        """The force parts ("area", "edge") of ``parts``."""
+        return tuple(g.part for g in self.parts)
+
+    def columns(self, phi: np.ndarray) -> np.ndarray:
+        """Table columns at angles phi (arcs, Nx) [rad], 4-point Lagrange in phi [m]:
+        (rows, arcs * Nx), from the samples the stencils touch only."""
+        geo = self.parts[0]
+        n = geo.n_phi
+        plan = _column_plan(self.parts, tuple(np.ravel(phi).tolist()))
+        z = _recurrence(geo.basis, n, self.spindle_hz, self.zeta).impulse(plan.lags)
+        h = 2 * z.real.T  # q of the impulse response at the lags (L, n)
+        # kernels of c^(a) and w^(b) (a, b = 0: at Y = 0, 1: rate in Y) for each angle m
+        # and sample k: sum_s c^(a)_s[k] h_s[k - m] w^(b)_s[m]
+        active, samples = plan.lag_index.shape
+        ch = h[plan.lag_index][:, :, None, :] * plan.c  # (A, K, 2, n)
+        kern = np.matmul(ch.reshape(active, 2 * samples, -1), plan.w)
+        kern = kern.reshape(active, samples, 2, len(self.parts), 2)
+        powers = np.stack(  # of Y: p = a + b
+            [kern[..., 0, :, 0], kern[..., 0, :, 1] + kern[..., 1, :, 0], kern[..., 1, :, 1]],
+            axis=-1,
+        )  # (A, K, P, 3)
+        powers += plan.static
+        powers *= self.amps[:, None]
+        at_samples = powers.transpose(0, 2, 3, 1).reshape(-1, samples) @ plan.stencil
+        return plan.patterns @ at_samples
+
+
+@dataclass(frozen=True)
+class _ColumnPlan:
+    """Process-independent data of :meth:`PeriodicZreTable.columns` at C angles, which read
+    K samples.
+
+    lags (L,) the distinct lags (sample - active angle) mod N and lag_index (A, K) each pair's;
+    c (K, 2, n) the relative z translation at the samples at Y = 0 and its rate in Y [m, m/m];
+    w (A, n, 2 P) each part's modal force at the active angles at Y = 0 and its rate in Y;
+    static (A, K, P, 3) the static correction's z per power of Y where sample = angle;
+    stencil (K, C) the Lagrange weights of the samples at each angle;
+    patterns (M, A P 3) of :func:`_stacked_patterns`.
+    """
+
+    lags: np.ndarray
+    lag_index: np.ndarray
+    c: np.ndarray
+    w: np.ndarray
+    static: np.ndarray
+    stencil: np.ndarray
+    patterns: np.ndarray
+
+
+@lru_cache(maxsize=4)
+def _column_plan(parts: tuple[CutGeometry, ...], phi: tuple[float, ...]) -> _ColumnPlan:
+    """The :class:`_ColumnPlan` of angles ``phi`` [rad] (cached per geometry and angles)."""
+    geo = parts[0]
+    j, stencil, active, lags, lag_index, hits = _column_samples(
+        geo.n_phi, geo.active.tobytes(), phi
+    )
+    c = geo.modal_at(j)[2]
+    c = np.stack([c.T, np.broadcast_to(geo.c_y, (j.size, geo.c_y.size))], axis=1)
+    w = np.stack([a.T for g in parts for a in g.modal_at(active)[:2]], axis=2)
+    static = np.zeros((active.size, j.size, len(parts), 3))
+    hit_a, hit_k = hits
+    for i, g in enumerate(parts):
+        if g.static_tool is not None:  # the static correction acts at the sample itself
+            rel = g.static_tool[:, j[hit_k], 2] - g.static_work[:, j[hit_k], 2]
+            static[hit_a, hit_k, i] = rel.T
+    names = tuple(g.part for g in parts)
+    arrays = (np.ascontiguousarray(c), np.ascontiguousarray(w), static)
+    for a in arrays:  # cached: shared by every later call
+        a.setflags(write=False)
+    return _ColumnPlan(
+        lags,
+        lag_index,
+        *arrays,
+        stencil,
+        _stacked_patterns(geo.machine, geo.n_phi, geo.table_rows, names),
+    )
+
+
+@lru_cache(maxsize=4)  # per angle grid and cut mask, not per design
+def _column_samples(n_phi: int, active: bytes, phi: tuple[float, ...]):
+    """The sample indices of :func:`_column_plan` (cached per angles, not per design).
+
+    ``active`` (N bools as bytes) the cut's angles. Returns the samples j (K,) the stencils
+    of ``phi`` [rad] read, the stencil (K, C), the active angles (A,), the lags (L,), their
+    lag_index (A, K) and the (angle, sample) index pairs where sample = angle; read-only.
+    """
+    samples, weights = cubic_weights(np.array(phi), n_phi)
+    j, where = np.unique(np.mod(samples, n_phi), return_inverse=True)
+    stencil = np.zeros((j.size, len(phi)))
+    for i in range(4):  # the four samples of a stencil are distinct
+        stencil[where.reshape(samples.shape)[i], np.arange(len(phi))] = weights[i]
+    active = np.flatnonzero(np.frombuffer(active, dtype=bool))
+    lags, lag_index = np.unique(np.mod(j - active[:, None], n_phi), return_inverse=True)
+    lag_index = lag_index.reshape(active.size, j.size)
+    hits = np.nonzero(active[:, None] == j)
+    for a in (j, stencil, active, lags, lag_index, *hits):
+        a.setflags(write=False)
+    return j, stencil, active, lags, lag_index, hits
+
+
+def periodic_response(geo, process, zeta=DEFAULT_ZETA, force_scale: float = 1.0) -> Response:
+    """Periodic steady state at each tabulated slide position (path b).
+
+    The table (:class:`PeriodicZreTable`) is evaluated where it is read: at the few samples
+    of the cut the surface reads, by the periodic impulse response over the active angles; the
+    whole table by the harmonics on first use of its ``values``: per harmonic k,
+    z_re[k] = sum_s sum_l c_hat[s,l] H_s[k-l] sum_m w_hat[s,m] A[k-l-m] = sum_d K_d[k] A[k-d],
+    with A the spectrum of the chip factor (:func:`_stacked_spectra`) and H_s the receptance of
+    :func:`discrete_receptance`; with the workpiece arm's Y terms the kernels are a quadratic
+    in Y, sum_p Y^p K_pd. The record window is one spindle period at the slide position of
+    :func:`record_slide`: the modal force there summed over the cut's angles with the periodic
+    impulse response, free decay after them (:class:`PeriodicRecurrence`, cached per spindle
+    speed and damping; the force per unit amplitude cached per geometry).
+
+    ``geo``: one :class:`CutGeometry` or a sequence of them, the force parts of one force on
+    the same basis, machine, n_phi and table rows: their responses are summed (each times its
+    part's amplitude) before any transform, so the parts cost one.
+    """
+    parts = (geo,) if isinstance(geo, CutGeometry) else tuple(geo)
+    geo = parts[0]
+    zeta = modal_damping(zeta, geo.basis.n_modes)
+    f = process.spindle_hz
+    n = geo.n_phi
+    amps = np.array([force_scale * part_amplitude(process, geo.machine, g.part) for g in parts])
+    units = [_record_unit(g) for g in parts]
+    fs = sum(amp * u.fs for amp, u in zip(amps, units, strict=True))
+    q, qd = periodic_state(_recurrence(geo.basis, n, f, tuple(zeta.tolist())), fs, geo.active)
+    b = geo.basis
+    qdd = fs - (2 * zeta * b.omega)[:, None] * qd - (b.omega**2)[:, None] * q
+    y_rec = record_slide(geo.machine)
+    tip, acc, work = tool_and_workpiece_motion(geo, np.arange(n), np.full(n, y_rec), q, qd, qdd, f)
+    for amp, u in zip(amps, units, strict=True):
+        if u.static_tip is not None:
+            tip, work = tip + amp * u.static_tip, work + amp * u.static_work
+    j = np.arange(n)
+    return Response(
+        method="periodic",
+        t=(j + (y_rec - geo.machine.cut_span[0]) / process.feed_per_rev_m * n) / (f * n),
+        slide_y=np.full(n, y_rec),
+        force=sum(amp * u.force for amp, u in zip(amps, units, strict=True)),
+        tip_disp=tip,
+        tip_acc=acc,
+        work_disp=work,
+        z_re=tip[:, 2] - work[:, 2],
+        period=1.0 / f,
+        periods=1,
+        table=PeriodicZreTable(parts, amps, f, tuple(zeta.tolist()), geo.table_y, geo.row_knots),
+    )
+
+
+@lru_cache(maxsize=4)  # ~0.3 MiB each
+def _recurrence(basis: ModalBasis, n_phi: int, spindle_hz: float, zeta: tuple):
+    """:func:`periodic_recurrence` of the basis at the spindle frequency [Hz] (cached per
+    spindle speed and damping; its arrays read-only)."""
+    out = periodic_recurrence(basis.omega, np.array(zeta), 1 / (spindle_hz * n_phi), n_phi)
+    for a in (out.lam, out.e, out.b0, out.b1, out.powers, out.period):
+        a.setflags(write=False)
+    return out
+
+
+@lru_cache(maxsize=8)
+def _cut_run(active: bytes):
+    """The circular run of the ``active`` samples (N bools as bytes): its first sample, its
+    samples in order (A,), the distinct lags (L,) between them mod N and each pair's (A, A)."""
+    active = np.frombuffer(active, dtype=bool)
+    n = active.size
+    first = int(np.flatnonzero(active & ~np.roll(active, 1))[0])
+    a = int(np.count_nonzero(active))
+    lags, pairs = np.unique(
+        np.mod(np.subtract.outer(np.arange(a), np.arange(a)), n), return_inverse=True
+    )
+    pairs = pairs.reshape(a, a)
+    run = (first + np.arange(a)) % n
+    for arr in (run, lags, pairs):  # cached: shared by every later call
+        arr.setflags(write=False)
+    return first, run, lags, pairs
+
+
+def periodic_state(recurrence: PeriodicRecurrence, force: np.ndarray, active: np.ndarray):
+    """Periodic steady state (q, q') (n, N) [m, m/s per unit modal force] of the recurrence
+    under the modal force (n, N), zero outside the circular run of ``active`` (N,) samples.
+
+    Within the run: its sum with the periodic impulse response; after it, the free decay E^l
+    of the state after the run's last sample.
+    """
+    first, run, lags, pairs = _cut_run(active.tobytes())
+    n, a = active.size, run.size
+    f = force[:, run]
+    inside = np.einsum("sjm,sm->sj", recurrence.impulse(lags)[:, pairs], f)
+    after = recurrence.e * inside[:, -1] + recurrence.b1 * f[:, -1]  # no force there
+    x = np.empty(force.shape, complex)  # from the run's first sample on
+    x[:, :a] = inside
+    np.multiply(recurrence.powers[:, : n - a], after[:, None], out=x[:, a:])
+    x = np.roll(x, first, axis=1)
+    return 2 * x.real, 2 * (recurrence.lam[:, None] * x).real
+
+
+@lru_cache(maxsize=2)  # ~4.7 MiB each (two parts, 192 rows); machine-only
+def _stacked_spectra(machine: Machine, n_phi: int, table_rows: int, parts: tuple[str, ...]):
+    """The parts' extended spectra times Y^p at each row, (N/2 + 7, P, 3, M) (cached per
+    machine: every design of a sweep shares it)."""
+    tables = [pattern_tables(machine, n_phi, table_rows, part) for part in parts]
+    powers = tables[0][0] ** np.arange(3)[:, None]  # (3, M)
+    out = np.stack([t[2] for t in tables], axis=1)[:, :, None, :] * powers
+    out.setflags(write=False)
+    return out
+
+
+@lru_cache(maxsize=2)  # machine-only
+def _stacked_patterns(machine: Machine, n_phi: int, table_rows: int, parts: tuple[str, ...]):
+    """The parts' chip patterns on the active angles times Y^p at each row, (M, A P 3) in the
+    order (angle, part, power p) (cached per machine: every design of a sweep shares it)."""
+    tables = [pattern_tables(machine, n_phi, table_rows, part) for part in parts]
+    powers = tables[0][0][:, None, None, None] ** np.arange(3)  # (M, 1, 1, 3)
+    out = (np.stack([t[4] for t in tables], axis=2)[..., None] * powers).reshape(
+        powers.shape[0], -1
+    )
+    out.setflags(write=False)
+    return out
+
+
+@lru_cache(maxsize=16)
+def _periodic_kernels(parts: tuple[CutGeometry, ...], spindle_hz: float, zeta: tuple):
+    """Kernels of :attr:`PeriodicZreTable.values` (cached per spindle speed).
+
+    Returns kern (N/2 + 1, 1, 21 P): for harmonic k and (shift, part, power p of Y) the kernel
+    K_pd[k] of that part with d = 3 - shift (the order of the strided spectra view), the
+    static correction's coefficients included (:class:`CutGeometry` ``static_hat``).
+    """
+    geo = parts[0]
+    n = geo.n_phi
+    half = n // 2
+    k = np.arange(-1, half + 2)
+    hq, _ = discrete_receptance(
+        geo.basis.omega, np.array(zeta), 1 / (spindle_hz * n), 2 * np.pi * k / n
+    )
+    # one product of the receptances, shifted by each output harmonic l, with the coefficients
+    coef, static = _kernel_coefficients(parts)
+    shifted = np.concatenate(
+        [hq.T[1 - l : half + 2 - l] for l in OUTPUT_HARMONICS], axis=1
+    )  # (K, 3n)
+    kern = (shifted @ coef + static).reshape(half + 1, 1, -1)
+    kern.setflags(write=False)
+    return kern
+
+
+@lru_cache(maxsize=8)
+def _kernel_coefficients(parts: tuple[CutGeometry, ...]) -> tuple[np.ndarray, np.ndarray]:
+    """Coefficients of the kernels of :func:`_periodic_kernels` (cached per geometry).
+
+    K_pd[k] = sum_l sum_s coef[(l, s), (d, part, p)] H_s[k - l] + static[(d, part, p)]: the
+    kernels of Y^0, Y^1, Y^2 from c = c_hat + Y c_y (harmonic 0 only) and
+    w = w_hat + Y w_y_hat (output harmonic l, force harmonic m = d - l), and the static
+    correction's Fourier coefficients. Columns in the order of the strided spectra view
+    (shift 6 - d index, part, power). Returns coef (3 n, 21 P) and static (21 P,).
+    """
+    n_modes = parts[0].basis.n_modes
+    coef = np.zeros((3, n_modes, 7, len(parts), 3), dtype=complex)  # (l, s, d, part, p)
+    static = np.zeros((7, len(parts), 3), dtype=complex)
+    for pi_, g in enumerate(parts):
+        c_y = np.zeros_like(g.c_hat)
+        c_y[:, 1] = g.c_y
+        for pc, ch in enumerate((g.c_hat, c_y)):
+            for pw, wh in enumerate((g.w_hat, g.w_y_hat)):
+                for li in range(3):
+                    coef[li, :, li : li + 5, pi_, pc + pw] += ch[:, li : li + 1] * wh
+        if g.static_hat is not None:
+            static[:, pi_, :] = g.static_hat.T
+    coef = np.ascontiguousarray(coef[:, :, ::-1]).reshape(3 * n_modes, -1)
+    static = np.ascontiguousarray(static[::-1]).reshape(-1)
+    for a in (coef, static):
+        a.setflags(write=False)
+    return coef, static
+
+
+@dataclass(frozen=True)
+class _RecordUnit:
+    """Record-window quantities of one force part per unit amplitude (process-independent).
+
+    fs (n, N) the modal force; force (N, 3) the force on the tool [N per unit]; static_tip,
+    static_work (N, 3) or None the static correction's displacements.
+    """
+
+    fs: np.ndarray
+    force: np.ndarray
+    static_tip: np.ndarray | None
+    static_work: np.ndarray | None
+
+
+@lru_cache(maxsize=8)
+def _record_unit(geo: CutGeometry) -> _RecordUnit:
+    """The record window of :func:`periodic_response` per unit amplitude (cached per geometry;
+    the modal force formed on the cutting samples only)."""
+    y_rec, chip, force, cut = _record_pattern(geo.machine, geo.coefficients, geo.n_phi, geo.part)
+    w, w_y, _ = geo.modal_at(cut)
+    fs = np.zeros((geo.basis.n_modes, geo.n_phi))
+    fs[:, cut] = (w + y_rec * w_y) * chip[cut]
+    static_tip = static_work = None
+    if geo.static_tool is not None:
+        s_tool, s_work = geo.static_at(slice(None), y_rec)
+        static_tip, static_work = chip[:, None] * s_tool, chip[:, None] * s_work
+    for a in (fs, static_tip, static_work):
+        if a is not None:
+            a.setflags(write=False)
+    return _RecordUnit(fs, force, static_tip, static_work)
+
+
+@lru_cache(maxsize=4)  # machine-only
+def _record_pattern(machine: Machine, coefficients: ForceCoefficients, n_phi: int, part: str):
+    """The record window's slide position [m], chip pattern (N,), force on the tool per unit
+    amplitude (N, 3) [N] and the samples where the pattern is not zero (cached per machine;
+    arrays read-only)."""
+    phases = 2 * np.pi * np.arange(n_phi) / n_phi
+    y_rec = record_slide(machine)
+    chip = chip_factor_cells(phases, y_rec, machine, 2 * np.pi / n_phi, part)
+    force = chip[:, None] * force_vector(phases, machine, coefficients, part)
+    cut = np.flatnonzero(chip)
+    for a in (chip, force, cut):
+        a.setflags(write=False)
+    return y_rec, chip, force, cut
