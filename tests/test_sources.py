@@ -7,7 +7,8 @@ from test_response import synthetic_basis
 
 from ufmt.errors import ModelError
 from ufmt.machining.process import Process
-from ufmt.machining.sources import SOURCES
+from ufmt.machining.sources import HEIGHT, REGISTRY, SOURCES
+from ufmt.model.machine import OPTIONAL_FIELDS
 from ufmt.model.schema import Model
 from ufmt.simulate import simulate
 
@@ -109,3 +110,14 @@ def test_switched_off_sources_report_none_and_unknown_names_fail():
     assert off.pv_by_source_nm["spindle_tilt"] == 0.0
     with pytest.raises(ModelError, match="did you mean 'straightness'"):
         run(sources=("straightnes",))
+
+
+def test_registry_names_declared_machine_fields_in_the_output_order():
+    """One record per source, in the order of every per-source output; each names only
+    declared [machine] fields (with their bands), and exactly the height sources have a
+    height function."""
+    assert SOURCES == ("dynamic", "feed_marks", "spindle_tilt", "error_motion", "straightness")
+    assert tuple(s.name for s in REGISTRY) == SOURCES
+    for source in REGISTRY:
+        assert all(field in OPTIONAL_FIELDS for field in source.fields), source.name
+        assert (source.height is not None) == (source.enters == HEIGHT), source.name

@@ -8,7 +8,7 @@ halfway point of the cut (workpiece centre under the spindle). They are not reco
 slide travels (frequencies and shapes change little while the slider moves on its long
 guideways); the response does follow the contact point, the material point of the workpiece
 under the tool, whose arm from the workpiece body's centre of mass changes with the slide
-(see :mod:`ufmt.machining.response`).
+(see :mod:`ufmt.machining.cut_geometry`).
 """
 
 from __future__ import annotations

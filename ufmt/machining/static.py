@@ -15,7 +15,7 @@ the assembled mass-stiffness model of the same file (:mod:`ufmt.assembled`): u =
 N^T f with N a basis of the motions the rigid hinges allow.
 
 For a force F on the tool at point p and -F on the workpiece at its material point q = p + Y y
-(:mod:`ufmt.machining.response`), the relative displacement is P(p, q) G_res P(p, q)^T F with
+(:mod:`ufmt.machining.cut_geometry`), the relative displacement is P(p, q) G_res P(p, q)^T F with
 P = [T_tool(p), -T_work(q)], T(x) = [I, -[(x - C)]x] the translation of point x of a rigid body.
 """
 
