@@ -1,5 +1,5 @@
 """Benchmark: 30 modes with shapes of the packaged UFMT model, MSTMM against the assembled
-model at equal accuracy and equal BLAS threads (issue 9).
+model at equal accuracy and equal BLAS threads.
 
 * MSTMM: ``solve_modes(model, count=30)`` (its own coarse assembled count and estimates,
   Newton roots to 1e-12, inverse-iteration shapes on every body).

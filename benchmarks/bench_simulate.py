@@ -1,7 +1,7 @@
-"""Benchmark (issues 4, 8, 9): evaluation cost on the packaged UFMT.
+"""Benchmark: evaluation cost on the packaged UFMT.
 
 1. ``ufmt.evaluate``, a new process (rpm, feed, depth) on a known design: periodic response
-   of both force parts + surfaces of every source + metrics; target <= 5 ms (issue 9);
+   of both force parts + surfaces of every source + metrics; target <= 5 ms;
 2. ``ufmt.evaluate``, a new design (head radial stiffness): modal basis (MSTMM, 30 modes) +
    static correction + the above; target <= 50 ms;
 3. of a new design, all but the modal solve (static correction, cut geometry, response and

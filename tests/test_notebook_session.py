@@ -1,4 +1,4 @@
-"""The README's five-line notebook session (issue 10's "done when"): load, modes, simulate,
+"""The README's five-line notebook session: load, modes, simulate,
 evaluate, plot work as written, and every object a notebook would echo has a repr under
 1,000 characters (oracle: the README's own lines; the repr bound of the API style)."""
 

@@ -23,7 +23,7 @@ from ufmt.model.schema import GROUND, Beam, Model, RigidBody
 from ufmt.plots import new_axes, new_figure
 
 DISPLAY_SHARE = 0.12  # default scale: largest drawn displacement = this share of the machine size
-ERROR_BAND_PERCENT = 3.0  # issue 3's target band, drawn on the error panel
+ERROR_BAND_PERCENT = 3.0  # the validation target band (|error| <= 3 %), drawn on the error panel
 GROUND_CUT_RATIO = 3.0  # a grounded body more than this times the rest's size is kept whole
 TICKS_PER_AXIS = 4
 MIN_AXIS_SHARE = 0.4  # each axis of the view spans at least this share of the largest
