@@ -30,6 +30,7 @@ from ufmt.tomlfile import read_toml
 
 
 def _sha256(path: Path) -> str:
+    """The first 16 hex digits of the file's SHA-256 (its fingerprint in the header)."""
     return hashlib.sha256(Path(path).read_bytes()).hexdigest()[:16]
 
 

@@ -32,8 +32,8 @@ from ufmt.model.machine import Machine
 from ufmt.model.schema import Model
 from ufmt.tomlfile import read_toml
 
-FIELDS = ("stiffness", "rotational_stiffness")
-COLUMNS = ("modal_test_hz", "mstmm_hz", "fem_hz")
+FIELDS = ("stiffness", "rotational_stiffness")  # the hinge fields a [[parameter]] scales
+COLUMNS = ("modal_test_hz", "mstmm_hz", "fem_hz")  # the Table 3 columns [targets] may match
 TOP_KEYS = (
     "prior",
     "reference",
