@@ -1,4 +1,4 @@
-"""Identification of hinge stiffnesses (ufmt.calibration.identify).
+"""Identification of hinge stiffnesses (ufmt.calibration: settings, reduced, identify, pipeline).
 
 Oracles: an independent eigen-solution (``ufmt.assembled.assembled_modes`` on the model with the
 stiffnesses written in) for the cheap affine model and for the "measured" frequencies of a
@@ -19,15 +19,14 @@ from threadpoolctl import threadpool_limits
 
 from ufmt.assembled import assembled_modes
 from ufmt.calibration.frequencies import Reference, ReferenceMode, Tag, modeset_from_dofs
-from ufmt.calibration.identify import (
+from ufmt.calibration.identify import identify
+from ufmt.calibration.pipeline import calibrate
+from ufmt.calibration.reduced import ReducedModel, apply_parameters
+from ufmt.calibration.settings import (
     Constraint,
     Parameter,
-    ReducedModel,
     Settings,
     Targets,
-    apply_parameters,
-    calibrate,
-    identify,
     load_calibration,
 )
 from ufmt.cli import main

@@ -14,11 +14,11 @@ from ufmt.calibration.response import implied_forces
 from ufmt.calibration.response_fit import (
     centre_rise_nm,
     fit_response,
-    read_response_settings,
     response_metrics,
     start_points,
     with_values,
 )
+from ufmt.calibration.settings import read_response_settings
 from ufmt.errors import StudyError
 from ufmt.machining.modal import modal_basis
 from ufmt.machining.process import Process

@@ -98,7 +98,7 @@ def test_committed_response_table_matches_the_packaged_model(model, result):
     """results/validation/response.csv (written by ``ufmt validate``): one row per paper
     quantity of the [response] targets, and its numbers are the packaged model's."""
     from ufmt.calibration.response import response_table
-    from ufmt.calibration.response_fit import read_response_settings
+    from ufmt.calibration.settings import read_response_settings
     from ufmt.machining.modal import basis_from_shapes
     from ufmt.tomlfile import read_toml
 

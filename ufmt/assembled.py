@@ -221,7 +221,7 @@ class AssembledModel:
     structure_key : what everything but the stiffness values is built from (the model's
         :meth:`~ufmt.model.schema.Model.structure_key` and the mesh arguments): the key of
         the cached stiffness-free parts, here (:class:`_Frame`) and in the solution
-        (:class:`_Structure`).
+        (:class:`Structure`).
     source : the model's file, for messages.
 
     M, massless and the arrays in body_dofs and node_positions are read-only: the designs of
@@ -540,7 +540,7 @@ def _zero_mode_count(am: AssembledModel) -> int:
     return 6 * len(names) - _rank(np.vstack([constraints, am.spring_directions]) @ carry)
 
 
-def _svd(a: np.ndarray, vectors: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
+def svd(a: np.ndarray, vectors: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
     """Singular values (descending) and right singular vectors (rows; None without
     ``vectors``) of a."""
 
@@ -575,7 +575,7 @@ def _times_basis(a: np.ndarray, basis: np.ndarray, unit=None) -> np.ndarray:
 
 
 @dataclass(frozen=True, eq=False)
-class _Structure:
+class Structure:
     """The parts of the eigen-solution that do not depend on the stiffness values: bases T_a,
     T_b (:func:`_split_massless`), T_a's unit columns, the zero-mode count, the Jacobi
     scaling S and the Cholesky factor of ``S M_a S`` (see :func:`_solve`)."""
@@ -589,18 +589,18 @@ class _Structure:
 
 
 STRUCTURES_KEPT = 8
-_STRUCTURES = Recent(STRUCTURES_KEPT)  # AssembledModel.structure_key -> _Structure
+_STRUCTURES = Recent(STRUCTURES_KEPT)  # AssembledModel.structure_key -> Structure
 
 
-def _structure(am: AssembledModel) -> _Structure:
-    """:class:`_Structure` of ``am``, built once per :attr:`AssembledModel.structure_key`
+def structure(am: AssembledModel) -> Structure:
+    """:class:`Structure` of ``am``, built once per :attr:`AssembledModel.structure_key`
     (mesh, constraints, spring directions and masses: the designs of a stiffness study
     share it)."""
     return _STRUCTURES.get(am.structure_key, lambda: _build_structure(am))
 
 
-def _build_structure(am: AssembledModel) -> _Structure:
-    """:class:`_Structure` of ``am`` (see :func:`_structure`)."""
+def _build_structure(am: AssembledModel) -> Structure:
+    """:class:`Structure` of ``am`` (see :func:`structure`)."""
     basis, independent = _constraint_basis(am.constraints, am.massless)
     t_a, t_b = _split_massless(am, basis, independent)
     _check_no_massless_mechanism(am, t_b)
@@ -610,14 +610,14 @@ def _build_structure(am: AssembledModel) -> _Structure:
     chol = np.linalg.cholesky(scale[:, None] * m_a * scale[None, :])
     for a in (t_a, t_b, scale, chol, *unit_a):
         a.flags.writeable = False
-    return _Structure(t_a, t_b, unit_a, _zero_mode_count(am), scale, chol)
+    return Structure(t_a, t_b, unit_a, _zero_mode_count(am), scale, chol)
 
 
-def _condensed(am: AssembledModel, structure: _Structure):
+def _condensed(am: AssembledModel, parts: Structure):
     """Massive and massless bases, ``F_a``, ``F_red = (I - P_b) F_a`` and the QR of F_b
-    (see :func:`_solve`); ``structure``: :func:`_structure` of ``am``."""
-    t_a, t_b = structure.t_a, structure.t_b
-    f_a = _times_basis(am.deformation, t_a, structure.unit_a)
+    (see :func:`_solve`); ``parts``: :func:`structure` of ``am``."""
+    t_a, t_b = parts.t_a, parts.t_b
+    f_a = _times_basis(am.deformation, t_a, parts.unit_a)
     f_b = _times_basis(am.deformation, t_b)
     scale_b = np.linalg.norm(f_b, axis=0)
     q_b, r_b = np.linalg.qr(f_b / scale_b)
@@ -630,9 +630,9 @@ def reduced_matrices(am: AssembledModel) -> tuple[np.ndarray, np.ndarray, int]:
     of zero-frequency modes: ``K_red = F_red^T F_red`` (exact static condensation of the
     massless dofs, see :func:`_solve`), ``M_red = T_a^T M T_a``. For eigen-solvers that
     take (K, M), e.g. ``scipy.linalg.eigh(K, M, subset_by_index=...)`` (benchmarks)."""
-    structure = _structure(am)
-    t_a, _, _, f_red, _ = _condensed(am, structure)
-    return f_red.T @ f_red, _reduced_mass(am, t_a, structure.unit_a), structure.zero_modes
+    parts = structure(am)
+    t_a, _, _, f_red, _ = _condensed(am, parts)
+    return f_red.T @ f_red, _reduced_mass(am, t_a, parts.unit_a), parts.zero_modes
 
 
 def _reduced_mass(am: AssembledModel, t_a: np.ndarray, unit) -> np.ndarray:
@@ -656,11 +656,11 @@ def _solve(am: AssembledModel, with_shapes: bool = True):
     ``S M_a S = L L^T``, omega are the singular values of ``F_red S L^-T`` and the right
     singular vectors v give ``a = S L^-T v`` (``a^T M_a a = 1``).
     """
-    structure = _structure(am)
-    t_a, t_b, f_a, f_red, (q_b, r_b, scale_b) = _condensed(am, structure)
-    zero_modes, scale, chol = structure.zero_modes, structure.scale, structure.chol
+    parts = structure(am)
+    t_a, t_b, f_a, f_red, (q_b, r_b, scale_b) = _condensed(am, parts)
+    zero_modes, scale, chol = parts.zero_modes, parts.scale, parts.chol
     n_modes = t_a.shape[1] - zero_modes
-    sigma, vh = _svd(sla.solve_triangular(chol, (f_red * scale).T, lower=True).T, with_shapes)
+    sigma, vh = svd(sla.solve_triangular(chol, (f_red * scale).T, lower=True).T, with_shapes)
     omega = sigma[:n_modes][::-1]
     if not with_shapes:
         return omega, None, zero_modes

@@ -10,11 +10,18 @@ Fig. 14 (:func:`ufmt.calibration.response_fit.centre_rise_nm`). The quantities a
 from __future__ import annotations
 
 import math
+from dataclasses import fields
 from pathlib import Path
 
 import pandas as pd
 
+from ufmt.calibration.response_fit import response_metrics
+from ufmt.calibration.settings import read_response_settings
+from ufmt.machining.cutting import DEFAULT_COEFFICIENTS, FORCE_PARTS, part_amplitude
+from ufmt.machining.modal import modal_basis
 from ufmt.machining.process import Process
+from ufmt.model.load import packaged_path
+from ufmt.model.machine import machine_of
 from ufmt.model.schema import Model
 from ufmt.tomlfile import read_toml
 
@@ -39,11 +46,6 @@ def implied_forces(model: Model, metrics: dict, process: Process) -> dict[str, d
     ``force_peak_n`` metric (largest simulated force magnitude) also its value and its ratio to
     the chip area. Literature for diamond on KDP: 0.1-1 N, 1-5 GPa.
     """
-    from dataclasses import fields
-
-    from ufmt.machining.cutting import DEFAULT_COEFFICIENTS, FORCE_PARTS, part_amplitude
-    from ufmt.model.machine import machine_of
-
     machine = machine_of(model)
     area = part_amplitude(process, machine, "area")
     amplitude = {p: part_amplitude(process, machine, p) for p in FORCE_PARTS}
@@ -82,10 +84,6 @@ def response_table(
     Columns: quantity, metric, unit, paper, ours, ours_periodic, error_percent, reproduced,
     fitted, source.
     """
-    from ufmt.calibration.response_fit import read_response_settings, response_metrics
-    from ufmt.machining.modal import modal_basis
-    from ufmt.model.load import packaged_path
-
     ref = read_toml(reference_path)
     process = reference_process(ref)
     settings_path = packaged_path("calibration.toml") if settings_path is None else settings_path

@@ -77,7 +77,7 @@ def register(subparsers) -> None:
 
 def cmd_calibrate(args) -> int:
     """Identify, fit the response parameters, write the model and the log, print the result."""
-    from ufmt.calibration.identify import calibrate
+    from ufmt.calibration.pipeline import calibrate
 
     t0 = time.perf_counter()
     run = calibrate(
