@@ -23,6 +23,7 @@ import numpy as np
 from ufmt.machining.basis import ModalBasis
 from ufmt.machining.cut_geometry import DEFAULT_N_PHI, DEFAULT_TABLE_ROWS, cut_geometry
 from ufmt.machining.cutting import DEFAULT_COEFFICIENTS, FORCE_PARTS, ForceCoefficients
+from ufmt.machining.instruments import Interferometer, interferometer_metrics, scallop_roughness
 from ufmt.machining.periodic_path import periodic_response
 from ufmt.machining.process import Process
 from ufmt.machining.recurrence import DEFAULT_ZETA, modal_damping
@@ -55,10 +56,15 @@ class SimulationResult:
     the record window's spindle periods of the largest |z_re| in each; the window sits mid-cut,
     at :func:`ufmt.machining.response.record_slide`), tip_acc_peak_mm_s2 (the same for the
     tool-tip z acceleration), force_peak_n (largest cutting-force magnitude in the window),
-    force_scale. pv_by_source_nm: source -> PV [nm] of the surface with that source alone
-    (None where switched off). sources: the switched-on sources. surface: every source
-    (the metrics' surface); smooth_surface: the same without the feed marks, whose scallops
-    (wavelength (v/f) cos(phi), tens of um) the grid only samples (the bands and the map use it).
+    force_scale; pv_measured_nm and rms_measured_nm (flatness as the interferometer reports it:
+    clear aperture, piston and tilt removed, scallops seen as their mean) and roughness_pv_nm,
+    roughness_rq_nm (the feed marks), :mod:`ufmt.machining.instruments`. n_modes: modes in the
+    basis; basis_cutoff_hz: its highest natural frequency [Hz]; samples_per_rev: samples per
+    spindle revolution of the response (``n_phi``). pv_by_source_nm: source -> PV [nm] of the
+    surface with that source alone (None where switched off). sources: the switched-on
+    sources. surface: every source (the metrics' surface); smooth_surface: the same without
+    the feed marks, whose scallops (wavelength (v/f) cos(phi), tens of um) the grid only
+    samples (the bands and the map use it).
     """
 
     process: Process
@@ -72,6 +78,9 @@ class SimulationResult:
     metrics: dict[str, float]
     pv_by_source_nm: dict[str, float | None]
     sources: tuple[str, ...]
+    n_modes: int
+    basis_cutoff_hz: float
+    samples_per_rev: int
 
     def __repr__(self) -> str:
         p = self.process
@@ -92,6 +101,9 @@ class SimulationResult:
             "rpm": p.rpm,
             "feed_mm_min": p.feed_mm_min,
             "depth_um": p.depth_um,
+            "n_modes": self.n_modes,
+            "basis_cutoff_hz": self.basis_cutoff_hz,
+            "samples_per_rev": self.samples_per_rev,
             "sources": list(self.sources),
             **{k: _json_number(v) for k, v in self.metrics.items()},
             "pv_by_source_nm": {k: _json_number(v) for k, v in self.pv_by_source_nm.items()},
@@ -294,6 +306,7 @@ def _run(
         metrics["psd2_rms_nm"] = _psd2_rms(response, machine, process, acting, options)
     pv_by_source = _pv_by_source(sources, passes, terms, metrics["pv_nm"])
     metrics.update(_record_metrics(response, force_scale))
+    metrics.update(_instrument_metrics(machine, process, band_surface, scallops, total, options))
     return SimulationResult(
         process=process,
         method=options.method,
@@ -306,7 +319,32 @@ def _run(
         metrics=metrics,
         pv_by_source_nm=pv_by_source,
         sources=sources,
+        n_modes=basis.n_modes,
+        basis_cutoff_hz=float(basis.omega[-1] / (2 * np.pi)),
+        samples_per_rev=options.n_phi,
     )
+
+
+def _instrument_metrics(
+    machine: Machine,
+    process: Process,
+    smooth: Surface,
+    scallops: bool,
+    total: Surface,
+    options: SimulationOptions,
+) -> dict[str, float]:
+    """The flatness the interferometer reports and the feed marks' roughness [nm]
+    (:mod:`ufmt.machining.instruments`; roughness 0 where the feed marks are off)."""
+    feed = process.feed_per_rev_m
+    instrument = Interferometer(aperture_margin=options.aperture_margin)
+    out = interferometer_metrics(
+        smooth, machine, feed, scallops=total if scallops else None, instrument=instrument
+    )
+    if scallops:
+        out.update(scallop_roughness(machine, feed, options.aperture_margin))
+    else:
+        out.update(roughness_pv_nm=0.0, roughness_rq_nm=0.0)
+    return out
 
 
 def _response(

@@ -14,6 +14,7 @@ DEFAULT_FRF_DIR = Path("results") / "frf"
 def register(subparsers) -> None:
     """Add the ``simulate`` and ``frf`` sub-parsers."""
     from ufmt.cli.common import positive
+    from ufmt.machining.cut_geometry import DEFAULT_N_PHI
     from ufmt.machining.sources import SOURCES
     from ufmt.machining.surface import DEFAULT_APERTURE_MARGIN, DEFAULT_PSD2_PATCH
 
@@ -29,6 +30,13 @@ def register(subparsers) -> None:
         help="periodic steady state (fast) or whole-workpiece time domain (exact)",
     )
     p.add_argument("--modes", type=positive(int), default=30, help="modes kept (30)")
+    p.add_argument(
+        "--samples-per-rev",
+        type=positive(int, at_most=2**16),
+        default=DEFAULT_N_PHI,
+        metavar="N",
+        help=f"response samples per spindle revolution ({DEFAULT_N_PHI})",
+    )
     p.add_argument(
         "--zeta",
         type=positive(float, below=1.0),
@@ -93,6 +101,7 @@ def cmd_simulate(args) -> int:
         model,
         process,
         n_modes=args.modes,
+        n_phi=args.samples_per_rev,
         method=args.method,
         sources=[s.strip() for s in args.sources.split(",") if s.strip()],
         static_correction=not args.no_static,
@@ -108,7 +117,9 @@ def cmd_simulate(args) -> int:
         print(dumps_strict(summary))
         return 0
     print(
-        f"{model.name}: {args.rpm:g} rpm, {args.feed:g} mm/min, {args.depth:g} um ({args.method})"
+        f"{model.name}: {args.rpm:g} rpm, {args.feed:g} mm/min, {args.depth:g} um ({args.method}; "
+        f"{result.n_modes} modes to {result.basis_cutoff_hz:.0f} Hz, "
+        f"{result.samples_per_rev} samples/rev)"
     )
     for key, value in result.metrics.items():
         print(f"  {key:<22} {value:12.4f}")

@@ -1,0 +1,132 @@
+"""Instruments as models: the numbers a shop's instruments report of the machined surface.
+
+The paper's Table 4 PV is a flatness measured by a full-aperture laser interferometer, not the
+maximum minus the minimum of the cut's every point. Two instruments are modelled here.
+
+Interferometer (:class:`Interferometer`, :func:`interferometer_metrics`): a Fizeau
+interferometer images the plate's clear aperture on a camera; every pixel averages the surface
+over its footprint, and the flatness is reported with piston and tilt removed (they are the
+alignment of the plate against the reference flat, not a property of the surface).
+
+* Lateral resolution ``pixel`` [m], default 0.5 mm: a 600 mm aperture (the size used for large
+  KDP plates) on a 1k-2k camera resolves 0.3-0.6 mm per pixel (e.g. Zygo's large-aperture
+  Fizeau systems; ISO 10110-5 flatness with piston and tilt removed). The surface grid of
+  :mod:`ufmt.machining.surface` is 1-1.25 mm, so every feature the grid holds is resolved.
+* Tool-nose scallops: their spacing is the feed per revolution times cos(phi) (50 um at the
+  reference cut). Where it lies below half a pixel the instrument sees only their local
+  mean, h(phi) / 3 above the cusps for the parabolic scallop of height
+  h = (v/f)^2 cos^2(phi) / (8 r_n) (mean of min(s, 1 - s)^2 over the spacing, times
+  4 h); where it does not (very coarse feeds), the scallops are measured in full.
+* Clear aperture: the plate less ``aperture_margin`` [m] at every edge (default 5 mm, the
+  same as the aperture metrics of :func:`ufmt.machining.surface.surface_metrics`).
+
+Roughness (:func:`scallop_roughness`): a stylus or white-light profiler across the feed marks
+reports their PV and Rq. For the parabolic scallop of height h, PV = h and
+Rq = 2 h / (3 sqrt 5) (the RMS about the mean of h (2 s)^2, |s| <= 1/2); both are reported at
+the largest h inside the clear aperture (the arc's point nearest phi = 0).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ufmt.machining.surface import DEFAULT_APERTURE_MARGIN, Surface
+from ufmt.model.machine import Machine
+
+#: Lateral resolution [m] of the modelled interferometer (module docstring).
+DEFAULT_PIXEL = 0.5e-3
+#: Scallops are seen as their mean where their spacing is below this share of a pixel.
+SCALLOP_UNRESOLVED_SHARE = 0.5
+
+
+@dataclass(frozen=True)
+class Interferometer:
+    """A full-aperture flatness interferometer: lateral resolution ``pixel`` [m] and clear
+    aperture edge exclusion ``aperture_margin`` [m]; piston and tilt are always removed."""
+
+    pixel: float = DEFAULT_PIXEL
+    aperture_margin: float = DEFAULT_APERTURE_MARGIN
+
+    def __post_init__(self):
+        for name in ("pixel", "aperture_margin"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value >= 0 and (name != "pixel" or value > 0)):
+                raise ValueError(f"interferometer {name} must be a finite length [m], got {value}")
+
+    def resolves_scallops(self, feed_per_rev: float) -> bool:
+        """True if scallops ``feed_per_rev`` [m] apart are resolved (spacing >= half a pixel)."""
+        return feed_per_rev >= SCALLOP_UNRESOLVED_SHARE * self.pixel
+
+
+def scallop_height(x: np.ndarray, machine: Machine, feed_per_rev: float) -> np.ndarray:
+    """Scallop height h(x) = (v/f)^2 cos^2(phi) / (8 r_n) [m] along the plate's x [m], phi the
+    leading arc's angle over x (eq. 4.1)."""
+    s = machine.sense * (np.asarray(x, dtype=float) - machine.offset_x) / machine.tool_radius
+    cos2 = 1.0 - np.clip(s, -1.0, 1.0) ** 2
+    return feed_per_rev**2 * cos2 / (8.0 * machine.nose_radius)
+
+
+def _aperture_masks(surface: Surface, margin: float) -> tuple[np.ndarray, np.ndarray]:
+    """Column (Nx,) and row (Ny,) masks of the clear aperture."""
+    x, y = surface.x, surface.y
+    half_x = (x[-1] - x[0]) / 2 - margin
+    half_y = (y[-1] - y[0]) / 2 - margin
+    if half_x <= 0 or half_y <= 0:
+        raise ValueError(f"aperture_margin {margin!r} m leaves no clear aperture")
+    cx, cy = (x[-1] + x[0]) / 2, (y[-1] + y[0]) / 2
+    return np.abs(x - cx) <= half_x + 1e-12, np.abs(y - cy) <= half_y + 1e-12
+
+
+def _plane_removed(x: np.ndarray, y: np.ndarray, z: np.ndarray, fit_rows: np.ndarray):
+    """z (Ny, Nx) less its least-squares plane fitted on the rows ``fit_rows`` (evenly spaced,
+    so every fitted point stands for one equal pixel)."""
+    yy, xx = np.meshgrid(y[fit_rows], x, indexing="ij")
+    design = np.column_stack([np.ones(xx.size), xx.ravel(), yy.ravel()])
+    coef, *_ = np.linalg.lstsq(design, z[fit_rows].ravel(), rcond=None)
+    return z - (coef[0] + coef[1] * x[None, :] + coef[2] * y[:, None])
+
+
+def interferometer_metrics(
+    smooth: Surface,
+    machine: Machine,
+    feed_per_rev: float,
+    *,
+    scallops: Surface | None = None,
+    instrument: Interferometer = Interferometer(),
+) -> dict[str, float]:
+    """Flatness as the interferometer reports it [nm]: ``pv_measured_nm``, ``rms_measured_nm``.
+
+    smooth: the surface of every switched-on source but the feed marks; scallops: the surface
+    with the feed marks too (None where the feed marks are switched off). feed_per_rev [m].
+    """
+    in_x, in_y = _aperture_masks(smooth, instrument.aperture_margin)
+    if scallops is None:
+        z = smooth.z
+    elif instrument.resolves_scallops(feed_per_rev):
+        z = scallops.z
+    else:
+        z = smooth.z + scallop_height(smooth.x, machine, feed_per_rev)[None, :] / 3.0
+    x, y = smooth.x[in_x], smooth.y[in_y]
+    flat = _plane_removed(x, y, z[np.ix_(in_y, in_x)], smooth.core_rows[in_y])
+    core = flat[smooth.core_rows[in_y]]
+    return {
+        "pv_measured_nm": float(flat.max() - flat.min()) * 1e9,
+        "rms_measured_nm": float(np.sqrt(np.mean(core**2))) * 1e9,
+    }
+
+
+def scallop_roughness(
+    machine: Machine, feed_per_rev: float, aperture_margin: float = DEFAULT_APERTURE_MARGIN
+) -> dict[str, float]:
+    """Feed-mark roughness [nm] at the largest scallop inside the clear aperture:
+    ``roughness_pv_nm`` (h) and ``roughness_rq_nm`` (2 h / (3 sqrt 5))."""
+    half = machine.workpiece_size[0] / 2 - aperture_margin
+    if half <= 0:
+        raise ValueError(f"aperture_margin {aperture_margin!r} m leaves no clear aperture")
+    # |x - s_x| is smallest at the spindle axis if it lies over the aperture, else at its edge
+    x = float(np.clip(machine.offset_x, -half, half))
+    h = float(scallop_height(np.array([x]), machine, feed_per_rev)[0])
+    return {"roughness_pv_nm": h * 1e9, "roughness_rq_nm": 2.0 * h / (3.0 * math.sqrt(5.0)) * 1e9}
