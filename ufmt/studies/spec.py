@@ -287,16 +287,19 @@ class StudyContext:
             raise StudyError(str(exc)) from None
 
     def fail(self, field: str, problem: str) -> NoReturn:
+        """Raise the one-line StudyError naming the file and ``field``."""
         prefix = f"{self.source}: field '{field}': " if field else f"{self.source}: "
         raise StudyError(" ".join(f"{prefix}{problem}".split()))
 
 
 def name_hint(word: str, choices, what: str) -> str:
+    """ "did you mean ...?" for the closest of ``choices``, else the list of ``what``."""
     close = closest_name(word, choices, cutoff=0.5)
     return f"did you mean {close!r}?" if close else f"{what}: {', '.join(choices)}"
 
 
 def check_keys(where: StudyContext, prefix: str, table: Mapping, valid) -> None:
+    """Every key of ``table`` is one of ``valid`` (``prefix`` names the table)."""
     for key in table:
         if key not in valid:
             where.fail(
@@ -311,6 +314,7 @@ def _string(where: StudyContext, field: str, value, empty: bool = False) -> str:
 
 
 def read_real(where: StudyContext, field: str, value, minimum: float | None = None) -> float:
+    """A finite number (not a bool), at least ``minimum`` if given."""
     if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value):
         where.fail(field, f"expected a finite number, got {value!r}")
     if minimum is not None and value < minimum:
@@ -319,6 +323,7 @@ def read_real(where: StudyContext, field: str, value, minimum: float | None = No
 
 
 def read_positive(where: StudyContext, field: str, value) -> float | None:
+    """A finite number > 0, or None if not given."""
     if value is None:
         return None
     value = read_real(where, field, value)
@@ -330,6 +335,7 @@ def read_positive(where: StudyContext, field: str, value) -> float | None:
 def read_count(
     where: StudyContext, field: str, value, minimum: int, maximum: int | None = None
 ) -> int:
+    """An integer (not a bool) from ``minimum`` to ``maximum`` (a number of points)."""
     if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
         where.fail(field, f"expected an integer >= {minimum}, got {value!r}")
     if maximum is not None and value > maximum:
@@ -422,6 +428,7 @@ def _axis(where: StudyContext, label: str, table: Mapping) -> Axis:
 
 
 def read_axes(where: StudyContext, label: str, value, required: bool) -> list[Axis]:
+    """The ``[[axis]]`` tables at ``label``, each over a different parameter."""
     tables = _tables(where, label, value, required)
     axes = [_axis(where, f"{label}[{i}]", t) for i, t in enumerate(tables)]
     check_unique(where, label, [a.parameter for a in axes])
@@ -429,6 +436,7 @@ def read_axes(where: StudyContext, label: str, value, required: bool) -> list[Ax
 
 
 def read_grids(where: StudyContext, value) -> list[Group]:
+    """The named ``[[grid]]`` tables of a sweep: two or more axes each, crossed."""
     groups = []
     for i, table in enumerate(_tables(where, "grid", value, required=False)):
         check_keys(where, f"grid[{i}].", table, _GRID_FIELDS)
@@ -448,6 +456,7 @@ def read_grids(where: StudyContext, value) -> list[Group]:
 
 
 def read_bounds(where: StudyContext, value, required: bool) -> tuple[Bound, ...]:
+    """The ``[[bound]]`` tables (range or scale), each over a different parameter."""
     bounds = []
     for i, table in enumerate(_tables(where, "bound", value, required)):
         check_keys(where, f"bound[{i}].", table, _BOUND_FIELDS)
@@ -464,6 +473,7 @@ def read_bounds(where: StudyContext, value, required: bool) -> tuple[Bound, ...]
 
 
 def check_unique(where: StudyContext, field: str, names: list[str]) -> None:
+    """No name appears twice in ``names`` (the entries of ``field``)."""
     for name in names:
         if names.count(name) > 1:
             where.fail(field, f"{name!r} appears more than once")
