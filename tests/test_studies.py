@@ -807,6 +807,8 @@ def test_the_code_fingerprint_covers_every_physics_module_an_evaluation_loads(tm
     ``ufmt.fingerprint.PHYSICS`` or in NOT_PHYSICS, and the only packaged data file read is
     the model, whose content keys the cache on its own."""
     assert all((PACKAGE / entry).exists() for entry in PHYSICS)
+    tops = {path.relative_to(PACKAGE).parts[0] for path in physics_sources()}
+    assert not tops & {"studies", "plots", "report.py", "cli", "calibration"}  # not physics
     env = {**os.environ, "UFMT_CACHE_DIR": "", "MPLBACKEND": "Agg"}
     result = subprocess.run(
         [sys.executable, "-c", EVALUATION_FOOTPRINT],
