@@ -3,11 +3,11 @@ content, a Python file's syntax tree, and the physics code.
 
 The physics code is an allow-list, :data:`PHYSICS`: the modules whose source can change what
 :func:`ufmt.evaluate` returns. An edit anywhere else (studies, plots, report, cli,
-calibration, the evaluation cache, this module) keeps every cached record and every resumable
-study row. ``tests/test_studies.py`` checks that the list covers every ufmt module an
-evaluation loads, apart from the few that cannot change a record (named there with their
-reason). The only file an evaluation reads besides its modules is the model file, whose
-content keys the cache on its own (:func:`model_sha256`).
+calibration, the evaluation cache) keeps every cached record and every resumable study row.
+``tests/test_studies.py`` checks that the list covers every ufmt module an evaluation loads,
+apart from the few that cannot change a record (named there with their reason). The only file
+an evaluation reads besides its modules is the model file, whose content keys the cache on its
+own (:func:`model_sha256`).
 """
 
 from __future__ import annotations
