@@ -145,7 +145,7 @@ def main() -> None:
 
 def sweep_ms(model, step: float, tracked: bool) -> float:
     """Mean time per design [ms] of 30 modes with shapes over a stiffness sweep."""
-    from ufmt.evaluate import apply_design, design_value
+    from ufmt.design import apply_design, design_value
 
     value = design_value(model, SWEEP_PARAMETER)
     designs = [
@@ -161,12 +161,12 @@ def sweep_ms(model, step: float, tracked: bool) -> float:
 def evaluate_ms(step: float) -> tuple[float, float]:
     """Median ``ufmt.evaluate`` time [ms] of new designs and the share of its modal solve
     (median ``solve_modes(count=30)`` of other new designs over it; no profiler running)."""
-    from ufmt.evaluate import apply_design
+    from ufmt.design import apply_design, design_value
 
     ev = importlib.import_module("ufmt.evaluate")
     os.environ["UFMT_CACHE_DIR"] = ""  # no disk cache: every design is computed
     base, _ = ev.resolve_model(None)
-    value = ev.design_value(base, SWEEP_PARAMETER)
+    value = design_value(base, SWEEP_PARAMETER)
     ev.evaluate({}, {})  # warm up: model, tables, imports
     evaluate_s, modal_s = [], []
     for i in range(1, SWEEP_DESIGNS + 1):

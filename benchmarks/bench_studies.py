@@ -54,8 +54,9 @@ def synthetic_pv(design, process, model=None):
 def _time_run(function: str, jobs: int, n: int, low: float, high: float, root: Path) -> float:
     """Wall time [s] of one sweep over ``n`` designs, stiffness ``low``-``high`` x calibrated
     (x 1e6 N m/rad for the synthetic function, which needs no model)."""
-    from ufmt.studies.runner import Execution, run_study
-    from ufmt.studies.spec import parse_study
+    from ufmt.studies.load import parse_study
+    from ufmt.studies.parallel import Execution
+    from ufmt.studies.runner import run_study
 
     name = f"bench-j{jobs}-{low:g}"
     path = root / f"{name}.toml"

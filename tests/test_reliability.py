@@ -1,4 +1,4 @@
-"""Reliability (issue 11): inputs refused before any point runs, loud failures, safe concurrent
+"""Reliability: inputs refused before any point runs, loud failures, safe concurrent
 runs, a cache that cannot execute code, resume that keeps what it can, one-line errors.
 
 Oracles: the loader's documented rules and LIMITS, byte-identical tables against an
@@ -27,8 +27,8 @@ from hypothesis import strategies as st
 import ufmt
 from ufmt import evaluate_cache
 from ufmt.cli import main
+from ufmt.design import apply_design
 from ufmt.errors import ModelError, StudyError
-from ufmt.evaluate import apply_design
 from ufmt.jsonout import dumps_strict
 from ufmt.model.load import (
     LIMITS,
@@ -38,9 +38,12 @@ from ufmt.model.load import (
     model_from_dict,
     model_to_toml,
 )
+from ufmt.studies.kinds import KINDS
+from ufmt.studies.load import load_study, parse_study
+from ufmt.studies.locking import locked
 from ufmt.studies.outputs import read_meta
-from ufmt.studies.runner import Execution, _locked, planned_points, run_study
-from ufmt.studies.spec import load_study, parse_study
+from ufmt.studies.parallel import Execution
+from ufmt.studies.runner import run_study
 
 HERE = Path(__file__).resolve()
 REPO = HERE.parents[1]
@@ -353,7 +356,7 @@ def test_failed_points_exit_1_with_a_summary_and_no_plot_traceback(tmp_path):
 
 def test_a_second_run_into_locked_results_refuses_with_one_line(tmp_path):
     study = study_file(tmp_path, "locked", RPM_SWEEP.format(n=3))
-    with _locked(tmp_path / "r" / "locked"):
+    with locked(tmp_path / "r" / "locked"):
         with pytest.raises(StudyError, match="another ufmt run .* is writing these results"):
             run_study(study, Execution(jobs=1), results=tmp_path / "r", progress=False)
     _run(study, tmp_path / "r")
@@ -564,7 +567,7 @@ def test_progress_totals_are_fixed_in_advance(tmp_path):
         "parameter = 'depth_um'\nvalues = [2.0, 4.0, 6.0]\n",
         tmp_path / "p.toml",
     )
-    assert planned_points(sweep) == 7 + 2 * 3
+    assert KINDS[sweep.kind].planned_points(sweep) == 7 + 2 * 3
     body = """
     kind = "optimise-process"
     [optimiser]
@@ -575,7 +578,8 @@ def test_progress_totals_are_fixed_in_advance(tmp_path):
     study = study_file(tmp_path, "opt", body, "line_pv")
     out = _run(study, tmp_path / "r")
     requested = read_meta(out)["run"]
-    budget = planned_points(load_study(study))
+    parsed = load_study(study)
+    budget = KINDS[parsed.kind].planned_points(parsed)
     assert requested["points_new"] + requested["points_reused"] <= budget
 
 

@@ -7,6 +7,7 @@ study files point at them with ``function = "<this file>:<name>"``. The physics-
 
 from __future__ import annotations
 
+import json
 import math
 import os
 import re
@@ -21,10 +22,13 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from ufmt.design import apply_design, design_value
 from ufmt.errors import StudyError
-from ufmt.evaluate import apply_design, design_value, evaluate
+from ufmt.evaluate import evaluate
+from ufmt.fingerprint import PACKAGE, PHYSICS, physics_sources
 from ufmt.model.load import design_lines, load_model, packaged_path
 from ufmt.recent import Recent
+from ufmt.studies.load import load_study, parse_study
 from ufmt.studies.optimise import (
     Space,
     fit_convex_quadratic,
@@ -35,8 +39,8 @@ from ufmt.studies.optimise import (
     trust_region_refine,
 )
 from ufmt.studies.outputs import read_meta, read_table
-from ufmt.studies.runner import Execution, run_study
-from ufmt.studies.spec import load_study, parse_study
+from ufmt.studies.parallel import Execution
+from ufmt.studies.runner import run_study
 
 HERE = Path(__file__).resolve()
 REPO = HERE.parents[1]
@@ -741,21 +745,19 @@ def test_evaluate_reuses_the_basis_and_caches_on_the_model_content(tmp_path, mon
 
     from records import same_record  # tests/ is not on the path of the study subprocesses
 
-    import ufmt.machining.modal
-
     evaluate_module = importlib.import_module("ufmt.evaluate")  # ufmt.evaluate is the function
     monkeypatch.setenv("UFMT_CACHE_DIR", str(tmp_path / "cache"))
     monkeypatch.setattr(evaluate_module, "_BASES", Recent(evaluate_module.BASIS_CACHE))
     model = tmp_path / "ufmt.toml"
     model.write_bytes(packaged_path().read_bytes())
     computed = []
-    real = ufmt.machining.modal.modal_basis
+    real = evaluate_module.modal_basis
 
     def counting(*args):
         computed.append(args)
         return real(*args)
 
-    monkeypatch.setattr(ufmt.machining.modal, "modal_basis", counting)
+    monkeypatch.setattr(evaluate_module, "modal_basis", counting)
     first = evaluate({}, {}, model)
     slower = evaluate({}, {"rpm": 250.0}, model)
     assert first["status"] == slower["status"] == "ok"
@@ -765,7 +767,7 @@ def test_evaluate_reuses_the_basis_and_caches_on_the_model_content(tmp_path, mon
     def broken(*args):
         raise RuntimeError("modal basis must not be recomputed")
 
-    monkeypatch.setattr(ufmt.machining.modal, "modal_basis", broken)
+    monkeypatch.setattr(evaluate_module, "modal_basis", broken)
     monkeypatch.setattr(evaluate_module, "_BASES", Recent(evaluate_module.BASIS_CACHE))
     cached = evaluate({}, {}, model)  # served from the disk cache
     assert same_record(cached, first)  # psd2_rms_nm is NaN (unresolved band) in both
@@ -776,3 +778,59 @@ def test_evaluate_reuses_the_basis_and_caches_on_the_model_content(tmp_path, mon
     model.write_text(re.sub(r"force_scale = .*", "force_scale = 1.5", text), encoding="utf-8")
     changed = evaluate({}, {}, model)
     assert changed["status"] == "error" and "must not be recomputed" in changed["message"]
+
+
+#: ufmt modules an evaluation loads that cannot change its record, with the reason; every
+#: other one must be in the physics allow-list of the code fingerprint.
+NOT_PHYSICS = {
+    "ufmt": "the package root only binds the public entry points",
+    "ufmt.evaluate_cache": "stores records under the key the fingerprint is part of",
+    "ufmt.fingerprint": "computes that key",
+    "ufmt.recent": "a bounded memo of recent results: what it keeps, not what they are",
+}
+EVALUATION_FOOTPRINT = """
+import json, os, sys
+import ufmt
+
+opened = []
+sys.addaudithook(lambda event, args: opened.append(args[0]) if event == "open" else None)
+assert ufmt.evaluate({}, {})["status"] == "ok"
+modules = {m: getattr(sys.modules[m], "__file__", None) for m in list(sys.modules)}
+files = sorted({os.path.realpath(p) for p in opened if isinstance(p, str)})
+print(json.dumps({"modules": modules, "files": files}))
+"""
+
+
+def test_the_code_fingerprint_covers_every_physics_module_an_evaluation_loads(tmp_path):
+    """Oracle: ``sys.modules`` and the files opened in a fresh interpreter after one evaluation
+    (disk cache off, so the physics runs): every ufmt module loaded is in the allow-list of
+    ``ufmt.fingerprint.PHYSICS`` or in NOT_PHYSICS, and the only packaged data file read is
+    the model, whose content keys the cache on its own."""
+    assert all((PACKAGE / entry).exists() for entry in PHYSICS)
+    tops = {path.relative_to(PACKAGE).parts[0] for path in physics_sources()}
+    assert not tops & {"studies", "plots", "report.py", "cli", "calibration"}  # not physics
+    env = {**os.environ, "UFMT_CACHE_DIR": "", "MPLBACKEND": "Agg"}
+    result = subprocess.run(
+        [sys.executable, "-c", EVALUATION_FOOTPRINT],
+        cwd=tmp_path,
+        env=env,
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    footprint = json.loads(result.stdout)
+    covered = {path.resolve() for path in physics_sources()}
+    loaded = {
+        name: Path(file).resolve()
+        for name, file in footprint["modules"].items()
+        if name == "ufmt" or name.startswith("ufmt.")
+    }
+    assert PACKAGE == Path(footprint["modules"]["ufmt"]).resolve().parent
+    outside = sorted(n for n, f in loaded.items() if f not in covered and n not in NOT_PHYSICS)
+    assert not outside, (
+        f"add to ufmt.fingerprint.PHYSICS (or NOT_PHYSICS, with a reason): {outside}"
+    )
+    assert "ufmt.machining.modal" in loaded  # the physics ran (loaded on the first basis)
+    data = [f for f in footprint["files"] if Path(f).suffix not in (".py", ".pyc")]
+    data = [f for f in data if Path(f).is_relative_to(PACKAGE)]
+    assert data == [str(packaged_path().resolve())]

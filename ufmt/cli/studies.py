@@ -78,7 +78,8 @@ def run_study_cli(args: argparse.Namespace) -> int:
         A bad study file or argument (the caller prints its one-line message).
     """
     from ufmt.studies.outputs import read_meta
-    from ufmt.studies.runner import Execution, run_study
+    from ufmt.studies.parallel import Execution
+    from ufmt.studies.runner import run_study
 
     out_dir = run_study(
         args.study,

@@ -1,4 +1,4 @@
-"""Plots of study results, read from ``results/<study>/`` (never recomputed).
+"""Plots of study results, drawn from the tables of ``results/<study>/`` (never recomputed).
 
 * sweeps: PV against each swept parameter (log axis for stiffnesses, the calibrated value
   marked, the region outside the paper's Table 1 shaded for process parameters), as the
@@ -9,14 +9,11 @@
   labelled with its recipe; for designs the trade-off of PV against stiffness cost;
 * sensitivity: bar chart of the indices with their 95 % confidence intervals.
 
-Each ``plot_*`` takes tables (and an optional ``ax``) and returns the Figure;
-:func:`plot_study` draws every figure of a study folder and writes them as PNGs.
+Each ``plot_*`` takes tables (and an optional ``ax``) and returns the Figure; each study
+kind's module (:mod:`ufmt.studies.kinds`) reads its tables and picks its figures.
 """
 
 from __future__ import annotations
-
-import json
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -24,19 +21,9 @@ from matplotlib.colors import LogNorm
 from matplotlib.figure import Figure
 from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
 
-from ufmt.evaluate import SOURCE_METRICS
+from ufmt.design import SOURCE_METRICS
 from ufmt.machining.process import TABLE1_RANGE
-from ufmt.plots import new_axes, new_figure, save_figure
-from ufmt.studies.outputs import (
-    CONVERGENCE,
-    INDICES,
-    META,
-    OPTIMA,
-    PARETO,
-    POINTS,
-    parameter_label,
-    read_table,
-)
+from ufmt.plots import new_axes, new_figure
 
 PANEL = (4.2, 3.2)  # inches per panel
 MAX_LABELLED_CELLS = 64  # PV maps print each cell's value up to this many cells
@@ -48,32 +35,27 @@ OPTIMUM_LABELS = {
     "calibrated": "calibrated design",
     "optimum": "optimum design",
 }
+_UNITS = (  # column-name suffix -> unit of an axis label
+    ("_Nm_rad", "N m/rad"),
+    ("_N_m", "N/m"),
+    ("_mm_min", "mm/min"),
+    ("_um", "µm"),
+    ("_nm", "nm"),
+    ("_hz", "Hz"),
+    ("_mm", "mm"),
+    ("_min", "min"),
+)
 
 
-def plot_study(out_dir: str | Path) -> list[Path]:
-    """Draw every plot of the study in ``out_dir`` and write them there; returns the PNGs."""
-    out_dir = Path(out_dir)
-    return [save_figure(fig, out_dir / name) for name, fig in study_figures(out_dir).items()]
-
-
-def study_figures(out_dir: str | Path) -> dict[str, Figure]:
-    """Every figure of the study in ``out_dir``, by PNG file name (read from its tables)."""
-    out_dir = Path(out_dir)
-    meta = json.loads((out_dir / META).read_text(encoding="utf-8"))
-    points = read_table(out_dir / POINTS)
-    kind = meta["kind"]
-    if kind in ("sweep", "grid"):
-        return sweep_figures(points, meta)
-    if kind == "sensitivity":
-        return {"sensitivity.png": plot_sensitivity(read_table(out_dir / INDICES))}
-    figures = {"convergence.png": plot_convergence(read_table(out_dir / CONVERGENCE))}
-    if kind == "optimise-process":
-        figures["pareto.png"] = plot_pareto(
-            points, read_table(out_dir / PARETO), read_table(out_dir / OPTIMA)
-        )
-    if kind == "optimise-design":
-        figures["tradeoff.png"] = plot_design_tradeoff(points, read_table(out_dir / OPTIMA), meta)
-    return figures
+def parameter_label(name: str) -> str:
+    """Axis label of a column: ``head_angular_stiffness_Nm_rad`` -> "head angular stiffness
+    [N m/rad]", ``rpm`` -> "spindle speed [rpm]"."""
+    if name == "rpm":
+        return "spindle speed [rpm]"
+    for suffix, unit in _UNITS:
+        if name.endswith(suffix):
+            return f"{name[: -len(suffix)].replace('_', ' ')} [{unit}]"
+    return name.replace("_", " ")
 
 
 def _ok(points: pd.DataFrame) -> pd.DataFrame:
@@ -315,7 +297,8 @@ def plot_pareto(points: pd.DataFrame, front: pd.DataFrame, optima: pd.DataFrame,
 
 def design_cost(points: pd.DataFrame, meta: dict) -> np.ndarray:
     """Stiffness cost [nm] of each design of an optimise-design study: the sum over the costed
-    parameters of weight [nm] x stiffness / calibrated stiffness (see ufmt.studies.optimise)."""
+    parameters of weight [nm] x stiffness / calibrated stiffness (ufmt.studies.optimise_design).
+    """
     weights = meta["options"]["cost"]
     return sum(w * points[k].to_numpy(float) / meta["baseline"][k] for k, w in weights.items())
 

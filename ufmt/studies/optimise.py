@@ -1,4 +1,5 @@
-"""Optimisers: minimum-PV and fastest cutting recipes, the PV-time Pareto front, bearing design.
+"""The optimiser of the optimise-process and optimise-design study kinds, and what both kinds
+share: the ``[optimiser]`` table, the batch objective, the convergence table.
 
 Search coordinates: each bound maps to a unit coordinate ``u`` in [0, 1], linear in the value
 or in its log10 for ``spacing = "log"`` bounds (stiffnesses span decades).
@@ -15,28 +16,13 @@ or in its log10 for ``spacing = "log"`` bounds (stiffnesses span decades).
    accept it if it is better, and grow or shrink the box by the ratio of achieved to predicted
    decrease.
 
-Every value this module reports comes from an evaluation of the true model (surrogates only
-propose candidates), and each reported optimum is evaluated once more in group ``optimum``.
+Every value the optimiser kinds report comes from an evaluation of the true model (surrogates
+only propose candidates), and each reported optimum is evaluated once more in group
+``optimum``.
 
-optimise-process (study kind): over rpm, feed and depth within Table 1's bounds,
-
-* (a) the **minimum-PV recipe**: :func:`minimise` over all three;
-* (b) the **fastest recipe** whose PV stays under ``target_pv_nm`` (default 100 nm). The
-  cutting time of one finishing pass over the workpiece is :func:`cutting_time_min`: the slide
-  travels the workpiece length along the feed (y) plus the tool-circle diameter 2R (the tool
-  circle enters before the leading edge and clears the trailing edge), at the feed speed.
-  Time depends on feed alone, so the fastest recipe is the largest feed ``v`` with
-  ``min over (rpm, depth) of PV(rpm, v, depth) <= target`` (an epsilon-constraint problem):
-  that minimum is found at ``pareto_levels`` feeds across the bounds, then by bisection on the
-  feed between the last feasible and the first infeasible level;
-* the **Pareto front** of PV against cutting time: the non-dominated points among every
-  recipe evaluated in the study.
-
-optimise-design (study kind): the design parameters within their bounds (the head air
-bearing's radial, axial and angular stiffness in the packaged study) minimising
-``PV + cost``, with ``cost = sum_i w_i k_i / k_i,calibrated`` [nm]: each weight ``w_i`` [nm]
-is what one calibrated stiffness's worth of bearing costs, so a stiffer bearing must buy its
-price in PV.
+``[optimiser]`` fields: ``seed``, ``popsize`` (population = popsize * searched parameters),
+``maxiter`` (generations after the first), ``tol`` (scipy's), ``refine_steps`` (trust-region
+steps).
 """
 
 from __future__ import annotations
@@ -44,19 +30,20 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
-from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
 
-from ufmt.errors import StudyError, UfmtError
-from ufmt.studies import outputs
-from ufmt.studies.outputs import short
+from ufmt.errors import StudyError
+from ufmt.studies.spec import StudyContext, check_keys, read_count, read_real
 
 FAILED = 1e12  # objective of a failed point during global search
 TRUST_RADIUS = 0.1  # initial trust box half-width in unit coordinates
 MIN_RADIUS = 1e-3  # refinement stops below this half-width
-BISECTION_STEPS = 4  # feed bisection steps for the fastest recipe
+OPTIMISER_DEFAULTS = {"seed": 1, "popsize": 8, "maxiter": 20, "tol": 1e-3, "refine_steps": 4}
+OPTIMA = "optima.csv"  # the reported optima, each evaluated once more
+CONVERGENCE = "convergence.csv"  # every objective value of every search stage
 
 BatchObjective = Callable[[np.ndarray], np.ndarray]  # (n, dim) unit coordinates -> (n,)
 
@@ -298,16 +285,6 @@ def minimise_budget(dim: int, options: Mapping) -> int:
     return population * (options["maxiter"] + 1) + options["refine_steps"] * per_step
 
 
-def budget(study) -> int:
-    """Upper bound on the points an optimiser study requests (its progress bar's total)."""
-    options = study.options["optimiser"]
-    dim = len(study.bounds)
-    if study.kind == "optimise-design":
-        return minimise_budget(dim, options) + 2  # + the calibrated design and the optimum
-    stages = 1 + study.options["pareto_levels"] + BISECTION_STEPS
-    return minimise_budget(dim, options) + (stages - 1) * minimise_budget(dim - 1, options) + 2
-
-
 def pareto_mask(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """True for points not dominated in (a, b), both minimised (ties kept once)."""
     a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
@@ -321,16 +298,28 @@ def pareto_mask(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return mask
 
 
-def cutting_time_min(feed_mm_min: np.ndarray | float, travel_mm: float) -> np.ndarray | float:
-    """Time of one finishing pass [min]: slide travel (workpiece length along y + 2 R) / feed."""
-    return travel_mm / np.asarray(feed_mm_min, dtype=float)
-
-
 # ---------------------------------------------------------------------------------------------
-# study kinds
+# shared by the optimiser study kinds
 
 
-def _objective(evaluator, group: str, space: Space, fixed: Mapping, cost=None) -> BatchObjective:
+def read_optimiser(where: StudyContext, table) -> dict[str, Any]:
+    """The ``[optimiser]`` table with its defaults filled."""
+    if not isinstance(table, Mapping):
+        where.fail("optimiser", "expected a table")
+    check_keys(where, "optimiser.", table, tuple(OPTIMISER_DEFAULTS))
+    options = dict(OPTIMISER_DEFAULTS)
+    for key in ("seed", "refine_steps"):
+        options[key] = read_count(where, f"optimiser.{key}", table.get(key, options[key]), 0)
+    for key in ("popsize", "maxiter"):
+        options[key] = read_count(where, f"optimiser.{key}", table.get(key, options[key]), 1)
+    tol = read_real(where, "optimiser.tol", table.get("tol", options["tol"]), minimum=0.0)
+    options["tol"] = tol
+    return options
+
+
+def batch_objective(
+    evaluator, group: str, space: Space, fixed: Mapping, cost=None
+) -> BatchObjective:
     """Batch objective: PV [nm] (+ ``cost(values)``) of points of ``space`` with ``fixed``."""
 
     def objective(u: np.ndarray) -> np.ndarray:
@@ -341,7 +330,9 @@ def _objective(evaluator, group: str, space: Space, fixed: Mapping, cost=None) -
     return objective
 
 
-def _convergence(stages: Sequence[tuple[str, SearchResult]]) -> pd.DataFrame:
+def convergence_table(stages: Sequence[tuple[str, SearchResult]]) -> pd.DataFrame:
+    """Every objective value [nm] of each (stage, search), in evaluation order, with its phase
+    (global or trust-region) and the best value so far (the table of ``convergence.csv``)."""
     frames = []
     for stage, result in stages:
         values = np.asarray(result.history, dtype=float)
@@ -362,143 +353,7 @@ def _convergence(stages: Sequence[tuple[str, SearchResult]]) -> pd.DataFrame:
     return pd.concat(frames, ignore_index=True)
 
 
-def _travel_mm(study, evaluator) -> float:
-    """Slide travel of one pass [mm]: the study's workpiece length + 2 R, else the model's."""
-    length = study.options["workpiece_length_mm"]
-    radius = study.options["tool_radius_mm"]
-    if length is not None:
-        return length + 2.0 * radius
-    from ufmt.evaluate import cutting_travel_mm
-
-    try:
-        return cutting_travel_mm(evaluator.model)
-    except UfmtError as exc:
-        raise StudyError(f"{study.path}: cutting time needs the workpiece: {exc}") from None
-
-
-def _start(space: Space, baseline: Mapping) -> np.ndarray | None:
+def start_point(space: Space, baseline: Mapping) -> np.ndarray | None:
     """Unit coordinates of the baseline (calibrated design, reference process) if inside."""
     u = space.unit([baseline.get(name, math.nan) for name in space.names])
     return u if np.all((u >= 0.0) & (u <= 1.0)) else None
-
-
-def run_optimise_process(study, evaluator, baseline: Mapping, out_dir: Path) -> str:
-    """Minimum-PV recipe, fastest recipe under the PV target, Pareto front; returns headline.
-
-    The searches (module docstring) propose recipes; the reported ones are the best of every
-    evaluated recipe: the lowest PV, and the shortest time with PV <= target.
-    """
-    options = study.options["optimiser"]
-    target = study.options["target_pv_nm"]
-    travel = _travel_mm(study, evaluator)
-    space = Space.from_bounds(study.bounds, baseline)
-    objective = _objective(evaluator, "min-pv", space, {})
-    stages = [("min-pv", minimise(objective, space.dim, options, _start(space, baseline)))]
-
-    feed_i = space.names.index("feed_mm_min")
-    others = space.without("feed_mm_min")
-    level_feeds = np.linspace(space.low[feed_i], space.high[feed_i], study.options["pareto_levels"])
-
-    def feasible_at(feed: float, stage: str) -> bool:
-        """Whether min over (rpm, depth) of PV at this feed is <= target."""
-        fixed = {"feed_mm_min": float(feed)}
-        result = minimise(_objective(evaluator, stage, others, fixed), others.dim, options)
-        stages.append((stage, result))
-        return result.value <= target
-
-    feasible = [feasible_at(f, f"feed-{f:.4g}") for f in level_feeds]
-    if any(feasible):
-        k = len(feasible) - 1 - feasible[::-1].index(True)
-        if k + 1 < len(level_feeds):
-            lo, hi = level_feeds[k], level_feeds[k + 1]
-            for step in range(BISECTION_STEPS):
-                mid = 0.5 * (lo + hi)
-                lo, hi = (mid, hi) if feasible_at(mid, f"bisect-{step + 1}") else (lo, mid)
-
-    table = evaluator.table()
-    ok = table[table["status"] == "ok"].copy()
-    ok["cutting_time_min"] = cutting_time_min(ok["feed_mm_min"], travel)
-    recipes = {"min-pv": ok.loc[ok["pv_nm"].idxmin()]}
-    under = ok[ok["pv_nm"] <= target].sort_values(["cutting_time_min", "pv_nm"], kind="stable")
-    if not under.empty:
-        recipes["fastest-under-target"] = under.iloc[0]
-    points = [{n: float(r[n]) for n in space.names} for r in recipes.values()]
-    rows = evaluator.evaluate([("optimum", p) for p in points])
-    optima = pd.DataFrame(
-        [{"optimum": name, **row} for name, row in zip(recipes, rows, strict=True)]
-    ).drop(columns=["group", "index"])
-    optima["travel_mm"] = travel
-    optima["cutting_time_min"] = cutting_time_min(optima["feed_mm_min"], travel)
-    optima["target_pv_nm"] = target
-    outputs.write_table(optima, out_dir / outputs.OPTIMA)
-
-    front = ok[pareto_mask(ok["cutting_time_min"], ok["pv_nm"])]
-    front = front.sort_values("cutting_time_min").drop_duplicates(["cutting_time_min", "pv_nm"])
-    outputs.write_table(front.reset_index(drop=True), out_dir / outputs.PARETO)
-    outputs.write_table(_convergence(stages), out_dir / outputs.CONVERGENCE)
-
-    best = optima.iloc[0]
-    text = (
-        f"Minimum PV {short(best['pv_nm'])} nm at {short(best['rpm'])} rpm,"
-        f" {short(best['feed_mm_min'])} mm/min, {short(best['depth_um'])} um"
-        f" ({short(best['cutting_time_min'])} min per pass)"
-    )
-    if under.empty:
-        return text + f"; no recipe within the bounds keeps PV under {short(target)} nm."
-    fast = optima.iloc[1]
-    return text + (
-        f"; fastest recipe with PV <= {short(target)} nm: {short(fast['feed_mm_min'])} mm/min"
-        f" at {short(fast['rpm'])} rpm, {short(fast['depth_um'])} um,"
-        f" {short(fast['cutting_time_min'])} min per pass (PV {short(fast['pv_nm'])} nm)."
-    )
-
-
-def run_optimise_design(study, evaluator, baseline: Mapping, out_dir: Path) -> str:
-    """Bearing stiffnesses minimising PV + stiffness cost; returns the headline."""
-    options = study.options["optimiser"]
-    space = Space.from_bounds(study.bounds, baseline)
-    reference = np.array([baseline.get(name, math.nan) for name in space.names])
-    weights = np.array([study.options["cost"].get(name, 0.0) for name in space.names])
-    unknown = [
-        n for n, r, w in zip(space.names, reference, weights, strict=True) if w and not r > 0
-    ]
-    if unknown:
-        raise StudyError(
-            f"{study.path}: field 'cost.{unknown[0]}': the calibrated value is not a finite"
-            " number > 0 (released or rigid), so a cost per calibrated multiple is undefined"
-        )
-    safe_reference = np.where(weights > 0, reference, 1.0)
-
-    def cost(values: np.ndarray) -> np.ndarray:
-        return (weights * values / safe_reference).sum(axis=-1)
-
-    objective = _objective(evaluator, "search", space, {}, cost)
-    found = minimise(objective, space.dim, options, _start(space, baseline))
-    candidates = {"optimum": space.points(found.u[None])[0]}
-    if np.all(np.isfinite(reference)):
-        candidates = {"calibrated": dict(zip(space.names, reference, strict=True)), **candidates}
-    rows = evaluator.evaluate([("optimum", p) for p in candidates.values()])
-    optima = pd.DataFrame(
-        [{"design": name, **row} for name, row in zip(candidates, rows, strict=True)]
-    ).drop(columns=["group", "index"])
-    optima["cost_nm"] = cost(optima[list(space.names)].to_numpy(float))
-    optima["objective_nm"] = optima["pv_nm"] + optima["cost_nm"]
-    outputs.write_table(optima, out_dir / outputs.OPTIMA)
-    outputs.write_table(_convergence([("search", found)]), out_dir / outputs.CONVERGENCE)
-
-    best = optima[optima["design"] == "optimum"].iloc[0]
-    parts = []
-    for name, ref in zip(space.names, reference, strict=True):
-        ratio = f" ({short(best[name] / ref)}x calibrated)" if ref > 0 else ""
-        parts.append(f"{name} = {short(best[name])}{ratio}")
-    text = (
-        f"Optimum {', '.join(parts)}: PV {short(best['pv_nm'])} nm, cost"
-        f" {short(best['cost_nm'])} nm, objective {short(best['objective_nm'])} nm"
-    )
-    if "calibrated" in candidates:
-        cal = optima[optima["design"] == "calibrated"].iloc[0]
-        text += (
-            f" (calibrated design: PV {short(cal['pv_nm'])} nm,"
-            f" objective {short(cal['objective_nm'])} nm)"
-        )
-    return text + "."

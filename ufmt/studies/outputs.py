@@ -7,7 +7,8 @@ Layout of ``results/<study>/``:
   grid or optimiser stage a row belongs to and ``index`` its position in that group. Rows are
   appended and flushed as points finish, so a killed run loses nothing; at the end of a run the
   file is rewritten sorted by (group, index).
-* kind-specific tables (``optima.csv``, ``pareto.csv``, ``indices.csv``) and PNG plots.
+* the kind's own tables (``optima.csv``, ``pareto.csv``, ``indices.csv``, ...; named by the
+  kind's module, :attr:`ufmt.studies.spec.StudyKind.tables`) and PNG plots.
 * ``meta.json``: the study file's text, the model file and its SHA-256, the physics code's
   SHA-256, package versions, git revision, run timings and the headline finding.
 
@@ -28,17 +29,11 @@ from collections.abc import Iterable, Mapping
 from importlib import metadata
 from pathlib import Path
 
-import numpy as np
 import pandas as pd
 
 from ufmt.jsonout import dumps_strict
 
 POINTS = "points.csv"
-OPTIMA = "optima.csv"
-PARETO = "pareto.csv"
-CONVERGENCE = "convergence.csv"
-INDICES = "indices.csv"
-TABLES = (POINTS, OPTIMA, PARETO, CONVERGENCE, INDICES)
 META = "meta.json"
 INDEX = "README.md"
 PACKAGES = (
@@ -293,78 +288,9 @@ def write_index(results_root: Path) -> Path:
 
 
 # ---------------------------------------------------------------------------------------------
-# labels and findings
-
-_UNITS = (
-    ("_Nm_rad", "N m/rad"),
-    ("_N_m", "N/m"),
-    ("_mm_min", "mm/min"),
-    ("_um", "µm"),
-    ("_nm", "nm"),
-    ("_hz", "Hz"),
-    ("_mm", "mm"),
-    ("_min", "min"),
-)
-
-
-def parameter_label(name: str) -> str:
-    """Axis label of a column: ``head_angular_stiffness_Nm_rad`` -> "head angular stiffness
-    [N m/rad]", ``rpm`` -> "spindle speed [rpm]"."""
-    if name == "rpm":
-        return "spindle speed [rpm]"
-    for suffix, unit in _UNITS:
-        if name.endswith(suffix):
-            return f"{name[: -len(suffix)].replace('_', ' ')} [{unit}]"
-    return name.replace("_", " ")
+# numbers in headlines
 
 
 def short(value: float) -> str:
     """A number in 3 significant digits."""
     return f"{value:.3g}"
-
-
-def trend(x, y) -> str:
-    """How ``y`` changes as ``x`` rises: "falls" or "rises" (monotonically), else "falls
-    overall (not monotonically)" or "rises overall (not monotonically)" by the end points."""
-    y = np.asarray(y, dtype=float)[np.argsort(x)]
-    steps = np.diff(y)
-    if np.all(steps <= 0):
-        return "falls"
-    if np.all(steps >= 0):
-        return "rises"
-    return f"{'falls' if y[-1] < y[0] else 'rises'} overall (not monotonically)"
-
-
-def sweep_headline(table: pd.DataFrame, study, baseline: Mapping[str, float]) -> str:
-    """One sentence per sweep axis or grid: how PV responds, with its range [nm] (and, where
-    the table has it, the PV of the cutting-force vibration alone at the axis ends)."""
-    ok = table[table["status"] == "ok"] if "status" in table else table
-    parts = []
-    for group in study.groups:
-        rows = ok[ok["group"] == group.name]
-        if rows.empty or "pv_nm" not in rows:
-            parts.append(f"{group.name}: no successful points")
-            continue
-        pv = rows["pv_nm"].to_numpy(float)
-        if len(group.axes) == 1:
-            name = group.axes[0].parameter
-            x = rows[name].to_numpy(float)
-            lo, hi = x.min(), x.max()
-            vibration = ""
-            if "pv_dynamic_nm" in rows and rows["pv_dynamic_nm"].notna().all():
-                dyn = rows["pv_dynamic_nm"].to_numpy(float)
-                vibration = (
-                    f"; its cutting-force vibration part {short(dyn[np.argmin(x)])} ->"
-                    f" {short(dyn[np.argmax(x)])} nm"
-                )
-            parts.append(
-                f"PV {trend(x, pv)} as {name} rises from {short(lo)} to {short(hi)}"
-                f" (PV {short(pv[np.argmin(x)])} -> {short(pv[np.argmax(x)])} nm,"
-                f" range {short(pv.min())}-{short(pv.max())} nm{vibration})"
-            )
-        else:
-            best = rows.iloc[int(np.argmin(pv))]
-            at = ", ".join(f"{a.parameter} = {short(best[a.parameter])}" for a in group.axes)
-            label = "grid" if group.name == "grid" else f"grid {group.name}"
-            parts.append(f"{label}: PV {short(pv.min())}-{short(pv.max())} nm, lowest at {at}")
-    return "; ".join(parts) + "."

@@ -1,7 +1,10 @@
-"""Global sensitivity of PV to bearing stiffnesses and process parameters (SALib).
+"""Study kind ``sensitivity``: global sensitivity of PV to bearing stiffnesses and process
+parameters (SALib).
 
-Each ``[[bound]]`` is a factor sampled uniformly in its value, or in log10 of it for
-``spacing = "log"`` (stiffnesses spanning decades). Methods:
+Fields: ``[[bound]]`` over any parameters (at least two), ``method`` (morris | sobol),
+``samples`` (Morris trajectories or Sobol base samples, default 16), ``levels`` (Morris,
+default 4), ``seed`` (default 1). Each ``[[bound]]`` is a factor sampled uniformly in its
+value, or in log10 of it for ``spacing = "log"`` (stiffnesses spanning decades). Methods:
 
 * ``morris`` (default): elementary effects on ``levels``-level trajectories (Morris 1991; the
   radial-free design of Campolongo et al. 2007 as SALib samples it), ``samples`` trajectories,
@@ -12,7 +15,8 @@ Each ``[[bound]]`` is a factor sampled uniformly in its value, or in log10 of it
   evaluations; first-order ``S1`` and total ``ST`` shares of PV variance with bootstrap 95 %
   confidence half-widths.
 
-Writes ``indices.csv`` (one row per factor, most influential first).
+Writes ``indices.csv`` (one row per factor, most influential first); its figure is a bar chart
+of the indices.
 """
 
 from __future__ import annotations
@@ -22,11 +26,38 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from matplotlib.figure import Figure
 
 from ufmt.errors import StudyError
+from ufmt.plots.studies import plot_sensitivity
 from ufmt.studies import outputs
 from ufmt.studies.optimise import Space
 from ufmt.studies.outputs import short
+from ufmt.studies.spec import MAX_POINTS, StudyKind, read_bounds, read_count
+
+INDICES = "indices.csv"  # one row per factor, most influential first
+
+
+def parse(where, data: Mapping, base: Mapping[str, float]) -> dict:
+    """The sampled bounds and the method's options."""
+    bounds = read_bounds(where, data.get("bound", []), required=True)
+    if len(bounds) < 2:
+        where.fail("bound", "sensitivity needs at least two [[bound]] parameters")
+    for b in bounds:
+        if b.parameter in base:
+            where.fail(f"base.{b.parameter}", "is sampled by the sensitivity study; remove it")
+    method = data.get("method", "morris")
+    if method not in ("morris", "sobol"):
+        where.fail("method", f"unknown method {method!r} (morris or sobol)")
+    options = {
+        "method": method,
+        "samples": read_count(where, "samples", data.get("samples", 16), 2, MAX_POINTS),
+        "levels": read_count(where, "levels", data.get("levels", 4), 2),
+        "seed": read_count(where, "seed", data.get("seed", 1), 0),
+    }
+    if method == "sobol" and options["samples"] & (options["samples"] - 1):
+        where.fail("samples", f"{options['samples']} is not a power of two (Sobol sampling)")
+    return {"bounds": bounds, "options": options}
 
 
 def sensitivity_problem(space: Space) -> dict:
@@ -87,7 +118,7 @@ def sample_count(study) -> int:
     return study.options["samples"] * per_sample
 
 
-def run_sensitivity(study, evaluator, baseline: Mapping, out_dir: Path) -> str:
+def analyse(study, evaluator, baseline: Mapping, out_dir: Path) -> str:
     """Sample, evaluate, analyse; write ``indices.csv``; return the headline."""
     options = study.options
     method = options["method"]
@@ -107,9 +138,25 @@ def run_sensitivity(study, evaluator, baseline: Mapping, out_dir: Path) -> str:
     else:
         table = sobol_indices(problem, Y, options["seed"])
         key, unit = "ST", ""
-    outputs.write_table(table.reset_index(drop=True), out_dir / outputs.INDICES)
+    outputs.write_table(table.reset_index(drop=True), out_dir / INDICES)
     ranked = ", ".join(
         f"{r.parameter} ({short(getattr(r, key))}{unit})" for r in table.itertuples()
     )
     what = "mean |elementary effect| per full range" if method == "morris" else "total Sobol index"
     return f"PV sensitivity ranking ({method}, {what}): {ranked}."
+
+
+def figures(out_dir: Path) -> dict[str, Figure]:
+    """Bar chart of the indices."""
+    return {"sensitivity.png": plot_sensitivity(outputs.read_table(out_dir / INDICES))}
+
+
+SENSITIVITY = StudyKind(
+    name="sensitivity",
+    fields=("bound", "method", "samples", "levels", "seed"),
+    tables=(INDICES,),
+    parse=parse,
+    planned_points=sample_count,
+    analyse=analyse,
+    figures=figures,
+)

@@ -1,9 +1,10 @@
-"""Study files (TOML): parsing and validation into an immutable :class:`Study`.
+"""Study files (TOML): the immutable :class:`Study`, the :class:`StudyKind` record of each
+kind, and the checkers of their fields (:mod:`ufmt.studies.load` reads a file with them).
 
 A study file names its kind and what to vary. Common top-level fields::
 
-    kind = "sweep"                       # sweep | grid | optimise-process | optimise-design
-                                         #   | sensitivity
+    kind = "sweep"                       # a study kind of ufmt.studies.kinds: sweep, grid,
+                                         #   optimise-process, ...
     name = "sweep-stiffness"             # optional; default: the file's stem; -> results/<name>/
     description = "..."                  # optional
     function = "ufmt.evaluate:evaluate"  # optional: "module:attribute" or "file.py:attribute"
@@ -35,74 +36,43 @@ Values along an axis or a bound are given by exactly one of::
     n = 9                                # number of values (axes only; default 9)
     spacing = "log"                      # linear | log (default linear)
 
-Kinds:
-
-* ``sweep``: every ``[[axis]]`` is varied alone about the base (one-at-a-time); each
-  ``[[grid]]`` (``name`` plus its own ``[[grid.axis]]`` list) adds a full-factorial grid.
-* ``grid``: the ``[[axis]]`` entries are crossed into one full-factorial grid.
-* ``optimise-process``: ``[[bound]]`` over rpm, feed and depth (default: Table 1's ranges),
-  ``target_pv_nm`` (default 100), ``workpiece_length_mm`` and ``tool_radius_mm`` (cutting time,
-  see :mod:`ufmt.studies.optimise`), ``pareto_levels``, ``[optimiser]``.
-* ``optimise-design``: ``[[bound]]`` over design parameters, ``[cost]`` (parameter -> weight
-  [nm per multiple of the calibrated stiffness]), ``[optimiser]``.
-* ``sensitivity``: ``[[bound]]`` over any parameters, ``method`` (morris | sobol),
-  ``samples`` (Morris trajectories or Sobol base samples), ``levels`` (Morris), ``seed``.
+Each kind's own fields are documented in its module (:mod:`ufmt.studies.kinds` lists them).
 
 Every problem raises :class:`~ufmt.errors.StudyError` with one line naming the file and field.
 """
 
 from __future__ import annotations
 
-import hashlib
 import itertools
-import json
 import math
 import numbers
 import re
-import tomllib
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, NoReturn
 
 import numpy as np
 
-from ufmt.errors import ModelError, StudyError, closest_name
-from ufmt.evaluate import (
+from ufmt.design import (
     PROCESS_PARAMETERS,
     REFERENCE_PROCESS,
     apply_design,
     design_value,
-    model_file,
-    resolve_model,
     unknown_design_parameter,
 )
+from ufmt.errors import ModelError, StudyError, closest_name
+from ufmt.evaluate import model_file, resolve_model
 from ufmt.machining.process import TABLE1_RANGE
 from ufmt.model.load import parse_design
 from ufmt.model.schema import DesignParameter, Model
 
-KINDS = ("sweep", "grid", "optimise-process", "optimise-design", "sensitivity")
 DEFAULT_FUNCTION = "ufmt.evaluate:evaluate"
 DEFAULT_POINTS = 9
-TABLE1_BOUNDS = {name: (low, high) for name, (low, high, _) in TABLE1_RANGE.items()}
 SPACINGS = ("linear", "log")
-OPTIMISER_DEFAULTS = {"seed": 1, "popsize": 8, "maxiter": 20, "tol": 1e-3, "refine_steps": 4}
 
-_COMMON = ("kind", "name", "description", "function", "model", "base", "design")
-_KIND_FIELDS = {
-    "sweep": ("axis", "grid"),
-    "grid": ("axis",),
-    "optimise-process": (
-        "bound",
-        "target_pv_nm",
-        "workpiece_length_mm",
-        "tool_radius_mm",
-        "pareto_levels",
-        "optimiser",
-    ),
-    "optimise-design": ("bound", "cost", "optimiser"),
-    "sensitivity": ("bound", "method", "samples", "levels", "seed"),
-}
+#: Top-level fields of every study file; each kind adds its own (StudyKind.fields).
+COMMON_FIELDS = ("kind", "name", "description", "function", "model", "base", "design")
 #: Most points of one axis or one grid: a study of more is a typo (a sweep of 1e5 points runs
 #: for hours) and its value table alone could exhaust memory.
 MAX_POINTS = 100_000
@@ -193,42 +163,36 @@ class Study:
         return tuple(dict.fromkeys(i.parameter for i in items if i.relative))
 
 
-def load_study(path: str | Path) -> Study:
-    """Read and validate the study file at ``path``.
+@dataclass(frozen=True)
+class StudyKind:
+    """A study kind: its own top-level fields and what a run of it does.
 
-    Raises
-    ------
-    StudyError
-        One line naming the file and the field.
+    Each kind's module defines one; :mod:`ufmt.studies.kinds` names them all.
+
+    * ``parse(where, data, base)``: check the kind's fields of the parsed TOML ``data``
+      (``base``: the study's fixed values) and return the kind's parts of the :class:`Study`
+      (``groups``, ``bounds``, ``options``);
+    * ``planned_points(study)``: the number of points a run requests (exact, or an
+      optimiser's budget: an upper bound);
+    * ``analyse(study, evaluator, baseline, out_dir)``: request the points from the run's
+      :class:`ufmt.studies.journal.Evaluator`, write the kind's ``tables`` (file names in
+      ``out_dir``, besides points.csv) and return the headline finding;
+    * ``figures(out_dir)``: the figures of a finished run drawn from its tables, by PNG file
+      name.
     """
-    path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise StudyError(f"{path}: file not found") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise StudyError(f"{path}: cannot read: {exc}") from None
-    return parse_study(text, path)
+
+    name: str
+    fields: tuple[str, ...]
+    tables: tuple[str, ...]
+    parse: Callable[..., dict[str, Any]]
+    planned_points: Callable[..., int]
+    analyse: Callable[..., str]
+    figures: Callable[..., dict]
 
 
-def parse_study(text: str, path: str | Path = "study.toml") -> Study:
-    """Parse and validate study TOML ``text``; ``path`` names it and anchors relative paths."""
-    path = Path(path)
-    where = _Where(str(path))
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        where.fail("", f"malformed TOML: {' '.join(str(exc).split())}")
-    except RecursionError:
-        where.fail("", "malformed TOML: values nested too deeply")
-    content_sha = _content_sha256(data)
-    kind = data.get("kind")
-    if kind is None:
-        where.fail("kind", f"missing (one of {', '.join(KINDS)})")
-    if kind not in KINDS:
-        where.fail("kind", f"unknown study kind {kind!r} ({_hint(str(kind), KINDS, 'kinds')})")
-    _check_keys(where, "", data, _COMMON + _KIND_FIELDS[kind])
-
+def read_common(where: StudyContext, data: Mapping, path: Path) -> dict[str, Any]:
+    """The fields every study has (name, description, function, model, base, design), read
+    from the parsed TOML ``data`` of the file at ``path``; loads the study's model."""
     name = _string(where, "name", data.get("name", path.stem))
     if not _NAME.fullmatch(name):
         where.fail("name", f"{name!r} is not a valid study name (letters, digits, _ . -)")
@@ -236,48 +200,21 @@ def parse_study(text: str, path: str | Path = "study.toml") -> Study:
     model = None if model is None else (path.parent / _string(where, "model", model)).resolve()
     where.use_model(model, data.get("design", {}))
     base = _base(where, data.get("base", {}))
-    study = dict(
-        path=path,
+    return dict(
         name=name,
-        kind=kind,
         description=_string(where, "description", data.get("description", ""), empty=True),
         function=_function(where, data.get("function", DEFAULT_FUNCTION)),
         model=model,
         base=base,
-        text=text,
         design=where.declared,
-        content_sha256=content_sha,
     )
-    if kind == "sweep":
-        axes = _axes(where, "axis", data.get("axis", []), required=False)
-        groups = [Group(a.parameter, (a,)) for a in axes]
-        groups += _grids(where, data.get("grid", []))
-        if not groups:
-            where.fail("axis", "a sweep needs at least one [[axis]] or [[grid]]")
-        _unique(where, "axis", [g.name for g in groups])
-        parts = {"groups": tuple(groups)}
-    elif kind == "grid":
-        axes = _axes(where, "axis", data.get("axis", []), required=True)
-        parts = {"groups": (Group("grid", tuple(axes)),)}
-    else:
-        parts = _KIND_PARSERS[kind](where, data, base)
-    parsed = Study(**study, **parts)
-    baseline = _baseline(where, parsed)
-    _check_values(where, parsed, baseline)
-    return Study(**study, **parts, baseline=baseline)
-
-
-def _content_sha256(data: Mapping) -> str:
-    """SHA-256 of a parsed TOML table's canonical JSON (comments and layout do not count)."""
-    text = json.dumps(data, sort_keys=True, separators=(",", ":"), default=str)
-    return hashlib.sha256(text.encode()).hexdigest()
 
 
 # ---------------------------------------------------------------------------------------------
 # values checked against the model before any point runs
 
 
-def _baseline(where: _Where, study: Study) -> dict[str, float]:
+def study_baseline(where: StudyContext, study: Study) -> dict[str, float]:
     """Value of every study parameter when it is not varied: base, else reference process,
     else the model's calibrated design."""
     baseline = {}
@@ -302,7 +239,7 @@ def _baseline(where: _Where, study: Study) -> dict[str, float]:
     return baseline
 
 
-def _check_values(where: _Where, study: Study, baseline: Mapping[str, float]) -> None:
+def check_values(where: StudyContext, study: Study, baseline: Mapping[str, float]) -> None:
     """Every value the study can set passes the model loader's rules (design) or is a finite
     number > 0 (process), so no point runs with an input the model could not hold."""
     values: dict[str, set[float]] = {name: {v} for name, v in study.base.items()}
@@ -325,91 +262,10 @@ def _check_values(where: _Where, study: Study, baseline: Mapping[str, float]) ->
 
 
 # ---------------------------------------------------------------------------------------------
-# kinds with bounds
-
-
-def _optimise_process(where, data, base) -> dict:
-    given = _bounds(where, data.get("bound", []), required=False)
-    for b in given:
-        if b.parameter not in PROCESS_PARAMETERS:
-            where.fail(
-                f"bound.{b.parameter}",
-                f"optimise-process searches process parameters only ({', '.join(TABLE1_BOUNDS)})",
-            )
-    by_name = {b.parameter: b for b in given}
-    bounds = tuple(by_name.get(p, Bound(p, *TABLE1_BOUNDS[p])) for p in TABLE1_BOUNDS)
-    for b in bounds:
-        if b.parameter in base:
-            where.fail(f"base.{b.parameter}", "is searched by optimise-process; remove it")
-    options = {
-        "target_pv_nm": _positive(where, "target_pv_nm", data.get("target_pv_nm", 100.0)),
-        "workpiece_length_mm": _positive(
-            where, "workpiece_length_mm", data.get("workpiece_length_mm")
-        ),
-        "tool_radius_mm": _positive(where, "tool_radius_mm", data.get("tool_radius_mm")),
-        "pareto_levels": _count(where, "pareto_levels", data.get("pareto_levels", 7), 2),
-        "optimiser": _optimiser(where, data.get("optimiser", {})),
-    }
-    if (options["workpiece_length_mm"] is None) != (options["tool_radius_mm"] is None):
-        where.fail("tool_radius_mm", "give both workpiece_length_mm and tool_radius_mm, or neither")
-    return {"bounds": bounds, "options": options}
-
-
-def _optimise_design(where, data, base) -> dict:
-    bounds = _bounds(where, data.get("bound", []), required=True)
-    for b in bounds:
-        if b.parameter in PROCESS_PARAMETERS:
-            where.fail(f"bound.{b.parameter}", "optimise-design searches design parameters only")
-        if b.parameter in base:
-            where.fail(f"base.{b.parameter}", "is searched by optimise-design; remove it")
-    cost = data.get("cost", {})
-    if not isinstance(cost, Mapping):
-        where.fail("cost", "expected a table of parameter = weight [nm per calibrated multiple]")
-    searched = [b.parameter for b in bounds]
-    weights = {}
-    for key, value in cost.items():
-        if key not in searched:
-            where.fail(
-                f"cost.{key}", f"not a searched parameter ({_hint(key, searched, 'bounds')})"
-            )
-        weights[key] = _real(where, f"cost.{key}", value, minimum=0.0)
-    options = {"cost": weights, "optimiser": _optimiser(where, data.get("optimiser", {}))}
-    return {"bounds": bounds, "options": options}
-
-
-def _sensitivity(where, data, base) -> dict:
-    bounds = _bounds(where, data.get("bound", []), required=True)
-    if len(bounds) < 2:
-        where.fail("bound", "sensitivity needs at least two [[bound]] parameters")
-    for b in bounds:
-        if b.parameter in base:
-            where.fail(f"base.{b.parameter}", "is sampled by the sensitivity study; remove it")
-    method = data.get("method", "morris")
-    if method not in ("morris", "sobol"):
-        where.fail("method", f"unknown method {method!r} (morris or sobol)")
-    options = {
-        "method": method,
-        "samples": _count(where, "samples", data.get("samples", 16), 2, MAX_POINTS),
-        "levels": _count(where, "levels", data.get("levels", 4), 2),
-        "seed": _count(where, "seed", data.get("seed", 1), 0),
-    }
-    if method == "sobol" and options["samples"] & (options["samples"] - 1):
-        where.fail("samples", f"{options['samples']} is not a power of two (Sobol sampling)")
-    return {"bounds": bounds, "options": options}
-
-
-_KIND_PARSERS = {
-    "optimise-process": _optimise_process,
-    "optimise-design": _optimise_design,
-    "sensitivity": _sensitivity,
-}
-
-
-# ---------------------------------------------------------------------------------------------
 # fields
 
 
-class _Where:
+class StudyContext:
     """The study file being parsed (for messages) and the model its parameters refer to."""
 
     def __init__(self, source: str):
@@ -431,30 +287,34 @@ class _Where:
             raise StudyError(str(exc)) from None
 
     def fail(self, field: str, problem: str) -> NoReturn:
+        """Raise the one-line StudyError naming the file and ``field``."""
         prefix = f"{self.source}: field '{field}': " if field else f"{self.source}: "
         raise StudyError(" ".join(f"{prefix}{problem}".split()))
 
 
-def _hint(word: str, choices, what: str) -> str:
+def name_hint(word: str, choices, what: str) -> str:
+    """ "did you mean ...?" for the closest of ``choices``, else the list of ``what``."""
     close = closest_name(word, choices, cutoff=0.5)
     return f"did you mean {close!r}?" if close else f"{what}: {', '.join(choices)}"
 
 
-def _check_keys(where: _Where, prefix: str, table: Mapping, valid) -> None:
+def check_keys(where: StudyContext, prefix: str, table: Mapping, valid) -> None:
+    """Every key of ``table`` is one of ``valid`` (``prefix`` names the table)."""
     for key in table:
         if key not in valid:
             where.fail(
-                f"{prefix}{key}", f"unknown field ({_hint(str(key), valid, 'valid fields')})"
+                f"{prefix}{key}", f"unknown field ({name_hint(str(key), valid, 'valid fields')})"
             )
 
 
-def _string(where: _Where, field: str, value, empty: bool = False) -> str:
+def _string(where: StudyContext, field: str, value, empty: bool = False) -> str:
     if not isinstance(value, str) or (not empty and not value.strip()):
         where.fail(field, f"expected a non-empty string, got {value!r}")
     return value
 
 
-def _real(where: _Where, field: str, value, minimum: float | None = None) -> float:
+def read_real(where: StudyContext, field: str, value, minimum: float | None = None) -> float:
+    """A finite number (not a bool), at least ``minimum`` if given."""
     if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value):
         where.fail(field, f"expected a finite number, got {value!r}")
     if minimum is not None and value < minimum:
@@ -462,16 +322,20 @@ def _real(where: _Where, field: str, value, minimum: float | None = None) -> flo
     return float(value)
 
 
-def _positive(where: _Where, field: str, value) -> float | None:
+def read_positive(where: StudyContext, field: str, value) -> float | None:
+    """A finite number > 0, or None if not given."""
     if value is None:
         return None
-    value = _real(where, field, value)
+    value = read_real(where, field, value)
     if value <= 0:
         where.fail(field, f"{value!r} must be > 0")
     return value
 
 
-def _count(where: _Where, field: str, value, minimum: int, maximum: int | None = None) -> int:
+def read_count(
+    where: StudyContext, field: str, value, minimum: int, maximum: int | None = None
+) -> int:
+    """An integer (not a bool) from ``minimum`` to ``maximum`` (a number of points)."""
     if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
         where.fail(field, f"expected an integer >= {minimum}, got {value!r}")
     if maximum is not None and value > maximum:
@@ -479,7 +343,7 @@ def _count(where: _Where, field: str, value, minimum: int, maximum: int | None =
     return value
 
 
-def _parameter(where: _Where, field: str, name) -> str:
+def _parameter(where: StudyContext, field: str, name) -> str:
     name = _string(where, field, name)
     if name not in PROCESS_PARAMETERS:
         problem = unknown_design_parameter(name, where.model, where.declared)
@@ -488,7 +352,7 @@ def _parameter(where: _Where, field: str, name) -> str:
     return name
 
 
-def _function(where: _Where, ref) -> str:
+def _function(where: StudyContext, ref) -> str:
     ref = _string(where, "function", ref)
     module, _, attribute = ref.partition(":")
     if not module or not attribute.isidentifier():
@@ -498,16 +362,16 @@ def _function(where: _Where, ref) -> str:
     return ref
 
 
-def _base(where: _Where, table) -> dict[str, float]:
+def _base(where: StudyContext, table) -> dict[str, float]:
     if not isinstance(table, Mapping):
         where.fail("base", "expected a table of parameter = value")
     base = {}
     for key, value in table.items():
-        base[_parameter(where, f"base.{key}", key)] = _real(where, f"base.{key}", value)
+        base[_parameter(where, f"base.{key}", key)] = read_real(where, f"base.{key}", value)
     return base
 
 
-def _tables(where: _Where, field: str, value, required: bool) -> list[Mapping]:
+def _tables(where: StudyContext, field: str, value, required: bool) -> list[Mapping]:
     if not isinstance(value, list) or not all(isinstance(t, Mapping) for t in value):
         where.fail(field, f"expected an array of tables [[{field}]]")
     if required and not value:
@@ -515,7 +379,7 @@ def _tables(where: _Where, field: str, value, required: bool) -> list[Mapping]:
     return value
 
 
-def _interval(where: _Where, label: str, table: Mapping) -> tuple[str, list[float], bool]:
+def _interval(where: StudyContext, label: str, table: Mapping) -> tuple[str, list[float], bool]:
     """Which of values/range/scale the table gives, its numbers, and its spacing."""
     sources = [s for s in _SOURCES if s in table]
     if len(sources) != 1:
@@ -524,7 +388,7 @@ def _interval(where: _Where, label: str, table: Mapping) -> tuple[str, list[floa
     raw = table[source]
     if not isinstance(raw, list):
         where.fail(f"{label}.{source}", f"expected an array, got {raw!r}")
-    numbers_ = [_real(where, f"{label}.{source}", v) for v in raw]
+    numbers_ = [read_real(where, f"{label}.{source}", v) for v in raw]
     spacing = table.get("spacing", "linear")
     if spacing not in SPACINGS:
         where.fail(f"{label}.spacing", f"unknown spacing {spacing!r} (linear or log)")
@@ -546,8 +410,8 @@ def _interval(where: _Where, label: str, table: Mapping) -> tuple[str, list[floa
     return source, numbers_, log
 
 
-def _axis(where: _Where, label: str, table: Mapping) -> Axis:
-    _check_keys(where, f"{label}.", table, _AXIS_FIELDS)
+def _axis(where: StudyContext, label: str, table: Mapping) -> Axis:
+    check_keys(where, f"{label}.", table, _AXIS_FIELDS)
     if "parameter" not in table:
         where.fail(f"{label}.parameter", "missing")
     parameter = _parameter(where, f"{label}.parameter", table["parameter"])
@@ -557,27 +421,29 @@ def _axis(where: _Where, label: str, table: Mapping) -> Axis:
         if "n" in table:
             where.fail(f"{label}.n", "n goes with range or scale, not with values")
         return Axis(parameter, tuple(values), log)
-    n = _count(where, f"{label}.n", table.get("n", DEFAULT_POINTS), 1, MAX_POINTS)
+    n = read_count(where, f"{label}.n", table.get("n", DEFAULT_POINTS), 1, MAX_POINTS)
     low, high = values
     grid = np.geomspace(low, high, n) if log else np.linspace(low, high, n)
     return Axis(parameter, tuple(float(v) for v in grid), log, relative=source == "scale")
 
 
-def _axes(where: _Where, label: str, value, required: bool) -> list[Axis]:
+def read_axes(where: StudyContext, label: str, value, required: bool) -> list[Axis]:
+    """The ``[[axis]]`` tables at ``label``, each over a different parameter."""
     tables = _tables(where, label, value, required)
     axes = [_axis(where, f"{label}[{i}]", t) for i, t in enumerate(tables)]
-    _unique(where, label, [a.parameter for a in axes])
+    check_unique(where, label, [a.parameter for a in axes])
     return axes
 
 
-def _grids(where: _Where, value) -> list[Group]:
+def read_grids(where: StudyContext, value) -> list[Group]:
+    """The named ``[[grid]]`` tables of a sweep: two or more axes each, crossed."""
     groups = []
     for i, table in enumerate(_tables(where, "grid", value, required=False)):
-        _check_keys(where, f"grid[{i}].", table, _GRID_FIELDS)
+        check_keys(where, f"grid[{i}].", table, _GRID_FIELDS)
         name = _string(where, f"grid[{i}].name", table.get("name", ""))
         if not _NAME.fullmatch(name):
             where.fail(f"grid[{i}].name", f"{name!r} is not a valid name (letters, digits, _ . -)")
-        axes = _axes(where, f"grid[{i}].axis", table.get("axis", []), required=True)
+        axes = read_axes(where, f"grid[{i}].axis", table.get("axis", []), required=True)
         if len(axes) < 2:
             where.fail(f"grid[{i}].axis", "a grid needs at least two axes")
         size = math.prod(len(a.values) for a in axes)
@@ -589,10 +455,11 @@ def _grids(where: _Where, value) -> list[Group]:
     return groups
 
 
-def _bounds(where: _Where, value, required: bool) -> tuple[Bound, ...]:
+def read_bounds(where: StudyContext, value, required: bool) -> tuple[Bound, ...]:
+    """The ``[[bound]]`` tables (range or scale), each over a different parameter."""
     bounds = []
     for i, table in enumerate(_tables(where, "bound", value, required)):
-        _check_keys(where, f"bound[{i}].", table, _BOUND_FIELDS)
+        check_keys(where, f"bound[{i}].", table, _BOUND_FIELDS)
         if "parameter" not in table:
             where.fail(f"bound[{i}].parameter", "missing")
         parameter = _parameter(where, f"bound[{i}].parameter", table["parameter"])
@@ -601,25 +468,12 @@ def _bounds(where: _Where, value, required: bool) -> tuple[Bound, ...]:
             where.fail(f"{label}.values", "a bound takes range or scale, not values")
         source, (low, high), log = _interval(where, label, table)
         bounds.append(Bound(parameter, low, high, log, relative=source == "scale"))
-    _unique(where, "bound", [b.parameter for b in bounds])
+    check_unique(where, "bound", [b.parameter for b in bounds])
     return tuple(bounds)
 
 
-def _unique(where: _Where, field: str, names: list[str]) -> None:
+def check_unique(where: StudyContext, field: str, names: list[str]) -> None:
+    """No name appears twice in ``names`` (the entries of ``field``)."""
     for name in names:
         if names.count(name) > 1:
             where.fail(field, f"{name!r} appears more than once")
-
-
-def _optimiser(where: _Where, table) -> dict[str, Any]:
-    if not isinstance(table, Mapping):
-        where.fail("optimiser", "expected a table")
-    _check_keys(where, "optimiser.", table, tuple(OPTIMISER_DEFAULTS))
-    options = dict(OPTIMISER_DEFAULTS)
-    for key in ("seed", "refine_steps"):
-        options[key] = _count(where, f"optimiser.{key}", table.get(key, options[key]), 0)
-    for key in ("popsize", "maxiter"):
-        options[key] = _count(where, f"optimiser.{key}", table.get(key, options[key]), 1)
-    tol = _real(where, "optimiser.tol", table.get("tol", options["tol"]), minimum=0.0)
-    options["tol"] = tol
-    return options

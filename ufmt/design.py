@@ -1,0 +1,162 @@
+"""The vocabulary of the study function ``evaluate(design, process)``: the design parameters and
+the hinge values they set, the process parameters and their reference case, and the names of
+the record's outputs.
+
+Design parameters are declared by name in the model file's ``[design]`` table (or a study
+file's, passed as ``parameters``): ``[design.<name>]`` with ``hinge``, ``field``
+(``stiffness`` [N/m] or ``rotational_stiffness`` [N m/rad]) and ``components`` (0, 1, 2 = x,
+y, z). The packaged UFMT declares (``h31`` = fly-cutting-head air bearing, ``h25`` = spindle
+air bearing; spindle axis = global z):
+
+* ``head_radial_stiffness_N_m``: h31 ``stiffness[0]`` and ``[1]`` (x and y) [N/m];
+* ``head_axial_stiffness_N_m``: h31 ``stiffness[2]`` (z) [N/m];
+* ``head_angular_stiffness_Nm_rad``: h31 ``rotational_stiffness[0]`` and ``[1]`` [N m/rad]
+  (about z the bearing stays released);
+* ``spindle_radial_stiffness_N_m``, ``spindle_axial_stiffness_N_m``,
+  ``spindle_angular_stiffness_Nm_rad``: the same components of h25.
+
+Any model also takes ``hinge.<name>.stiffness[i]`` and ``hinge.<name>.rotational_stiffness[i]``:
+one component (i = 0, 1, 2 for x, y, z) of any hinge. Every value is checked with the model
+loader's rules (:func:`ufmt.model.load.check_hinge_values`: >= 0, inf = rigid, within
+``LIMITS``).
+
+Process parameters: ``rpm`` [rev/min], ``feed_mm_min`` [mm/min], ``depth_um`` [um]; a missing
+one takes the paper's reference case (300 rpm, 15 mm/min, 4 um; Table 4).
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Mapping
+
+import numpy as np
+
+from ufmt.errors import StudyError, closest_name
+from ufmt.machining.sources import SOURCES
+from ufmt.model.load import check_hinge_values
+from ufmt.model.schema import DesignParameter, Model
+
+REFERENCE_PROCESS = {"rpm": 300.0, "feed_mm_min": 15.0, "depth_um": 4.0}
+PROCESS_PARAMETERS = tuple(REFERENCE_PROCESS)
+
+N_FREQUENCIES = 6  # natural frequencies reported in each record
+#: PV [nm] of the surface with one error source alone (ufmt.machining.sources.SOURCES).
+SOURCE_METRICS = tuple(f"pv_{source}_nm" for source in SOURCES)
+METRICS = (
+    "pv_nm",
+    "pv_aperture_nm",
+    "pv_tilt_removed_nm",
+    "rms_nm",
+    "psd1_rms_nm",
+    "psd2_rms_nm",
+    "force_peak_n",
+    *SOURCE_METRICS,
+)
+FREQUENCIES = tuple(f"f{i}_hz" for i in range(1, N_FREQUENCIES + 1))
+
+_HINGE_PARAMETER = re.compile(
+    r"hinge\.(?P<hinge>[^.\[\]]+)\.(?P<field>stiffness|rotational_stiffness)\[(?P<index>[012])\]"
+)
+
+
+def design_parameters(
+    model: Model, extra: Mapping[str, DesignParameter] | None = None
+) -> dict[str, DesignParameter]:
+    """The named design parameters of ``model`` (its ``[design]`` table) and ``extra`` ones
+    (a study file's ``[design]``, which take precedence)."""
+    return {**model.design, **(extra or {})}
+
+
+def parameter_names(model: Model, extra: Mapping[str, DesignParameter] | None = None) -> tuple:
+    """Every named parameter (design then process); hinge overrides follow their pattern."""
+    return (*design_parameters(model, extra), *PROCESS_PARAMETERS)
+
+
+def design_target(
+    name: str, parameters: Mapping[str, DesignParameter]
+) -> tuple[str, str, tuple[int, ...]]:
+    """(hinge, field, components) that design parameter ``name`` sets.
+
+    Raises
+    ------
+    KeyError
+        ``name`` is neither a declared design parameter nor ``hinge.<name>.<field>[i]``.
+    """
+    if name in parameters:
+        p = parameters[name]
+        return p.hinge, p.field, p.components
+    match = _HINGE_PARAMETER.fullmatch(name)
+    if match is None:
+        raise KeyError(name)
+    return match["hinge"], match["field"], (int(match["index"]),)
+
+
+def unknown_design_parameter(
+    name: str, model: Model, extra: Mapping[str, DesignParameter] | None = None
+) -> str | None:
+    """Why ``name`` is not a design parameter of ``model`` (with a did-you-mean), or None."""
+    parameters = design_parameters(model, extra)
+    try:
+        hinge, _, _ = design_target(name, parameters)
+    except KeyError:
+        close = closest_name(name, parameter_names(model, extra), cutoff=0.5)
+        hint = f"did you mean {close!r}?" if close else f"declared: {', '.join(parameters)}"
+        return (
+            f"unknown parameter {name!r} ({hint}; or hinge.<name>.stiffness[i]; declare others "
+            "in a [design] table)"
+        )
+    hinges = [h.name for h in model.hinges]
+    if hinge not in hinges:
+        close = closest_name(hinge, hinges)
+        hint = f"did you mean {close!r}?" if close else f"hinges: {', '.join(hinges)}"
+        return f"parameter {name!r}: model {model.source} has no hinge {hinge!r} ({hint})"
+    return None
+
+
+def apply_design(
+    model: Model,
+    design: Mapping[str, float],
+    parameters: Mapping[str, DesignParameter] | None = None,
+) -> Model:
+    """A copy of ``model`` with the hinge stiffnesses of ``design`` [N/m, N m/rad] set.
+
+    A parameter over several components (radial: x and y; angular: about x and y) is their
+    arithmetic mean: setting it scales the components in proportion, so the calibrated
+    anisotropy is kept and the calibrated value gives back the calibrated model. Components
+    whose mean is 0 or infinite are all set to the value. ``parameters`` adds declarations to
+    the model's own (:func:`design_parameters`).
+
+    Raises
+    ------
+    StudyError
+        An unknown parameter or hinge name.
+    ModelError
+        A value the model file could not hold (negative, NaN, outside ``LIMITS``), in the
+        loader's one-line message.
+    """
+    declared = design_parameters(model, parameters)
+    changes: dict[str, dict[str, np.ndarray]] = {}
+    for name, value in design.items():
+        problem = unknown_design_parameter(name, model, parameters)
+        if problem:
+            raise StudyError(problem)
+        hinge, field, components = design_target(name, declared)
+        fields_ = changes.setdefault(hinge, {})
+        current = fields_.setdefault(field, np.array(getattr(model.hinge(hinge), field)))
+        old = current[list(components)]
+        mean = old.mean()
+        value = float(value)
+        scaled = old * (value / mean) if np.isfinite(mean) and mean > 0 else value
+        current[list(components)] = scaled
+        check_hinge_values(model, hinge, field, current, f"design parameter {name} = {value!r}")
+    for hinge, fields_ in changes.items():
+        model = model.with_hinge(hinge, **fields_)
+    return model
+
+
+def design_value(
+    model: Model, name: str, parameters: Mapping[str, DesignParameter] | None = None
+) -> float:
+    """The value of design parameter ``name`` in ``model``: the mean of its components [SI]."""
+    hinge, field, components = design_target(name, design_parameters(model, parameters))
+    return float(np.mean(getattr(model.hinge(hinge), field)[list(components)]))

@@ -1,0 +1,77 @@
+"""Content hashes that decide whether a stored result may be reused: a file's bytes, a model's
+content, a Python file's syntax tree, and the physics code.
+
+The physics code is an allow-list, :data:`PHYSICS`: the modules whose source can change what
+:func:`ufmt.evaluate` returns. An edit anywhere else (studies, plots, report, cli,
+calibration, the evaluation cache) keeps every cached record and every resumable study row.
+``tests/test_studies.py`` checks that the list covers every ufmt module an evaluation loads,
+apart from the few that cannot change a record (named there with their reason). The only file
+an evaluation reads besides its modules is the model file, whose content keys the cache on its
+own (:func:`model_sha256`).
+"""
+
+from __future__ import annotations
+
+import ast
+import functools
+import hashlib
+import os
+from pathlib import Path
+
+from ufmt.model.load import model_to_toml
+from ufmt.model.schema import Model
+
+PACKAGE = Path(__file__).resolve().parent
+
+#: Package-relative paths of the physics source: a folder stands for every ``*.py`` in it.
+PHYSICS = (
+    "errors.py",  # the error types and messages a failed evaluation records
+    "model",  # loading and validating model files, [machine] and [design] tables
+    "assembled.py",  # the mass-stiffness model that counts and brackets the MSTMM roots
+    "mstmm",  # natural frequencies and mode shapes
+    "machining",  # modal basis, cutting force, error sources, response, surface
+    "simulate.py",  # one cut
+    "design.py",  # design parameters -> hinge values, the reference process, record names
+    "evaluate.py",  # the record itself
+)
+
+
+def file_sha256(path: str | os.PathLike) -> str:
+    """SHA-256 hex digest of a file's bytes."""
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+def model_sha256(model: Model) -> str:
+    """SHA-256 of a model's content (its canonical TOML): comments, layout and the file's
+    location do not change it."""
+    return hashlib.sha256(model_to_toml(model).encode()).hexdigest()
+
+
+def source_sha256(path: str | os.PathLike) -> str:
+    """SHA-256 of a Python file's syntax tree: comments and formatting do not change it (a
+    file that does not parse is hashed by its bytes)."""
+    text = Path(path).read_bytes()
+    try:
+        return hashlib.sha256(ast.dump(ast.parse(text)).encode()).hexdigest()
+    except (SyntaxError, ValueError):
+        return hashlib.sha256(text).hexdigest()
+
+
+def physics_sources() -> list[Path]:
+    """The Python files of :data:`PHYSICS`, sorted."""
+    paths = []
+    for entry in PHYSICS:
+        path = PACKAGE / entry
+        paths += sorted(path.rglob("*.py")) if path.is_dir() else [path]
+    return sorted(paths)
+
+
+@functools.cache
+def code_sha256() -> str:
+    """SHA-256 over the syntax trees of the physics source (:data:`PHYSICS`), keyed by their
+    paths inside the package."""
+    digest = hashlib.sha256()
+    for path in physics_sources():
+        digest.update(path.relative_to(PACKAGE).as_posix().encode())
+        digest.update(source_sha256(path).encode())
+    return digest.hexdigest()

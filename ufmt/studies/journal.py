@@ -1,0 +1,243 @@
+"""The journal of a study run: the rows of ``points.csv`` reused on a rerun, the fingerprint
+that decides whether they may be, and the ``meta.json`` of the run.
+
+Every finished point is appended to ``results/<study>/points.csv`` and flushed at once, so a
+killed run loses only the points in flight. A rerun of the same study (same study file, model
+file, function and physics code, checked by a fingerprint in ``meta.json``) reads the rows back,
+evaluates only the missing points and ends with the same table; with anything changed it starts
+afresh. A point whose function fails is a row with ``status = "error"`` and the message; a
+rerun tries failed points again (a failure may have been transient; a deterministic one gives
+the same row).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+import joblib
+import numpy as np
+import pandas as pd
+from tqdm import tqdm
+
+from ufmt.design import PROCESS_PARAMETERS
+from ufmt.errors import StudyError
+from ufmt.evaluate import model_file, resolve_model
+from ufmt.fingerprint import code_sha256, source_sha256
+from ufmt.studies import outputs
+from ufmt.studies.parallel import evaluate_point, pool_lost_errors
+from ufmt.studies.spec import Study
+
+# ---------------------------------------------------------------------------------------------
+# points.csv: evaluating batches of points with resume
+
+
+def point_key(group: str, values: Sequence[float]) -> str:
+    """Identity of a point within a study: its group and the exact values of its parameters."""
+    return json.dumps([group, [repr(float(v)) for v in values]])
+
+
+class Evaluator:
+    """Evaluates batches of points of one study, logging and reusing rows in ``points.csv``.
+
+    Call :meth:`evaluate` with (group, point) pairs; each point maps parameters to values (the
+    study's base is added). Rows come back in request order. A point already in the log (same
+    group and parameter values) is reused, not recomputed.
+    """
+
+    def __init__(
+        self,
+        study: Study,
+        out_dir: Path,
+        baseline: Mapping[str, float],
+        parallel: joblib.Parallel,
+        progress: bool,
+        planned: int | None = None,
+    ):
+        self.study = study
+        self.parameters = list(study.parameters)
+        self.baseline = dict(baseline)
+        self.model = None if study.model is None else str(study.model)
+        self._parallel = parallel
+        self._log = outputs.PointLog(out_dir / outputs.POINTS, ["group", "index", *self.parameters])
+        logged = {self._key(row["group"], row): row for row in self._log.read()}  # last wins
+        self._rows = {k: row for k, row in logged.items() if row.get("status") != "error"}
+        self._requested: dict[str, dict[str, int]] = {}
+        self.points_new = 0
+        self.points_reused = 0
+        self.evaluation_s = 0.0
+        self._bar = tqdm(
+            total=planned or 0, desc=study.name, unit="pt", disable=not progress, dynamic_ncols=True
+        )
+
+    def _key(self, group: str, row: Mapping) -> str:
+        return point_key(group, [row.get(p, math.nan) for p in self.parameters])
+
+    def evaluate(self, items: Sequence[tuple[str, Mapping[str, float]]]) -> list[dict]:
+        """Rows (inputs and outputs) of (group, point) pairs, in the order given."""
+        rows, todo = [], {}
+        for group, point in items:
+            inputs = {**self.study.base, **{k: float(v) for k, v in point.items()}}
+            row = {p: inputs.get(p, self.baseline.get(p, math.nan)) for p in self.parameters}
+            key = self._key(group, row)
+            requested = self._requested.setdefault(group, {})
+            index = requested.setdefault(key, len(requested))
+            rows.append(key)
+            if key in self._rows:
+                self._rows[key].update(group=group, index=index)
+            elif key not in todo:
+                todo[key] = ({"group": group, "index": index, **row}, inputs)
+        self._bar.total = max(self._bar.total, self._bar.n + len(set(rows)))
+        self._bar.update(len(set(rows)) - len(todo))
+        self.points_reused += len(set(rows)) - len(todo)
+        self._run(list(todo.items()))
+        return [self._rows[key] for key in rows]
+
+    def _run(self, todo: list) -> None:
+        if not todo:
+            return
+        tasks = (
+            joblib.delayed(evaluate_point)(
+                position,
+                self.study.function,
+                {k: v for k, v in inputs.items() if k not in PROCESS_PARAMETERS},
+                {k: v for k, v in inputs.items() if k in PROCESS_PARAMETERS},
+                self.model,
+                self.study.design,
+            )
+            for position, (_, (_, inputs)) in enumerate(todo)
+        )
+        try:
+            for position, record, seconds in self._parallel(tasks):
+                key, (row, _) = todo[position]
+                outputs_ = {k: v for k, v in record.items() if k not in row}
+                full = {**row, **outputs_}
+                self._log.append(full)
+                self._rows[key] = full
+                self.points_new += 1
+                self.evaluation_s += seconds
+                self._bar.set_postfix_str(row["group"], refresh=False)
+                self._bar.update(1)
+        except pool_lost_errors() as exc:
+            raise StudyError(
+                f"{self.study.name}: the workers were lost ({type(exc).__name__}:"
+                f" {' '.join(str(exc).split())[:200]}); {len(self._rows)} finished points are"
+                " saved; rerun to resume"
+            ) from None
+
+    def values(self, group: str, points: Sequence[Mapping[str, float]], output="pv_nm"):
+        """``output`` of each point as a float array (NaN where the point failed)."""
+        rows = self.evaluate([(group, p) for p in points])
+        return np.array([_number(r.get(output)) for r in rows])
+
+    def table(self) -> pd.DataFrame:
+        """Every row requested in this run, by group (in request order), then index."""
+        keys = [k for requested in self._requested.values() for k in requested]
+        return pd.DataFrame([self._rows[k] for k in keys], columns=self._log.columns)
+
+    def complete(self) -> None:
+        """Mark the progress bar finished (an optimiser may use less than its budget)."""
+        self._bar.total = self._bar.n
+        self._bar.refresh()
+
+    def close(self) -> None:
+        """Close the progress bar and the log."""
+        self._bar.close()
+        self._log.close()
+
+
+def _number(value) -> float:
+    try:
+        return float(value)
+    except (TypeError, ValueError):
+        return math.nan
+
+
+# ---------------------------------------------------------------------------------------------
+# fingerprint and meta.json
+
+
+def fingerprint(study: Study) -> dict[str, str]:
+    """Hashes that decide whether earlier rows of this study can be reused.
+
+    They cover what changes results and nothing else: the parsed study file (not its comments
+    or layout), the model's content (not its path or comments), the study function (its name,
+    or the syntax tree of a ``file.py`` function) and the physics code's syntax trees. The
+    same study in another clone or directory has the same fingerprint.
+    """
+    module, _, attribute = study.function.rpartition(":")
+    function = f"{source_sha256(module)}:{attribute}" if module.endswith(".py") else study.function
+    _, model_sha = resolve_model(model_file(study.model))
+    parts = {
+        "study_sha256": study.content_sha256,
+        "function_sha256": hashlib.sha256(function.encode()).hexdigest(),
+        "model_sha256": model_sha,
+        "code_sha256": code_sha256(),
+    }
+    parts["fingerprint"] = hashlib.sha256(json.dumps(parts, sort_keys=True).encode()).hexdigest()
+    return parts
+
+
+def check_same_study(study: Study, out_dir: Path, previous: Mapping, identity, fresh) -> None:
+    """Refuse a results directory that holds another study file's results under the same
+    name (a changed study file, same name, is a new run of the same study)."""
+    if fresh or not previous or previous.get("study_sha256") == identity["study_sha256"]:
+        return
+    other = Path(str(previous.get("study_file", ""))).name
+    if other and other != study.path.name:
+        raise StudyError(
+            f"{study.path}: field 'name': {out_dir} holds the results of another study file"
+            f" with the name {study.name!r} ({other}); give this study its own name, use"
+            " --results, or --fresh to replace them"
+        )
+
+
+def start_meta(study: Study, identity: Mapping[str, str]) -> dict:
+    """The ``meta.json`` of a run that starts: the study, its inputs and their hashes
+    (``identity``: :func:`fingerprint`), package versions and the git revision."""
+    baseline = study.baseline
+    return {
+        "study": study.name,
+        "kind": study.kind,
+        "description": study.description,
+        "study_file": str(study.path),
+        "study_text": study.text,
+        "function": study.function,
+        "model": "packaged" if study.model is None else str(study.model),
+        **identity,
+        "baseline": baseline,
+        "parameters": list(study.parameters),
+        "groups": [
+            {"name": g.name, "axes": [{"parameter": a.parameter, "log": a.log} for a in g.axes]}
+            for g in study.groups
+        ],
+        "bounds": [
+            {"parameter": b.parameter, "range": list(b.resolved(baseline)), "log": b.log}
+            for b in study.bounds
+        ],
+        "options": study.options,
+        "status": "running",
+        "started": outputs.now(),
+        "versions": outputs.package_versions(),
+        "git": outputs.git_revision(Path(__file__).resolve().parent),
+    }
+
+
+def run_summary(execution, table: pd.DataFrame, evaluator: Evaluator, wall: float) -> dict:
+    """The ``run`` entry of a finished run's ``meta.json``: workers, points, times [s]."""
+    ok = int((table.get("status", pd.Series(dtype=str)) == "ok").sum())
+    return {
+        "jobs": execution.n_jobs,
+        "backend": execution.backend,
+        "scheduler": execution.scheduler,
+        "wall_s": round(wall, 3),
+        "points_total": len(table),
+        "points_new": evaluator.points_new,
+        "points_reused": evaluator.points_reused,
+        "points_failed": len(table) - ok,
+        "evaluation_s": round(evaluator.evaluation_s, 3),
+        "points_per_s": round(evaluator.points_new / wall, 3) if wall > 0 else None,
+    }

@@ -1,0 +1,141 @@
+"""Study kind ``optimise-design``: bearing stiffnesses that buy their price in PV.
+
+Fields: ``[[bound]]`` over design parameters (the head air bearing's radial, axial and angular
+stiffness in the packaged study), ``[cost]`` (parameter -> weight [nm per multiple of the
+calibrated stiffness]), ``[optimiser]`` (:mod:`ufmt.studies.optimise`). The study minimises
+``PV + cost``, with ``cost = sum_i w_i k_i / k_i,calibrated`` [nm]: each weight ``w_i`` [nm]
+is what one calibrated stiffness's worth of bearing costs, so a stiffer bearing must buy its
+price in PV.
+
+Tables: ``optima.csv`` (the calibrated design and the optimum), ``convergence.csv``; figures:
+the convergence and the trade-off of PV against stiffness cost.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from matplotlib.figure import Figure
+
+from ufmt.design import PROCESS_PARAMETERS
+from ufmt.errors import StudyError
+from ufmt.plots.studies import plot_convergence, plot_design_tradeoff
+from ufmt.studies import outputs
+from ufmt.studies.optimise import (
+    CONVERGENCE,
+    OPTIMA,
+    Space,
+    batch_objective,
+    convergence_table,
+    minimise,
+    minimise_budget,
+    read_optimiser,
+    start_point,
+)
+from ufmt.studies.outputs import short
+from ufmt.studies.spec import StudyKind, name_hint, read_bounds, read_real
+
+
+def parse(where, data: Mapping, base: Mapping[str, float]) -> dict:
+    """The searched design bounds and the cost weights."""
+    bounds = read_bounds(where, data.get("bound", []), required=True)
+    for b in bounds:
+        if b.parameter in PROCESS_PARAMETERS:
+            where.fail(f"bound.{b.parameter}", "optimise-design searches design parameters only")
+        if b.parameter in base:
+            where.fail(f"base.{b.parameter}", "is searched by optimise-design; remove it")
+    cost = data.get("cost", {})
+    if not isinstance(cost, Mapping):
+        where.fail("cost", "expected a table of parameter = weight [nm per calibrated multiple]")
+    searched = [b.parameter for b in bounds]
+    weights = {}
+    for key, value in cost.items():
+        if key not in searched:
+            where.fail(
+                f"cost.{key}", f"not a searched parameter ({name_hint(key, searched, 'bounds')})"
+            )
+        weights[key] = read_real(where, f"cost.{key}", value, minimum=0.0)
+    options = {"cost": weights, "optimiser": read_optimiser(where, data.get("optimiser", {}))}
+    return {"bounds": bounds, "options": options}
+
+
+def planned_points(study) -> int:
+    """Upper bound on the points requested: the search, the calibrated design, the optimum."""
+    return minimise_budget(len(study.bounds), study.options["optimiser"]) + 2
+
+
+def analyse(study, evaluator, baseline: Mapping, out_dir: Path) -> str:
+    """Bearing stiffnesses minimising PV + stiffness cost; returns the headline."""
+    options = study.options["optimiser"]
+    space = Space.from_bounds(study.bounds, baseline)
+    reference = np.array([baseline.get(name, math.nan) for name in space.names])
+    weights = np.array([study.options["cost"].get(name, 0.0) for name in space.names])
+    unknown = [
+        n for n, r, w in zip(space.names, reference, weights, strict=True) if w and not r > 0
+    ]
+    if unknown:
+        raise StudyError(
+            f"{study.path}: field 'cost.{unknown[0]}': the calibrated value is not a finite"
+            " number > 0 (released or rigid), so a cost per calibrated multiple is undefined"
+        )
+    safe_reference = np.where(weights > 0, reference, 1.0)
+
+    def cost(values: np.ndarray) -> np.ndarray:
+        return (weights * values / safe_reference).sum(axis=-1)
+
+    objective = batch_objective(evaluator, "search", space, {}, cost)
+    found = minimise(objective, space.dim, options, start_point(space, baseline))
+    candidates = {"optimum": space.points(found.u[None])[0]}
+    if np.all(np.isfinite(reference)):
+        candidates = {"calibrated": dict(zip(space.names, reference, strict=True)), **candidates}
+    rows = evaluator.evaluate([("optimum", p) for p in candidates.values()])
+    optima = pd.DataFrame(
+        [{"design": name, **row} for name, row in zip(candidates, rows, strict=True)]
+    ).drop(columns=["group", "index"])
+    optima["cost_nm"] = cost(optima[list(space.names)].to_numpy(float))
+    optima["objective_nm"] = optima["pv_nm"] + optima["cost_nm"]
+    outputs.write_table(optima, out_dir / OPTIMA)
+    outputs.write_table(convergence_table([("search", found)]), out_dir / CONVERGENCE)
+
+    best = optima[optima["design"] == "optimum"].iloc[0]
+    parts = []
+    for name, ref in zip(space.names, reference, strict=True):
+        ratio = f" ({short(best[name] / ref)}x calibrated)" if ref > 0 else ""
+        parts.append(f"{name} = {short(best[name])}{ratio}")
+    text = (
+        f"Optimum {', '.join(parts)}: PV {short(best['pv_nm'])} nm, cost"
+        f" {short(best['cost_nm'])} nm, objective {short(best['objective_nm'])} nm"
+    )
+    if "calibrated" in candidates:
+        cal = optima[optima["design"] == "calibrated"].iloc[0]
+        text += (
+            f" (calibrated design: PV {short(cal['pv_nm'])} nm,"
+            f" objective {short(cal['objective_nm'])} nm)"
+        )
+    return text + "."
+
+
+def figures(out_dir: Path) -> dict[str, Figure]:
+    """The optimiser's convergence and the trade-off of PV against stiffness cost."""
+    points = outputs.read_table(out_dir / outputs.POINTS)
+    return {
+        "convergence.png": plot_convergence(outputs.read_table(out_dir / CONVERGENCE)),
+        "tradeoff.png": plot_design_tradeoff(
+            points, outputs.read_table(out_dir / OPTIMA), outputs.read_meta(out_dir)
+        ),
+    }
+
+
+OPTIMISE_DESIGN = StudyKind(
+    name="optimise-design",
+    fields=("bound", "cost", "optimiser"),
+    tables=(OPTIMA, CONVERGENCE),
+    parse=parse,
+    planned_points=planned_points,
+    analyse=analyse,
+    figures=figures,
+)

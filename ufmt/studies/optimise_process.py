@@ -1,0 +1,221 @@
+"""Study kind ``optimise-process``: cutting recipes (rpm, feed, depth) within Table 1's bounds.
+
+Fields: ``[[bound]]`` over rpm, feed and depth (default: Table 1's ranges), ``target_pv_nm``
+(default 100), ``workpiece_length_mm`` and ``tool_radius_mm`` (both or neither; default: the
+model's ``[machine]``), ``pareto_levels`` (default 7), ``[optimiser]``
+(:mod:`ufmt.studies.optimise`). The study finds
+
+* (a) the **minimum-PV recipe**: :func:`~ufmt.studies.optimise.minimise` over all three;
+* (b) the **fastest recipe** whose PV stays under ``target_pv_nm``. The cutting time of one
+  finishing pass over the workpiece is :func:`cutting_time_min`: the slide travels the
+  workpiece length along the feed (y) plus the tool-circle diameter 2R (the tool circle enters
+  before the leading edge and clears the trailing edge), at the feed speed. Time depends on
+  feed alone, so the fastest recipe is the largest feed ``v`` with
+  ``min over (rpm, depth) of PV(rpm, v, depth) <= target`` (an epsilon-constraint problem):
+  that minimum is found at ``pareto_levels`` feeds across the bounds, then by bisection on the
+  feed between the last feasible and the first infeasible level;
+* the **Pareto front** of PV against cutting time: the non-dominated points among every
+  recipe evaluated in the study.
+
+Tables: ``optima.csv``, ``pareto.csv``, ``convergence.csv``; figures: the convergence and the
+Pareto front.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Mapping
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from matplotlib.figure import Figure
+
+from ufmt.design import PROCESS_PARAMETERS
+from ufmt.errors import StudyError, UfmtError
+from ufmt.evaluate import model_file
+from ufmt.machining.process import TABLE1_RANGE
+from ufmt.model.load import load_model
+from ufmt.model.machine import machine_of
+from ufmt.plots.studies import plot_convergence, plot_pareto
+from ufmt.studies import outputs
+from ufmt.studies.optimise import (
+    CONVERGENCE,
+    OPTIMA,
+    Space,
+    batch_objective,
+    convergence_table,
+    minimise,
+    minimise_budget,
+    pareto_mask,
+    read_optimiser,
+    start_point,
+)
+from ufmt.studies.outputs import short
+from ufmt.studies.spec import Bound, StudyKind, read_bounds, read_count, read_positive
+
+BISECTION_STEPS = 4  # feed bisection steps for the fastest recipe
+TABLE1_BOUNDS = {name: (low, high) for name, (low, high, _) in TABLE1_RANGE.items()}
+PARETO = "pareto.csv"  # the non-dominated recipes in (cutting time, PV)
+
+
+def parse(where, data: Mapping, base: Mapping[str, float]) -> dict:
+    """The searched bounds (Table 1's where not given) and the kind's options."""
+    given = read_bounds(where, data.get("bound", []), required=False)
+    for b in given:
+        if b.parameter not in PROCESS_PARAMETERS:
+            where.fail(
+                f"bound.{b.parameter}",
+                f"optimise-process searches process parameters only ({', '.join(TABLE1_BOUNDS)})",
+            )
+    by_name = {b.parameter: b for b in given}
+    bounds = tuple(by_name.get(p, Bound(p, *TABLE1_BOUNDS[p])) for p in TABLE1_BOUNDS)
+    for b in bounds:
+        if b.parameter in base:
+            where.fail(f"base.{b.parameter}", "is searched by optimise-process; remove it")
+    options = {
+        "target_pv_nm": read_positive(where, "target_pv_nm", data.get("target_pv_nm", 100.0)),
+        "workpiece_length_mm": read_positive(
+            where, "workpiece_length_mm", data.get("workpiece_length_mm")
+        ),
+        "tool_radius_mm": read_positive(where, "tool_radius_mm", data.get("tool_radius_mm")),
+        "pareto_levels": read_count(where, "pareto_levels", data.get("pareto_levels", 7), 2),
+        "optimiser": read_optimiser(where, data.get("optimiser", {})),
+    }
+    if (options["workpiece_length_mm"] is None) != (options["tool_radius_mm"] is None):
+        where.fail("tool_radius_mm", "give both workpiece_length_mm and tool_radius_mm, or neither")
+    return {"bounds": bounds, "options": options}
+
+
+def planned_points(study) -> int:
+    """Upper bound on the points requested: the minimum-PV search over every bound, one search
+    over the others per feed level and bisection step, and the two optima."""
+    options = study.options["optimiser"]
+    dim = len(study.bounds)
+    stages = 1 + study.options["pareto_levels"] + BISECTION_STEPS
+    return minimise_budget(dim, options) + (stages - 1) * minimise_budget(dim - 1, options) + 2
+
+
+def cutting_time_min(feed_mm_min: np.ndarray | float, travel_mm: float) -> np.ndarray | float:
+    """Time of one finishing pass [min]: slide travel (workpiece length along y + 2 R) / feed."""
+    return travel_mm / np.asarray(feed_mm_min, dtype=float)
+
+
+def cutting_travel_mm(model: str | os.PathLike | None = None) -> float:
+    """Slide travel of one finishing pass [mm]: workpiece length along y + 2 R, from the first
+    touch of the tool circle to its exit (``Machine.cut_span`` of the model's ``[machine]``;
+    None: the packaged UFMT)."""
+    low, high = machine_of(load_model(model_file(model))).cut_span
+    return (high - low) * 1e3
+
+
+def _travel_mm(study, evaluator) -> float:
+    """Slide travel of one pass [mm]: the study's workpiece length + 2 R, else the model's."""
+    length = study.options["workpiece_length_mm"]
+    radius = study.options["tool_radius_mm"]
+    if length is not None:
+        return length + 2.0 * radius
+    try:
+        return cutting_travel_mm(evaluator.model)
+    except UfmtError as exc:
+        raise StudyError(f"{study.path}: cutting time needs the workpiece: {exc}") from None
+
+
+def analyse(study, evaluator, baseline: Mapping, out_dir: Path) -> str:
+    """Minimum-PV recipe, fastest recipe under the PV target, Pareto front; returns headline.
+
+    The searches (module docstring) propose recipes; the reported ones are the best of every
+    evaluated recipe: the lowest PV, and the shortest time with PV <= target.
+    """
+    options = study.options["optimiser"]
+    target = study.options["target_pv_nm"]
+    travel = _travel_mm(study, evaluator)
+    space = Space.from_bounds(study.bounds, baseline)
+    objective = batch_objective(evaluator, "min-pv", space, {})
+    stages = [("min-pv", minimise(objective, space.dim, options, start_point(space, baseline)))]
+
+    feed_i = space.names.index("feed_mm_min")
+    others = space.without("feed_mm_min")
+    level_feeds = np.linspace(space.low[feed_i], space.high[feed_i], study.options["pareto_levels"])
+
+    def feasible_at(feed: float, stage: str) -> bool:
+        """Whether min over (rpm, depth) of PV at this feed is <= target."""
+        fixed = {"feed_mm_min": float(feed)}
+        result = minimise(batch_objective(evaluator, stage, others, fixed), others.dim, options)
+        stages.append((stage, result))
+        return result.value <= target
+
+    feasible = [feasible_at(f, f"feed-{f:.4g}") for f in level_feeds]
+    if any(feasible):
+        k = len(feasible) - 1 - feasible[::-1].index(True)
+        if k + 1 < len(level_feeds):
+            lo, hi = level_feeds[k], level_feeds[k + 1]
+            for step in range(BISECTION_STEPS):
+                mid = 0.5 * (lo + hi)
+                lo, hi = (mid, hi) if feasible_at(mid, f"bisect-{step + 1}") else (lo, mid)
+
+    table = evaluator.table()
+    ok = table[table["status"] == "ok"].copy()
+    ok["cutting_time_min"] = cutting_time_min(ok["feed_mm_min"], travel)
+    recipes = {"min-pv": ok.loc[ok["pv_nm"].idxmin()]}
+    under = ok[ok["pv_nm"] <= target].sort_values(["cutting_time_min", "pv_nm"], kind="stable")
+    if not under.empty:
+        recipes["fastest-under-target"] = under.iloc[0]
+    points = [{n: float(r[n]) for n in space.names} for r in recipes.values()]
+    rows = evaluator.evaluate([("optimum", p) for p in points])
+    optima = pd.DataFrame(
+        [{"optimum": name, **row} for name, row in zip(recipes, rows, strict=True)]
+    ).drop(columns=["group", "index"])
+    optima["travel_mm"] = travel
+    optima["cutting_time_min"] = cutting_time_min(optima["feed_mm_min"], travel)
+    optima["target_pv_nm"] = target
+    outputs.write_table(optima, out_dir / OPTIMA)
+
+    front = ok[pareto_mask(ok["cutting_time_min"], ok["pv_nm"])]
+    front = front.sort_values("cutting_time_min").drop_duplicates(["cutting_time_min", "pv_nm"])
+    outputs.write_table(front.reset_index(drop=True), out_dir / PARETO)
+    outputs.write_table(convergence_table(stages), out_dir / CONVERGENCE)
+
+    best = optima.iloc[0]
+    text = (
+        f"Minimum PV {short(best['pv_nm'])} nm at {short(best['rpm'])} rpm,"
+        f" {short(best['feed_mm_min'])} mm/min, {short(best['depth_um'])} um"
+        f" ({short(best['cutting_time_min'])} min per pass)"
+    )
+    if under.empty:
+        return text + f"; no recipe within the bounds keeps PV under {short(target)} nm."
+    fast = optima.iloc[1]
+    return text + (
+        f"; fastest recipe with PV <= {short(target)} nm: {short(fast['feed_mm_min'])} mm/min"
+        f" at {short(fast['rpm'])} rpm, {short(fast['depth_um'])} um,"
+        f" {short(fast['cutting_time_min'])} min per pass (PV {short(fast['pv_nm'])} nm)."
+    )
+
+
+def figures(out_dir: Path) -> dict[str, Figure]:
+    """The optimiser's convergence and the Pareto front of PV against cutting time."""
+    points = outputs.read_table(out_dir / outputs.POINTS)
+    return {
+        "convergence.png": plot_convergence(outputs.read_table(out_dir / CONVERGENCE)),
+        "pareto.png": plot_pareto(
+            points, outputs.read_table(out_dir / PARETO), outputs.read_table(out_dir / OPTIMA)
+        ),
+    }
+
+
+OPTIMISE_PROCESS = StudyKind(
+    name="optimise-process",
+    fields=(
+        "bound",
+        "target_pv_nm",
+        "workpiece_length_mm",
+        "tool_radius_mm",
+        "pareto_levels",
+        "optimiser",
+    ),
+    tables=(OPTIMA, PARETO, CONVERGENCE),
+    parse=parse,
+    planned_points=planned_points,
+    analyse=analyse,
+    figures=figures,
+)

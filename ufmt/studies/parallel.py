@@ -1,0 +1,199 @@
+"""Parallel execution of a study's points: the worker function, the joblib pools (loky
+processes or a dask.distributed cluster) and what a lost pool looks like.
+
+One level of parallelism: the study's points are evaluated by the study function in joblib
+workers, ``loky`` processes on this machine (default: one per core) or a dask.distributed
+cluster through joblib's dask backend (``backend="dask"``; ``scheduler`` is the address of a
+running scheduler, e.g. ``tcp://10.0.0.5:8786``; without one a local cluster with ``jobs``
+worker processes is started). Each worker's BLAS thread pools are limited to one thread with
+threadpoolctl: the model's matrices are small (order 66), so threaded BLAS only adds overhead
+(measured on the UFMT: 1.0 s per modal basis with one thread, 1.3-2.5 s with two), and the
+cores are better used by evaluating points side by side.
+
+The workers import this module only (the worker function is pickled by reference), so it
+stays free of the study kinds and their plots.
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import importlib
+import importlib.util
+import re
+import sys
+import time
+import warnings
+from collections.abc import Iterator, Mapping
+from concurrent.futures import CancelledError
+from contextlib import contextmanager
+from dataclasses import dataclass
+
+import joblib
+from joblib.externals.loky.process_executor import TerminatedWorkerError
+from threadpoolctl import threadpool_limits
+
+from ufmt.errors import StudyError
+from ufmt.evaluate_cache import CacheWarning
+from ufmt.model.schema import DesignParameter
+
+BACKENDS = ("loky", "dask")
+_SCHEDULER = re.compile(  # tcp://host:port, tls://..., ucx://..., host:port, inproc://...
+    r"inproc://\S+|((tcp|tls|ucx)://)?(\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9_.-]+):"
+    r"(6553[0-5]|655[0-2][0-9]|65[0-4][0-9]{2}|6[0-4][0-9]{3}|[1-5][0-9]{4}|[1-9][0-9]{0,3})"
+)
+BLAS_THREADS = 1  # per worker (module docstring)
+_BLAS_LIMITED_TASKS = 2  # per worker: before the first task and again once it loaded its libs
+
+
+def pool_lost_errors() -> tuple[type[BaseException], ...]:
+    """Errors of a lost pool (a killed worker or dask scheduler): the run stops, rows are
+    kept."""
+    lost = [TerminatedWorkerError, CancelledError, ConnectionError, TimeoutError]
+    if "distributed" in sys.modules:
+        from distributed.comm.core import CommClosedError
+
+        lost.append(CommClosedError)
+    return tuple(lost)
+
+
+# ---------------------------------------------------------------------------------------------
+# the study function, called in the workers
+
+
+@functools.cache
+def resolve_function(ref: str):
+    """The callable named by ``"module:attribute"`` or ``"/path/file.py:attribute"``.
+
+    Raises
+    ------
+    StudyError
+        The module or attribute cannot be imported.
+    """
+    module_name, _, attribute = ref.rpartition(":")
+    try:
+        if module_name.endswith(".py"):
+            digest = hashlib.sha256(module_name.encode()).hexdigest()[:16]
+            name = f"_ufmt_study_function_{digest}"
+            spec = importlib.util.spec_from_file_location(name, module_name)
+            if spec is None or spec.loader is None:
+                raise ImportError(f"cannot load {module_name}")
+            module = importlib.util.module_from_spec(spec)
+            sys.modules[name] = module  # lets the module's own functions pickle by reference
+            spec.loader.exec_module(module)
+        else:
+            module = importlib.import_module(module_name)
+        function = getattr(module, attribute)
+    except (ImportError, OSError, AttributeError) as exc:
+        raise StudyError(f"function {ref!r}: cannot import: {exc}") from None
+    if not callable(function):
+        raise StudyError(f"function {ref!r}: not callable")
+    return function
+
+
+_tasks_done = 0
+
+
+def evaluate_point(
+    position: int,
+    ref: str,
+    design: Mapping[str, float],
+    process: Mapping[str, float],
+    model: str | None,
+    parameters: Mapping[str, DesignParameter] | None = None,
+) -> tuple[int, dict, float]:
+    """Run the study function on one point in a worker: (position, record, seconds).
+
+    ``parameters`` (the study file's own ``[design]`` declarations) is passed to the function
+    as a keyword only when the study declares any. Never raises: an exception of the function
+    becomes a record with status "error".
+    """
+    global _tasks_done
+    if _tasks_done < _BLAS_LIMITED_TASKS:
+        threadpool_limits(limits=BLAS_THREADS)
+        _tasks_done += 1
+    start = time.perf_counter()
+    extra = {"parameters": dict(parameters)} if parameters else {}
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", CacheWarning)  # the main process reported it
+            record = resolve_function(ref)(dict(design), dict(process), model, **extra)
+        if not isinstance(record, Mapping):
+            raise TypeError(f"returned {type(record).__name__}, not a dict")
+        record = dict(record)
+        record.setdefault("status", "ok")
+        record.setdefault("message", "")
+    except Exception as exc:  # a failing point is recorded, not fatal
+        record = {"status": "error", "message": f"{type(exc).__name__}: {exc}"}
+    return position, record, time.perf_counter() - start
+
+
+# ---------------------------------------------------------------------------------------------
+# parallel pools
+
+
+@dataclass(frozen=True)
+class Execution:
+    """How to evaluate: ``jobs`` workers on ``backend`` (loky | dask) at ``scheduler``."""
+
+    jobs: int | None = None
+    backend: str = "loky"
+    scheduler: str | None = None
+
+    def __post_init__(self):
+        if self.backend not in BACKENDS:
+            raise StudyError(f"--backend: unknown backend {self.backend!r} (loky or dask)")
+        if self.jobs is not None and self.jobs < 1:
+            raise StudyError(f"--jobs: {self.jobs} must be >= 1")
+        if self.scheduler is not None and self.backend != "dask":
+            raise StudyError("--scheduler: needs --backend dask")
+        if self.scheduler is not None and not _SCHEDULER.fullmatch(self.scheduler):
+            raise StudyError(
+                f"--scheduler: {self.scheduler!r} is not a scheduler address"
+                " (tcp://HOST:PORT, tls://HOST:PORT or HOST:PORT, port 1-65535)"
+            )
+
+    @property
+    def n_jobs(self) -> int:
+        """Number of workers (default: every core joblib sees)."""
+        return self.jobs or joblib.cpu_count()
+
+
+@contextmanager
+def parallel_pool(execution: Execution) -> Iterator[joblib.Parallel]:
+    """A reusable joblib Parallel returning results as they finish (unordered)."""
+    if execution.backend == "loky":
+        n = execution.n_jobs
+        with joblib.parallel_config(backend="loky", n_jobs=n, inner_max_num_threads=BLAS_THREADS):
+            with joblib.Parallel(return_as="generator_unordered") as parallel:
+                yield parallel
+        return
+    from dask.distributed import Client, LocalCluster
+
+    cluster = None
+    try:
+        if execution.scheduler is None:
+            cluster = LocalCluster(
+                n_workers=execution.n_jobs, threads_per_worker=1, dashboard_address=None
+            )
+        client = Client(execution.scheduler or cluster, timeout=10)
+    except (OSError, TimeoutError, ValueError) as exc:
+        reason = " ".join(str(exc).split())[:200]
+        raise StudyError(f"--scheduler {execution.scheduler}: cannot connect: {reason}") from None
+    try:
+        with joblib.parallel_config(backend="dask"):
+            with joblib.Parallel(n_jobs=-1, return_as="generator_unordered") as parallel:
+                yield parallel
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+
+
+def stop_local_workers(execution: Execution) -> None:
+    """Kill the loky worker processes (they would otherwise outlive an interrupted run)."""
+    if execution.backend != "loky":
+        return
+    from joblib.externals.loky import get_reusable_executor
+
+    get_reusable_executor().shutdown(wait=False, kill_workers=True)

@@ -1,0 +1,124 @@
+"""Study kinds ``sweep`` and ``grid``: points on axes of values, all known before the run.
+
+* ``sweep``: every ``[[axis]]`` is varied alone about the base (one-at-a-time); each
+  ``[[grid]]`` (``name`` plus its own ``[[grid.axis]]`` list) adds a full-factorial grid.
+* ``grid``: the ``[[axis]]`` entries are crossed into one full-factorial grid.
+
+The headline says how PV responds along each axis and over each grid; the figures are PV
+against each one-at-a-time axis and a PV map per 2-D grid.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from matplotlib.figure import Figure
+
+from ufmt.plots.studies import sweep_figures
+from ufmt.studies import outputs
+from ufmt.studies.outputs import short
+from ufmt.studies.spec import Group, StudyKind, check_unique, read_axes, read_grids
+
+
+def parse_sweep(where, data: Mapping, base: Mapping[str, float]) -> dict:
+    """The axes (one group each) and grids of a sweep."""
+    axes = read_axes(where, "axis", data.get("axis", []), required=False)
+    groups = [Group(a.parameter, (a,)) for a in axes]
+    groups += read_grids(where, data.get("grid", []))
+    if not groups:
+        where.fail("axis", "a sweep needs at least one [[axis]] or [[grid]]")
+    check_unique(where, "axis", [g.name for g in groups])
+    return {"groups": tuple(groups)}
+
+
+def parse_grid(where, data: Mapping, base: Mapping[str, float]) -> dict:
+    """The axes of a grid, crossed into one group."""
+    axes = read_axes(where, "axis", data.get("axis", []), required=True)
+    return {"groups": (Group("grid", tuple(axes)),)}
+
+
+def planned_points(study) -> int:
+    """Points of every axis and grid."""
+    return sum(math.prod(len(a.values) for a in g.axes) for g in study.groups)
+
+
+def analyse(study, evaluator, baseline: Mapping[str, float], out_dir: Path) -> str:
+    """Evaluate every point of every group; returns the headline."""
+    evaluator.evaluate([(g.name, p) for g in study.groups for p in g.points(baseline)])
+    return sweep_headline(evaluator.table(), study)
+
+
+def figures(out_dir: Path) -> dict[str, Figure]:
+    """PV against each one-at-a-time axis and a PV map per 2-D grid."""
+    return sweep_figures(outputs.read_table(out_dir / outputs.POINTS), outputs.read_meta(out_dir))
+
+
+def trend(x, y) -> str:
+    """How ``y`` changes as ``x`` rises: "falls" or "rises" (monotonically), else "falls
+    overall (not monotonically)" or "rises overall (not monotonically)" by the end points."""
+    y = np.asarray(y, dtype=float)[np.argsort(x)]
+    steps = np.diff(y)
+    if np.all(steps <= 0):
+        return "falls"
+    if np.all(steps >= 0):
+        return "rises"
+    return f"{'falls' if y[-1] < y[0] else 'rises'} overall (not monotonically)"
+
+
+def sweep_headline(table: pd.DataFrame, study) -> str:
+    """One sentence per sweep axis or grid: how PV responds, with its range [nm] (and, where
+    the table has it, the PV of the cutting-force vibration alone at the axis ends)."""
+    ok = table[table["status"] == "ok"] if "status" in table else table
+    parts = []
+    for group in study.groups:
+        rows = ok[ok["group"] == group.name]
+        if rows.empty or "pv_nm" not in rows:
+            parts.append(f"{group.name}: no successful points")
+            continue
+        pv = rows["pv_nm"].to_numpy(float)
+        if len(group.axes) == 1:
+            name = group.axes[0].parameter
+            x = rows[name].to_numpy(float)
+            lo, hi = x.min(), x.max()
+            vibration = ""
+            if "pv_dynamic_nm" in rows and rows["pv_dynamic_nm"].notna().all():
+                dyn = rows["pv_dynamic_nm"].to_numpy(float)
+                vibration = (
+                    f"; its cutting-force vibration part {short(dyn[np.argmin(x)])} ->"
+                    f" {short(dyn[np.argmax(x)])} nm"
+                )
+            parts.append(
+                f"PV {trend(x, pv)} as {name} rises from {short(lo)} to {short(hi)}"
+                f" (PV {short(pv[np.argmin(x)])} -> {short(pv[np.argmax(x)])} nm,"
+                f" range {short(pv.min())}-{short(pv.max())} nm{vibration})"
+            )
+        else:
+            best = rows.iloc[int(np.argmin(pv))]
+            at = ", ".join(f"{a.parameter} = {short(best[a.parameter])}" for a in group.axes)
+            label = "grid" if group.name == "grid" else f"grid {group.name}"
+            parts.append(f"{label}: PV {short(pv.min())}-{short(pv.max())} nm, lowest at {at}")
+    return "; ".join(parts) + "."
+
+
+SWEEP = StudyKind(
+    name="sweep",
+    fields=("axis", "grid"),
+    tables=(),
+    parse=parse_sweep,
+    planned_points=planned_points,
+    analyse=analyse,
+    figures=figures,
+)
+GRID = StudyKind(
+    name="grid",
+    fields=("axis",),
+    tables=(),
+    parse=parse_grid,
+    planned_points=planned_points,
+    analyse=analyse,
+    figures=figures,
+)
