@@ -30,13 +30,14 @@ from ufmt.calibration.settings import (
     load_calibration,
 )
 from ufmt.cli import main
+from ufmt.defaults import PAPER_MODES
 from ufmt.errors import StudyError
 from ufmt.model.load import load_model
 
 DATA = Path(__file__).resolve().parents[1] / "ufmt" / "data"
 CALIBRATION = DATA / "calibration.toml"
 PRIOR = DATA / "ufmt-prior.toml"
-N_MODES = 30
+N_MODES = PAPER_MODES
 ELEMENTS = 8
 
 # a few well-separated parameters, each driving some of the first 30 modes

@@ -27,6 +27,7 @@ from ufmt.calibration.frequencies import (
     tool_tip_neighbours,
     validate,
 )
+from ufmt.defaults import PAPER_MODES
 from ufmt.errors import StudyError
 from ufmt.model.load import load_model
 from ufmt.plots import save_figure
@@ -36,7 +37,7 @@ ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT / "ufmt" / "data"
 COMMITTED = ROOT / "results" / "validation" / "frequencies.csv"
 COMMITTED_RESPONSE = ROOT / "results" / "validation" / "response.csv"
-N_MODES = 30
+N_MODES = PAPER_MODES
 TESTED = [1, 2, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16, 17, 18, 29]
 TEXT_COLUMNS = ["symmetry_class", "shape", "table3_shape", "tag_check", "tag_detail"]
 # numeric columns: (rtol, atol); values that are zero by symmetry carry solver noise only

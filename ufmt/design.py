@@ -31,12 +31,12 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from ufmt.defaults import REFERENCE_PROCESS
 from ufmt.errors import StudyError, closest_name
 from ufmt.machining.sources import SOURCES
 from ufmt.model.load import check_hinge_values
 from ufmt.model.schema import DesignParameter, Model
 
-REFERENCE_PROCESS = {"rpm": 300.0, "feed_mm_min": 15.0, "depth_um": 4.0}
 PROCESS_PARAMETERS = tuple(REFERENCE_PROCESS)
 
 N_FREQUENCIES = 6  # natural frequencies reported in each record

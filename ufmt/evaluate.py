@@ -26,6 +26,7 @@ from dataclasses import fields, is_dataclass
 from pathlib import Path
 
 from ufmt import evaluate_cache
+from ufmt.defaults import DEFAULT_MODES
 from ufmt.design import (
     FREQUENCIES,
     METRICS,
@@ -44,7 +45,6 @@ from ufmt.model.schema import DesignParameter, Model
 from ufmt.recent import Recent
 from ufmt.simulate import simulate
 
-N_MODES = 30  # modes in the modal basis (paper section 3.2 uses the first 30)
 BASIS_CACHE = 4  # modal bases kept in memory per process (recent designs)
 
 
@@ -213,6 +213,6 @@ _BASES = Recent(BASIS_CACHE)  # (model_sha, hinge changes) -> ModalBasis
 
 
 def _modal_basis(model, key):
-    """Modal basis (first N_MODES modes) of ``model``, kept for the last BASIS_CACHE designs so
+    """Modal basis (the first DEFAULT_MODES) of ``model``, kept for the last BASIS_CACHE designs so
     that process changes on a known design reuse it."""
-    return _BASES.get(key, lambda: modal_basis(model, N_MODES))
+    return _BASES.get(key, lambda: modal_basis(model, DEFAULT_MODES))

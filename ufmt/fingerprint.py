@@ -26,6 +26,7 @@ PACKAGE = Path(__file__).resolve().parent
 #: Package-relative paths of the physics source: a folder stands for every ``*.py`` in it.
 PHYSICS = (
     "errors.py",  # the error types and messages a failed evaluation records
+    "defaults.py",  # the reference process, the default basis and grid
     "model",  # loading and validating model files, [machine] and [design] tables
     "assembled.py",  # the mass-stiffness model that counts and brackets the MSTMM roots
     "mstmm",  # natural frequencies and mode shapes

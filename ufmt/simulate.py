@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ufmt.defaults import DEFAULT_MODES, DEFAULT_SPACING
 from ufmt.machining.basis import ModalBasis
 from ufmt.machining.cut_geometry import DEFAULT_N_PHI, DEFAULT_TABLE_ROWS, cut_geometry
 from ufmt.machining.cutting import DEFAULT_COEFFICIENTS, FORCE_PARTS, ForceCoefficients
@@ -37,7 +38,6 @@ from ufmt.machining.sources import SCALLOP, SOURCES, ErrorSource, acting_sources
 from ufmt.machining.static import ResidualFlexibility, residual_flexibility
 from ufmt.machining.surface import (
     DEFAULT_APERTURE_MARGIN,
-    DEFAULT_SPACING,
     PSD2_PATCH_SPACING,
     Passes,
     Surface,
@@ -166,7 +166,7 @@ def simulate(
     model,
     process: Process,
     *,
-    n_modes: int = 30,
+    n_modes: int = DEFAULT_MODES,
     zeta=DEFAULT_ZETA,
     method: str = "periodic",
     basis: ModalBasis | None = None,

@@ -40,6 +40,7 @@ import numpy as np
 import pandas as pd
 
 from ufmt.assembled import AssembledModel, assembled_modes
+from ufmt.defaults import PAPER_MODES
 from ufmt.errors import StudyError
 from ufmt.machining.cutting import tool_tip
 from ufmt.model.machine import machine_of
@@ -413,7 +414,7 @@ class Validation:
     solution: ModalSolution  # with shapes, for the mode plots
 
 
-def validate(model: Model, reference: Reference, n_modes: int = 30) -> Validation:
+def validate(model: Model, reference: Reference, n_modes: int = PAPER_MODES) -> Validation:
     """MSTMM and assembled-model modes of ``model`` against Table 3 (:func:`validation_table`).
 
     The assembled model uses its automatic mesh (relative error target 1e-8 below the highest

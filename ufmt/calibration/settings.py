@@ -27,6 +27,7 @@ import numpy as np
 
 from ufmt.calibration.frequencies import Reference, read_reference
 from ufmt.calibration.tables import check_keys, fail, read_band, suggest
+from ufmt.defaults import PAPER_MODES
 from ufmt.model.load import load_model
 from ufmt.model.machine import Machine
 from ufmt.model.schema import Model
@@ -106,7 +107,7 @@ class Settings:
     max_iterations: int = 60
     tolerance_percent: float = 0.05
     elements_per_beam: int = 8
-    n_modes: int = 30
+    n_modes: int = PAPER_MODES
     accept_max_percent: float = 3.0
     accept_mean_percent: float = 1.0
     shape_penalty: float = 0.01

@@ -19,13 +19,13 @@ import time
 from pathlib import Path
 
 from ufmt.cli.common import load, positive
+from ufmt.defaults import PAPER_MODES
 from ufmt.errors import UfmtError
 from ufmt.model.load import packaged_path
 
 RESULTS = Path("results") / "validation"
 DEFAULT_LOG = RESULTS / "identification-log.csv"
 DEFAULT_PLOTTED_MODES = "1,11,12,18,29"  # mode 1 and the tool-tip z modes of section 4.1
-N_MODES = 30  # modes in the validation table (the paper's first thirty, section 2.5)
 
 
 def _mode_number(text: str) -> int:
@@ -33,8 +33,8 @@ def _mode_number(text: str) -> int:
         value = int(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"{text!r} is not a mode number") from None
-    if not 1 <= value <= N_MODES:
-        raise argparse.ArgumentTypeError(f"mode {value} is outside 1..{N_MODES}")
+    if not 1 <= value <= PAPER_MODES:
+        raise argparse.ArgumentTypeError(f"mode {value} is outside 1..{PAPER_MODES}")
     return value
 
 
@@ -65,7 +65,7 @@ def register(subparsers) -> None:
     p.set_defaults(func=cmd_validate)
 
     p = subparsers.add_parser("plot-mode", help="draw mode N in 3-D to a PNG")
-    p.add_argument("mode", type=_mode_number, help=f"mode number 1..{N_MODES}")
+    p.add_argument("mode", type=_mode_number, help=f"mode number 1..{PAPER_MODES}")
     p.add_argument("model", nargs="?", help="model TOML (default: packaged UFMT)")
     p.add_argument(
         "--output",
@@ -156,7 +156,7 @@ def cmd_validate(args) -> int:
 
     model = load(args.model)
     out = Path(args.output_dir)
-    result = validate(model, read_reference(packaged_path("paper_reference.toml")), N_MODES)
+    result = validate(model, read_reference(packaged_path("paper_reference.toml")), PAPER_MODES)
     write_table(result.table, out / "frequencies.csv")
     save_figure(plot_frequencies(result.table), out / "frequencies.png")
     lines = describe(model, result.modes.shares, top=3)

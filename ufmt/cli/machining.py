@@ -14,22 +14,45 @@ DEFAULT_FRF_DIR = Path("results") / "frf"
 def register(subparsers) -> None:
     """Add the ``simulate`` and ``frf`` sub-parsers."""
     from ufmt.cli.common import positive
+    from ufmt.defaults import (
+        DEFAULT_MODES,
+        REFERENCE_DEPTH_UM,
+        REFERENCE_FEED_MM_MIN,
+        REFERENCE_RPM,
+    )
     from ufmt.machining.cut_geometry import DEFAULT_N_PHI
     from ufmt.machining.sources import SOURCES
     from ufmt.machining.surface import DEFAULT_APERTURE_MARGIN, DEFAULT_PSD2_PATCH
 
     p = subparsers.add_parser("simulate", help="cutting response, machined surface and PV")
     p.add_argument("model", nargs="?", help="model TOML (default: packaged UFMT)")
-    p.add_argument("--rpm", type=positive(float), default=300.0, help="spindle speed (300)")
-    p.add_argument("--feed", type=positive(float), default=15.0, help="feed [mm/min] (15)")
-    p.add_argument("--depth", type=positive(float), default=4.0, help="depth of cut [um] (4)")
+    p.add_argument(
+        "--rpm",
+        type=positive(float),
+        default=REFERENCE_RPM,
+        help=f"spindle speed ({REFERENCE_RPM:g})",
+    )
+    p.add_argument(
+        "--feed",
+        type=positive(float),
+        default=REFERENCE_FEED_MM_MIN,
+        help=f"feed [mm/min] ({REFERENCE_FEED_MM_MIN:g})",
+    )
+    p.add_argument(
+        "--depth",
+        type=positive(float),
+        default=REFERENCE_DEPTH_UM,
+        help=f"depth of cut [um] ({REFERENCE_DEPTH_UM:g})",
+    )
     p.add_argument(
         "--method",
         choices=["periodic", "time"],
         default="periodic",
         help="periodic steady state (fast) or whole-workpiece time domain (exact)",
     )
-    p.add_argument("--modes", type=positive(int), default=30, help="modes kept (30)")
+    p.add_argument(
+        "--modes", type=positive(int), default=DEFAULT_MODES, help=f"modes kept ({DEFAULT_MODES})"
+    )
     p.add_argument(
         "--samples-per-rev",
         type=positive(int, at_most=2**16),
@@ -75,7 +98,9 @@ def register(subparsers) -> None:
     p.add_argument(
         "--points", type=positive(int, at_most=10**6), default=4000, help="log-spaced (4000)"
     )
-    p.add_argument("--modes", type=positive(int), default=30, help="modes kept (30)")
+    p.add_argument(
+        "--modes", type=positive(int), default=DEFAULT_MODES, help=f"modes kept ({DEFAULT_MODES})"
+    )
     p.add_argument(
         "--zeta", type=positive(float, below=1.0), default=None, help="damping ratio (0.03)"
     )

@@ -10,13 +10,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from ufmt.defaults import DEFAULT_MODES
 from ufmt.errors import UfmtError
 from ufmt.machining.basis import ModalBasis
 from ufmt.model.schema import Model
 from ufmt.mstmm.modes import ModeShapes
 from ufmt.mstmm.solve import solve_modes
-
-DEFAULT_MODES = 30  # as in the paper (section 3.3)
 
 
 def modal_basis(model: Model, n_modes: int = DEFAULT_MODES) -> ModalBasis:

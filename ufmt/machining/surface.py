@@ -44,6 +44,7 @@ from functools import cached_property, lru_cache
 import numpy as np
 import scipy.fft
 
+from ufmt.defaults import DEFAULT_SPACING
 from ufmt.machining.periodic_path import PeriodicZreTable
 from ufmt.machining.response import ZreTable
 from ufmt.model.machine import Machine
@@ -51,7 +52,6 @@ from ufmt.model.machine import Machine
 #: Grid spacing (x, y) [m]: x finer, as the x-profile of a pass carries the vibration of the
 #: highest modes (down to ~6 mm wavelength at 200 rpm and 700 Hz); y coarser, as the surface
 #: changes slowly with the slide away from the entry and exit edges (refined separately).
-DEFAULT_SPACING = (1e-3, 1.25e-3)
 #: Clear-aperture edge exclusion [m] of the aperture metrics (docs/ufmt-model.md).
 DEFAULT_APERTURE_MARGIN = 5e-3
 #: Grid step [m] and side [m] of the patch that resolves PSD2 (``psd2_patch`` option).

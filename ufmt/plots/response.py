@@ -14,13 +14,13 @@ from pathlib import Path
 import numpy as np
 from matplotlib.figure import Figure
 
+from ufmt.defaults import REFERENCE_RPM
 from ufmt.plots import new_axes, new_figure, save_figure
 from ufmt.plots.surface import plot_pv_by_source
 
 _AXES = ("x", "y", "z")
 CUT_SHADE = {"color": "tab:orange", "alpha": 0.12, "lw": 0}
 SPINDLE_HARMONICS = 10  # harmonics of the spindle frequency marked on the FRF
-REFERENCE_RPM = 300.0  # the paper's reference process (Table 4)
 
 
 def _window_time(response) -> tuple[np.ndarray, str]:
