@@ -15,6 +15,7 @@ from test_response import synthetic_basis
 import ufmt
 from ufmt.errors import ModelError
 from ufmt.machining.process import Process
+from ufmt.model.machine import read_machine
 from ufmt.model.schema import Model
 
 CONTRACT = (
@@ -76,7 +77,7 @@ def test_psd2_patch_resolves_psd2(model_file):
 
 def test_result_api(tmp_path, model_file):
     """Path or model in; short repr, tidy frame, Figure, save."""
-    model = Model("syn", (), (), machine=dict(MACHINE), source="syn.toml")
+    model = Model("syn", (), (), machine=read_machine(MACHINE), source="syn.toml")
     basis = synthetic_basis(n=6)
     r = ufmt.simulate(model, Process(300, 15, 4), basis=basis, static_correction=False)
     assert len(repr(r)) < 1000 and "pv_nm" in repr(r)

@@ -23,7 +23,8 @@ import pytest
 
 from ufmt.errors import StudyError
 from ufmt.evaluate import apply_design, design_value, evaluate
-from ufmt.model.load import design_lines, load_model, packaged_path
+from ufmt.model.load import load_model, packaged_path
+from ufmt.model.write import design_lines
 from ufmt.recent import Recent
 from ufmt.studies.optimise import (
     Space,

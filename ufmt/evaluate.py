@@ -50,7 +50,8 @@ import numpy as np
 from ufmt import evaluate_cache
 from ufmt.errors import StudyError, closest_name
 from ufmt.machining.sources import SOURCES
-from ufmt.model.load import check_hinge_values, packaged_path
+from ufmt.model.hinges import check_hinge_values
+from ufmt.model.load import packaged_path
 from ufmt.model.schema import DesignParameter, Model
 from ufmt.recent import Recent
 
@@ -216,7 +217,7 @@ def file_sha256(path: str | os.PathLike) -> str:
 def model_sha256(model: Model) -> str:
     """SHA-256 of a model's content (its canonical TOML): comments, layout and the file's
     location do not change it."""
-    from ufmt.model.load import model_to_toml
+    from ufmt.model.write import model_to_toml
 
     return hashlib.sha256(model_to_toml(model).encode()).hexdigest()
 

@@ -74,8 +74,9 @@ from ufmt.calibration.tables import check_keys as _check_keys
 from ufmt.calibration.tables import fail as _fail
 from ufmt.calibration.tables import read_band
 from ufmt.calibration.tables import suggest as _suggest
-from ufmt.model.load import load_model, model_to_toml
+from ufmt.model.load import load_model
 from ufmt.model.schema import Model
+from ufmt.model.write import model_to_toml
 from ufmt.tomlfile import read_toml
 
 FIELDS = ("stiffness", "rotational_stiffness")

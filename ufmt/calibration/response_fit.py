@@ -39,7 +39,7 @@ from scipy.optimize import least_squares
 
 from ufmt.calibration.tables import check_keys, read_band
 from ufmt.calibration.tables import fail as _fail
-from ufmt.model.machine import Machine
+from ufmt.model.machine import Machine, read_machine
 from ufmt.model.schema import Model
 
 PARAMETER_KEYS = ("key", "band", "start", "scale", "unit", "reason", "fit")
@@ -250,11 +250,11 @@ def centre_rise_nm(surface) -> float:
 
 def with_values(model: Model, values: Mapping[str, float]) -> Model:
     """``model`` with the given ``[machine]`` keys set (a pair-valued key gets (v, v))."""
-    machine = dict(model.machine)
+    machine = dict(model.machine.table)
     for key, v in values.items():
         current = machine.get(key)
         machine[key] = [float(v), float(v)] if isinstance(current, list | tuple) else float(v)
-    return replace(model, machine=machine)
+    return replace(model, machine=read_machine(machine, model.source))
 
 
 def response_metrics(model: Model, process, basis, method: str) -> dict[str, float]:

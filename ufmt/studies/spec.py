@@ -78,7 +78,7 @@ from ufmt.evaluate import (
     unknown_design_parameter,
 )
 from ufmt.machining.process import TABLE1_RANGE
-from ufmt.model.load import parse_design
+from ufmt.model.design import parse_design
 from ufmt.model.schema import DesignParameter, Model
 
 KINDS = ("sweep", "grid", "optimise-process", "optimise-design", "sensitivity")
