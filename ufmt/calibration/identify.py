@@ -58,7 +58,7 @@ from scipy.optimize import differential_evolution
 from threadpoolctl import threadpool_limits
 from tqdm import tqdm
 
-from ufmt.assembled import AssembledModel, _structure, _svd, assemble
+from ufmt.assembled import AssembledModel, assemble, structure, svd
 from ufmt.calibration.frequencies import (
     ModeSet,
     Reference,
@@ -490,8 +490,8 @@ class ReducedModel:
         beams = am.deformation.shape[0] - len(labels)
         owner = np.concatenate([np.full(beams, -1), _spring_owners(labels, parameters)])
         row_hinges = np.array([""] * beams + [h for h, _ in labels])
-        structure = _structure(am)  # bases, mass scaling and factor, zero-mode count
-        t_a, t_b, scale, chol = structure.t_a, structure.t_b, structure.scale, structure.chol
+        shared = structure(am)  # bases, mass scaling and factor, zero-mode count
+        t_a, t_b, scale, chol = shared.t_a, shared.t_b, shared.scale, shared.chol
         normalise = scale[:, None] * sla.solve_triangular(chol.T, np.eye(len(scale)), lower=False)
         return cls(
             model=model,
@@ -503,7 +503,7 @@ class ReducedModel:
             f_b=am.deformation @ t_b,
             t_a=t_a @ normalise,
             t_b=t_b,
-            zero_modes=structure.zero_modes,
+            zero_modes=shared.zero_modes,
         )
 
     def row_weights(self, u) -> np.ndarray:
@@ -521,7 +521,7 @@ class ReducedModel:
             f_red = f_a - q_b @ (q_b.T @ f_a)
         else:
             f_red = f_a
-        sigma, vh = _svd(f_red)
+        sigma, vh = svd(f_red)
         n_total = f_red.shape[1] - self.zero_modes
         keep = np.arange(n_total - 1, n_total - 1 - n_modes, -1)  # ascending from the lowest
         coords = vh[keep].T

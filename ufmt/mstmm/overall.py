@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ufmt.kinematics import skew
 from ufmt.model.schema import GROUND, Model
 from ufmt.mstmm import elements
 from ufmt.mstmm.topology import Topology, transfer_topology
@@ -152,7 +153,7 @@ def _geometric_map(lever: tuple, rigid: bool) -> np.ndarray:
     to the first input point (``lever`` = p_k - p_1 [m] on a rigid body), and rotation."""
     h_k = np.zeros((6, 12))
     h_k[0:3, 0:3] = np.eye(3)
-    h_k[0:3, 3:6] = elements.tilde(lever) if rigid else 0.0
+    h_k[0:3, 3:6] = skew(lever) if rigid else 0.0
     h_k[3:6, 3:6] = np.eye(3)
     return _frozen(h_k)
 

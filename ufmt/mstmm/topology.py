@@ -20,8 +20,8 @@ import numpy as np
 from scipy.linalg import qr
 
 from ufmt.errors import ModelError
+from ufmt.kinematics import point_motion
 from ufmt.model.schema import GROUND, Beam, Hinge, Model, RigidBody
-from ufmt.mstmm.elements import tilde
 from ufmt.recent import Recent
 
 #: Unknown label kinds of the overall state vector Z_all.
@@ -319,9 +319,7 @@ def redundant_rigid(model: Model) -> list[tuple[str, int]]:
                     continue
                 node = beam_end_node(beams[side], h.at) if side in beams else side
                 ref = refs.get(node, h.at)
-                lever = np.asarray(h.at) - ref
-                motion = np.eye(6)
-                motion[0:3, 3:6] = -tilde(lever)
+                motion = point_motion(np.asarray(h.at) - ref)
                 entries.append((nodes.setdefault(node, len(nodes)), sign * motion[j]))
             rows.append(entries)
             owners.append((h.name, int(j)))
