@@ -7,7 +7,8 @@ from scipy.optimize import brentq
 from ufmt.model.load import load_model, model_from_dict, packaged_path
 from ufmt.model.schema import Beam
 from ufmt.mstmm import elements
-from ufmt.mstmm.modes import GAUSS_POINTS, _gauss_points, mode_shapes
+from ufmt.mstmm.bodies import GAUSS_POINTS, gauss_points
+from ufmt.mstmm.modes import mode_shapes
 from ufmt.mstmm.overall import TransferSystem
 from ufmt.mstmm.reduced import ConstantParts
 from ufmt.mstmm.roots import OFF_ROOT, natural_frequencies
@@ -272,7 +273,7 @@ def test_gauss_points_of_the_beam_fields_meet_their_error_bound():
     ei = beam.youngs_modulus * min(beam.second_moment_y, beam.second_moment_z)
     for f_hz in (0.0, 10.0, 300.0, 2000.0, 8000.0):
         omega = 2 * np.pi * f_hz
-        g = _gauss_points(beam, omega)
+        g = gauss_points(beam, omega)
         assert 4 <= g <= GAUSS_POINTS
         x, w = np.polynomial.legendre.leggauss(g)
         x, w = 0.5 * (x + 1.0), 0.5 * w

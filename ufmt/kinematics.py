@@ -43,3 +43,11 @@ def inertia_about(inertia_c: np.ndarray, mass: float, offset) -> np.ndarray:
     from the tensor ``inertia_c`` about the centre of mass (parallel-axis theorem)."""
     d = np.asarray(offset, dtype=float)
     return inertia_c + mass * (d @ d * I3 - np.outer(d, d))
+
+
+def carried_motion(motion: np.ndarray, point, new_point) -> np.ndarray:
+    """``[r_Q; θ]`` (n, 6) of a rigid body's point Q = ``new_point`` from its motion at P =
+    ``point``: ``r_Q = r_P + θ × (Q - P)`` (paper eq. 2.5); motion (n, >= 6) ``[r_P; θ; ...]``
+    [m, rad]."""
+    r = motion[:, :3] + np.cross(motion[:, 3:6], np.asarray(new_point) - point)
+    return np.concatenate([r, motion[:, 3:6]], axis=1)
