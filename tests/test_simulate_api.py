@@ -105,8 +105,8 @@ def test_model_without_machine_table_says_what_to_add():
 
 
 def test_machine_table_is_validated_where_it_is_used(tmp_path):
-    """The loader keeps [machine] free-form (tests/test_model_load.py); every command that
-    uses it (simulate, frf, calibrate, studies) validates it: one line, did-you-mean, exit 2."""
+    """The loader validates [machine] (tests/test_model_load.py), so every command that
+    uses it (simulate, frf, calibrate, studies) stops on it: one line, did-you-mean, exit 2."""
     bad = packaged_text().replace("force_scale = 1.0", "force_scal = 1.0")
     path = tmp_path / "bad.toml"
     path.write_text(bad)
