@@ -289,7 +289,7 @@ def test_topology_shared_by_stiffness_designs_gives_the_fresh_u_all():
     """Designs that change stiffness values share the cached topology (oracle: U_all of a
     topology built from scratch for each design, bitwise); a released direction is a new
     structure (more unknowns), never a cache hit."""
-    from ufmt.mstmm.topology import _released, build_topology, redundant_rigid
+    from ufmt.mstmm.topology import build_topology, redundant_rigid, with_released
 
     base = load_model(packaged_path("ufmt-prior.toml"))
     h = next(h for h in base.hinges if np.all(np.isfinite(h.stiffness6) & (h.stiffness6 > 0)))
@@ -299,7 +299,7 @@ def test_topology_shared_by_stiffness_designs_gives_the_fresh_u_all():
         design = base.with_hinge(h.name, stiffness=six[:3], rotational_stiffness=six[3:])
         system = TransferSystem(design, fmax_hz=500.0)
         fresh = TransferSystem(design, fmax_hz=500.0)
-        fresh.topology = build_topology(_released(design, redundant_rigid(design)))
+        fresh.topology = build_topology(with_released(design, redundant_rigid(design)))
         assert system.order == fresh.order
         assert np.array_equal(system.evaluate(omega), fresh.evaluate(omega))
     assert TransferSystem(design).order > TransferSystem(base).order

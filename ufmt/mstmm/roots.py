@@ -70,7 +70,7 @@ class RootsLostError(UfmtError):
     """Fewer MSTMM roots than the assembled model counts: never returned silently."""
 
 
-def _sign_det(system: TransferSystem, omega: np.ndarray) -> np.ndarray:
+def det_sign(system: TransferSystem, omega: np.ndarray) -> np.ndarray:
     """Sign of det U_all (LU with partial pivoting; positive scalings cannot change it)."""
     sign, _ = np.linalg.slogdet(system.evaluate(omega))
     return sign
@@ -178,7 +178,7 @@ def _scan(system: TransferSystem, fmax_hz: float, est: np.ndarray, rtol: float) 
         grid.append((near[:, None] * (1.0 + s * STEPS[None, :])).ravel())
     f = np.unique(np.clip(np.concatenate(grid), f_lo, fmax_hz))
     w = TWO_PI * f
-    sign = _sign_det(system, w)
+    sign = det_sign(system, w)
     change = np.flatnonzero((sign[1:] != sign[:-1]) & (sign[1:] != 0) & (sign[:-1] != 0))
     exact = w[1:-1][(sign[1:-1] == 0)]
     roots_w = _illinois(system, w[change], w[change + 1], rtol) if change.size else np.zeros(0)
@@ -570,7 +570,7 @@ def continued_roots(
     root, root_hz, mult = root[order], root_hz[order], mult[order]
     basis = {k: basis[j] for k, j in enumerate(order)}
     gaps = np.r_[0.5 * root[0], np.sqrt(root[1:] * root[:-1])]
-    sign = _sign_det(system, gaps)
+    sign = det_sign(system, gaps)
     flips = sign[1:] * sign[:-1]
     if np.any(sign == 0) or np.any(flips != (-1.0) ** mult[:-1]):
         return None

@@ -181,10 +181,10 @@ def transfer_topology(model: Model) -> Topology:
 
     def build():
         redundant = redundant_rigid(model)
-        return build_topology(_released(model, redundant)), redundant
+        return build_topology(with_released(model, redundant)), redundant
 
     topology, redundant = _TOPOLOGIES.get(model.structure_key(), build)
-    model = _released(model, redundant)
+    model = with_released(model, redundant)
     edges = [
         replace(e, element=model.hinge(e.name)) if e.kind == "hinge" else e for e in topology.edges
     ]
@@ -195,7 +195,7 @@ TOPOLOGIES_KEPT = 8
 _TOPOLOGIES = Recent(TOPOLOGIES_KEPT)  # structure key -> (topology, redundant directions)
 
 
-def _released(model: Model, directions) -> Model:
+def with_released(model: Model, directions) -> Model:
     """``model`` with the hinge directions ``directions`` ((hinge, direction) pairs) released."""
     for name, j in directions:
         six = model.hinge(name).stiffness6.copy()
