@@ -159,6 +159,7 @@ def _no_mass(body, rigid_a, beams_a, rigid_b, beams_b, out) -> None:
 
 
 def _rigid_graph(model: Model, body: RigidBody) -> tuple[list[Node], list[Edge]]:
+    """One node that carries the body's mass and extent."""
     return [Node(body.name, RIGID_NODE, body=body)], []
 
 
@@ -199,9 +200,9 @@ def _virtual_state_key(topology: Topology, body: VirtualBody) -> tuple:
 
 
 def _virtual_shape(system, body: VirtualBody, states, z, omega, parts: ShapeParts) -> None:
-    parts.virtual[body.name] = apply_state(states[_virtual_state_key(system.topology, body)], z)[
-        :, :6
-    ]
+    """[r; θ] at the body's point: the displacement half of its output state."""
+    state = states[_virtual_state_key(system.topology, body)]
+    parts.virtual[body.name] = apply_state(state, z)[:, :6]
 
 
 # -- beams --------------------------------------------------------------------------------------
@@ -232,6 +233,7 @@ def _beam_state_key(topology: Topology, body: Beam) -> tuple:
 
 
 def _beam_shape(system, body: Beam, states, z, omega, parts: ShapeParts) -> None:
+    """The beam's displacement field at its Gauss points (:func:`beam_field`)."""
     parts.beams[body.name] = beam_field(system, body, states, z, omega)
 
 
