@@ -1,7 +1,6 @@
-"""The packaged UFMT model with ``[machine] force_scale = 1`` (inside the validated band).
-
-Until the recalibrated ``ufmt/data/ufmt.toml`` lands, its fitted force_scale lies outside the
-band [0.3, 3] that the loader enforces; tests that need the packaged structure load this copy.
+"""The packaged UFMT model with ``[machine] force_scale = 1``: the packaged structure with the
+literature force coefficients, whatever force_scale the calibration fitted (for tests whose
+oracle or edited text assumes the unit factor).
 """
 
 import re

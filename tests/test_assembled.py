@@ -9,11 +9,10 @@ import scipy.optimize as so
 from hypothesis import assume, example, given, settings
 from hypothesis import strategies as st
 
-from ufmt.assembled import (
+from ufmt.assembled import assemble, assembled_modes
+from ufmt.assembled.mesh import (
     BENDING_ERROR_DIVISOR,
     LINEAR_ERROR_DIVISOR,
-    assemble,
-    assembled_modes,
     elements_for,
     mesh_error,
 )
@@ -455,7 +454,7 @@ def test_stiffness_independent_parts_are_shared_and_give_the_fresh_solution(monk
     """A design that changes a stiffness value reuses the cached mesh, mass matrix, beam
     elements and hinge maps (the frame), bases, zero-mode count and mass factor; its K,
     deformation rows, frequencies and shapes equal those with the caches emptied (bitwise)."""
-    import ufmt.assembled as assembled_module
+    from ufmt.assembled import matrices, solve
     from ufmt.model.load import load_model, packaged_path
 
     base = load_model(packaged_path("ufmt-prior.toml"))
@@ -463,17 +462,17 @@ def test_stiffness_independent_parts_are_shared_and_give_the_fresh_solution(monk
     six = 2.5 * h.stiffness6
     design = base.with_hinge(h.name, stiffness=six[:3], rotational_stiffness=six[3:])
     assembled_modes(base, count=20, elements_per_beam=6)
-    kept = len(assembled_module._STRUCTURES)
+    kept = len(solve._STRUCTURES)
     built = []
     monkeypatch.setattr(
-        assembled_module, "_frame", lambda *a: built.append(a) or pytest.fail("frame rebuilt")
+        matrices, "_frame", lambda *a: built.append(a) or pytest.fail("frame rebuilt")
     )
     shared = assembled_modes(design, count=20, elements_per_beam=6)
     shared_am = assemble(design, elements_per_beam=6)
-    assert len(assembled_module._STRUCTURES) == kept and not built  # cache hits
+    assert len(solve._STRUCTURES) == kept and not built  # cache hits
     monkeypatch.undo()
-    assembled_module._STRUCTURES.clear()
-    assembled_module._FRAMES.clear()
+    solve._STRUCTURES.clear()
+    matrices._FRAMES.clear()
     fresh_am = assemble(design, elements_per_beam=6)
     for name in ("K", "M", "deformation", "constraints", "spring_directions", "massless"):
         assert np.array_equal(getattr(shared_am, name), getattr(fresh_am, name)), name

@@ -342,7 +342,7 @@ def test_calibrate_regenerates_the_packaged_model(tmp_path):
     new, committed = run.output.read_text(), (DATA / "ufmt.toml").read_text()
     strip = [line for line in new.splitlines() if not line.startswith("force_scale")]
     assert strip == [line for line in committed.splitlines() if not line.startswith("force_scale")]
-    scales = [load_model(str(p)).machine["force_scale"] for p in (run.output, DATA / "ufmt.toml")]
+    scales = [load_model(str(p)).machine.force_scale for p in (run.output, DATA / "ufmt.toml")]
     assert scales[0] == pytest.approx(scales[1], rel=1e-9)
     err = np.abs(run.validation.table.dropna(subset=["test_hz"])["mstmm_error_percent"])
     assert err.max() <= 3.0 and err.mean() <= 1.0
@@ -372,4 +372,4 @@ def test_cli_calibrate_is_deterministic_and_reports_the_response_fit(tmp_path, c
     for needle in ("pv_nm", "zre_peak_nm", "tip_acc_peak_mm_s2", "centre_rise_nm", "GPa"):
         assert needle in out
     model = load_model(tmp_path / "out.toml")
-    assert 0.3 <= model.machine["force_scale"] <= 3.0
+    assert 0.3 <= model.machine.force_scale <= 3.0

@@ -10,14 +10,17 @@ from __future__ import annotations
 
 import math
 import re
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from ufmt.errors import ModelError
-from ufmt.model.load import load_model, load_model_text, model_from_dict, model_to_toml
+from ufmt.model.load import load_model, load_model_text, model_from_dict
 from ufmt.model.schema import Beam, RigidBody, VirtualBody
+from ufmt.model.write import model_to_toml
 
 MODELS = Path(__file__).parent / "models"
 
@@ -97,6 +100,13 @@ second_moment_z = 9.0e-7
 polar_moment = 1.3e-6
 """
 
+# a valid [machine] table for BASE, as the inner part of an inline table
+MACHINE = (
+    'tool_body = "arm", workpiece_body = "base", spindle_axis_xy = [0.0, 0.0], '
+    "cutting_plane_z = 0.5, tool_radius = 0.2, workpiece_size = [0.1, 0.1], "
+    'workpiece_center_xy = [0.0, 0.0], rotation = "cw"'
+)
+
 ARM_RIGID = BASE[BASE.index('[[body]]\nname = "arm"') : BASE.index("[[hinge]]")]
 
 
@@ -123,8 +133,7 @@ BAD = [
         "unknown_kind",
         'name = "base"\nkind = "rigid"',
         'name = "base"\nkind = "rigd"',
-        r"body 'base': field 'kind': unknown kind 'rigd' \(valid kinds: rigid, virtual, beam; "
-        r"did you mean 'rigid'\?\)",
+        r"body 'base': field 'kind': unknown kind 'rigd' \(did you mean 'rigid'\?\)",
     ),
     ("missing_kind", 'kind = "virtual"\n', "", r"body 'hub': field 'kind': missing \(valid kinds"),
     ("missing_mass", "mass = 250.0\n", "", r"body 'base': field 'mass': missing"),
@@ -339,8 +348,22 @@ BAD = [
     (
         "nan_in_machine",
         'name = "test"',
-        'name = "test"\nmachine = { tool = { radius = nan } }',
-        r"top level: field 'machine.tool.radius': nan is not a number",
+        'name = "test"\nmachine = { '
+        + MACHINE.replace("tool_radius = 0.2", "tool_radius = nan")
+        + " }",
+        r"machine: field 'tool_radius': nan is not a number \(allowed: > 0 \[m\]\)",
+    ),
+    (
+        "misspelled_machine_field",
+        'name = "test"',
+        'name = "test"\nmachine = { ' + MACHINE.replace("tool_radius", "tool_radios") + " }",
+        r"machine: unknown field 'tool_radios' \(did you mean 'tool_radius'\?\)$",
+    ),
+    (
+        "machine_tool_not_a_body",
+        'name = "test"',
+        'name = "test"\nmachine = { ' + MACHINE.replace('"arm"', '"head"') + " }",
+        r"machine: field 'tool_body': 'head' is not a body of the model",
     ),
     (
         "negative_stiffness",
@@ -410,7 +433,7 @@ BEAM_BAD = [
         "no_section",
         "diameter = 0.05\n",
         "",
-        r"body 'shaft': field 'diameter': missing section",
+        r"body 'shaft': field 'diameter': missing \(a section: give 'diameter', or area",
     ),
     (
         "zero_diameter",
@@ -468,6 +491,20 @@ def test_bodies_not_an_array_of_tables(tmp_path):
         r"\[\[body\]\], got a table$",
     ):
         load_model(path)
+
+
+def test_misspelled_machine_field_stops_ufmt_modes(tmp_path):
+    """A bad [machine] table fails at load: `ufmt modes` exits 2 with one line (file, field)."""
+    machine = MACHINE.replace("tool_radius", "tool_radios")
+    path = write(tmp_path, edit(BASE, 'name = "test"', f'name = "test"\nmachine = {{ {machine} }}'))
+    res = subprocess.run(
+        [sys.executable, "-m", "ufmt.cli", "modes", str(path)], capture_output=True, text=True
+    )
+    assert res.returncode == 2
+    assert res.stderr.strip() == (
+        f"ufmt modes: error: {path}: machine: unknown field 'tool_radios' "
+        "(did you mean 'tool_radius'?)"
+    )
 
 
 def test_beam_end_within_tolerance_is_accepted(tmp_path):
@@ -550,11 +587,22 @@ def test_good_fixture_values():
     np.testing.assert_array_equal(h_shaft.damping6, np.zeros(6))
     np.testing.assert_array_equal(model.hinge("h_hub").released, [False] * 3 + [True] * 3)
 
-    assert model.machine == {
-        "tool": {"radius_mm": 0.5, "material": "diamond"},
-        "spindle_rpm": 1500,
-        "passes": [{"depth_um": 5.0}, {"depth_um": 2.0}],
-    }
+    machine = model.machine
+    assert (machine.tool_body, machine.workpiece_body, machine.rotation) == ("arm", "base", "ccw")
+    assert (machine.spindle_axis_xy, machine.cutting_plane_z) == ((0.1, 0.0), 0.0)
+    assert (machine.tool_radius, machine.workpiece_size) == (0.2, (0.05, 0.04))
+    assert (machine.nose_radius, machine.force_scale) == (2e-3, 1.0)  # given, default
+    assert list(machine.table) == [
+        "tool_body",
+        "workpiece_body",
+        "spindle_axis_xy",
+        "cutting_plane_z",
+        "tool_radius",
+        "workpiece_size",
+        "workpiece_center_xy",
+        "rotation",
+        "nose_radius",
+    ]
     for b in (base, shaft, arm):
         for v in vars(b).values():
             if isinstance(v, np.ndarray):
@@ -651,12 +699,14 @@ def test_round_trip_full_precision_and_awkward_names(tmp_path):
     text = edit(text, "mass = 250.0", "mass = 0.1234567890123456789")
     text = edit(text, 'name = "hub"', 'name = "hub \\"9\\""')
     text = text.replace('"hub"', '"hub \\"9\\""')
-    text += (
-        '\n[machine]\ncut = 1979-05-27T07:32:00Z\nflag = true\n"odd key" = [1, 2.5, "x"]\n'
-        "[machine.tool]\nradius = 1e-300\n[[machine.passes]]\ndepth = 5\n"
+    text += (  # keys out of the documented order, integers where floats are meant
+        '\n[machine]\nrotation = "cw"\ntool_body = "arm"\nworkpiece_body = "base"\n'
+        "spindle_axis_xy = [0, 0]\ncutting_plane_z = 1\ntool_radius = 0.1234567890123456789\n"
+        "workpiece_size = [0.1, 0.1]\nworkpiece_center_xy = [0, 0]\nforce_scale = 2\n"
     )
     model = load_model(write(tmp_path, text))
     assert model.body("base").mass == 0.1234567890123456789
+    assert "cutting_plane_z = 1\ntool_radius = 0.12345678901234568\n" in model_to_toml(model)
     assert model.body('hub "9"').kind == "virtual"
     out = model_to_toml(model)
     again = load_model_text(out)

@@ -7,7 +7,8 @@ from scipy.optimize import brentq
 from ufmt.model.load import load_model, model_from_dict, packaged_path
 from ufmt.model.schema import Beam
 from ufmt.mstmm import elements
-from ufmt.mstmm.modes import GAUSS_POINTS, _gauss_points, mode_shapes
+from ufmt.mstmm.bodies import GAUSS_POINTS, gauss_points
+from ufmt.mstmm.modes import mode_shapes
 from ufmt.mstmm.overall import TransferSystem
 from ufmt.mstmm.reduced import ConstantParts
 from ufmt.mstmm.roots import OFF_ROOT, natural_frequencies
@@ -272,7 +273,7 @@ def test_gauss_points_of_the_beam_fields_meet_their_error_bound():
     ei = beam.youngs_modulus * min(beam.second_moment_y, beam.second_moment_z)
     for f_hz in (0.0, 10.0, 300.0, 2000.0, 8000.0):
         omega = 2 * np.pi * f_hz
-        g = _gauss_points(beam, omega)
+        g = gauss_points(beam, omega)
         assert 4 <= g <= GAUSS_POINTS
         x, w = np.polynomial.legendre.leggauss(g)
         x, w = 0.5 * (x + 1.0), 0.5 * w
@@ -288,7 +289,7 @@ def test_topology_shared_by_stiffness_designs_gives_the_fresh_u_all():
     """Designs that change stiffness values share the cached topology (oracle: U_all of a
     topology built from scratch for each design, bitwise); a released direction is a new
     structure (more unknowns), never a cache hit."""
-    from ufmt.mstmm.topology import _released, build_topology, redundant_rigid
+    from ufmt.mstmm.topology import build_topology, redundant_rigid, with_released
 
     base = load_model(packaged_path("ufmt-prior.toml"))
     h = next(h for h in base.hinges if np.all(np.isfinite(h.stiffness6) & (h.stiffness6 > 0)))
@@ -298,7 +299,7 @@ def test_topology_shared_by_stiffness_designs_gives_the_fresh_u_all():
         design = base.with_hinge(h.name, stiffness=six[:3], rotational_stiffness=six[3:])
         system = TransferSystem(design, fmax_hz=500.0)
         fresh = TransferSystem(design, fmax_hz=500.0)
-        fresh.topology = build_topology(_released(design, redundant_rigid(design)))
+        fresh.topology = build_topology(with_released(design, redundant_rigid(design)))
         assert system.order == fresh.order
         assert np.array_equal(system.evaluate(omega), fresh.evaluate(omega))
     assert TransferSystem(design).order > TransferSystem(base).order

@@ -49,7 +49,7 @@ def scaled_hinge(name, translation=(1, 1, 1), rotation=(1, 1, 1)):
 def test_force_scale_lies_in_its_physical_band():
     """Specific cutting forces of diamond on KDP allow a factor 0.3-3 on the
     literature coefficients (docs/ufmt-model.md, response calibration)."""
-    assert 0.3 <= packaged().machine["force_scale"] <= 3.0
+    assert 0.3 <= packaged().machine.force_scale <= 3.0
 
 
 def test_packaged_model_reproduces_the_measured_pv():

@@ -30,14 +30,9 @@ from ufmt.cli import main
 from ufmt.design import apply_design
 from ufmt.errors import ModelError, StudyError
 from ufmt.jsonout import dumps_strict
-from ufmt.model.load import (
-    LIMITS,
-    _toml_value,
-    load_model,
-    load_model_text,
-    model_from_dict,
-    model_to_toml,
-)
+from ufmt.model.load import load_model, load_model_text, model_from_dict
+from ufmt.model.rules import LIMITS
+from ufmt.model.write import model_to_toml, toml_value
 from ufmt.studies.kinds import KINDS
 from ufmt.studies.load import load_study, parse_study
 from ufmt.studies.locking import locked
@@ -122,7 +117,7 @@ def _own_cache(tmp_path, monkeypatch):
     ("axis", "phrase"),
     [
         ('parameter = "head_radial_stiffness_N_m"\nrange = [-2e8, 2e8]', "is negative"),
-        ('parameter = "head_radial_stiffness_N_m"\nvalues = [1e8, 1e300]', "physical range"),
+        ('parameter = "head_radial_stiffness_N_m"\nvalues = [1e8, 1e300]', "allowed range"),
         ('parameter = "hinge.h31.rotational_stiffness[2]"\nscale = [0.5, 2.0]', "released"),
         ('parameter = "hinge.h24.stiffness[0]"\nscale = [0.5, 2.0]', "rigid"),
         ('parameter = "hinge.h99.stiffness[0]"\nrange = [1e8, 2e8]', "did you mean 'h29'"),
@@ -229,7 +224,7 @@ def test_absurd_magnitudes_are_refused_with_the_documented_band(where, value, li
     kind, index, field = where
     data[kind][index][field] = value
     low, high, unit = LIMITS[limit]
-    with pytest.raises(ModelError, match="outside the physical range") as error:
+    with pytest.raises(ModelError, match="outside the allowed range") as error:
         model_from_dict(data, "m.toml")
     message = str(error.value)
     assert f"{high:g}" in message and unit in message and "\n" not in message
@@ -283,7 +278,7 @@ def test_fuzzed_study_files_parse_or_give_one_study_error(tmp_path_factory, key,
         table["axis"][0][key] = value
     else:
         table[key] = value
-    text = "\n".join(f"{k} = {_toml_value(v)}" for k, v in table.items())  # inline tables
+    text = "\n".join(f"{k} = {toml_value(v)}" for k, v in table.items())  # inline tables
     try:
         parse_study(text, tmp_path_factory.mktemp("s") / "fuzz.toml")
     except StudyError as exc:

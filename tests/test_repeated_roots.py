@@ -1,5 +1,5 @@
-"""No root is ever lost: repeated (symmetric) roots, the isotropic rotor of issue 9, and the
-loud failure when a counted root cannot be found."""
+"""No root is ever lost: repeated (symmetric) roots, an isotropic rotor whose double roots
+were once dropped, and the loud failure when a counted root cannot be found."""
 
 import functools
 import json
@@ -22,7 +22,7 @@ STEEL = {"density": 7850.0, "youngs_modulus": 2.1e11, "shear_modulus": 8.1e10}
 
 
 def rotor_dict() -> dict:
-    """Issue 9's isotropic rotor: a 0.8 m shaft of 0.05 m diameter on two bearings of 1e7 N/m
+    """An isotropic rotor: a 0.8 m shaft of 0.05 m diameter on two bearings of 1e7 N/m
     (every translation, tilting free), a 10 kg disk (0.2 m diameter) in the middle. The
     structure is axisymmetric, so every bending mode is a double root."""
     m, r = 10.0, 0.1
@@ -141,8 +141,9 @@ def rotor_reference() -> np.ndarray:
 
 @pytest.mark.parametrize("fmax", [2500.0, 3000.0, 5000.0])
 def test_isotropic_rotor_keeps_every_double_root(fmax):
-    """Issue 9: --fmax 3000 returned 10 of 15 modes and 5000 11 of 21. Oracle: the assembled
-    model (converges from above to the MSTMM's exact beams), Richardson-extrapolated."""
+    """Every double root below --fmax (a sign scan once returned 10 of 15 modes at 3000 Hz and
+    11 of 21 at 5000 Hz). Oracle: the assembled model (converges from above to the MSTMM's
+    exact beams), Richardson-extrapolated."""
     model = model_from_dict(rotor_dict())
     fine = rotor_reference()
     sol = solve_modes(model, fmax_hz=fmax)

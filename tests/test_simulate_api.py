@@ -15,6 +15,7 @@ from test_response import synthetic_basis
 import ufmt
 from ufmt.errors import ModelError
 from ufmt.machining.process import Process
+from ufmt.model.machine import read_machine
 from ufmt.model.schema import Model
 
 CONTRACT = (
@@ -76,7 +77,7 @@ def test_psd2_patch_resolves_psd2(model_file):
 
 def test_result_api(tmp_path, model_file):
     """Path or model in; short repr, tidy frame, Figure, save."""
-    model = Model("syn", (), (), machine=dict(MACHINE), source="syn.toml")
+    model = Model("syn", (), (), machine=read_machine(MACHINE), source="syn.toml")
     basis = synthetic_basis(n=6)
     r = ufmt.simulate(model, Process(300, 15, 4), basis=basis, static_correction=False)
     assert len(repr(r)) < 1000 and "pv_nm" in repr(r)
@@ -104,8 +105,8 @@ def test_model_without_machine_table_says_what_to_add():
 
 
 def test_machine_table_is_validated_where_it_is_used(tmp_path):
-    """The loader keeps [machine] free-form (tests/test_model_load.py); every command that
-    uses it (simulate, frf, calibrate, studies) validates it: one line, did-you-mean, exit 2."""
+    """The loader validates [machine] (tests/test_model_load.py), so every command that
+    uses it (simulate, frf, calibrate, studies) stops on it: one line, did-you-mean, exit 2."""
     bad = packaged_text().replace("force_scale = 1.0", "force_scal = 1.0")
     path = tmp_path / "bad.toml"
     path.write_text(bad)

@@ -8,7 +8,7 @@ from test_response import synthetic_basis
 from ufmt.errors import ModelError
 from ufmt.machining.process import Process
 from ufmt.machining.sources import HEIGHT, REGISTRY, SOURCES
-from ufmt.model.machine import OPTIONAL_FIELDS
+from ufmt.model.machine import OPTIONAL_FIELDS, read_machine
 from ufmt.model.schema import Model
 from ufmt.simulate import simulate
 
@@ -23,7 +23,8 @@ P = Process(300, 13.7, 4)  # feed per revolution incommensurate with the grid
 
 
 def run(machine_extra=None, sources=SOURCES, **options):
-    model = Model("syn", (), (), machine={**MACHINE, **GEOMETRY, **(machine_extra or {})})
+    machine = read_machine({**MACHINE, **GEOMETRY, **(machine_extra or {})})
+    model = Model("syn", (), (), machine=machine)
     return simulate(
         model, P, basis=synthetic_basis(n=6), sources=sources, static_correction=False, **options
     )

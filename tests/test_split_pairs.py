@@ -15,7 +15,7 @@ import numpy as np
 from ufmt.assembled import assembled_modes
 from ufmt.model.load import model_from_dict
 from ufmt.mstmm.overall import TransferSystem
-from ufmt.mstmm.roots import TWO_PI, _sign_det
+from ufmt.mstmm.roots import TWO_PI, det_sign
 from ufmt.mstmm.solve import solve_modes
 
 BRIDGE = Path(__file__).resolve().parents[1] / "examples" / "bridge.toml"
@@ -52,7 +52,7 @@ def test_split_pair_of_the_bridge_is_two_sign_changes_of_det():
     system = TransferSystem(model)
     system.segment_for(FMAX_HZ)
     probes = TWO_PI * np.array([lo - split, 0.5 * (lo + hi), hi + split])
-    sign = _sign_det(system, probes)
+    sign = det_sign(system, probes)
     assert sign[0] * sign[1] == -1.0 and sign[1] * sign[2] == -1.0
     a_lo, a_hi = pair(assembled.frequencies_hz)
     assert np.isclose(split, a_hi - a_lo, rtol=0.05)
@@ -69,5 +69,5 @@ def test_exact_pair_of_the_symmetric_bridge_stays_one_double_root():
     assert f.size == 2 and np.isclose(f[0], f[1], rtol=1e-9, atol=0)
     system = TransferSystem(model)
     system.segment_for(FMAX_HZ)
-    sign = _sign_det(system, TWO_PI * f[0] * np.array([1 - 1e-6, 1 + 1e-6]))
+    sign = det_sign(system, TWO_PI * f[0] * np.array([1 - 1e-6, 1 + 1e-6]))
     assert sign[0] == sign[1]

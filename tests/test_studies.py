@@ -26,7 +26,8 @@ from ufmt.design import apply_design, design_value
 from ufmt.errors import StudyError
 from ufmt.evaluate import evaluate
 from ufmt.fingerprint import PACKAGE, PHYSICS, physics_sources
-from ufmt.model.load import design_lines, load_model, packaged_path
+from ufmt.model.load import load_model, packaged_path
+from ufmt.model.write import design_lines
 from ufmt.recent import Recent
 from ufmt.studies.load import load_study, parse_study
 from ufmt.studies.optimise import (

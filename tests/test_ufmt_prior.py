@@ -19,7 +19,6 @@ import pytest
 import scipy.linalg
 
 from ufmt.model.load import load_model
-from ufmt.model.machine import read_machine
 from ufmt.model.schema import GROUND, Beam, RigidBody, VirtualBody
 
 DATA = Path(__file__).resolve().parents[1] / "ufmt" / "data"
@@ -175,7 +174,7 @@ def test_hinge_points_are_where_the_parts_meet(model):
 
 
 def test_spindle_is_vertical_on_the_machine_axis(model):
-    axis_xy = np.asarray(model.machine["spindle_axis_xy"])
+    axis_xy = np.asarray(model.machine.spindle_axis_xy)
     upper, lower = model.body("spindle_upper"), model.body("spindle_lower")
     for p in (upper.start, upper.end, lower.start, lower.end):
         np.testing.assert_array_equal(p[:2], axis_xy)
@@ -242,7 +241,7 @@ def test_machine_is_mirror_symmetric_about_x0(model):
 
 
 def test_machine_table_is_consistent_with_the_bodies(model):
-    machine = read_machine(model.machine, str(PRIOR))
+    machine = model.machine
     head = model.body(machine.tool_body)
     assert isinstance(model.body(machine.workpiece_body), RigidBody)
     head_radius = math.sqrt(2.0 * head.inertia[2, 2] / head.mass)  # disc: I_z = m r^2 / 2

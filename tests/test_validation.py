@@ -251,10 +251,10 @@ def test_tool_tip_neighbours_compares_with_the_nearest_other_modes():
 def test_tool_tip_z_is_head_z_plus_tilt_times_radius(model, result):
     """z of the tip at (x0, y0 + R, z_c): u_z + theta_x R - theta_y * 0 (closed form)."""
     machine = model.machine
-    head = model.body(machine["tool_body"])
+    head = model.body(machine.tool_body)
     v = result.solution.shapes.rigid[head.name]
-    arm_y = machine["spindle_axis_xy"][1] + machine["tool_radius"] - head.center_of_mass[1]
-    arm_x = machine["spindle_axis_xy"][0] - head.center_of_mass[0]
+    arm_y = machine.spindle_axis_xy[1] + machine.tool_radius - head.center_of_mass[1]
+    arm_x = machine.spindle_axis_xy[0] - head.center_of_mass[0]
     expected = v[:, 2] + v[:, 3] * arm_y - v[:, 4] * arm_x
     np.testing.assert_allclose(result.modes.tool_tip_z, expected, rtol=0, atol=1e-15)
     fresh = modeset_from_mstmm(model, result.solution.shapes)

@@ -34,7 +34,7 @@ import numpy as np
 from ufmt.defaults import REFERENCE_PROCESS
 from ufmt.errors import StudyError, closest_name
 from ufmt.machining.sources import SOURCES
-from ufmt.model.load import check_hinge_values
+from ufmt.model.hinges import check_hinge_values
 from ufmt.model.schema import DesignParameter, Model
 
 PROCESS_PARAMETERS = tuple(REFERENCE_PROCESS)

@@ -18,8 +18,8 @@ import hashlib
 import os
 from pathlib import Path
 
-from ufmt.model.load import model_to_toml
 from ufmt.model.schema import Model
+from ufmt.model.write import model_to_toml
 
 PACKAGE = Path(__file__).resolve().parent
 

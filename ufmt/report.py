@@ -136,9 +136,10 @@ def _model_section(model: Model) -> str:
         _table(pd.DataFrame(rows)),
         _details("hinges", _table(hinges)),
     ]
-    if model.machine:
-        fields = [k for k in (*MACHINE_FIELDS, "force_scale") if k in model.machine]
-        machine = pd.DataFrame({"field": fields, "value": [str(model.machine[k]) for k in fields]})
+    if model.machine is not None:
+        table = model.machine.table  # as written in the file
+        fields = [k for k in (*MACHINE_FIELDS, "force_scale") if k in table]
+        machine = pd.DataFrame({"field": fields, "value": [str(table[k]) for k in fields]})
         parts.append("<p>Machine (<code>[machine]</code>, SI units):</p>" + _table(machine))
     return "\n".join(parts)
 

@@ -24,8 +24,8 @@ from ufmt.calibration.response import reference_process
 from ufmt.calibration.response_fit import ResponseFit, fit_response, with_values
 from ufmt.calibration.settings import Calibration, load_calibration
 from ufmt.machining.modal import basis_from_shapes
-from ufmt.model.load import model_to_toml
 from ufmt.model.schema import Model
+from ufmt.model.write import model_to_toml
 from ufmt.tomlfile import read_toml
 
 

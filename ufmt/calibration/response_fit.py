@@ -41,6 +41,7 @@ from tqdm import tqdm
 from ufmt.calibration.rounding import rounded
 from ufmt.calibration.settings import ResponseSettings
 from ufmt.machining.modal import modal_basis
+from ufmt.model.machine import read_machine
 from ufmt.model.schema import Model
 from ufmt.simulate import simulate
 
@@ -67,11 +68,11 @@ def centre_rise_nm(surface) -> float:
 
 def with_values(model: Model, values: Mapping[str, float]) -> Model:
     """``model`` with the given ``[machine]`` keys set (a pair-valued key gets (v, v))."""
-    machine = dict(model.machine)
+    machine = dict(model.machine.table)
     for key, v in values.items():
         current = machine.get(key)
         machine[key] = [float(v), float(v)] if isinstance(current, list | tuple) else float(v)
-    return replace(model, machine=machine)
+    return replace(model, machine=read_machine(machine, model.source))
 
 
 def response_metrics(model: Model, process, basis, method: str) -> dict[str, float]:

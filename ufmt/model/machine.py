@@ -8,13 +8,16 @@ a value outside its band, a non-finite number or an unknown key is a :class:`Mod
 
 from __future__ import annotations
 
+import copy
+import dataclasses
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
 
-from ufmt.errors import ModelError, closest_name
+from ufmt.errors import ModelError
+from ufmt.tables import Where
 
 
 @dataclass(frozen=True)
@@ -41,6 +44,8 @@ class Machine:
         once-per-revolution axial error motion of the fly-cutting head at the tool radius.
     straightness_m, straightness_wavelength_m : amplitude [m] and wavelength [m] of the slide's
         straightness error in z along the feed.
+    table : the ``[machine]`` table as it was read (its keys in their order, their TOML
+        types), which :func:`ufmt.model.write.model_to_toml` writes back.
     Defaults and bands: :data:`OPTIONAL_FIELDS`.
     """
 
@@ -61,6 +66,7 @@ class Machine:
     error_motion_phase_deg: float = 0.0
     straightness_m: float = 0.0
     straightness_wavelength_m: float = 0.1
+    table: Mapping = dataclasses.field(default_factory=dict, compare=False, repr=False)
 
     @property
     def sense(self) -> float:
@@ -115,6 +121,8 @@ MACHINE_FIELDS = (
     "workpiece_center_xy",
     "rotation",
 )
+#: "cw": eq. 4.1 as printed, clockwise seen from +z; "ccw" the other sense.
+ROTATIONS = ("cw", "ccw")
 
 #: Optional ``[machine]`` keys: (default, low, high, unit); docs/ufmt-model.md gives the
 #: physics and the source of each band.
@@ -135,83 +143,34 @@ def read_machine(machine: Mapping, source: str = "<memory>") -> Machine:
     """Validate a ``[machine]`` table and return the :class:`Machine`.
 
     Raises ModelError naming the file and field, e.g.
-    ``ufmt.toml: machine: field 'tool_radius': -0.2 must be > 0``.
+    ``ufmt.toml: machine: field 'tool_radius': -0.2 is not positive (allowed: > 0 [m])``.
     """
-
-    def fail(field: str, problem: str):
-        raise ModelError(f"{source}: machine: field '{field}': {problem}")
-
-    for key in machine:
-        if key not in MACHINE_FIELDS and key not in OPTIONAL_FIELDS:
-            near = closest_name(key, (*MACHINE_FIELDS, *OPTIONAL_FIELDS))
-            hint = f" (did you mean '{near}'?)" if near else ""
-            fail(key, f"unknown key{hint}")
-    missing = [f for f in MACHINE_FIELDS if f not in machine]
-    if missing:
-        raise ModelError(f"{source}: machine: missing field '{missing[0]}' (need {MACHINE_FIELDS})")
-
-    def name(field):
-        v = machine[field]
-        if not isinstance(v, str) or not v:
-            fail(field, f"{v!r} must be a body name")
-        return v
-
-    def number(field, positive=False):
-        v = machine[field]
-        if isinstance(v, bool) or not isinstance(v, int | float | np.integer | np.floating):
-            fail(field, f"{v!r} must be a number")
-        v = float(v)
-        if not math.isfinite(v):
-            fail(field, f"{v!r} must be finite")
-        if positive and v <= 0:
-            fail(field, f"{v!r} must be > 0")
-        return v
-
-    def pair(field, positive=False):
-        v = machine[field]
-        try:
-            a = np.asarray(v, dtype=float)
-        except (TypeError, ValueError):
-            fail(field, f"{v!r} must be two numbers")
-        if a.shape != (2,) or not np.all(np.isfinite(a)):
-            fail(field, f"{v!r} must be two finite numbers")
-        if positive and not np.all(a > 0):
-            fail(field, f"{v!r} must be > 0")
-        return float(a[0]), float(a[1])
-
-    def optional(field):
-        default, low, high, unit = OPTIONAL_FIELDS[field]
-        if field not in machine:
-            return default
-        v = number(field)
-        if not low <= v <= high:
-            unit = "" if unit == "-" else f" {unit}"
-            fail(field, f"{v!r} is outside the allowed range [{low:g}, {high:g}]{unit}")
-        return v
-
-    rotation = machine["rotation"]
-    if rotation not in ("cw", "ccw"):
-        fail("rotation", f"{rotation!r} must be 'cw' (eq. 4.1, clockwise seen from +z) or 'ccw'")
+    where = Where(source, "machine", error=ModelError)
+    where.keys(machine, (*MACHINE_FIELDS, *OPTIONAL_FIELDS), MACHINE_FIELDS)
+    rotation = where.choice("rotation", machine["rotation"], ROTATIONS, "rotation")
     m = Machine(
-        tool_body=name("tool_body"),
-        workpiece_body=name("workpiece_body"),
-        spindle_axis_xy=pair("spindle_axis_xy"),
-        cutting_plane_z=number("cutting_plane_z"),
-        tool_radius=number("tool_radius", positive=True),
-        workpiece_size=pair("workpiece_size", positive=True),
-        workpiece_center_xy=pair("workpiece_center_xy"),
+        tool_body=where.string("tool_body", machine["tool_body"]),
+        workpiece_body=where.string("workpiece_body", machine["workpiece_body"]),
+        spindle_axis_xy=_pair(where, machine, "spindle_axis_xy"),
+        cutting_plane_z=where.number("cutting_plane_z", machine["cutting_plane_z"], unit="[m]"),
+        tool_radius=where.number(
+            "tool_radius", machine["tool_radius"], sign="positive", unit="[m]"
+        ),
+        workpiece_size=_pair(where, machine, "workpiece_size", sign="positive"),
+        workpiece_center_xy=_pair(where, machine, "workpiece_center_xy"),
         rotation=rotation,
-        **{field: optional(field) for field in OPTIONAL_FIELDS},
+        **{field: _optional(where, machine, field) for field in OPTIONAL_FIELDS},
+        table=copy.deepcopy(dict(machine)),
     )
     if abs(m.workpiece_center_xy[1] - m.spindle_axis_xy[1]) > 1e-9:
-        fail(
+        where.fail(
             "workpiece_center_xy",
             f"y = {m.workpiece_center_xy[1]!r} must equal spindle_axis_xy y = "
             f"{m.spindle_axis_xy[1]!r} (the workpiece centre is under the spindle halfway)",
         )
     far = m.workpiece_size[0] / 2 + abs(m.offset_x)
     if far >= m.tool_radius:
-        fail(
+        where.fail(
             "tool_radius",
             f"{m.tool_radius!r} must exceed workpiece_size x / 2 + |workpiece centre x - spindle "
             f"x| = {far!r} (the tool circle must cross the whole workpiece width)",
@@ -219,22 +178,43 @@ def read_machine(machine: Mapping, source: str = "<memory>") -> Machine:
     return m
 
 
+def _pair(where: Where, machine: Mapping, field: str, sign: str | None = None):
+    """Two numbers [m] (x, y)."""
+    x, y = where.numbers(field, machine[field], 2, sign=sign, unit="[m]")
+    return x, y
+
+
+def _optional(where: Where, machine: Mapping, field: str) -> float:
+    """An optional number: its default when absent, else checked against its band."""
+    default, low, high, unit = OPTIONAL_FIELDS[field]
+    if field not in machine:
+        return default
+    unit = "" if unit == "-" else f"[{unit}]"
+    return where.within(field, where.number(field, machine[field], unit=unit), low, high, unit)
+
+
+def check_machine_bodies(machine: Machine, body_names, source: str) -> None:
+    """The tool and workpiece bodies must be bodies of the model (checked when it has bodies)."""
+    names = list(body_names)
+    for field in ("tool_body", "workpiece_body"):
+        if names and getattr(machine, field) not in names:
+            Where(source, "machine", error=ModelError).fail(
+                field,
+                f"{getattr(machine, field)!r} is not a body of the model (bodies: "
+                f"{', '.join(names)})",
+            )
+
+
 def machine_of(model) -> Machine:
     """The validated :class:`Machine` of a :class:`ufmt.model.schema.Model`.
 
-    The tool and workpiece bodies must be bodies of the model (checked when it has bodies).
+    Raises ModelError when the model has no ``[machine]`` table, or when its tool or workpiece
+    body is not a body of the model.
     """
-    if not model.machine:
+    if model.machine is None:
         raise ModelError(
             f"{model.source}: no [machine] table: add one with {', '.join(MACHINE_FIELDS)} "
             "(see docs/ufmt-model.md, 'Machine table')"
         )
-    m = read_machine(model.machine, model.source)
-    names = [b.name for b in model.bodies]
-    for field in ("tool_body", "workpiece_body"):
-        if names and getattr(m, field) not in names:
-            raise ModelError(
-                f"{model.source}: machine: field '{field}': {getattr(m, field)!r} is not a body "
-                f"of the model (bodies: {', '.join(names)})"
-            )
-    return m
+    check_machine_bodies(model.machine, (b.name for b in model.bodies), model.source)
+    return model.machine

@@ -8,9 +8,10 @@ field; constructing them directly skips validation. Vectors are read-only numpy 
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
-from typing import Any
 
 import numpy as np
+
+from ufmt.model.machine import Machine
 
 GROUND = "ground"
 
@@ -145,25 +146,25 @@ class DesignParameter:
 
 @dataclass(frozen=True, eq=False)
 class Model:
-    """A validated machine model: bodies, hinges and free-form metadata.
+    """A validated machine model: bodies, hinges, the machine geometry and design parameters.
 
-    ``machine`` holds the optional ``[machine]`` table (tool, workpiece and process metadata
-    used by the cutting dynamics); ``design`` the named design parameters of the ``[design]``
-    table (name -> :class:`DesignParameter`); ``source`` is the file it came from (for
-    messages).
+    ``machine`` is the validated ``[machine]`` table (tool and workpiece geometry used by the
+    cutting dynamics, :class:`~ufmt.model.machine.Machine`), or None when the file has none;
+    ``design`` the named design parameters of the ``[design]`` table (name ->
+    :class:`DesignParameter`); ``source`` is the file it came from (for messages).
     """
 
     name: str
     bodies: tuple[Body, ...]
     hinges: tuple[Hinge, ...]
-    machine: dict[str, Any] = field(default_factory=dict)
+    machine: Machine | None = None
     design: dict[str, DesignParameter] = field(default_factory=dict)
     source: str = "<memory>"
 
     def __repr__(self) -> str:
         """One line (the full tables would flood a notebook): name, counts and the file."""
         extras = [f"{len(self.design)} design parameters"] if self.design else []
-        extras += ["[machine]"] if self.machine else []
+        extras += ["[machine]"] if self.machine is not None else []
         return (
             f"Model({self.name!r}: {len(self.bodies)} bodies, {len(self.hinges)} hinges"
             f"{''.join(', ' + e for e in extras)}; source={self.source!r})"

@@ -13,22 +13,10 @@ import math
 
 import numpy as np
 
+from ufmt.kinematics import I3, inertia_about, skew
 from ufmt.model.schema import Beam
 
-I3 = np.eye(3)
 VERTICAL_SINE = 1e-9  # a beam axis this close to global z counts as vertical (schema default)
-
-
-def tilde(v) -> np.ndarray:
-    """Cross-product matrix of a vector, ``tilde(a) @ b == a x b`` (paper eq. 2.10)."""
-    x, y, z = v
-    return np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
-
-
-def inertia_about(inertia_c: np.ndarray, mass: float, offset) -> np.ndarray:
-    """Inertia tensor about a point ``offset`` = (point → centre of mass) away [kg m^2]."""
-    d = np.asarray(offset, dtype=float)
-    return inertia_c + mass * (d @ d * I3 - np.outer(d, d))
 
 
 def rigid_body_first_input(
@@ -40,9 +28,9 @@ def rigid_body_first_input(
     ``p_in`` and output point ``p_out`` [m]. Affine in ω²: the constant part is the kinematic
     transfer, the ω² part the inertia forces.
     """
-    l_io = tilde(np.asarray(p_out) - p_in)
-    l_ic = tilde(np.asarray(com) - p_in)
-    l_co = tilde(np.asarray(p_out) - com)
+    l_io = skew(np.asarray(p_out) - p_in)
+    l_ic = skew(np.asarray(com) - p_in)
+    l_co = skew(np.asarray(p_out) - com)
     j_i = inertia_about(np.asarray(inertia_c), mass, np.asarray(com) - p_in)
     base = np.eye(12)
     base[0:3, 3:6] = -l_io
@@ -61,7 +49,7 @@ def rigid_body_other_input(p_in, p_out) -> np.ndarray:
     (12, 12), the same at every ω."""
     u = np.zeros((12, 12))
     u[6:9, 6:9] = I3
-    u[6:9, 9:12] = tilde(np.asarray(p_out, dtype=float) - p_in)
+    u[6:9, 9:12] = skew(np.asarray(p_out, dtype=float) - p_in)
     u[9:12, 9:12] = I3
     return u
 

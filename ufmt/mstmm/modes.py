@@ -10,26 +10,13 @@ Repeated roots are made mass-orthogonal; all shapes are normalised to unit modal
 
 from __future__ import annotations
 
-import functools
 from dataclasses import dataclass, replace
 
 import numpy as np
-from scipy.special import gammaln
 
-from ufmt.model.schema import Beam, RigidBody
-from ufmt.mstmm import elements
+from ufmt.mstmm.bodies import ShapeParts, beam_field, rules_of
 from ufmt.mstmm.overall import TransferSystem, equilibrate
 from ufmt.mstmm.roots import OFF_ROOT, batched_solve, orthonormal
-
-GAUSS_POINTS = 16  # per beam at most (modal-mass integrals to ~1e-12 up to βL ≈ 15)
-GAUSS_RTOL = 1e-15  # fewer points where the Gauss error bound allows (see _gauss_points)
-_GAUSS_ORDERS = np.arange(4, GAUSS_POINTS + 1)
-# log of the g-point rule's error bound without its c^(2g+1) factor (see _gauss_points)
-_GAUSS_LOG_FACTOR = (
-    4 * gammaln(_GAUSS_ORDERS + 1)
-    - np.log(2 * _GAUSS_ORDERS + 1)
-    - 3 * gammaln(2 * _GAUSS_ORDERS + 1)
-)
 
 
 @dataclass(frozen=True, eq=False)
@@ -79,36 +66,12 @@ def null_vectors(u: np.ndarray, u_near: np.ndarray, multiplicity: int) -> np.nda
     return c[:, 0, :, None] * x
 
 
-def _apply(state, z: np.ndarray) -> np.ndarray:
-    """States (n, 12) of a State map at each mode's frequency and unknowns z (n, order)."""
-    return np.einsum("nik,nk->ni", state.arr, z[:, state.cols])
-
-
-def _rigid_motion_from_state(s: np.ndarray, point, com) -> np.ndarray:
-    """[r_C; θ] from a state at ``point`` on a rigid body: r_C = r_P + θ × (C - P)."""
-    r = s[:, :3] + np.cross(s[:, 3:6], np.asarray(com) - point)
-    return np.concatenate([r, s[:, 3:6]], axis=1)
-
-
 def shape_state_keys(system: TransferSystem) -> tuple:
     """The state maps (:meth:`TransferSystem.states` keys) :func:`mode_shapes` reads, one per
-    body (:func:`_state_key`)."""
-    return tuple(_state_key(system.topology, body) for body in system.model.bodies)
-
-
-def _state_key(topo, body) -> tuple:
-    """The state map a body's motion is read from: a rigid body's first input, a beam's
-    input end, a virtual body's output."""
-    if isinstance(body, RigidBody):
-        return ("node_in", body.name, 0)
-    if isinstance(body, Beam):
-        return ("edge_in", _beam_edge(topo, body.name))
-    return ("node_out", body.name)
-
-
-def _beam_edge(topo, name: str) -> int:
-    """Index of the beam edge of body ``name``."""
-    return next(i for i, e in enumerate(topo.edges) if e.kind == "beam" and e.name == name)
+    body (its :attr:`~ufmt.mstmm.bodies.BodyRules.state_key`: a rigid body's first input, a
+    beam's input end, a virtual body's output)."""
+    topo = system.topology
+    return tuple(rules_of(body).state_key(topo, body) for body in system.model.bodies)
 
 
 def mode_shapes(system: TransferSystem, frequencies_hz, null_space=None, states=None) -> ModeShapes:
@@ -121,7 +84,6 @@ def mode_shapes(system: TransferSystem, frequencies_hz, null_space=None, states=
     walk makes them.
     """
     f = np.asarray(frequencies_hz, dtype=float)
-    topo = system.topology
     model = system.model
     omega = 2 * np.pi * f
     if states is None:
@@ -137,18 +99,11 @@ def mode_shapes(system: TransferSystem, frequencies_hz, null_space=None, states=
         vecs = null_vectors(system.evaluate(omega[starts]), u_near, int(m))
         for k in range(m):
             z[starts + k] = np.real(vecs[:, :, k])
-    rigid, virtual, centers, beams = {}, {}, {}, {}
+    parts = ShapeParts()
     for body in model.bodies:
-        if isinstance(body, RigidBody):
-            point = topo.first_input_point(body.name)
-            s = _apply(states[_state_key(topo, body)], z)
-            rigid[body.name] = _rigid_motion_from_state(s, point, body.center_of_mass)
-            centers[body.name] = body.center_of_mass
-        elif isinstance(body, Beam):
-            beams[body.name] = _beam_field(system, body, states, z, omega)
-        else:
-            virtual[body.name] = _apply(states[_state_key(topo, body)], z)[:, :6]
-    shapes = ModeShapes(f, z, rigid, virtual, beams, np.ones(f.size), centers)
+        rules_of(body).shape(system, body, states, z, omega, parts)
+    ones = np.ones(f.size)
+    shapes = ModeShapes(f, z, parts.rigid, parts.virtual, parts.beams, ones, parts.centers)
     _orthonormalise_repeated(model, shapes)
     shapes = _scaled(shapes, 1.0 / _signed_peak(shapes))
     mass = modal_mass(model, shapes.rigid, shapes.beams)
@@ -173,71 +128,12 @@ def _signed_peak(shapes: ModeShapes) -> np.ndarray:
     return np.where(peak == 0.0, 1.0, peak)
 
 
-def _beam_field(system, beam: Beam, states, z, omega, fractions=None):
-    """Beam motion (n, g, 6) at Gauss points, or at ``fractions`` of its length from ``start``.
-
-    The state at the beam's input end is transferred over part of the length (eq. 2.12).
-    Returns (positions (g, 3) [m], quadrature weights (g,) [m], motion (n, g, 6)).
-    """
-    topo = system.topology
-    index = _beam_edge(topo, beam.name)
-    e = topo.edges[index]
-    p_in, p_out = e.point_at(e.input_node), e.point_at(e.output_node)
-    z_in = _apply(states[_state_key(topo, beam)], z)
-    length = beam.length
-    if fractions is None:
-        x, wts = _gauss_legendre(_gauss_points(beam, omega.max(initial=0.0)))
-        s = 0.5 * (x + 1.0) * length
-        wts = 0.5 * wts * length
-    else:  # fractions from the beam's start; the transfer runs from its input end
-        f = np.asarray(fractions, dtype=float)
-        reversed_ = e.input_node.endswith("@end")
-        s = (1.0 - f if reversed_ else f) * length
-        wts = np.full(s.size, np.nan)
-    n = omega.size  # one batch over every (point, mode) pair
-    local = elements.beam_local(np.tile(omega, s.size), beam, length=np.repeat(s, n))
-    t = system.beam_rotation(index)  # only the displacement rows of the global transfer
-    u = t[None, :6, :6] @ local[:, :6, :] @ t.T[None]
-    motion = np.einsum("gnij,nj->ngi", u.reshape(s.size, n, 6, 12), z_in)
-    positions = p_in + np.outer(s / length, p_out - p_in)
-    return positions, wts, motion
-
-
-def _gauss_points(beam: Beam, omega_max: float) -> int:
-    """Gauss-Legendre points for a beam's modal-mass integrals up to ω_max [rad/s].
-
-    The integrands are products of two fields made of e^{±βs}, e^{±iβs} (β the largest
-    bending, axial or torsional wavenumber), so the g-point rule errs by at most about
-    c^(2g+1) (g!)^4 / ((2g + 1) ((2g)!)^3) relative, c = 2βL (the remainder of the rule
-    for e^{cx} on [0, 1]); the smallest g with that below GAUSS_RTOL, at least 4 (exact for
-    the product of two static cubic fields, which the exponentials cancel down to at small
-    βL) and at most GAUSS_POINTS.
-    """
-    w2 = omega_max**2
-    rho, e_mod = beam.density, beam.youngs_modulus
-    bending = rho * beam.area * w2 / (e_mod * min(beam.second_moment_y, beam.second_moment_z))
-    axial = rho * w2 / e_mod
-    torsion = rho * beam.polar_moment * w2 / (beam.shear_modulus * beam.torsion_constant)
-    c = 2.0 * beam.length * max(bending**0.25, np.sqrt(axial), np.sqrt(torsion), 1e-3)
-    log_error = (2 * _GAUSS_ORDERS + 1) * np.log(c) + _GAUSS_LOG_FACTOR
-    fine = _GAUSS_ORDERS[log_error <= np.log(GAUSS_RTOL)]
-    return int(fine[0]) if fine.size else GAUSS_POINTS
-
-
-@functools.lru_cache(maxsize=GAUSS_POINTS)
-def _gauss_legendre(points: int) -> tuple[np.ndarray, np.ndarray]:
-    """Gauss-Legendre nodes and weights on [-1, 1] (read-only, computed once per order)."""
-    x, w = np.polynomial.legendre.leggauss(points)
-    x.flags.writeable = w.flags.writeable = False
-    return x, w
-
-
 def beam_shape(system: TransferSystem, shapes: ModeShapes, beam_name: str, fractions):
     """Motion (n, P, 6) [m, rad] of beam points at ``fractions`` of its length from its start,
     for the modes of ``shapes`` (same normalisation), with their positions (P, 3) [m]."""
     beam = system.model.body(beam_name)
     states = system.states(shapes.omega)
-    positions, _, motion = _beam_field(system, beam, states, shapes.z_all, shapes.omega, fractions)
+    positions, _, motion = beam_field(system, beam, states, shapes.z_all, shapes.omega, fractions)
     return positions, motion
 
 
@@ -255,20 +151,7 @@ def kinetic_terms(model, rigid_a, beams_a, rigid_b=None, beams_b=None) -> np.nda
     n = next(iter(rigid_a.values() or [m for _, _, m in beams_a.values()])).shape[0]
     out = np.zeros((n, len(model.bodies), 6))
     for k, body in enumerate(model.bodies):
-        if isinstance(body, RigidBody):
-            va, vb = rigid_a[body.name], rigid_b[body.name]
-            out[:, k, :3] = body.mass * va[:, :3] * vb[:, :3]
-            out[:, k, 3:] = va[:, 3:] * (vb[:, 3:] @ body.inertia)
-        elif isinstance(body, Beam):
-            _, wts, ma = beams_a[body.name]
-            mb = beams_b[body.name][2]
-            rho = body.density
-            out[:, k, :3] = (
-                rho * body.area * np.einsum("ngi,ngi,g->ni", ma[..., :3], mb[..., :3], wts)
-            )
-            axis = (body.end - body.start) / body.length
-            twist = (ma[..., 3:] @ axis) * (mb[..., 3:] @ axis) @ wts
-            out[:, k, 3:] = rho * body.polar_moment * twist[:, None] * axis[None, :] ** 2
+        rules_of(body).kinetic(body, rigid_a, beams_a, rigid_b, beams_b, out[:, k])
     return out
 
 

@@ -18,7 +18,9 @@ import numpy as np
 
 from ufmt.model.schema import GROUND, Model
 from ufmt.mstmm import elements
-from ufmt.mstmm.topology import Topology, transfer_topology
+from ufmt.mstmm.bodies import rules_of
+from ufmt.mstmm.graph import Topology
+from ufmt.mstmm.topology import transfer_topology
 
 CUT = np.diag(np.r_[np.ones(6), -np.ones(6)])  # C = diag(I3, I3, -I3, -I3)
 CUT.flags.writeable = False
@@ -120,16 +122,6 @@ def _hinge_matrix(stiffness6: tuple) -> np.ndarray:
     return _frozen(elements.hinge(np.zeros(1), np.array(stiffness6))[0])
 
 
-@functools.lru_cache(maxsize=4096)
-def _rigid_body_parts(mass, inertia: tuple, com: tuple, p_in: tuple, p_out: tuple):
-    """Constant and ω² parts (12, 12) of a rigid body's U_{i,I1} (eq. 2.8), shared by every
-    design with the same body (a stiffness sweep builds them once)."""
-    both = elements.rigid_body_first_input(
-        np.array([0.0, 1.0]), mass, np.reshape(inertia, (3, 3)), com, np.array(p_in), p_out
-    )
-    return _frozen(both[0]), _frozen(both[1] - both[0])
-
-
 def _unknown_state(n_omega: int, columns: np.ndarray) -> State:
     """A state whose 12 entries are unknowns ``columns`` (-1 = known zero)."""
     cols, template = _selection(_key(columns))
@@ -144,17 +136,6 @@ def _selection(columns: bytes) -> tuple[np.ndarray, np.ndarray]:
     template = np.zeros((12, int(known.sum())))
     template[np.flatnonzero(known), np.arange(known.sum())] = 1.0
     return _frozen(columns[known]), _frozen(template)
-
-
-@functools.lru_cache(maxsize=4096)
-def _geometric_map(lever: tuple, rigid: bool) -> np.ndarray:
-    """H_k (6, 12) of a geometric equation (eqs. 2.5-2.7): displacement of input k carried
-    to the first input point (``lever`` = p_k - p_1 [m] on a rigid body), and rotation."""
-    h_k = np.zeros((6, 12))
-    h_k[0:3, 0:3] = np.eye(3)
-    h_k[0:3, 3:6] = elements.tilde(lever) if rigid else 0.0
-    h_k[3:6, 3:6] = np.eye(3)
-    return _frozen(h_k)
 
 
 @functools.lru_cache(maxsize=4096)
@@ -174,8 +155,8 @@ class TransferSystem:
         self.model = model
         self.topology: Topology = transfer_topology(model)
         self.segments: tuple[str, ...] = ()
-        self._beam_rotations: dict[int, np.ndarray] = {}
-        self._constant_parts: dict = {}  # hinge edge index or rigid node name -> matrices
+        self._edge_rotations: dict[int, np.ndarray] = {}
+        self._constant_parts: dict = {}  # hinge edge index or node name -> matrices (or None)
         if fmax_hz is not None:
             self.segment_for(fmax_hz)
 
@@ -200,8 +181,9 @@ class TransferSystem:
         for name in topo.order:
             node = topo.nodes[name]
             stage = np.broadcast_to(self._edge_matrix(node.parent_edge, w), (1, 12, 12))[0]
-            if node.kind == "rigid":
-                stage = stage @ self._rigid_first_input(node, w)[0]
+            first = self._first_input(node, w)
+            if first is not None:
+                stage = stage @ first[0]
             stage = scale[:, None] * stage / scale[None, :]
             upstream = [
                 path[topo.edges[i].input_node]
@@ -235,32 +217,30 @@ class TransferSystem:
             if index not in self._constant_parts:
                 self._constant_parts[index] = _hinge_matrix(tuple(e.element.stiffness6))
             return self._constant_parts[index]
-        return elements.beam(omega, e.element, rotation=self.beam_rotation(index))
+        return rules_of(e.element).edge_matrix(omega, e.element, self.edge_rotation(index))
 
-    def beam_rotation(self, index: int) -> np.ndarray:
-        """(12, 12) rotation of beam edge ``index`` from its local frame (input end to output
-        end) to the global frame (:func:`ufmt.mstmm.elements.beam_rotation`), computed once."""
-        if index not in self._beam_rotations:
+    def edge_rotation(self, index: int) -> np.ndarray:
+        """(12, 12) rotation of body edge ``index`` (a beam) from its local frame (input end
+        to output end) to the global frame (e.g. :func:`ufmt.mstmm.elements.beam_rotation`),
+        computed once."""
+        if index not in self._edge_rotations:
             e = self.topology.edges[index]
             p_in, p_out = e.point_at(e.input_node), e.point_at(e.output_node)
-            self._beam_rotations[index] = elements.beam_rotation(e.element, p_in, p_out)
-        return self._beam_rotations[index]
+            rotation = rules_of(e.element).edge_rotation(e.element, p_in, p_out)
+            self._edge_rotations[index] = rotation
+        return self._edge_rotations[index]
 
-    def _rigid_first_input(self, node, omega: np.ndarray) -> np.ndarray:
-        """U_{i,I1} (eq. 2.8) as (n_omega, 12, 12)."""
-        base, inertial = self._rigid_parts(node)
-        return base[None] + (omega**2)[:, None, None] * inertial[None]
-
-    def _rigid_parts(self, node) -> tuple[np.ndarray, np.ndarray]:
-        """Constant and ω² parts (12, 12) of U_{i,I1} (eq. 2.8), cached per body."""
+    def _first_input(self, node, omega: np.ndarray) -> np.ndarray | None:
+        """U_{i,I1} (eq. 2.8) as (n_omega, 12, 12), or None where it is the identity (a
+        massless point); its constant and ω² parts are cached per node."""
         if node.name not in self._constant_parts:
-            b = node.body
             first = self.topology.first_input_point(node.name)
-            points = (b.center_of_mass, first, node.output_point)
-            self._constant_parts[node.name] = _rigid_body_parts(
-                b.mass, tuple(np.ravel(b.inertia)), *(tuple(p) for p in points)
-            )
-        return self._constant_parts[node.name]
+            self._constant_parts[node.name] = node.transfer.first_input(node, first)
+        parts = self._constant_parts[node.name]
+        if parts is None:
+            return None
+        base, inertial = parts
+        return base[None] + (omega**2)[:, None, None] * inertial[None]
 
     def _edge_output(self, index: int, state_in: State, omega: np.ndarray) -> State:
         out = state_in.transfer(self._edge_matrix(index, omega))
@@ -322,7 +302,7 @@ class TransferSystem:
             out = self._node_output(node, inputs, omega)
             for k in range(1, len(inputs)):  # geometric equations (2.5-2.7)
                 (z1, p1), (zk, pk) = inputs[0], inputs[k]
-                h_k = _geometric_map(tuple(np.subtract(pk, p1)), node.kind == "rigid")
+                h_k = node.transfer.geometric_map(p1, pk)
                 rows.append(zk.transfer(h_k) + State(z1.cols, -z1.arr[:, 0:6, :]))
             if keep_states:
                 for k, (z, _) in enumerate(inputs):
@@ -350,11 +330,9 @@ class TransferSystem:
         """Output state of a body from its input states (eqs. 2.4, 2.8, 2.9, 2.11)."""
         z1 = inputs[0][0]
         p_out = node.output_point
-        if node.kind == "rigid":
-            out = z1.transfer(self._rigid_first_input(node, omega))
-        else:
-            out = z1
+        first = self._first_input(node, omega)
+        out = z1 if first is None else z1.transfer(first)
         for zk, pk in inputs[1:]:
-            lever = pk if node.kind == "rigid" else p_out
+            lever = node.transfer.other_lever(pk, p_out)
             out = out + zk.transfer(_other_input(tuple(lever), tuple(p_out)))
         return out

@@ -70,7 +70,7 @@ class RootsLostError(UfmtError):
     """Fewer MSTMM roots than the assembled model counts: never returned silently."""
 
 
-def _sign_det(system: TransferSystem, omega: np.ndarray) -> np.ndarray:
+def det_sign(system: TransferSystem, omega: np.ndarray) -> np.ndarray:
     """Sign of det U_all (LU with partial pivoting; positive scalings cannot change it)."""
     sign, _ = np.linalg.slogdet(system.evaluate(omega))
     return sign
@@ -178,7 +178,7 @@ def _scan(system: TransferSystem, fmax_hz: float, est: np.ndarray, rtol: float) 
         grid.append((near[:, None] * (1.0 + s * STEPS[None, :])).ravel())
     f = np.unique(np.clip(np.concatenate(grid), f_lo, fmax_hz))
     w = TWO_PI * f
-    sign = _sign_det(system, w)
+    sign = det_sign(system, w)
     change = np.flatnonzero((sign[1:] != sign[:-1]) & (sign[1:] != 0) & (sign[:-1] != 0))
     exact = w[1:-1][(sign[1:-1] == 0)]
     roots_w = _illinois(system, w[change], w[change + 1], rtol) if change.size else np.zeros(0)
@@ -416,18 +416,7 @@ def _newton(system, omega, lo, hi, mult, rtol, state_keys=()):
         s0, s1 = reduction.reduce(u).reshape(2, act.size, reduction.order, reduction.order)
         if r is None:  # at ω(1 + DERIVATIVE_STEP): off the root even from an exact start
             r, c = equilibrate(s1)
-        ds = s1 - s0
-        ds *= r[act] / h[:, None, None]
-        ds *= c[act]
-        s0 *= r[act]
-        s0 *= c[act]
-        with np.errstate(all="ignore"):
-            product = batched_solve(s0, ds)  # S⁻¹ dS/dω, scaled
-            # Aberth: the other clusters' current roots are divided out of det U_all
-            others = mult[None, :] / (wa[:, None] - w[None, :])
-            others[np.arange(act.size), act] = 0.0
-            trace = np.trace(product, axis1=1, axis2=2)
-            step = mult[act] / (trace - others.sum(axis=1))
+        product, step = _aberth_step(s0, s1, r[act], c[act], h, w, act, mult)
         finite = np.isfinite(step)
         step = np.where(finite, step, 0.0)  # exactly singular: ω is the root
         new = wa - step
@@ -441,31 +430,61 @@ def _newton(system, omega, lo, hi, mult, rtol, state_keys=()):
         done[act] = converged & inside
         for m in np.unique(mult[act[done[act]]]):
             sel = np.flatnonzero(done[act] & (mult[act] == m))
-            x = np.broadcast_to(start[:, :m], (sel.size, start.shape[0], m))
-            p = product[sel]
-            with np.errstate(all="ignore"):
-                for _ in range(NULL_SPACE_PRODUCTS):
-                    x = orthonormal(p @ x)
-            # completed with U_all's pivot rows at the root, not at the iterate (first order
-            # in the step from the two evaluations: an O(step²) error instead of O(step))
-            t = (new[sel] - wa[sel]) / h[sel]
-            pivots = reduction.pivot_rows(u)
-            at_root = pivots[sel] + t[:, None, None] * (pivots[act.size + sel] - pivots[sel])
-            z = reduction.null_vectors(at_root, c[act[sel], 0, :, None] * np.real(x))
+            t = (new[sel] - wa[sel]) / h[sel]  # where the root lies between ω and ω + dω
+            scale = c[act[sel], 0, :, None]
+            z = _null_basis(reduction, start[:, :m], product[sel], u, act.size, sel, t, scale)
             for k, j in enumerate(act[sel]):
                 basis[j] = z[k]
-            for key, walked_map in walked.items():
-                arr = walked_map.arr
-                if key not in at_roots:
-                    at_roots[key] = State(walked_map.cols, np.empty((n, *arr.shape[1:])))
-                at_roots[key].arr[act[sel]] = arr[sel] + t[:, None, None] * (
-                    arr[act.size + sel] - arr[sel]
-                )
+            _states_at_roots(walked, act, sel, t, n, at_roots)
     ok = done.copy()
     order = np.flatnonzero(ok)[np.argsort(w[ok])]  # two clusters on one root: both fail
     close = np.flatnonzero(np.diff(w[order]) <= 1e-9 * w[order][1:])
     ok[order[close]] = ok[order[close + 1]] = False
     return w, ok, basis, at_roots
+
+
+def _aberth_step(s0, s1, r, c, h, w, act, mult):
+    """S⁻¹ dS/dω (rows and columns scaled by r, c) at the active iterates ``w[act]`` (S at
+    ω and ω + h: s0, s1) and the multiplicity-corrected Newton step on det U_all with the
+    other clusters' current roots divided out (Aberth) [rad/s]."""
+    wa = w[act]
+    ds = s1 - s0
+    ds *= r / h[:, None, None]
+    ds *= c
+    s0 *= r
+    s0 *= c
+    with np.errstate(all="ignore"):
+        product = batched_solve(s0, ds)  # S⁻¹ dS/dω, scaled
+        # Aberth: the other clusters' current roots are divided out of det U_all
+        others = mult[None, :] / (wa[:, None] - w[None, :])
+        others[np.arange(act.size), act] = 0.0
+        trace = np.trace(product, axis1=1, axis2=2)
+        step = mult[act] / (trace - others.sum(axis=1))
+    return product, step
+
+
+def _null_basis(reduction, start, product, u, n_active, sel, t, scale) -> np.ndarray:
+    """U_all's null basis (roots, size, m) at the converged iterates ``sel``: products of
+    S⁻¹ dS/dω (``product``) with the start block (QR after each), completed with U_all's
+    pivot rows at the root, not at the iterate (first order in the step from the two
+    evaluations: an O(step²) error instead of O(step)); ``scale``: the column scaling."""
+    x = np.broadcast_to(start, (sel.size, *start.shape))
+    with np.errstate(all="ignore"):
+        for _ in range(NULL_SPACE_PRODUCTS):
+            x = orthonormal(product @ x)
+    pivots = reduction.pivot_rows(u)
+    at_root = pivots[sel] + t[:, None, None] * (pivots[n_active + sel] - pivots[sel])
+    return reduction.null_vectors(at_root, scale * np.real(x))
+
+
+def _states_at_roots(walked: dict, act, sel, t, n: int, at_roots: dict) -> None:
+    """The walked state maps interpolated to the roots of the converged iterates ``sel`` (of
+    the active ``act``; maps at ω, then at ω + dω), into ``at_roots`` (n clusters) in place."""
+    for key, walked_map in walked.items():
+        arr = walked_map.arr
+        if key not in at_roots:
+            at_roots[key] = State(walked_map.cols, np.empty((n, *arr.shape[1:])))
+        at_roots[key].arr[act[sel]] = arr[sel] + t[:, None, None] * (arr[act.size + sel] - arr[sel])
 
 
 def _walk(system: TransferSystem, omega: np.ndarray, state_keys) -> tuple[np.ndarray, dict]:
@@ -551,7 +570,7 @@ def continued_roots(
     root, root_hz, mult = root[order], root_hz[order], mult[order]
     basis = {k: basis[j] for k, j in enumerate(order)}
     gaps = np.r_[0.5 * root[0], np.sqrt(root[1:] * root[:-1])]
-    sign = _sign_det(system, gaps)
+    sign = det_sign(system, gaps)
     flips = sign[1:] * sign[:-1]
     if np.any(sign == 0) or np.any(flips != (-1.0) ** mult[:-1]):
         return None

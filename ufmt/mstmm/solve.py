@@ -21,7 +21,8 @@ from threadpoolctl import ThreadpoolController
 
 from ufmt.assembled import assembled_modes
 from ufmt.errors import UfmtError
-from ufmt.model.schema import Beam, Model
+from ufmt.model.schema import Model
+from ufmt.mstmm.bodies import rules_of
 from ufmt.mstmm.modes import ModeShapes, kinetic_terms, mode_shapes, shape_state_keys
 from ufmt.mstmm.overall import State, TransferSystem
 from ufmt.mstmm.roots import RootsLostError, continued_roots, natural_frequencies
@@ -300,7 +301,7 @@ def _solve_modes(model, fmax_hz, count, method, shapes) -> ModalSolution:
             )
         keys = shape_state_keys(system) if shapes else ()
         roots = natural_frequencies(system, fmax, est, state_keys=keys)
-        if roots.missing_hz.size == 0 or not _has_beams(model):
+        if roots.missing_hz.size == 0 or not _distributed(model):
             break
     if roots.missing_hz.size:
         raise RootsLostError(
@@ -331,8 +332,10 @@ def _first(states: dict, count: int) -> dict:
     return {key: State(m.cols, m.arr[:count]) for key, m in states.items()}
 
 
-def _has_beams(model: Model) -> bool:
-    return any(isinstance(b, Beam) for b in model.bodies)
+def _distributed(model: Model) -> bool:
+    """Whether a body has distributed mass (a beam): then a finer assembled mesh can bring
+    an estimate the MSTMM missed."""
+    return any(rules_of(b).distributed for b in model.bodies)
 
 
 def _pad(fmax_hz):

@@ -1,11 +1,13 @@
 """Automatic deduction of the MSTMM topology: orient the connection graph towards ground, cut
 closed loops, and lay out the boundary unknowns (paper section 2.4, eqs. 2.15-2.22).
 
-The graph has a node per rigid or virtual body, two virtual nodes per beam (its end points,
-``"<beam>@start"`` and ``"<beam>@end"``) and the ground node. Edges are the hinges and the
-beams (both two-port elements). A maximum spanning tree rooted at ground is chosen so that
-beams and fully elastic hinges stay in the tree and hinges with released directions are cut
-where a loop allows it (a released direction in a cut hinge costs no extra unknown).
+The graph (:mod:`ufmt.mstmm.graph`) has a node per rigid or virtual body, two massless nodes
+per beam (its end points, ``"<beam>@start"`` and ``"<beam>@end"``) and the ground node; edges
+are the hinges and the beams (both two-port elements). What each body kind adds is in its
+entry of :data:`ufmt.mstmm.bodies.BODY_RULES`. A maximum spanning tree rooted at ground is
+chosen so that beams and fully elastic hinges stay in the tree and hinges with released
+directions are cut where a loop allows it (a released direction in a cut hinge costs no extra
+unknown).
 Tree edges run from the child (input end) to the parent (output end). A non-tree edge is cut
 where its input end meets a body: that body gets an extra input end with state C·Z
 (DESIGN.md), and the edge's output enters the other body as an input end. Non-tree edges at
@@ -14,129 +16,29 @@ ground take their input at ground (zero displacement, six unknown reactions).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import replace
 
 import numpy as np
 from scipy.linalg import qr
 
 from ufmt.errors import ModelError
-from ufmt.model.schema import GROUND, Beam, Hinge, Model, RigidBody
-from ufmt.mstmm.elements import tilde
+from ufmt.kinematics import point_motion
+from ufmt.model.schema import GROUND, Model
+from ufmt.mstmm.bodies import rules_of
+from ufmt.mstmm.graph import DISPLACEMENT_NAMES, STATE_NAMES, Edge, Node, Topology
 from ufmt.recent import Recent
-
-#: Unknown label kinds of the overall state vector Z_all.
-DISPLACEMENT_NAMES = ("x", "y", "z", "θx", "θy", "θz")
-STATE_NAMES = DISPLACEMENT_NAMES + ("mx", "my", "mz", "qx", "qy", "qz")
-
-
-@dataclass
-class Node:
-    """A body of the transfer graph: rigid body, virtual body, beam end or ground."""
-
-    name: str
-    kind: str  # "rigid" | "virtual" | "ground"
-    body: RigidBody | None = None
-    point: np.ndarray | None = None  # for virtual nodes
-    parent_edge: int | None = None
-    depth: int = 0
-    inputs: list[tuple[int, str]] = field(default_factory=list)  # (edge index, "edge"|"cut")
-    output_point: np.ndarray | None = None
-
-
-@dataclass
-class Edge:
-    """A two-port element: a hinge or a beam, between nodes a and b at points pa, pb."""
-
-    name: str
-    kind: str  # "hinge" | "beam"
-    element: Hinge | Beam
-    a: str
-    b: str
-    pa: np.ndarray
-    pb: np.ndarray
-    tree: bool = False
-    input_node: str = ""
-    output_node: str = ""
-
-    def point_at(self, node: str) -> np.ndarray:
-        """The edge's end point at ``node`` [m]."""
-        return self.pa if node == self.a else self.pb
-
-    @property
-    def released(self) -> np.ndarray:
-        """Released directions (six booleans); none for a beam."""
-        if self.kind == "hinge":
-            return self.element.released
-        return np.zeros(6, dtype=bool)
-
-
-@dataclass
-class Topology:
-    """Oriented graph with the boundary unknowns and the processing order."""
-
-    nodes: dict[str, Node]
-    edges: list[Edge]
-    order: list[str]  # non-ground nodes, tips first (post-order)
-    unknown_labels: list[str]
-    cut_columns: dict[int, np.ndarray]  # edge index -> 12 column indices (-1 = known zero)
-    ground_columns: dict[int, np.ndarray]  # non-tree ground edge -> 12 columns (-1 = zero)
-    released_columns: dict[int, dict[int, int]]  # edge -> {direction: δ column}
-    free_tip_columns: dict[str, np.ndarray]  # node -> 6 displacement columns
-    root_columns: dict[int, np.ndarray]  # root edge -> 6 reaction columns
-
-    def first_input_point(self, name: str) -> np.ndarray:
-        """Point of a node's first input end I1 [m]; a free tip's is its output point."""
-        node = self.nodes[name]
-        if node.inputs:
-            return self.edges[node.inputs[0][0]].point_at(name)
-        return node.output_point
-
-    @property
-    def order_size(self) -> int:
-        """Order of the overall transfer matrix U_all (number of boundary unknowns)."""
-        return len(self.unknown_labels)
-
-
-def beam_end_node(beam: Beam, point) -> str:
-    """Name of the virtual node at the beam end nearest ``point``."""
-    d0 = np.linalg.norm(np.asarray(point) - beam.start)
-    d1 = np.linalg.norm(np.asarray(point) - beam.end)
-    return f"{beam.name}@start" if d0 <= d1 else f"{beam.name}@end"
-
-
-def _virtual_point(model: Model, name: str) -> np.ndarray:
-    for h in model.hinges:
-        if name in h.between:
-            return h.at
-    raise ModelError(f"{model.source}: body {name!r}: no hinge attaches to it")
 
 
 def build_topology(model: Model) -> Topology:
     """Orient the graph towards ground, cut loops and lay out Z_all (paper eqs. 2.15-2.22)."""
-    nodes: dict[str, Node] = {GROUND: Node(GROUND, "ground")}
+    nodes: dict[str, Node] = {GROUND: Node(GROUND, None)}
     edges: list[Edge] = []
     for body in model.bodies:
-        if isinstance(body, RigidBody):
-            nodes[body.name] = Node(body.name, "rigid", body=body)
-        elif isinstance(body, Beam):
-            for end, p in (("start", body.start), ("end", body.end)):
-                nodes[f"{body.name}@{end}"] = Node(f"{body.name}@{end}", "virtual", point=p)
-            edges.append(
-                Edge(
-                    body.name,
-                    "beam",
-                    body,
-                    f"{body.name}@start",
-                    f"{body.name}@end",
-                    body.start,
-                    body.end,
-                )
-            )
-        else:
-            nodes[body.name] = Node(body.name, "virtual", point=_virtual_point(model, body.name))
-    beams = {b.name: b for b in model.bodies if isinstance(b, Beam)}
+        body_nodes, body_edges = rules_of(body).graph(model, body)
+        nodes.update((node.name, node) for node in body_nodes)
+        edges += body_edges
     for h in model.hinges:
-        ends = [beam_end_node(beams[s], h.at) if s in beams else s for s in h.between]
+        ends = [_hinge_end(model, s, h.at) for s in h.between]
         edges.append(Edge(h.name, "hinge", h, ends[0], ends[1], h.at, h.at))
 
     _spanning_tree(nodes, edges, model)
@@ -144,8 +46,17 @@ def build_topology(model: Model) -> Topology:
     return _layout_unknowns(nodes, edges, order)
 
 
+def _hinge_end(model: Model, side: str, point) -> str:
+    """The graph node a hinge at ``point`` meets on ``side`` (a body name or ground)."""
+    if side == GROUND:
+        return GROUND
+    body = model.body(side)
+    return rules_of(body).hinge_end(body, point)
+
+
 def _spanning_tree(nodes, edges, model) -> None:
-    """Kruskal maximum spanning tree: beams > elastic hinges > hinges with releases."""
+    """Kruskal maximum spanning tree: bodies' own edges (beams) > elastic hinges > hinges
+    with releases."""
     parent = {n: n for n in nodes}
 
     def find(n):
@@ -155,7 +66,7 @@ def _spanning_tree(nodes, edges, model) -> None:
         return n
 
     def weight(e: Edge) -> int:
-        if e.kind == "beam":
+        if e.kind == "body":
             return 3
         return 1 if e.released.any() else 2
 
@@ -270,10 +181,10 @@ def transfer_topology(model: Model) -> Topology:
 
     def build():
         redundant = redundant_rigid(model)
-        return build_topology(_released(model, redundant)), redundant
+        return build_topology(with_released(model, redundant)), redundant
 
     topology, redundant = _TOPOLOGIES.get(model.structure_key(), build)
-    model = _released(model, redundant)
+    model = with_released(model, redundant)
     edges = [
         replace(e, element=model.hinge(e.name)) if e.kind == "hinge" else e for e in topology.edges
     ]
@@ -284,7 +195,7 @@ TOPOLOGIES_KEPT = 8
 _TOPOLOGIES = Recent(TOPOLOGIES_KEPT)  # structure key -> (topology, redundant directions)
 
 
-def _released(model: Model, directions) -> Model:
+def with_released(model: Model, directions) -> Model:
     """``model`` with the hinge directions ``directions`` ((hinge, direction) pairs) released."""
     for name, j in directions:
         six = model.hinge(name).stiffness6.copy()
@@ -304,11 +215,6 @@ def redundant_rigid(model: Model) -> list[tuple[str, int]]:
     constrains e_j·(u_a(P) - u_b(P)) with u(P) = [r + θ × (P - ref); θ]; ground is fixed.
     Independent rows are picked by pivoted QR; the dependent ones are returned.
     """
-    beams = {b.name: b for b in model.bodies if isinstance(b, Beam)}
-    refs: dict[str, np.ndarray] = {}
-    for b in model.bodies:
-        if isinstance(b, RigidBody):
-            refs[b.name] = b.center_of_mass
     rows, owners = [], []
     nodes: dict[str, int] = {}
     for h in model.hinges:
@@ -317,11 +223,10 @@ def redundant_rigid(model: Model) -> list[tuple[str, int]]:
             for side, sign in zip(h.between, (1.0, -1.0), strict=True):
                 if side == GROUND:
                     continue
-                node = beam_end_node(beams[side], h.at) if side in beams else side
-                ref = refs.get(node, h.at)
-                lever = np.asarray(h.at) - ref
-                motion = np.eye(6)
-                motion[0:3, 3:6] = -tilde(lever)
+                body = model.body(side)
+                node = rules_of(body).hinge_end(body, h.at)
+                ref = rules_of(body).reference(body, h.at)
+                motion = point_motion(np.asarray(h.at) - ref)
                 entries.append((nodes.setdefault(node, len(nodes)), sign * motion[j]))
             rows.append(entries)
             owners.append((h.name, int(j)))

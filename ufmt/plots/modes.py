@@ -16,9 +16,7 @@ import pandas as pd
 from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
 
-from ufmt.errors import ModelError
 from ufmt.machining.cutting import tool_tip
-from ufmt.model.machine import read_machine
 from ufmt.model.schema import GROUND, Beam, Model, RigidBody
 from ufmt.plots import new_axes, new_figure
 
@@ -134,12 +132,9 @@ def _virtual_point(model: Model, name: str) -> np.ndarray:
 def _tool_tip(model: Model, shapes, index: int):
     """(position [m], displacement [m]) of the tool tip at spindle angle 0, or None.
 
-    None when the model has no valid ``[machine]`` table or its tool body is not rigid.
+    None when the model has no ``[machine]`` table or its tool body is not rigid.
     """
-    try:
-        machine = read_machine(model.machine, model.source) if model.machine else None
-    except ModelError:
-        return None
+    machine = model.machine
     if machine is None or machine.tool_body not in shapes.rigid:
         return None
     tip = tool_tip(0.0, machine)

@@ -64,7 +64,7 @@ from ufmt.design import (
 from ufmt.errors import ModelError, StudyError, closest_name
 from ufmt.evaluate import model_file, resolve_model
 from ufmt.machining.process import TABLE1_RANGE
-from ufmt.model.load import parse_design
+from ufmt.model.design import parse_design
 from ufmt.model.schema import DesignParameter, Model
 
 DEFAULT_FUNCTION = "ufmt.evaluate:evaluate"
