@@ -350,7 +350,7 @@ def test_calibrate_regenerates_the_packaged_model(tmp_path):
 
 
 def test_cli_calibrate_is_deterministic_and_reports_the_response_fit(tmp_path, capsys):
-    """Issue 10: rerunning `ufmt calibrate` on an unchanged prior rewrites the same bytes; the
+    """Rerunning `ufmt calibrate` on an unchanged prior rewrites the same bytes; the
     command prints every response residual and the implied forces (small settings)."""
     text = CALIBRATION.read_text()
     for old, new in (

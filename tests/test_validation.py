@@ -1,7 +1,7 @@
 """Validation against Table 3 (ufmt.calibration.frequencies) and the packaged, identified model.
 
 Oracles: the committed validation table (golden file, regenerated with ``make validate``);
-the assembled mass-stiffness model as an independent solver of the same file; issue 3's
+the assembled mass-stiffness model as an independent solver of the same file; the validation's
 targets and the documented calibration bands; hand-built mode sets whose classes, phases and
 tool-tip motion are known in closed form.
 """

@@ -27,8 +27,10 @@ PACKAGE = Path(__file__).resolve().parent
 PHYSICS = (
     "errors.py",  # the error types and messages a failed evaluation records
     "defaults.py",  # the reference process, the default basis and grid
+    "tables.py",  # the table checker whose messages a failed evaluation records
     "model",  # loading and validating model files, [machine] and [design] tables
-    "assembled.py",  # the mass-stiffness model that counts and brackets the MSTMM roots
+    "kinematics.py",  # rigid-point kinematics of both solvers
+    "assembled",  # the mass-stiffness model that counts and brackets the MSTMM roots
     "mstmm",  # natural frequencies and mode shapes
     "machining",  # modal basis, cutting force, error sources, response, surface
     "simulate.py",  # one cut

@@ -13,19 +13,15 @@ DEFAULT_FRF_DIR = Path("results") / "frf"
 
 def register(subparsers) -> None:
     """Add the ``simulate`` and ``frf`` sub-parsers."""
-    from ufmt.cli.common import positive
-    from ufmt.defaults import (
-        DEFAULT_MODES,
-        REFERENCE_DEPTH_UM,
-        REFERENCE_FEED_MM_MIN,
-        REFERENCE_RPM,
-    )
-    from ufmt.machining.cut_geometry import DEFAULT_N_PHI
-    from ufmt.machining.sources import SOURCES
-    from ufmt.machining.surface import DEFAULT_APERTURE_MARGIN, DEFAULT_PSD2_PATCH
+    _register_simulate(subparsers)
+    _register_frf(subparsers)
 
-    p = subparsers.add_parser("simulate", help="cutting response, machined surface and PV")
-    p.add_argument("model", nargs="?", help="model TOML (default: packaged UFMT)")
+
+def _add_process_arguments(p) -> None:
+    """--rpm, --feed, --depth with the reference process as defaults."""
+    from ufmt.cli.common import positive
+    from ufmt.defaults import REFERENCE_DEPTH_UM, REFERENCE_FEED_MM_MIN, REFERENCE_RPM
+
     p.add_argument(
         "--rpm",
         type=positive(float),
@@ -44,6 +40,19 @@ def register(subparsers) -> None:
         default=REFERENCE_DEPTH_UM,
         help=f"depth of cut [um] ({REFERENCE_DEPTH_UM:g})",
     )
+
+
+def _register_simulate(subparsers) -> None:
+    """Add the ``simulate`` sub-parser."""
+    from ufmt.cli.common import positive
+    from ufmt.defaults import DEFAULT_MODES
+    from ufmt.machining.cut_geometry import DEFAULT_N_PHI
+    from ufmt.machining.sources import SOURCES
+    from ufmt.machining.surface import DEFAULT_APERTURE_MARGIN, DEFAULT_PSD2_PATCH
+
+    p = subparsers.add_parser("simulate", help="cutting response, machined surface and PV")
+    p.add_argument("model", nargs="?", help="model TOML (default: packaged UFMT)")
+    _add_process_arguments(p)
     p.add_argument(
         "--method",
         choices=["periodic", "time"],
@@ -90,6 +99,12 @@ def register(subparsers) -> None:
     p.add_argument("--plot", metavar="DIR", help="write Figs. 6, 7, 13, 14 as PNGs to DIR")
     p.add_argument("--save", metavar="DIR", help="write metrics.json, summary.csv, surface")
     p.set_defaults(func=cmd_simulate)
+
+
+def _register_frf(subparsers) -> None:
+    """Add the ``frf`` sub-parser."""
+    from ufmt.cli.common import positive
+    from ufmt.defaults import DEFAULT_MODES
 
     p = subparsers.add_parser("frf", help="tool-workpiece receptance in z (table and plot)")
     p.add_argument("model", nargs="?", help="model TOML (default: packaged UFMT)")
