@@ -46,6 +46,8 @@ METRICS = (
     "pv_nm",
     "pv_aperture_nm",
     "pv_tilt_removed_nm",
+    "pv_measured_nm",
+    "rms_measured_nm",
     "rms_nm",
     "psd1_rms_nm",
     "psd2_rms_nm",

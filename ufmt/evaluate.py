@@ -26,7 +26,6 @@ from dataclasses import fields, is_dataclass
 from pathlib import Path
 
 from ufmt import evaluate_cache
-from ufmt.defaults import DEFAULT_MODES
 from ufmt.design import (
     FREQUENCIES,
     METRICS,
@@ -114,11 +113,12 @@ def evaluate(
     -------
     dict
         The inputs, then ``pv_nm``, ``pv_aperture_nm`` (clear aperture), ``pv_tilt_removed_nm``,
-        ``rms_nm``, ``psd1_rms_nm``, ``psd2_rms_nm`` [nm] (surface of paper eq. 4.1; NaN where a
-        band is not resolved), ``force_peak_n`` [N], ``pv_<source>_nm`` [nm] for each error
-        source of :mod:`ufmt.machining.sources` alone, ``f1_hz`` .. ``f6_hz`` (first natural
-        frequencies [Hz]), ``status`` ("ok" or "error") and ``message`` (warnings or the error,
-        one line; empty if none). On error the metrics are NaN.
+        ``pv_measured_nm`` and ``rms_measured_nm`` (as the interferometer reports them,
+        :mod:`ufmt.machining.instruments`), ``rms_nm``, ``psd1_rms_nm``, ``psd2_rms_nm`` [nm]
+        (surface of paper eq. 4.1; NaN where a band is not resolved), ``force_peak_n`` [N],
+        ``pv_<source>_nm`` [nm] for each error source of :mod:`ufmt.machining.sources` alone,
+        ``f1_hz`` .. ``f6_hz`` (first natural frequencies [Hz]), ``status`` ("ok" or "error") and
+        ``message`` (warnings or the error, one line; empty if none). On error the metrics are NaN.
 
     Raises
     ------
@@ -213,6 +213,7 @@ _BASES = Recent(BASIS_CACHE)  # (model_sha, hinge changes) -> ModalBasis
 
 
 def _modal_basis(model, key):
-    """Modal basis (the first DEFAULT_MODES) of ``model``, kept for the last BASIS_CACHE designs so
-    that process changes on a known design reuse it."""
-    return _BASES.get(key, lambda: modal_basis(model, DEFAULT_MODES))
+    """The default modal basis of ``model`` (every mode below the default cutoff,
+    :mod:`ufmt.defaults`), kept for the last BASIS_CACHE designs so that process changes on a
+    known design reuse it."""
+    return _BASES.get(key, lambda: modal_basis(model))

@@ -20,9 +20,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ufmt.defaults import DEFAULT_MODES, DEFAULT_SPACING
+from ufmt.defaults import DEFAULT_BASIS_CUTOFF_HZ, DEFAULT_SPACING
 from ufmt.machining.basis import ModalBasis
-from ufmt.machining.cut_geometry import DEFAULT_N_PHI, DEFAULT_TABLE_ROWS, cut_geometry
+from ufmt.machining.cut_geometry import DEFAULT_TABLE_ROWS, cut_geometry, samples_per_rev
 from ufmt.machining.cutting import DEFAULT_COEFFICIENTS, FORCE_PARTS, ForceCoefficients
 from ufmt.machining.instruments import (
     Interferometer,
@@ -64,7 +64,9 @@ class SimulationResult:
     force_scale; pv_measured_nm and rms_measured_nm (flatness as the interferometer reports it:
     clear aperture, piston and tilt removed, scallops seen as their mean) and roughness_pv_nm,
     roughness_rq_nm (the feed marks), :mod:`ufmt.machining.instruments`. n_modes: modes in the
-    basis; basis_cutoff_hz: its highest natural frequency [Hz]; samples_per_rev: samples per
+    basis; basis_cutoff_hz: the frequency [Hz] below which it holds every mode (the cutoff it
+    was chosen by, or its highest mode when chosen by count); basis_highest_hz: its highest
+    natural frequency [Hz]; samples_per_rev: samples per
     spindle revolution of the response (``n_phi``). pv_by_source_nm: source -> PV [nm] of the
     surface with that source alone (None where switched off). sources: the switched-on
     sources. surface: every source (the metrics' surface); smooth_surface: the same without
@@ -85,6 +87,7 @@ class SimulationResult:
     sources: tuple[str, ...]
     n_modes: int
     basis_cutoff_hz: float
+    basis_highest_hz: float
     samples_per_rev: int
 
     def __repr__(self) -> str:
@@ -108,6 +111,7 @@ class SimulationResult:
             "depth_um": p.depth_um,
             "n_modes": self.n_modes,
             "basis_cutoff_hz": self.basis_cutoff_hz,
+            "basis_highest_hz": self.basis_highest_hz,
             "samples_per_rev": self.samples_per_rev,
             "sources": list(self.sources),
             **{k: _json_number(v) for k, v in self.metrics.items()},
@@ -166,13 +170,14 @@ def simulate(
     model,
     process: Process,
     *,
-    n_modes: int = DEFAULT_MODES,
+    n_modes: int | None = None,
+    basis_cutoff_hz: float = DEFAULT_BASIS_CUTOFF_HZ,
     zeta=DEFAULT_ZETA,
     method: str = "periodic",
     basis: ModalBasis | None = None,
     force_scale: float | None = None,
     coefficients: ForceCoefficients = DEFAULT_COEFFICIENTS,
-    n_phi: int = DEFAULT_N_PHI,
+    n_phi: int | None = None,
     table_rows: int = DEFAULT_TABLE_ROWS,
     spacing: float | tuple[float, float] = DEFAULT_SPACING,
     trailing_arc: bool = False,
@@ -189,18 +194,23 @@ def simulate(
     model : model file path or a loaded :class:`ufmt.model.schema.Model`, with a
         ``[machine]`` table.
     process : :class:`Process` (rpm, feed_mm_min, depth_um).
-    n_modes : modes kept (paper: 30).
+    n_modes, basis_cutoff_hz : the modal basis: every mode below ``basis_cutoff_hz`` [Hz]
+        (default 5 kHz, :mod:`ufmt.defaults`), or the first ``n_modes`` when given (the
+        paper's choice is 30); the static residual stands for the modes above.
     zeta : modal damping ratio, scalar or (n_modes,) array (default 0.03, see
         :mod:`ufmt.machining.recurrence`).
     method : "periodic" (frequency domain, milliseconds; quasi-static in the slide position,
         so a few per cent low where transients at the plate's entry and exit edges set the PV)
         or "time" (every revolution of the whole workpiece, exact recurrence, seconds; use it
         for reference values). See :mod:`ufmt.machining.response`.
-    basis : modal basis to use instead of ``ufmt.machining.modal.modal_basis(model, n_modes)``.
+    basis : modal basis to use instead of the model's (it is cut to ``n_modes`` or to the
+        modes below ``basis_cutoff_hz``).
     force_scale : factor on the force coefficients; default the model's ``machine.force_scale``
         (1 when absent).
     coefficients, n_phi, table_rows : force model and discretisation (see
-        :func:`ufmt.machining.cut_geometry.cut_geometry`).
+        :func:`ufmt.machining.cut_geometry.cut_geometry`); ``n_phi`` samples per spindle
+        revolution, by default from the basis' highest mode
+        (:func:`ufmt.machining.cut_geometry.samples_per_rev`).
     spacing, trailing_arc : surface grid step [m] (one value or (x, y)) and back-cutting (off),
         see :func:`ufmt.machining.surface.surface_passes`.
     record_periods : spindle periods in the time path's record window.
@@ -217,11 +227,9 @@ def simulate(
 
         model = load_model(model)
     machine = _machine(model)
-    if basis is None:
-        from ufmt.machining.modal import modal_basis
-
-        basis = modal_basis(model, n_modes)
-    basis = _truncated(basis, n_modes)
+    basis = _basis(model, basis, n_modes, basis_cutoff_hz)
+    if n_phi is None:
+        n_phi = samples_per_rev(float(basis.omega[-1]) / (2 * np.pi), process.rpm / 60.0)
     residual = _residual(model, basis, machine) if static_correction else None
     options = SimulationOptions(
         zeta=zeta,
@@ -236,6 +244,7 @@ def simulate(
         sources=sources,
         aperture_margin=aperture_margin,
         psd2_patch=psd2_patch,
+        basis_cutoff_hz=basis_cutoff_hz if n_modes is None else None,
     )
     return _run(basis, machine, process, residual, options)
 
@@ -258,6 +267,7 @@ class SimulationOptions:
     sources: str | Iterable[str]
     aperture_margin: float
     psd2_patch: float | None
+    basis_cutoff_hz: float | None  # None: the basis was chosen by count
 
 
 @lru_cache(maxsize=8)
@@ -270,6 +280,31 @@ def _machine(model) -> Machine:
 def _residual(model, basis: ModalBasis, machine: Machine) -> ResidualFlexibility:
     """The static correction of ``basis`` (cached per model, basis and machine)."""
     return residual_flexibility(model, basis, machine)
+
+
+def _basis(model, basis: ModalBasis | None, n_modes: int | None, cutoff_hz: float) -> ModalBasis:
+    """The basis of the run: ``basis`` (the model's when None) cut to ``n_modes`` or to the
+    modes below ``cutoff_hz`` [Hz]."""
+    if basis is None:
+        from ufmt.machining.modal import modal_basis
+
+        basis = modal_basis(model, n_modes, cutoff_hz)
+    return _truncated(basis, _basis_size(basis, n_modes, cutoff_hz))
+
+
+def _basis_size(basis: ModalBasis, n_modes: int | None, cutoff_hz: float) -> int:
+    """Modes of ``basis`` kept: ``n_modes`` if given, else those below ``cutoff_hz`` [Hz]."""
+    if n_modes is not None:
+        return n_modes
+    if not (math.isfinite(cutoff_hz) and cutoff_hz > 0):
+        raise ValueError(f"basis_cutoff_hz must be a finite number > 0 [Hz], got {cutoff_hz!r}")
+    kept = int(np.count_nonzero(basis.omega <= 2 * np.pi * cutoff_hz))
+    if kept == 0:
+        raise ValueError(
+            f"no mode below basis_cutoff_hz = {cutoff_hz:g} Hz (lowest "
+            f"{basis.omega[0] / (2 * np.pi):.4g} Hz)"
+        )
+    return kept
 
 
 @lru_cache(maxsize=16)
@@ -312,6 +347,7 @@ def _run(
     pv_by_source = _pv_by_source(sources, passes, terms, metrics["pv_nm"])
     metrics.update(_record_metrics(response, force_scale))
     metrics.update(_instrument_metrics(machine, process, band_surface, scallops, total, options))
+    highest = float(basis.omega[-1]) / (2 * np.pi)
     return SimulationResult(
         process=process,
         method=options.method,
@@ -325,7 +361,8 @@ def _run(
         pv_by_source_nm=pv_by_source,
         sources=sources,
         n_modes=basis.n_modes,
-        basis_cutoff_hz=float(basis.omega[-1] / (2 * np.pi)),
+        basis_cutoff_hz=float(options.basis_cutoff_hz or highest),
+        basis_highest_hz=highest,
         samples_per_rev=options.n_phi,
     )
 

@@ -42,11 +42,32 @@ def _add_process_arguments(p) -> None:
     )
 
 
+def _add_basis_arguments(p) -> None:
+    """--modes N (the paper's choice: 30) or --basis-cutoff HZ (default: every mode below it)."""
+    from ufmt.cli.common import positive
+    from ufmt.defaults import DEFAULT_BASIS_CUTOFF_HZ
+
+    p.add_argument(
+        "--modes",
+        type=positive(int),
+        default=None,
+        metavar="N",
+        help="modal basis of the first N modes (the paper: 30; default: every mode below the "
+        "cutoff)",
+    )
+    p.add_argument(
+        "--basis-cutoff",
+        type=positive(float),
+        default=DEFAULT_BASIS_CUTOFF_HZ,
+        metavar="HZ",
+        help=f"modal basis of every mode below HZ ({DEFAULT_BASIS_CUTOFF_HZ:g}; ignored with "
+        "--modes)",
+    )
+
+
 def _register_simulate(subparsers) -> None:
     """Add the ``simulate`` sub-parser."""
     from ufmt.cli.common import positive
-    from ufmt.defaults import DEFAULT_MODES
-    from ufmt.machining.cut_geometry import DEFAULT_N_PHI
     from ufmt.machining.sources import SOURCES
     from ufmt.machining.surface import DEFAULT_APERTURE_MARGIN, DEFAULT_PSD2_PATCH
 
@@ -59,15 +80,13 @@ def _register_simulate(subparsers) -> None:
         default="periodic",
         help="periodic steady state (fast) or whole-workpiece time domain (exact)",
     )
-    p.add_argument(
-        "--modes", type=positive(int), default=DEFAULT_MODES, help=f"modes kept ({DEFAULT_MODES})"
-    )
+    _add_basis_arguments(p)
     p.add_argument(
         "--samples-per-rev",
         type=positive(int, at_most=2**16),
-        default=DEFAULT_N_PHI,
+        default=None,
         metavar="N",
-        help=f"response samples per spindle revolution ({DEFAULT_N_PHI})",
+        help="response samples per spindle revolution (default: from the basis' highest mode)",
     )
     p.add_argument(
         "--zeta",
@@ -104,7 +123,6 @@ def _register_simulate(subparsers) -> None:
 def _register_frf(subparsers) -> None:
     """Add the ``frf`` sub-parser."""
     from ufmt.cli.common import positive
-    from ufmt.defaults import DEFAULT_MODES
 
     p = subparsers.add_parser("frf", help="tool-workpiece receptance in z (table and plot)")
     p.add_argument("model", nargs="?", help="model TOML (default: packaged UFMT)")
@@ -113,9 +131,7 @@ def _register_frf(subparsers) -> None:
     p.add_argument(
         "--points", type=positive(int, at_most=10**6), default=4000, help="log-spaced (4000)"
     )
-    p.add_argument(
-        "--modes", type=positive(int), default=DEFAULT_MODES, help=f"modes kept ({DEFAULT_MODES})"
-    )
+    _add_basis_arguments(p)
     p.add_argument(
         "--zeta", type=positive(float, below=1.0), default=None, help="damping ratio (0.03)"
     )
@@ -141,6 +157,7 @@ def cmd_simulate(args) -> int:
         model,
         process,
         n_modes=args.modes,
+        basis_cutoff_hz=args.basis_cutoff,
         n_phi=args.samples_per_rev,
         method=args.method,
         sources=[s.strip() for s in args.sources.split(",") if s.strip()],
@@ -188,7 +205,7 @@ def cmd_frf(args) -> int:
     if args.fmin >= args.fmax:
         raise UfmtError(f"--fmin {args.fmin} must be below --fmax {args.fmax}")
     model = load(args.model)
-    basis = modal_basis(model, args.modes)
+    basis = modal_basis(model, args.modes, args.basis_cutoff)
     freq = np.geomspace(args.fmin, args.fmax, args.points)
     options = {} if args.zeta is None else {"zeta": args.zeta}
     machine = machine_of(model)

@@ -20,12 +20,14 @@ pattern's tables) is cached per machine, so every design of a sweep shares it.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from functools import cached_property, lru_cache
 
 import numpy as np
 
 from ufmt.assembled import point_motion
+from ufmt.defaults import MIN_SAMPLES_PER_REV, SAMPLES_PER_MODE_PERIOD
 from ufmt.machining.basis import ModalBasis
 from ufmt.machining.cutting import (
     DEFAULT_COEFFICIENTS,
@@ -39,9 +41,9 @@ from ufmt.machining.cutting import (
 from ufmt.machining.static import ResidualFlexibility
 from ufmt.model.machine import Machine
 
-#: Force samples per spindle revolution (both paths): the PV converges as 1/n_phi^2 and is
-#: within 0.1 % of its limit at 512 (tests/test_response.py).
-DEFAULT_N_PHI = 512
+#: Force samples per spindle revolution of a basis of the paper's size (30 modes, ~700 Hz);
+#: the default of a basis is :func:`samples_per_rev`.
+DEFAULT_N_PHI = MIN_SAMPLES_PER_REV
 #: Slide positions of the periodic path's table (see :func:`cut_geometry` and the accuracy
 #: note in :mod:`ufmt.machining.response`).
 DEFAULT_TABLE_ROWS = 192
@@ -51,6 +53,15 @@ UNIFORM_SHARE = 0.1
 FORCE_HARMONICS = np.arange(-2, 3)
 #: Harmonics of the output shape c_s(phi) (degree 1).
 OUTPUT_HARMONICS = np.arange(-1, 2)
+
+
+def samples_per_rev(highest_hz: float, spindle_hz: float) -> int:
+    """Default samples per spindle revolution [-]: at least SAMPLES_PER_MODE_PERIOD per period
+    of the basis' highest mode ``highest_hz`` [Hz] at ``spindle_hz`` [rev/s], a power of two,
+    never below MIN_SAMPLES_PER_REV (:mod:`ufmt.defaults`). The surface metrics and z_re then
+    lie within 0.5 % of four times the sampling (tests/test_convergence.py)."""
+    need = SAMPLES_PER_MODE_PERIOD * highest_hz / spindle_hz
+    return max(MIN_SAMPLES_PER_REV, 1 << max(0, math.ceil(math.log2(max(need, 1.0)))))
 
 
 @dataclass(frozen=True, eq=False)

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ufmt.defaults import DEFAULT_MODES
+from ufmt.defaults import DEFAULT_BASIS_CUTOFF_HZ
 from ufmt.errors import UfmtError
 from ufmt.machining.basis import ModalBasis
 from ufmt.model.schema import Model
@@ -18,9 +18,17 @@ from ufmt.mstmm.modes import ModeShapes
 from ufmt.mstmm.solve import solve_modes
 
 
-def modal_basis(model: Model, n_modes: int = DEFAULT_MODES) -> ModalBasis:
-    """ModalBasis of the first ``n_modes`` modes of ``model`` (MSTMM) [SI]."""
-    shapes = solve_modes(model, count=n_modes).shapes
+def modal_basis(
+    model: Model, n_modes: int | None = None, cutoff_hz: float = DEFAULT_BASIS_CUTOFF_HZ
+) -> ModalBasis:
+    """ModalBasis of ``model`` (MSTMM) [SI]: every mode below ``cutoff_hz`` [Hz] (the default
+    basis, :mod:`ufmt.defaults`), or the first ``n_modes`` when given (the paper's choice)."""
+    solution = (
+        solve_modes(model, count=n_modes)
+        if n_modes is not None
+        else solve_modes(model, fmax_hz=cutoff_hz)
+    )
+    shapes = solution.shapes
     if shapes is None or shapes.frequencies_hz.size == 0:
         raise UfmtError(f"{model.source}: the model has no elastic modes")
     return basis_from_shapes(shapes)
