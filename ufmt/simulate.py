@@ -199,10 +199,8 @@ def simulate(
         paper's choice is 30); the static residual stands for the modes above.
     zeta : modal damping ratio, scalar or (n_modes,) array (default 0.03, see
         :mod:`ufmt.machining.recurrence`).
-    method : "periodic" (frequency domain, milliseconds; quasi-static in the slide position,
-        so a few per cent low where transients at the plate's entry and exit edges set the PV)
-        or "time" (every revolution of the whole workpiece, exact recurrence, seconds; use it
-        for reference values). See :mod:`ufmt.machining.response`.
+    method : "periodic" (frequency domain, milliseconds; quasi-static in the slide position)
+        or "time" (every revolution, exact recurrence, seconds); :mod:`ufmt.machining.response`.
     basis : modal basis to use instead of the model's (it is cut to ``n_modes`` or to the
         modes below ``basis_cutoff_hz``).
     force_scale : factor on the force coefficients; default the model's ``machine.force_scale``
@@ -228,8 +226,7 @@ def simulate(
         model = load_model(model)
     machine = _machine(model)
     basis = _basis(model, basis, n_modes, basis_cutoff_hz)
-    if n_phi is None:
-        n_phi = samples_per_rev(float(basis.omega[-1]) / (2 * np.pi), process.rpm / 60.0)
+    n_phi = n_phi or samples_per_rev(float(basis.omega[-1]) / (2 * np.pi), process.rpm / 60.0)
     residual = _residual(model, basis, machine) if static_correction else None
     options = SimulationOptions(
         zeta=zeta,
