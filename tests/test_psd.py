@@ -129,6 +129,20 @@ def test_parseval(n):
     assert band_power(freq, psd, (h / 10, 1e9)) == pytest.approx(np.mean(detrended**2), rel=1e-12)
 
 
+@pytest.mark.parametrize("axis", [0, 1])
+@pytest.mark.parametrize("window", ["hann", "boxcar"])
+def test_profile_psd_is_the_mean_periodogram_of_the_lines(axis, window):
+    """The same as scipy's periodogram (linear detrend, density scaling) averaged over lines."""
+    z = np.random.default_rng(axis).normal(size=(40, 51)) + np.linspace(0, 3, 51)
+    freq, psd = profile_psd(z, 1e-3, axis, window)
+    expected_freq, each = scipy.signal.periodogram(
+        z, fs=1e3, window=window, detrend="linear", scaling="density", axis=axis
+    )
+    expected = np.moveaxis(each, axis, -1).reshape(-1, freq.size).mean(axis=0)
+    np.testing.assert_array_equal(freq, expected_freq)
+    np.testing.assert_allclose(psd, expected, rtol=1e-12, atol=1e-15 * expected.max())
+
+
 def test_band_power_cuts_the_edge_bins():
     """A flat PSD integrates to its level times the band's width in frequency, edges
     falling inside bins."""
