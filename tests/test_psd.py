@@ -168,6 +168,24 @@ def test_white_noise_reads_its_variance_share():
         assert metrics[f"psd1_rms_{direction}_nm"] == pytest.approx(sigma * share * 1e9, rel=0.03)
 
 
+def test_three_periods_make_the_reading_independent_of_the_phase():
+    """The reason for N_MIN_PERIODS = 3: a sinusoid at lambda_max (33 mm) reads half its power
+    (the edge bin split) whatever its phase to 0.5 % on a profile of 3 periods; on 2 periods
+    the detrend and form removal take a phase-dependent part (> 1 %)."""
+    lam = BANDS["psd1"][1]
+    spread = {}
+    for periods in (2, N_MIN_PERIODS):
+        x, y = plate(periods * lam, 0.5e-3, 0.01, 0.5e-3)
+        readings = []
+        for phase in np.linspace(0, np.pi, 7):
+            surface = Surface(x, y, sinusoid(x, y, lam, along_y=False, phase=phase))
+            power = band_power(*surface_psd(surface, "across"), BANDS["psd1"])
+            readings.append(math.sqrt(power) * 1e9 / RMS_NM)
+        spread[periods] = np.ptp(readings)
+        assert np.mean(readings) == pytest.approx(np.sqrt(0.5), rel=0.05)
+    assert spread[N_MIN_PERIODS] < 0.005 < 0.01 < spread[2]
+
+
 @pytest.mark.parametrize(
     "size_x, size_y, spacing, resolved",
     [
