@@ -27,7 +27,7 @@ the band's longest wavelength (bin L / lambda_max) it must stay clear of bin 0, 
 piston, tilt and form removal empty. On 3 periods a sinusoid at lambda_max reads the same
 (half its power, the edge bin split) whatever its phase to 0.1 % of its RMS; on 2 periods its
 reading varies by 1.3 % with its phase (the detrend and the form removal take part of it), on
-1.5 periods (the 52.4 mm plate's) by 12 %. The band edge
+1.5 periods by 12 % (the 52.4 mm plate spans 1.6). The band edge
 stays blurred by the main lobe over +-2 / L in frequency: on the 0.41 m plate a 30 mm
 sinusoid reads 99.8 % of its RMS in PSD1 and a 40 mm one 1.7 %.
 
