@@ -23,6 +23,7 @@ from ufmt.machining.psd import (
     surface_psd,
 )
 from ufmt.machining.surface import Surface
+from ufmt.model.machine import read_machine
 from ufmt.model.schema import Model
 
 AMP = 3e-9  # sinusoid amplitude [m]
@@ -272,7 +273,7 @@ def test_psd_2d_parseval_and_band():
 
 def test_simulate_reports_both_directions_and_the_psd2_patch():
     """On the 0.41 m test plate PSD1 is resolved; the PSD2 patch gives the psd2 keys."""
-    model = Model("syn", (), (), machine=dict(MACHINE), source="syn.toml")
+    model = Model("syn", (), (), machine=read_machine(MACHINE), source="syn.toml")
     basis = synthetic_basis(n=6)
     process = Process(300, 15, 4)
     r = ufmt.simulate(model, process, basis=basis, static_correction=False)
