@@ -106,14 +106,13 @@ def test_simulate_json_contract(capsys):
         "pv_nm",
         "pv_tilt_removed_nm",
         "rms_nm",
-        "psd1_rms_nm",
         "zre_peak_nm",
         "tip_acc_peak_mm_s2",
     ):
         assert np.isfinite(out[key])
-    assert (
-        out["psd2_rms_nm"] is None
-    )  # not resolved by the default grid (tests/test_simulate_api.py)
+    # not resolved: the 52.4 mm plate spans < 3 periods of 33 mm, the default grid is too
+    # coarse for PSD2 (tests/test_psd.py)
+    assert out["psd1_rms_nm"] is None and out["psd2_rms_nm"] is None
     assert out["pv_nm"] > 0
 
 

@@ -32,6 +32,7 @@ from ufmt.machining.instruments import (
 )
 from ufmt.machining.periodic_path import periodic_response
 from ufmt.machining.process import Process
+from ufmt.machining.psd import band_rms
 from ufmt.machining.recurrence import DEFAULT_ZETA, modal_damping
 from ufmt.machining.response import Response
 from ufmt.machining.sources import SCALLOP, SOURCES, ErrorSource, acting_sources, check_sources
@@ -41,7 +42,6 @@ from ufmt.machining.surface import (
     PSD2_PATCH_SPACING,
     Passes,
     Surface,
-    band_rms,
     surface_metrics,
     surface_passes,
 )
@@ -57,7 +57,9 @@ class SimulationResult:
 
     metrics [nm, mm/s^2, N]: the surface metrics of
     :func:`ufmt.machining.surface.surface_metrics` (pv_nm, pv_aperture_nm, rms_nm, form and
-    waviness, psd1_rms_nm, psd2_rms_nm: NaN where not resolved, ...), zre_peak_nm (mean over
+    waviness, ...), the PSD band RMS of :func:`ufmt.machining.psd.band_rms` (psd1_rms_nm,
+    psd2_rms_nm: the larger of psd1_rms_along_nm and psd1_rms_across_nm, ...; NaN where not
+    resolved; PSD2 on the ``psd2_patch``), zre_peak_nm (mean over
     the record window's spindle periods of the largest |z_re| in each; the window sits mid-cut,
     at :func:`ufmt.machining.response.record_slide`), tip_acc_peak_mm_s2 (the same for the
     tool-tip z acceleration), force_peak_n (largest cutting-force magnitude in the window),
@@ -218,7 +220,7 @@ def simulate(
         (:mod:`ufmt.machining.static`; needs the model's assembled static solve).
     aperture_margin : clear-aperture edge exclusion [m] (default 5 mm).
     psd2_patch : side [m] of a square patch at the plate centre, evaluated at 0.05 mm, on
-        which psd2_rms_nm is computed (None: PSD2 is not resolved and reads NaN).
+        which the psd2 keys are computed (None: PSD2 is not resolved and reads NaN).
     """
     if isinstance(model, str | Path):
         from ufmt.model.load import load_model
@@ -338,9 +340,10 @@ def _run(
     smooth = [terms[source.name] for source in acting if source.enters != SCALLOP]
     scallops = any(source.enters == SCALLOP for source in acting)
     band_surface = passes.lower(smooth) if scallops else total
-    metrics = surface_metrics(total, options.aperture_margin, band_surface)
+    metrics = surface_metrics(total, options.aperture_margin)
+    metrics.update(band_rms(band_surface))
     if options.psd2_patch is not None:
-        metrics["psd2_rms_nm"] = _psd2_rms(response, machine, process, acting, options)
+        metrics.update(_psd2_band_rms(response, machine, process, acting, options))
     pv_by_source = _pv_by_source(sources, passes, terms, metrics["pv_nm"])
     metrics.update(_record_metrics(response, force_scale))
     metrics.update(_instrument_metrics(machine, process, band_surface, scallops, total, options))
@@ -409,14 +412,15 @@ def _response(
     return time_response(geos, process, zeta, options.force_scale, options.record_periods)
 
 
-def _psd2_rms(
+def _psd2_band_rms(
     response: Response,
     machine: Machine,
     process: Process,
     acting: tuple[ErrorSource, ...],
     options: SimulationOptions,
-) -> float:
-    """psd2_rms_nm of the square patch of side ``options.psd2_patch`` [m] at the plate centre
+) -> dict[str, float]:
+    """The PSD2 band RMS [nm] (psd2_rms_nm, psd2_rms_along_nm, psd2_rms_across_nm) of the
+    square patch of side ``options.psd2_patch`` [m] at the plate centre
     (:data:`~ufmt.machining.surface.PSD2_PATCH_SPACING`), without the scallops."""
     half = options.psd2_patch / 2
     window = ((-half, half), (-half, half))
@@ -428,7 +432,7 @@ def _psd2_rms(
         for source in acting
         if source.enters != SCALLOP
     )
-    return band_rms(patch)["psd2_rms_nm"]
+    return band_rms(patch, bands=("psd2",))
 
 
 def _pv_by_source(

@@ -18,8 +18,8 @@ without cutting force; by default it does not re-cut (``trailing_arc=True`` adds
 the minimum: back-cutting).
 
 Grid: nodes on the plate's edges, at most ``spacing`` apart (default 1 mm in x, 1.25 mm in y:
-432 x 330 nodes on the 0.41 m plate, counts rounded up to fast FFT lengths; 1.25 mm resolves
-the whole PSD1 band), plus rows 8 times denser within 6 mm of the entry and exit edges
+432 x 330 nodes on the 0.41 m plate, counts rounded up to fast FFT lengths; 1.25 mm samples
+PSD1's shortest wavelength), plus rows 8 times denser within 6 mm of the entry and exit edges
 (y = -+ly/2), where the first and last revolutions of the cut leave mm-wide features that can
 set the PV. ``window`` evaluates an evenly spaced patch instead (the PSD2 patch).
 
@@ -27,13 +27,11 @@ Metrics [nm] (:func:`surface_metrics`): PV = max - min over all points (as in th
 and RMS with the best-fit plane removed; PV and RMS over the clear aperture (the plate less
 ``DEFAULT_APERTURE_MARGIN`` = 5 mm at every edge); form = PV of the 2nd-order part of a
 least-squares Legendre fit up to 2nd order (power, astigmatism, twist), waviness = what that
-fit leaves (PV, RMS); band RMS = RMS of the plane-removed, Hann-windowed surface band-passed
-to spatial wavelengths in the PSD1 (2.5-33 mm) and PSD2 (0.12-2.5 mm) bands of KDP optics
-(isotropic spatial frequency). The plane, the fits, the RMS and the bands use the evenly spaced
-rows. A band the grid does not resolve completely (2 h > shortest wavelength, or the grid
-shorter than the longest) is NaN, never a partial number: PSD2 needs steps <= 0.06 mm, given
-by a patch (``DEFAULT_PSD2_PATCH`` = 20 mm square at 0.05 mm, ``ufmt.simulate(...,
-psd2_patch=...)``), as a shop measures PSD2 on sub-apertures.
+fit leaves (PV, RMS). The plane, the fits and the RMS use the evenly spaced rows. The PSD bands
+(PSD1, PSD2: band RMS of 1-D PSDs of the waviness along and across the feed) are
+:mod:`ufmt.machining.psd`'s; PSD2 needs steps <= 0.06 mm, given by a patch
+(``DEFAULT_PSD2_PATCH`` = 20 mm square at 0.05 mm, ``ufmt.simulate(..., psd2_patch=...)``), as
+a shop measures PSD2 on sub-apertures.
 """
 
 from __future__ import annotations
@@ -61,8 +59,6 @@ DEFAULT_PSD2_PATCH = 20e-3
 #: the refinement of their rows: the cut's first and last revolutions leave mm-wide features.
 EDGE_BAND = 6e-3
 EDGE_REFINE = 8
-#: Spatial wavelength bands [m] of the KDP specifications.
-BANDS = {"psd1": (2.5e-3, 33e-3), "psd2": (0.12e-3, 2.5e-3)}
 
 
 @dataclass(frozen=True, eq=False)
@@ -273,55 +269,6 @@ def steady_region(surface: Surface, machine: Machine, settle: float = 0.0) -> np
     return (slide >= y_a + settle) & (slide <= y_b)
 
 
-@lru_cache(maxsize=16)
-def _spectral(nx: int, ny: int, hx: float, hy: float):
-    """Hann window and the rfft2 weights of each band (cached per grid)."""
-    win = np.outer(np.hanning(ny + 2)[1:-1], np.hanning(nx + 2)[1:-1])
-    norm = 1.0 / (nx * ny * np.sqrt(np.mean(win**2)))
-    fx = np.fft.rfftfreq(nx, hx)
-    fy = np.fft.fftfreq(ny, hy)
-    nu = np.hypot(fy[:, None], fx[None, :])
-    half = np.full(fx.size, 2.0)  # rfft2 holds each +-fx pair once
-    half[0] = 1.0
-    if nx % 2 == 0:
-        half[-1] = 1.0
-    masks = {}
-    for name, (lam_min, lam_max) in BANDS.items():
-        inside = (nu >= 1.0 / lam_max) & (nu <= 1.0 / lam_min)
-        masks[name] = inside * half[None, :]
-    return win, norm, masks
-
-
-def band_resolved(surface: Surface, band: str) -> bool:
-    """True if the evenly spaced grid resolves the whole band (2 h <= shortest wavelength and
-    the grid at least as long as the longest wavelength, in both directions)."""
-    lam_min, lam_max = BANDS[band]
-    hx, hy = surface.spacing
-    y = surface.y[surface.core_rows]
-    extent = min(np.ptp(surface.x), np.ptp(y))
-    return 2 * max(hx, hy) <= lam_min * (1 + 1e-9) and extent >= lam_max
-
-
-def band_rms(surface: Surface) -> dict[str, float]:
-    """RMS [nm] of the plane-removed, Hann-windowed surface in each band of :data:`BANDS`.
-
-    NaN where the grid does not resolve the band (:func:`band_resolved`): a number there would
-    look like a measurement of content the grid cannot see. Keys ``psd1_rms_nm``, ...
-    """
-    core = surface.core_rows
-    x, y, z = surface.x, surface.y[core], surface.z[core]
-    flat = z - _plane(x, y, z)
-    hx, hy = surface.spacing
-    win, norm, masks = _spectral(x.size, y.size, hx, hy)
-    power = np.abs(scipy.fft.rfft2(flat * win)) ** 2
-    return {
-        f"{name}_rms_nm": float(np.sqrt(np.sum(power * mask)) * norm) * 1e9
-        if band_resolved(surface, name)
-        else float("nan")
-        for name, mask in masks.items()
-    }
-
-
 @dataclass(frozen=True)
 class _GridFit:
     """Process-independent parts of the plane and Legendre fits on an evenly spaced grid.
@@ -369,7 +316,7 @@ def _plane(x: np.ndarray, y: np.ndarray, z: np.ndarray) -> np.ndarray:
     return z.mean() + bx * g.xc[None, :] + by * g.yc[:, None]
 
 
-def _legendre_fit(x: np.ndarray, y: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def legendre_fit(x: np.ndarray, y: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Least-squares fit of Legendre polynomials up to 2nd order in (x, y) over the grid.
 
     Returns (fit, form): the whole fit (piston, tilt, 2nd order) and its 2nd-order part
@@ -397,7 +344,6 @@ def _rms(z: np.ndarray) -> float:
 def surface_metrics(
     surface: Surface,
     aperture_margin: float = DEFAULT_APERTURE_MARGIN,
-    band_surface: Surface | None = None,
 ) -> dict[str, float]:
     """Metrics of the machined surface [nm] (module docstring).
 
@@ -405,8 +351,7 @@ def surface_metrics(
     removed), pv_aperture_nm and rms_aperture_nm (the same inside the clear aperture, the plate
     less ``aperture_margin`` [m] at every edge), form_pv_nm (PV of the 2nd-order Legendre
     part of the least-squares fit), waviness_pv_nm and waviness_rms_nm (what the fit up to 2nd
-    order leaves), psd1_rms_nm and psd2_rms_nm (of ``band_surface`` if given, NaN where not
-    resolved, :func:`band_rms`), grid_spacing_mm.
+    order leaves), grid_spacing_mm. The PSD bands are :func:`ufmt.machining.psd.band_rms`'s.
     """
     if not aperture_margin >= 0:
         raise ValueError(f"aperture_margin must be >= 0 [m], got {aperture_margin!r}")
@@ -427,7 +372,7 @@ def surface_metrics(
     in_y = np.abs(yc) <= half_y + 1e-12
     aperture = surface.z[np.ix_(in_y, in_x)]
     flat_aperture = flat[np.ix_(in_y[core], in_x)]
-    fit, form = _legendre_fit(x, y, z)
+    fit, form = legendre_fit(x, y, z)
     waviness = z - fit
     out = {
         "pv_nm": _pv(surface.z) * 1e9,
@@ -439,6 +384,5 @@ def surface_metrics(
         "waviness_pv_nm": _pv(waviness) * 1e9,
         "waviness_rms_nm": _rms(waviness) * 1e9,
     }
-    out.update(band_rms(surface if band_surface is None else band_surface))
     out["grid_spacing_mm"] = max(surface.spacing) * 1e3
     return out
