@@ -23,7 +23,6 @@ from ufmt.calibration.reduced import apply_parameters
 from ufmt.calibration.response import reference_process
 from ufmt.calibration.response_fit import ResponseFit, fit_response, with_values
 from ufmt.calibration.settings import Calibration, load_calibration
-from ufmt.machining.modal import basis_from_shapes
 from ufmt.model.schema import Model
 from ufmt.model.write import model_to_toml
 from ufmt.tomlfile import read_toml
@@ -131,7 +130,7 @@ def calibrate(
             identified,
             calibration.response,
             reference_process(read_toml(calibration.reference)),
-            basis_from_shapes(check.solution.shapes),
+            None,  # the response's default basis (every mode below the cutoff)
             progress=progress,
         )
         identified = with_values(identified, fit.values)

@@ -1,0 +1,61 @@
+"""The default basis and sampling are converged (oracle: the same simulation with twice the
+basis cutoff, and with four times the samples per revolution), and the discretisation error
+falls at the rate the exact recurrence promises (second order in the sample step)."""
+
+from __future__ import annotations
+
+from functools import lru_cache
+
+import pytest
+
+from ufmt.defaults import DEFAULT_BASIS_CUTOFF_HZ
+from ufmt.machining.modal import modal_basis
+from ufmt.machining.process import Process
+from ufmt.model.load import load_model
+from ufmt.simulate import simulate
+
+REFERENCE = Process(300.0, 15.0, 4.0)
+SURFACE_METRICS = ("pv_nm", "pv_aperture_nm", "pv_measured_nm", "rms_measured_nm", "zre_peak_nm")
+
+
+@lru_cache(maxsize=1)
+def packaged():
+    return load_model()
+
+
+@lru_cache(maxsize=4)
+def run(cutoff_hz: float = DEFAULT_BASIS_CUTOFF_HZ, n_phi: int | None = None):
+    model = packaged()
+    basis = modal_basis(model, cutoff_hz=cutoff_hz)
+    return simulate(model, REFERENCE, basis=basis, basis_cutoff_hz=cutoff_hz, n_phi=n_phi)
+
+
+def test_the_default_basis_holds_every_mode_below_its_cutoff():
+    result = run()
+    assert result.basis_highest_hz <= DEFAULT_BASIS_CUTOFF_HZ < 2 * result.basis_highest_hz
+    assert result.n_modes > 30  # more than the paper's 30, which stop at ~700 Hz
+
+
+@pytest.mark.parametrize("metric", SURFACE_METRICS)
+def test_doubling_the_basis_cutoff_moves_no_metric_by_1_percent(metric):
+    """At equal sampling, so that only the basis differs."""
+    default = run()
+    doubled = run(2 * DEFAULT_BASIS_CUTOFF_HZ, default.samples_per_rev)
+    assert doubled.n_modes > default.n_modes
+    assert default.metrics[metric] == pytest.approx(doubled.metrics[metric], rel=0.01)
+
+
+@pytest.mark.parametrize("metric", SURFACE_METRICS)
+def test_default_sampling_is_within_half_a_percent_of_four_times_it(metric):
+    default = run()
+    fine = run(n_phi=4 * default.samples_per_rev)
+    assert default.metrics[metric] == pytest.approx(fine.metrics[metric], rel=0.005)
+
+
+@pytest.mark.slow
+def test_the_measured_acceleration_converges_at_second_order():
+    """e(n) = |a(n) - a(8 n0)| of the accelerometer's peak falls ~4x per doubling of n."""
+    n0 = run().samples_per_rev
+    values = [run(n_phi=k * n0).metrics["tip_acc_measured_mm_s2"] for k in (1, 2, 8)]
+    e1, e2 = abs(values[0] - values[2]), abs(values[1] - values[2])
+    assert e1 / e2 > 3.0
