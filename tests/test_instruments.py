@@ -110,10 +110,10 @@ def test_bad_instrument_settings_are_refused(field, value):
 
 
 def test_simulate_reports_the_instruments_and_its_basis():
-    result = ufmt.simulate(ufmt.load_model(), ufmt.Process(300, 15, 4), n_phi=256)
+    result = ufmt.simulate(ufmt.load_model(), ufmt.Process(300, 15, 4), n_modes=30, n_phi=256)
     d = result.to_dict()
     assert d["samples_per_rev"] == 256 and d["n_modes"] == 30
-    assert d["basis_cutoff_hz"] > 0
+    assert d["basis_cutoff_hz"] == d["basis_highest_hz"] > 0  # a basis chosen by count
     assert d["roughness_pv_nm"] == pytest.approx(d["pv_by_source_nm"]["feed_marks"], rel=0.02)
     assert d["pv_measured_nm"] < d["pv_aperture_nm"]
 
