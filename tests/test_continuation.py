@@ -3,7 +3,7 @@ solve, and an untracked root makes the tracking give up (never a silent loss).""
 
 import numpy as np
 import pytest
-from test_repeated_roots import axisymmetric_chain
+from synthetic import axisymmetric_chain
 
 from ufmt.assembled import assembled_modes
 from ufmt.model.load import load_model, model_from_dict, packaged_path

@@ -5,7 +5,7 @@ import warnings
 
 import numpy as np
 import pytest
-from machine_table import MACHINE
+from synthetic import MACHINE
 
 from ufmt.errors import ModelError, ProcessError
 from ufmt.machining.basis import ModalBasis

@@ -24,9 +24,9 @@ MARGIN = 5e-3
 
 
 @pytest.fixture(scope="module")
-def machine():
+def machine(packaged):
     """The packaged machine with the spindle axis over the plate centre (offset 0)."""
-    m = machine_of(ufmt.load_model())
+    m = machine_of(packaged)
     return dataclasses.replace(m, workpiece_center_xy=m.spindle_axis_xy)
 
 
@@ -109,8 +109,8 @@ def test_bad_instrument_settings_are_refused(field, value):
         Interferometer(**{field: value})
 
 
-def test_simulate_reports_the_instruments_and_its_basis():
-    result = ufmt.simulate(ufmt.load_model(), ufmt.Process(300, 15, 4), n_modes=30, n_phi=256)
+def test_simulate_reports_the_instruments_and_its_basis(packaged):
+    result = ufmt.simulate(packaged, ufmt.Process(300, 15, 4), n_modes=30, n_phi=256)
     d = result.to_dict()
     assert d["samples_per_rev"] == 256 and d["n_modes"] == 30
     assert d["basis_cutoff_hz"] == d["basis_highest_hz"] > 0  # a basis chosen by count

@@ -4,8 +4,7 @@ computed by the harmonics (an independent evaluation) read at the same angles.""
 
 import numpy as np
 import pytest
-from test_response import SMALL, synthetic_basis
-from test_static import random_residual
+from synthetic import SMALL, random_residual, synthetic_basis
 
 from ufmt.machining.cut_geometry import cut_geometry
 from ufmt.machining.periodic_path import periodic_response

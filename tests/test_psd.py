@@ -5,8 +5,7 @@ import math
 import numpy as np
 import pytest
 import scipy.signal
-from machine_table import MACHINE
-from test_surface import synthetic_basis
+from synthetic import MACHINE, synthetic_basis
 
 import ufmt
 from ufmt.machining.process import Process

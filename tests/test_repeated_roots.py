@@ -6,6 +6,7 @@ import json
 
 import numpy as np
 import pytest
+from synthetic import axisymmetric_chain
 
 from ufmt.assembled import assembled_modes
 from ufmt.cli import main
@@ -51,39 +52,6 @@ def rotor_dict() -> dict:
             {"name": "hub_b", "between": ["disk", "right"], "at": half} | RIGID,
         ],
     }
-
-
-def axisymmetric_chain(seed: int) -> dict:
-    """Random chain of rigid bodies along x on isotropic springs, inertia diag(Jx, J, J): the
-    y and z bending of the chain are identical, so those modes are double roots."""
-    rng = np.random.default_rng(seed)
-    bodies, hinges, previous = [], [], "ground"
-    x = 0.0
-    for i in range(3):
-        x += rng.uniform(0.1, 0.4)
-        j = rng.uniform(0.01, 0.1)
-        bodies.append(
-            {
-                "name": f"b{i}",
-                "kind": "rigid",
-                "mass": rng.uniform(1.0, 20.0),
-                "center_of_mass": [x, 0.0, 0.0],
-                "inertia": np.diag([rng.uniform(0.01, 0.1), j, j]).tolist(),
-            }
-        )
-        k, kr = 10 ** rng.uniform(6, 8), 10 ** rng.uniform(4, 6)
-        at = [x - rng.uniform(0.02, 0.08), 0.0, 0.0]
-        hinges.append(
-            {
-                "name": f"h{i}",
-                "between": [previous, f"b{i}"],
-                "at": at,
-                "stiffness": [k] * 3,
-                "rotational_stiffness": [kr] * 3,
-            }
-        )
-        previous = f"b{i}"
-    return {"name": f"chain{seed}", "body": bodies, "hinge": hinges}
 
 
 def to_toml(model: dict) -> str:

@@ -2,8 +2,8 @@
 
 import numpy as np
 import pytest
-from machine_table import MACHINE
 from scipy.signal import lfilter
+from synthetic import MACHINE, SMALL, dynamic_surface, synthetic_basis
 
 from ufmt.errors import ModelError
 from ufmt.machining.basis import ModalBasis
@@ -19,7 +19,7 @@ from ufmt.machining.recurrence import (
     real_recurrence,
 )
 from ufmt.machining.response import combine, record_slide, tool_and_workpiece_motion
-from ufmt.machining.surface import DEFAULT_SPACING, steady_region, surface_passes
+from ufmt.machining.surface import steady_region
 from ufmt.machining.time_path import time_response
 from ufmt.model.machine import read_machine
 from ufmt.model.schema import Model
@@ -30,34 +30,6 @@ from ufmt.simulate import simulate
 DYN = {"sources": ("dynamic",), "static_correction": False}
 #: the cutting (area) term alone: forces exactly proportional to the chip area
 AREA_ONLY = ForceCoefficients(edge_cutting=0.0, edge_thrust=0.0, edge_feed=0.0)
-
-# a small plate so that the whole-workpiece time path takes a fraction of a second
-SMALL = {**MACHINE, "tool_radius": 0.06, "workpiece_size": [0.1, 0.2]}
-
-
-def synthetic_basis(n=6, seed=3, f_lo=8.0, f_hi=400.0, slider_turns=True):
-    """n modes with random rigid motions of the head and the slider (and an idle bed)."""
-    rng = np.random.default_rng(seed)
-    shapes = {}
-    for body in ("head", "slider", "bed"):
-        s = rng.normal(size=(n, 6))
-        s[:, 3:] *= 2.0
-        shapes[body] = s
-    if not slider_turns:
-        shapes["slider"][:, 3:] = 0.0
-    return ModalBasis(
-        omega=2 * np.pi * np.geomspace(f_lo, f_hi, n),
-        modal_mass=np.full(n, 2000.0),
-        body_shapes=shapes,
-        body_centers={"head": [0, 0, 0.15], "slider": [0, 0, -0.15], "bed": [0, 0, -1.0]},
-    )
-
-
-def dynamic_surface(table, machine, feed_per_rev, spacing=DEFAULT_SPACING, trailing_arc=False):
-    """The surface of z_re alone, composed as ufmt.simulate composes its surfaces: the lower
-    pass of the source heights on one set of passes."""
-    passes = surface_passes(machine, feed_per_rev, spacing, trailing_arc)
-    return passes.lower([passes.dynamic(table, machine)])
 
 
 def heave_basis(f_hz=50.0, mass=100.0):

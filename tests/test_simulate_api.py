@@ -7,10 +7,8 @@ import sys
 
 import numpy as np
 import pytest
-from machine_table import MACHINE
 from matplotlib.figure import Figure
-from packaged_unit import packaged_text
-from test_response import synthetic_basis
+from synthetic import MACHINE, packaged_text, synthetic_basis
 
 import ufmt
 from ufmt.errors import ModelError

@@ -2,8 +2,7 @@
 
 import numpy as np
 import pytest
-from machine_table import MACHINE
-from test_response import synthetic_basis
+from synthetic import MACHINE, synthetic_basis
 
 from ufmt.errors import ModelError
 from ufmt.machining.process import Process

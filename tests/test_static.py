@@ -3,9 +3,7 @@
 import numpy as np
 import pytest
 import scipy.linalg as sla
-from machine_table import MACHINE
-from packaged_unit import packaged_model
-from test_response import SMALL, synthetic_basis
+from synthetic import MACHINE, SMALL, random_residual, synthetic_basis
 
 from ufmt.assembled import assemble
 from ufmt.machining.cut_geometry import cut_geometry
@@ -20,14 +18,15 @@ from ufmt.machining.frf import tool_workpiece_receptance
 from ufmt.machining.modal import modal_basis
 from ufmt.machining.periodic_path import periodic_response
 from ufmt.machining.process import Process
-from ufmt.machining.static import ResidualFlexibility, residual_flexibility, static_flexibility
+from ufmt.machining.static import residual_flexibility, static_flexibility
 from ufmt.machining.time_path import time_response
 from ufmt.model.machine import machine_of, read_machine
 
 
 @pytest.fixture(scope="module")
-def packaged():
-    model = packaged_model()
+def unit_case(packaged_unit_force):
+    """The unit-force packaged model, its paper-size basis (30 modes) and its machine."""
+    model = packaged_unit_force
     return model, modal_basis(model, 30), machine_of(model)
 
 
@@ -61,10 +60,10 @@ def direct_receptance(model, machine, tool_angle, freq_hz, elements_per_beam=8):
 
 
 @pytest.mark.parametrize("tool_angle", [0.0, 0.75])  # the middle and the edge of the plate
-def test_static_correction_gives_the_full_compliance_at_low_frequency(packaged, tool_angle):
+def test_static_correction_gives_the_full_compliance_at_low_frequency(unit_case, tool_angle):
     """With the correction, 30 modes give the direct solve's compliance within 2 % at 1 Hz
     (without it 9-18 % are missing: the measured 3.38 vs 4.11 nm/N at the middle)."""
-    model, basis, machine = packaged
+    model, basis, machine = unit_case
     res = residual_flexibility(model, basis, machine)
     oracle = direct_receptance(model, machine, tool_angle, 1.0)
     bare = tool_workpiece_receptance(basis, machine, [1.0], tool_angle=tool_angle)[0]
@@ -73,24 +72,15 @@ def test_static_correction_gives_the_full_compliance_at_low_frequency(packaged, 
     assert abs(bare) < 0.95 * abs(oracle)
 
 
-def test_static_correction_makes_the_compliance_independent_of_the_truncation(packaged):
+def test_static_correction_makes_the_compliance_independent_of_the_truncation(unit_case):
     """10 or 30 modes plus their residual: the same static compliance (it is the full one)."""
-    model, basis, machine = packaged
+    model, basis, machine = unit_case
     values = []
     for n in (10, 30):
         b = basis.truncated(n)
         res = residual_flexibility(model, b, machine)
         values.append(tool_workpiece_receptance(b, machine, [0.0], residual=res)[0].real)
     assert values[0] == pytest.approx(values[1], rel=1e-9)
-
-
-def random_residual(seed=5):
-    """A symmetric positive-definite 12 x 12 residual flexibility (synthetic, [m/N])."""
-    rng = np.random.default_rng(seed)
-    a = rng.normal(size=(12, 12))
-    matrix = 1e-10 * (a @ a.T / 12 + np.eye(12))
-    centers = np.array([[0, 0, 0.15], [0, 0, -0.15]], dtype=float)
-    return ResidualFlexibility(matrix=matrix, centers=centers, static=matrix)
 
 
 @pytest.mark.parametrize("path", ["periodic", "time"])
@@ -149,10 +139,10 @@ def test_surface_tables_carry_the_static_correction(path):
         np.testing.assert_allclose(diff, expected, atol=1e-9 * scale)
 
 
-def test_static_flexibility_of_a_new_design_is_its_own_assembled_solve(packaged):
+def test_static_flexibility_of_a_new_design_is_its_own_assembled_solve(unit_case):
     """The springs' share is summed on a structure assembled once per model; oracle: a
     direct dense solve of each design's own assembled model (8 elements per beam, all dofs)."""
-    model, _, machine = packaged
+    model, _, machine = unit_case
     bodies = (machine.tool_body, machine.workpiece_body)
     static_flexibility(model, bodies)  # the structure of the base model, cached
     for factor in (0.1, 3.0):
@@ -171,10 +161,10 @@ def test_static_flexibility_of_a_new_design_is_its_own_assembled_solve(packaged)
 
 
 @pytest.mark.parametrize("part", ["area", "edge"])
-def test_static_coefficients_hold_the_whole_static_term(packaged, part):
+def test_static_coefficients_hold_the_whole_static_term(unit_case, part):
     """The periodic path adds the static term through its Fourier coefficients -3..3 (arms and
     force of degree 1 make it of degree <= 3 in phi); oracle: the term at every sample."""
-    model, basis, machine = packaged
+    model, basis, machine = unit_case
     geo = cut_geometry(
         basis, machine, part=part, residual=residual_flexibility(model, basis, machine)
     )

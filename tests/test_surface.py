@@ -2,8 +2,7 @@
 
 import numpy as np
 import pytest
-from machine_table import MACHINE
-from test_response import dynamic_surface
+from synthetic import MACHINE, dynamic_surface
 
 from ufmt.machining.basis import ModalBasis
 from ufmt.machining.cut_geometry import cut_geometry
