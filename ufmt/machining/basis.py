@@ -29,12 +29,16 @@ class ModalBasis:
     body_shapes : body name -> (n, 6) rigid motion per mode, [r_C (3) [m]; theta (3) [rad]],
         global frame, at the body's centre of mass (same normalisation as ``modal_mass``).
     body_centers : body name -> (3,) centre of mass [m].
+    hinge_damping : (n, n) Phi_rel^T C_hinge Phi_rel [kg/s], the hinge dampers projected on the
+        modes (same normalisation; :mod:`ufmt.machining.damping`), or None: no hinge damps
+        (the modal equations are then classically damped).
     """
 
     omega: np.ndarray
     modal_mass: np.ndarray
     body_shapes: dict[str, np.ndarray]
     body_centers: dict[str, np.ndarray]
+    hinge_damping: np.ndarray | None = None
 
     def __post_init__(self):
         omega = np.asarray(self.omega, dtype=float)
@@ -56,6 +60,11 @@ class ModalBasis:
                 raise ValueError(f"body_centers has no entry for body {name!r}")
             shapes[name] = _readonly(s)
             centers[name] = _readonly(np.asarray(self.body_centers[name], dtype=float).reshape(3))
+        if self.hinge_damping is not None:
+            c = np.asarray(self.hinge_damping, dtype=float)
+            if c.shape != (omega.size, omega.size) or not np.all(np.isfinite(c)):
+                raise ValueError(f"hinge_damping must be a finite {(omega.size,) * 2} matrix")
+            object.__setattr__(self, "hinge_damping", _readonly(c))
         object.__setattr__(self, "omega", _readonly(omega))
         object.__setattr__(self, "modal_mass", _readonly(mass))
         object.__setattr__(self, "body_shapes", shapes)
@@ -77,6 +86,7 @@ class ModalBasis:
             modal_mass=self.modal_mass[:n],
             body_shapes={k: v[:n] for k, v in self.body_shapes.items()},
             body_centers=self.body_centers,
+            hinge_damping=None if self.hinge_damping is None else self.hinge_damping[:n, :n],
         )
 
     def point_shapes(self, body: str, points) -> np.ndarray:

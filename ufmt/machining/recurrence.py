@@ -60,10 +60,25 @@ def discretise(omega, zeta, dt: float):
     zeta = np.asarray(zeta, dtype=float)
     wd = omega * np.sqrt(1.0 - zeta**2)
     lam = -zeta * omega + 1j * wd
-    r = 1.0 / (2j * wd)
+    return (lam, *_hold(lam, 1.0 / (2j * wd), dt))
+
+
+def discretise_poles(poles, dt: float):
+    """Exact first-order-hold discretisation of z' = lambda z + u for complex poles.
+
+    The recurrence of :func:`discretise` with unit input weight: z_k = E z_{k-1} + b0 u_k +
+    b1 u_{k-1} for u linear between samples (the complex modes of
+    :mod:`ufmt.machining.damping`). Returns lam, E, b0, b1 (m,) [1/s, -, s, s].
+    """
+    lam = np.asarray(poles, dtype=complex)
+    return (lam, *_hold(lam, 1.0, dt))
+
+
+def _hold(lam: np.ndarray, weight, dt: float):
+    """e^(lambda dt) and the first-order-hold input weights of z' = lambda z + weight u."""
     x = lam * dt
     p1, p2 = _phi1_phi2(x)
-    return lam, np.exp(x), r * dt * p2, r * dt * (p1 - p2)
+    return np.exp(x), weight * dt * p2, weight * dt * (p1 - p2)
 
 
 def discrete_receptance(omega, zeta, dt: float, theta) -> tuple[np.ndarray, np.ndarray]:
@@ -74,11 +89,30 @@ def discrete_receptance(omega, zeta, dt: float, theta) -> tuple[np.ndarray, np.n
     modal receptance 1 / (w^2 - W^2 + 2 i zeta w W).
     """
     lam, e, b0, b1 = (a[:, None] for a in discretise(omega, zeta, dt))
+    tf_p, tf_m = _hold_transfer(e, b0, b1, theta)
+    return tf_p + np.conj(tf_m), lam * tf_p + np.conj(lam * tf_m)
+
+
+def pole_transfer(poles, dt: float, theta) -> tuple[np.ndarray, np.ndarray]:
+    """Periodic steady-state transfer of the unit-weight recurrence of
+    :func:`discretise_poles` at angles theta = 2 pi k / N, and of its complex conjugate.
+
+    Returns (T, T_conj), each (m, K) complex [s]: the DFT of z over one period is T times the
+    DFT of the sampled input u; that of conj(z) under conj(u) is T_conj times the DFT of
+    conj(u). For real modes (:func:`discrete_receptance`) H_q = weight T + conj(weight) T_conj.
+    """
+    _, e, b0, b1 = (a[:, None] for a in discretise_poles(poles, dt))
+    tf_p, tf_m = _hold_transfer(e, b0, b1, theta)
+    return tf_p, np.conj(tf_m)
+
+
+def _hold_transfer(e, b0, b1, theta):
+    """(b0 + b1 Z) / (1 - E Z) at Z = e^(-i theta) and at Z = e^(+i theta)."""
     zp = np.exp(-1j * np.asarray(theta, dtype=float))[None, :]
     zm = np.conj(zp)
     tf_p = (b0 + b1 * zp) / (1.0 - e * zp)
     tf_m = (b0 + b1 * zm) / (1.0 - e * zm)
-    return tf_p + np.conj(tf_m), lam * tf_p + np.conj(lam * tf_m)
+    return tf_p, tf_m
 
 
 @dataclass(frozen=True, eq=False)
@@ -117,7 +151,18 @@ class PeriodicRecurrence:
 def periodic_recurrence(omega, zeta, dt: float, n_samples: int) -> PeriodicRecurrence:
     """:class:`PeriodicRecurrence` of modes ``omega`` [rad/s], ``zeta``, step ``dt`` [s] over
     ``n_samples`` samples."""
-    lam, e, b0, b1 = discretise(omega, zeta, dt)
+    return _periodic(discretise(omega, zeta, dt), dt, n_samples)
+
+
+def pole_recurrence(poles, dt: float, n_samples: int) -> PeriodicRecurrence:
+    """:class:`PeriodicRecurrence` of the unit-weight recurrence of :func:`discretise_poles`
+    (complex poles [1/s], step ``dt`` [s]) over ``n_samples`` samples."""
+    return _periodic(discretise_poles(poles, dt), dt, n_samples)
+
+
+def _periodic(discrete, dt: float, n_samples: int) -> PeriodicRecurrence:
+    """:class:`PeriodicRecurrence` of a discretisation (lam, E, b0, b1)."""
+    lam, e, b0, b1 = discrete
     step = math.isqrt(n_samples - 1) + 1
     fine = np.exp(np.outer(lam, dt * np.arange(step)))
     coarse = np.exp(np.outer(lam, dt * step * np.arange(-(-n_samples // step))))

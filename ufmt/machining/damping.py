@@ -1,0 +1,160 @@
+"""Hinge damping in the modal equations: the modal damping matrix and its complex modes.
+
+The modal equations of a basis with unit-normalised coordinates q read
+M q'' + (M diag(2 zeta w) + Phi_rel^T C_hinge Phi_rel) q' + M Omega^2 q = <f, V>, M the modal
+masses: the structural damping of :mod:`ufmt.machining.recurrence` (a ratio per mode, default
+0.03) plus the dampers of the hinges (``Hinge.damping6`` [N s/m, N m s/rad], along and about
+global x, y, z) acting on the relative motion d = u_A(P) - u_B(P) of the hinge's two bodies at
+its point P (the same rows as the springs of :mod:`ufmt.assembled`). Phi_rel^T C Phi_rel
+(:func:`hinge_damping_matrix`) is stored on the basis (``ModalBasis.hinge_damping``); divided
+by the modal masses, D = diag(2 zeta w) + M^-1 Phi_rel^T C Phi_rel [1/s]
+(:func:`damping_matrix`) is not diagonal: the hinge dampers couple the modes.
+
+The motion of a body at a hinge point: a rigid body's [r_C; theta] carried rigidly to P
+(:func:`ufmt.assembled.point_motion`), a virtual body's motion at its point (every hinge on it
+shares that point), a beam's motion at the end the hinge sits on (the MSTMM field transferred
+along the beam, :func:`ufmt.mstmm.modes.beam_shape`); ground does not move. Rigid directions
+(stiffness inf) carry no relative motion and their damping is left out. The modes above the
+basis (the static correction of :mod:`ufmt.machining.static`) stay undamped: they respond
+quasi-statically.
+
+Non-proportional damping: complex modes. The first-order form x' = A x + [0; f] of the modal
+equations, x = [q; q'], A = [[0, I], [-Omega^2, -D]], is diagonalised once per basis and
+damping, A = Psi Lambda Psi^-1 (:func:`damped_modes`). Each pole lambda_j of the upper half
+plane and its conjugate give q = 2 Re(P z), q' = 2 Re(P Lambda z) with z_j' = lambda_j z_j +
+(L f)_j (:class:`DampedModes`): the same scalar first-order equation as a classically damped
+mode (:func:`ufmt.machining.recurrence.discretise_poles`), so both response paths keep their
+exact first-order-hold recurrence, their periodic steady state per harmonic and their
+periodic impulse response, with complex input and output weights in place of the real ones;
+the FFT structure, the caching and the vectorisation over samples and harmonics stay. A direct
+solve per harmonic would serve the periodic table but not the time path, the periodic path's
+record window or its impulse-response columns, which need the discrete recurrence itself, and
+it would cost an n x n solve per harmonic instead of n scalar transfers. A basis without hinge
+damping (``hinge_damping`` None: no hinge of the model has any) takes the diagonal path,
+unchanged.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+
+from ufmt.assembled import point_motion
+from ufmt.errors import UfmtError
+from ufmt.machining.basis import ModalBasis
+from ufmt.machining.recurrence import modal_damping
+from ufmt.model.schema import GROUND, Beam, Model, RigidBody
+from ufmt.mstmm.modes import ModeShapes, beam_shape
+from ufmt.mstmm.overall import TransferSystem
+
+#: Condition number of the complex-mode matrix above which the damped modal equations are
+#: taken as defective (coalescing poles): their complex modes do not exist.
+MAX_CONDITION = 1e10
+
+
+def hinge_damping_matrix(model: Model, shapes: ModeShapes) -> np.ndarray | None:
+    """Phi_rel^T C_hinge Phi_rel (n, n) [kg/s] of the modes ``shapes`` (their normalisation),
+    summed over the hinges and their non-rigid directions; None when no hinge damps."""
+    damped = [h for h in model.hinges if np.any(h.damping6[~h.rigid] != 0.0)]
+    if not damped:
+        return None
+    beams = {}  # beam -> (n, 2, 6) motion at its start and end
+    for hinge in damped:
+        for side in hinge.between:
+            if side != GROUND and isinstance(model.body(side), Beam) and side not in beams:
+                beams[side] = None
+    if beams:
+        system = TransferSystem(model)
+        beams = {name: beam_shape(system, shapes, name, [0.0, 1.0]) for name in beams}
+    n = shapes.frequencies_hz.size
+    out = np.zeros((n, n))
+    for hinge in damped:
+        d = _side_motion(model, shapes, beams, hinge, 0) - _side_motion(
+            model, shapes, beams, hinge, 1
+        )
+        c = np.where(hinge.rigid, 0.0, hinge.damping6)
+        out += (d.T * c) @ d
+    return out
+
+
+def _side_motion(model: Model, shapes: ModeShapes, beams, hinge, side: int) -> np.ndarray:
+    """Motion [r; theta] (6, n) of side ``side`` of ``hinge`` at the hinge point per mode."""
+    name = hinge.between[side]
+    n = shapes.frequencies_hz.size
+    if name == GROUND:
+        return np.zeros((6, n))
+    body = model.body(name)
+    if isinstance(body, RigidBody):
+        return point_motion(hinge.at - body.center_of_mass) @ shapes.rigid[name].T
+    if isinstance(body, Beam):
+        positions, motion = beams[name]
+        end = int(np.argmin(np.linalg.norm(positions - hinge.at, axis=1)))
+        return motion[:, end, :].T
+    return shapes.virtual[name].T
+
+
+def damping_matrix(basis: ModalBasis, zeta) -> np.ndarray:
+    """D = diag(2 zeta w) + M^-1 Phi_rel^T C Phi_rel (n, n) [1/s] of the modal equations
+    q'' + D q' + Omega^2 q = f (``zeta``: the structural ratios, scalar or (n,))."""
+    zeta = modal_damping(zeta, basis.n_modes)
+    out = np.diag(2 * zeta * basis.omega)
+    if basis.hinge_damping is not None:
+        out = out + basis.hinge_damping / basis.modal_mass[:, None]
+    return out
+
+
+@dataclass(frozen=True, eq=False)
+class DampedModes:
+    """Complex modes of q'' + D q' + Omega^2 q = f (see the module docstring).
+
+    poles (m,) lambda_j [1/s], the upper half plane (a real pole stands for itself, its output
+    weight halved); inputs (m, n) L: z' = lambda z + L f; outputs (n, m) P: q = 2 Re(P z);
+    damping (n, n) D [1/s]; omega (n,) [rad/s]. Arrays read-only.
+    """
+
+    poles: np.ndarray
+    inputs: np.ndarray
+    outputs: np.ndarray
+    damping: np.ndarray
+    omega: np.ndarray
+
+    def state(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Modal coordinates and rates (q, q') (n, ...) of complex coordinates z (m, ...)."""
+        shape = z.shape
+        flat = z.reshape(shape[0], -1)
+        q = 2 * (self.outputs @ flat).real
+        qd = 2 * (self.outputs @ (self.poles[:, None] * flat)).real
+        return q.reshape(-1, *shape[1:]), qd.reshape(-1, *shape[1:])
+
+    def acceleration(self, force, q, qd) -> np.ndarray:
+        """q'' = f - D q' - Omega^2 q (n, T) from the modal force (n, T), q and q'."""
+        return force - self.damping @ qd - (self.omega**2)[:, None] * q
+
+
+def damped_modes(basis: ModalBasis, zeta) -> DampedModes | None:
+    """:class:`DampedModes` of ``basis`` with structural ratios ``zeta``, or None when the basis
+    carries no hinge damping (the diagonal, classically damped modal equations)."""
+    if basis.hinge_damping is None:
+        return None
+    return _damped_modes(basis, tuple(modal_damping(zeta, basis.n_modes).tolist()))
+
+
+@lru_cache(maxsize=8)
+def _damped_modes(basis: ModalBasis, zeta: tuple) -> DampedModes:
+    """:func:`damped_modes` (cached per basis and damping)."""
+    n = basis.n_modes
+    d = damping_matrix(basis, np.array(zeta))
+    a = np.block([[np.zeros((n, n)), np.eye(n)], [-np.diag(basis.omega**2), -d]])
+    lam, vectors = np.linalg.eig(a)
+    if np.linalg.cond(vectors) > MAX_CONDITION:
+        raise UfmtError("the hinge-damped modal equations are defective (coalescing poles)")
+    inverse = np.linalg.inv(vectors)
+    keep = np.flatnonzero(lam.imag >= 0.0)
+    keep = keep[np.argsort(np.abs(lam[keep]), kind="stable")]
+    weight = np.where(lam[keep].imag > 0.0, 1.0, 0.5)
+    out = (lam[keep], inverse[keep, n:], vectors[:n, keep] * weight, d, basis.omega)
+    for x in out:
+        x.setflags(write=False)
+    return DampedModes(*out)
