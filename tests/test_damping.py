@@ -29,24 +29,41 @@ def three_bodies(damping=1.0):
     modes, every hinge a spring-damper in all six directions (``damping`` scales them)."""
 
     def body(name, mass, center):
-        return {"name": name, "kind": "rigid", "mass": mass, "center_of_mass": center,
-                "inertia": INERTIA}
+        return {
+            "name": name,
+            "kind": "rigid",
+            "mass": mass,
+            "center_of_mass": center,
+            "inertia": INERTIA,
+        }
 
     def hinge(name, between, at, k, c):
-        return {"name": name, "between": between, "at": at,
-                "stiffness": [k, 1.3 * k, 0.8 * k], "rotational_stiffness": [k / 9, k / 7, k / 5],
-                "damping": [damping * c, damping * 2 * c, damping * 0.5 * c],
-                "rotational_damping": [damping * c / 30, damping * c / 20, damping * c / 10]}
+        return {
+            "name": name,
+            "between": between,
+            "at": at,
+            "stiffness": [k, 1.3 * k, 0.8 * k],
+            "rotational_stiffness": [k / 9, k / 7, k / 5],
+            "damping": [damping * c, damping * 2 * c, damping * 0.5 * c],
+            "rotational_damping": [damping * c / 30, damping * c / 20, damping * c / 10],
+        }
 
-    return model_from_dict({
-        "name": "three rigid bodies on spring-dampers",
-        "body": [body("bed", 400.0, [0.0, 0.0, -0.5]), body("head", 60.0, [0.0, 0.0, 0.15]),
-                 body("slider", 90.0, [0.0, 0.0, -0.15])],
-        "hinge": [hinge("h_ground", ["ground", "bed"], [0.0, 0.0, -0.8], 4e8, 3e4),
-                  hinge("h_head", ["bed", "head"], [0.1, 0.0, 0.3], 6e7, 2e3),
-                  hinge("h_slider", ["bed", "slider"], [0.0, -0.1, -0.3], 9e7, 5e3)],
-        "machine": MACHINE,
-    })
+    return model_from_dict(
+        {
+            "name": "three rigid bodies on spring-dampers",
+            "body": [
+                body("bed", 400.0, [0.0, 0.0, -0.5]),
+                body("head", 60.0, [0.0, 0.0, 0.15]),
+                body("slider", 90.0, [0.0, 0.0, -0.15]),
+            ],
+            "hinge": [
+                hinge("h_ground", ["ground", "bed"], [0.0, 0.0, -0.8], 4e8, 3e4),
+                hinge("h_head", ["bed", "head"], [0.1, 0.0, 0.3], 6e7, 2e3),
+                hinge("h_slider", ["bed", "slider"], [0.0, -0.1, -0.3], 9e7, 5e3),
+            ],
+            "machine": MACHINE,
+        }
+    )
 
 
 def direct_damped_receptance(model, machine, freq_hz, tool_angle=0.0):
@@ -124,7 +141,10 @@ def test_zero_hinge_damping_keeps_the_diagonal_path_bitwise():
     p = Process(400, 16, 4)
     geo = cut_geometry(basis, m)
     zero = ModalBasis(
-        basis.omega, basis.modal_mass, basis.body_shapes, basis.body_centers,
+        basis.omega,
+        basis.modal_mass,
+        basis.body_shapes,
+        basis.body_centers,
         hinge_damping=np.zeros((basis.n_modes,) * 2),
     )
     geo0 = cut_geometry(zero, m)
@@ -142,10 +162,11 @@ def test_zero_hinge_damping_keeps_the_diagonal_path_bitwise():
         )
 
 
-def damped_synthetic(strength=0.3, seed=11):
+def damped_synthetic(strength=0.1, seed=11):
     """The synthetic basis of test_response with a random positive semi-definite hinge
-    matrix coupling its modes (diagonal share up to ``strength`` of critical)."""
-    basis = synthetic_basis()
+    matrix coupling its modes (diagonal share up to ``strength`` of critical); the slider only
+    translates, so the chip pattern is periodic over the steady span."""
+    basis = synthetic_basis(slider_turns=False)
     rng = np.random.default_rng(seed)
     a = rng.normal(size=(basis.n_modes, 3))
     scale = np.sqrt(2 * strength * basis.omega * basis.modal_mass)
@@ -166,13 +187,14 @@ def damped_paths():
 
 def test_periodic_and_time_paths_agree_with_hinge_damping(damped_paths):
     """With coupled (non-proportional) damping the two paths still solve the same problem:
-    PV within 1 % over the steady part, record windows pointwise."""
+    PV within 1 % over the steady part, pointwise there and in the record windows."""
     basis, m, p, per, tim = damped_paths
     s_per, s_tim = (dynamic_surface(r.table, m, p.feed_per_rev_m, spacing=1e-3) for r in (per, tim))
     settle = 20 / (0.03 * basis.omega[0]) * p.feed_m_s
     steady = steady_region(s_tim, m, settle=settle)
     assert steady.sum() > 0.2 * steady.size
     assert np.ptp(s_tim.z[steady]) == pytest.approx(np.ptp(s_per.z[steady]), rel=0.01)
+    assert np.abs(s_per.z - s_tim.z)[steady].max() < 1e-6 * np.ptp(s_per.z[steady])
     # the periodic table at the samples the surface reads (impulse response) and by the
     # harmonics (the whole table) are the same table
     table = per.table
@@ -187,7 +209,7 @@ def test_periodic_and_time_paths_agree_with_hinge_damping(damped_paths):
     mid = tim.periods // 2
     one = slice(mid * n, (mid + 1) * n)
     for a, b in ((tim.tip_acc[one], per.tip_acc), (tim.tip_disp[one], per.tip_disp)):
-        np.testing.assert_allclose(a, b, rtol=0, atol=1e-6 * np.abs(b).max())
+        np.testing.assert_allclose(a, b, rtol=0, atol=1e-7 * np.abs(b).max())
 
 
 def _stencil(phi, machine):
@@ -200,7 +222,7 @@ def _stencil(phi, machine):
 def test_hinge_damping_lowers_the_response(damped_paths):
     """More damping, less vibration: the damped z_re is below the undamped one."""
     _, m, p, per, _ = damped_paths
-    bare = periodic_response(cut_geometry(synthetic_basis(), m), p)
+    bare = periodic_response(cut_geometry(synthetic_basis(slider_turns=False), m), p)
     assert np.abs(per.z_re).max() < np.abs(bare.z_re).max()
 
 

@@ -30,12 +30,15 @@ from ufmt.machining.cutting import (
     force_vector,
     part_amplitude,
 )
+from ufmt.machining.damping import DampedModes, damped_modes
 from ufmt.machining.recurrence import (
     DEFAULT_ZETA,
     PeriodicRecurrence,
     discrete_receptance,
     modal_damping,
     periodic_recurrence,
+    pole_recurrence,
+    pole_transfer,
 )
 from ufmt.machining.response import (
     Response,
@@ -106,13 +109,19 @@ class PeriodicZreTable:
         geo = self.parts[0]
         n = geo.n_phi
         plan = _column_plan(self.parts, tuple(np.ravel(phi).tolist()))
-        z = _recurrence(geo.basis, n, self.spindle_hz, self.zeta).impulse(plan.lags)
-        h = 2 * z.real.T  # q of the impulse response at the lags (L, n)
-        # kernels of c^(a) and w^(b) (a, b = 0: at Y = 0, 1: rate in Y) for each angle m
-        # and sample k: sum_s c^(a)_s[k] h_s[k - m] w^(b)_s[m]
         active, samples = plan.lag_index.shape
-        ch = h[plan.lag_index][:, :, None, :] * plan.c  # (A, K, 2, n)
-        kern = np.matmul(ch.reshape(active, 2 * samples, -1), plan.w)
+        modes = damped_modes(geo.basis, self.zeta)
+        if modes is None:
+            z = _recurrence(geo.basis, n, self.spindle_hz, self.zeta).impulse(plan.lags)
+            h = 2 * z.real.T  # q of the impulse response at the lags (L, n)
+            # kernels of c^(a) and w^(b) (a, b = 0: at Y = 0, 1: rate in Y) for each angle m
+            # and sample k: sum_s c^(a)_s[k] h_s[k - m] w^(b)_s[m]
+            ch = h[plan.lag_index][:, :, None, :] * plan.c  # (A, K, 2, n)
+            kern = np.matmul(ch.reshape(active, 2 * samples, -1), plan.w)
+        else:  # complex modes: 2 Re sum_j (c^(a) P)_j[k] z_j[k - m] (L w^(b))_j[m]
+            z = _pole_recurrence(modes, n, self.spindle_hz).impulse(plan.lags).T  # (L, m)
+            ch = z[plan.lag_index][:, :, None, :] * (plan.c @ modes.outputs)  # (A, K, 2, m)
+            kern = 2 * np.matmul(ch.reshape(active, 2 * samples, -1), modes.inputs @ plan.w).real
         kern = kern.reshape(active, samples, 2, len(self.parts), 2)
         powers = np.stack(  # of Y: p = a + b
             [kern[..., 0, :, 0], kern[..., 0, :, 1] + kern[..., 1, :, 0], kern[..., 1, :, 1]],
@@ -223,9 +232,15 @@ def periodic_response(geo, process, zeta=DEFAULT_ZETA, force_scale: float = 1.0)
     amps = np.array([force_scale * part_amplitude(process, geo.machine, g.part) for g in parts])
     units = [_record_unit(g) for g in parts]
     fs = sum(amp * u.fs for amp, u in zip(amps, units, strict=True))
-    q, qd = periodic_state(_recurrence(geo.basis, n, f, tuple(zeta.tolist())), fs, geo.active)
     b = geo.basis
-    qdd = fs - (2 * zeta * b.omega)[:, None] * qd - (b.omega**2)[:, None] * q
+    modes = damped_modes(b, zeta)
+    if modes is None:
+        q, qd = periodic_state(_recurrence(b, n, f, tuple(zeta.tolist())), fs, geo.active)
+        qdd = fs - (2 * zeta * b.omega)[:, None] * qd - (b.omega**2)[:, None] * q
+    else:
+        z = periodic_coordinates(_pole_recurrence(modes, n, f), modes.inputs @ fs, geo.active)
+        q, qd = modes.state(z)
+        qdd = modes.acceleration(fs, q, qd)
     y_rec = record_slide(geo.machine)
     tip, acc, work = tool_and_workpiece_motion(geo, np.arange(n), np.full(n, y_rec), q, qd, qdd, f)
     for amp, u in zip(amps, units, strict=True):
@@ -257,6 +272,16 @@ def _recurrence(basis: ModalBasis, n_phi: int, spindle_hz: float, zeta: tuple):
     return out
 
 
+@lru_cache(maxsize=4)
+def _pole_recurrence(modes: DampedModes, n_phi: int, spindle_hz: float) -> PeriodicRecurrence:
+    """:func:`pole_recurrence` of the complex modes at the spindle frequency [Hz] (cached per
+    modes and spindle speed; its arrays read-only)."""
+    out = pole_recurrence(modes.poles, 1 / (spindle_hz * n_phi), n_phi)
+    for a in (out.lam, out.e, out.b0, out.b1, out.powers, out.period):
+        a.setflags(write=False)
+    return out
+
+
 @lru_cache(maxsize=8)
 def _cut_run(active: bytes):
     """The circular run of the ``active`` samples (N bools as bytes): its first sample, its
@@ -282,6 +307,14 @@ def periodic_state(recurrence: PeriodicRecurrence, force: np.ndarray, active: np
     Within the run: its sum with the periodic impulse response; after it, the free decay E^l
     of the state after the run's last sample.
     """
+    x = periodic_coordinates(recurrence, force, active)
+    return 2 * x.real, 2 * (recurrence.lam[:, None] * x).real
+
+
+def periodic_coordinates(recurrence: PeriodicRecurrence, force: np.ndarray, active: np.ndarray):
+    """Complex state z (n, N) of the periodic steady state of the recurrence under the input
+    (n, N) (real or complex), zero outside the circular run of ``active`` (N,) samples (see
+    :func:`periodic_state`)."""
     first, run, lags, pairs = _cut_run(active.tobytes())
     n, a = active.size, run.size
     f = force[:, run]
@@ -290,8 +323,7 @@ def periodic_state(recurrence: PeriodicRecurrence, force: np.ndarray, active: np
     x = np.empty(force.shape, complex)  # from the run's first sample on
     x[:, :a] = inside
     np.multiply(recurrence.powers[:, : n - a], after[:, None], out=x[:, a:])
-    x = np.roll(x, first, axis=1)
-    return 2 * x.real, 2 * (recurrence.lam[:, None] * x).real
+    return np.roll(x, first, axis=1)
 
 
 @lru_cache(maxsize=2)  # ~4.7 MiB each (two parts, 192 rows); machine-only
@@ -330,11 +362,16 @@ def _periodic_kernels(parts: tuple[CutGeometry, ...], spindle_hz: float, zeta: t
     n = geo.n_phi
     half = n // 2
     k = np.arange(-1, half + 2)
-    hq, _ = discrete_receptance(
-        geo.basis.omega, np.array(zeta), 1 / (spindle_hz * n), 2 * np.pi * k / n
-    )
+    modes = damped_modes(geo.basis, zeta)
+    if modes is None:
+        hq, _ = discrete_receptance(
+            geo.basis.omega, np.array(zeta), 1 / (spindle_hz * n), 2 * np.pi * k / n
+        )
+        coef, static = _kernel_coefficients(parts)
+    else:  # each complex mode and its conjugate: a term of its own
+        hq = np.concatenate(pole_transfer(modes.poles, 1 / (spindle_hz * n), 2 * np.pi * k / n))
+        coef, static = _complex_kernel_coefficients(parts, modes)
     # one product of the receptances, shifted by each output harmonic l, with the coefficients
-    coef, static = _kernel_coefficients(parts)
     shifted = np.concatenate(
         [hq.T[1 - l : half + 2 - l] for l in OUTPUT_HARMONICS], axis=1
     )  # (K, 3n)
@@ -353,18 +390,51 @@ def _kernel_coefficients(parts: tuple[CutGeometry, ...]) -> tuple[np.ndarray, np
     correction's Fourier coefficients. Columns in the order of the strided spectra view
     (shift 6 - d index, part, power). Returns coef (3 n, 21 P) and static (21 P,).
     """
-    n_modes = parts[0].basis.n_modes
-    coef = np.zeros((3, n_modes, 7, len(parts), 3), dtype=complex)  # (l, s, d, part, p)
-    static = np.zeros((7, len(parts), 3), dtype=complex)
-    for pi_, g in enumerate(parts):
-        c_y = np.zeros_like(g.c_hat)
-        c_y[:, 1] = g.c_y
-        for pc, ch in enumerate((g.c_hat, c_y)):
-            for pw, wh in enumerate((g.w_hat, g.w_y_hat)):
+    shapes = [(g.c_hat, g.c_y, g.w_hat, g.w_y_hat) for g in parts]
+    return _coefficients(shapes, [g.static_hat for g in parts])
+
+
+@lru_cache(maxsize=8)
+def _complex_kernel_coefficients(parts: tuple[CutGeometry, ...], modes: DampedModes):
+    """:func:`_kernel_coefficients` of the complex modes (cached per geometry and modes): the
+    Fourier coefficients of the output shapes c P and the inputs L w of each complex mode z_j,
+    then of its conjugate (conj(P), conj(L)), rows 2 m in the order of
+    :func:`~ufmt.machining.recurrence.pole_transfer`'s two halves."""
+    out, inp = modes.outputs, modes.inputs
+    shapes = [
+        tuple(
+            np.concatenate([a, b])
+            for a, b in zip(
+                (out.T @ g.c_hat, out.T @ g.c_y, inp @ g.w_hat, inp @ g.w_y_hat),
+                (
+                    out.T.conj() @ g.c_hat,
+                    out.T.conj() @ g.c_y,
+                    inp.conj() @ g.w_hat,
+                    inp.conj() @ g.w_y_hat,
+                ),
+                strict=True,
+            )
+        )
+        for g in parts
+    ]
+    return _coefficients(shapes, [g.static_hat for g in parts])
+
+
+def _coefficients(shapes, static_hats) -> tuple[np.ndarray, np.ndarray]:
+    """coef (3 n, 21 P) and static (21 P,) of :func:`_kernel_coefficients` from each part's
+    (c_hat (n, 3), c_y (n,), w_hat (n, 5), w_y_hat (n, 5)) and static_hat (or None)."""
+    n_modes = shapes[0][0].shape[0]
+    coef = np.zeros((3, n_modes, 7, len(shapes), 3), dtype=complex)  # (l, s, d, part, p)
+    static = np.zeros((7, len(shapes), 3), dtype=complex)
+    for pi_, (c_hat, c_y_hat, w_hat, w_y_hat) in enumerate(shapes):
+        c_y = np.zeros_like(c_hat)
+        c_y[:, 1] = c_y_hat
+        for pc, ch in enumerate((c_hat, c_y)):
+            for pw, wh in enumerate((w_hat, w_y_hat)):
                 for li in range(3):
                     coef[li, :, li : li + 5, pi_, pc + pw] += ch[:, li : li + 1] * wh
-        if g.static_hat is not None:
-            static[:, pi_, :] = g.static_hat.T
+        if static_hats[pi_] is not None:
+            static[:, pi_, :] = static_hats[pi_].T
     coef = np.ascontiguousarray(coef[:, :, ::-1]).reshape(3 * n_modes, -1)
     static = np.ascontiguousarray(static[::-1]).reshape(-1)
     for a in (coef, static):

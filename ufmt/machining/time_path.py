@@ -9,6 +9,9 @@ products over the modes (w and c are trigonometric in phi). The z_re table holds
 revolution (:class:`~ufmt.machining.response.ZreTable`, drift v/f). The record window holds
 ``record_periods`` revolutions centred on :func:`~ufmt.machining.response.record_slide`; there
 the modal velocities come from the exact complex-pole state recovered from q_{k-1}, q_k.
+With hinge damping (:mod:`ufmt.machining.damping`) the recurrence runs on the complex modes
+instead (first-order complex filters on the inputs L f, q = 2 Re(P z)), and the record window
+keeps their state z.
 """
 
 from __future__ import annotations
@@ -22,7 +25,14 @@ from threadpoolctl import threadpool_limits
 from ufmt.machining.basis import ModalBasis
 from ufmt.machining.cut_geometry import CutGeometry
 from ufmt.machining.cutting import chip_factor_cells, cutting_force, part_amplitude
-from ufmt.machining.recurrence import DEFAULT_ZETA, discretise, modal_damping, real_recurrence
+from ufmt.machining.damping import damped_modes
+from ufmt.machining.recurrence import (
+    DEFAULT_ZETA,
+    discretise,
+    discretise_poles,
+    modal_damping,
+    real_recurrence,
+)
 from ufmt.machining.response import Response, ZreTable, record_slide, tool_and_workpiece_motion
 
 #: Modal state of the time path, relative to the largest modal coordinate so far, below which
@@ -130,10 +140,16 @@ def _whole_cut(parts, amps, zeta, clock: _Clock, block_samples: int):
     """
     geo = parts[0]
     nm, n = geo.basis.n_modes, clock.n
-    num, den = real_recurrence(geo.basis.omega, zeta, clock.dt)
-    state = np.zeros((nm, 2))
+    modes = damped_modes(geo.basis, zeta)
+    if modes is None:
+        num, den = real_recurrence(geo.basis.omega, zeta, clock.dt)
+        state = np.zeros((nm, 2))
+    else:
+        num, den = _pole_filters(modes.poles, clock.dt)
+        state = np.zeros((modes.poles.size, 1), complex)
     rows = np.empty((clock.n_rev + 1, n + 3))  # padded as ZreTable wants: sample -1 and N, N + 1
-    rec_q = np.zeros((nm, (clock.rec1 - clock.rec0) * n + 1))  # one sample before the window
+    # the record window from one sample before it: q, or the complex modes' state
+    rec_q = np.zeros((state.shape[0], (clock.rec1 - clock.rec0) * n + 1), state.dtype)
     step = max(1, block_samples // n)
     runs = _cutting_runs(geo.active)
     forces = np.zeros((nm, step, n))
@@ -147,13 +163,26 @@ def _whole_cut(parts, amps, zeta, clock: _Clock, block_samples: int):
             r1 = min(r0 + step, clock.n_rev + 1)
             c = r1 - r0
             _block_forces(parts, amps, w_both, runs, clock, r0, r1, forces[:, :c], static[:c])
-            q, peak = _recur_block(num, den, forces[:, :c], state, peak)
+            if modes is None:
+                q, peak = _recur_block(num, den, forces[:, :c], state, peak)
+                kept = q
+            else:
+                u = (modes.inputs @ forces[:, :c].reshape(nm, -1)).reshape(-1, c, n)
+                kept, peak = _recur_block(num, den, u, state, peak)
+                q = 2 * (modes.outputs @ kept).real
             zc = (c_both @ q).reshape(4, c, n)
             y = clock.y_start + clock.delta * (np.arange(r0, r1)[:, None] + np.arange(n) / n)
             rows[r0:r1, 1 : n + 1] = np.einsum("irj,ij->rj", zc[:3], geo.trig[:3]) + y * zc[3]
             rows[r0:r1, 1 : n + 1] += static[:c]
-            _keep_record(rec_q, q, clock, r0, r1)
+            _keep_record(rec_q, kept, clock, r0, r1)
     return rows, rec_q
+
+
+def _pole_filters(poles, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """``lfilter`` coefficients (m, 2) of the complex modes' recurrence z_k = E z_{k-1} +
+    b0 u_k + b1 u_{k-1} (:func:`~ufmt.machining.recurrence.discretise_poles`)."""
+    _, e, b0, b1 = discretise_poles(poles, dt)
+    return np.stack([b0, b1], axis=1), np.stack([np.ones_like(e), -e], axis=1)
 
 
 def _cutting_runs(active: np.ndarray) -> list[slice]:
@@ -185,7 +214,8 @@ def _block_forces(parts, amps, w_both, runs, clock: _Clock, r0: int, r1: int, fo
 
 def _recur_block(num, den, forces, state, peak: float):
     """Modal coordinates (n, c N) of one block under ``forces`` (n, c, N) by the recurrence
-    (``lfilter`` coefficients ``num``, ``den``), the filter ``state`` (n, 2) carried in place.
+    (``lfilter`` coefficients ``num``, ``den``), the filter ``state`` (n, 2) carried in place
+    (complex modes: their state z under their inputs, the filter state (m, 1) complex).
 
     Returns them and the largest |q| so far (``peak`` before the block).
     """
@@ -193,10 +223,10 @@ def _recur_block(num, den, forces, state, peak: float):
     if not forces.any() and np.abs(state).max() <= NEGLIGIBLE_STATE * peak:
         # free decay after the cut below any visible level: lfilter would only grind through
         # subnormal numbers (most of the run time of a long cut); the response is zero
-        q = np.zeros((nm, c * n))
+        q = np.zeros((nm, c * n), state.dtype)
         state[:] = 0.0
     else:
-        q = np.empty((nm, c * n))
+        q = np.empty((nm, c * n), state.dtype)
         for s in range(nm):
             q[s], state[s] = lfilter(num[s], den[s], forces[s].ravel(), zi=state[s])
         peak = max(peak, float(np.abs(q).max()))
@@ -227,7 +257,8 @@ def _zre_table(rows, clock: _Clock) -> ZreTable:
 
 def _record_motion(parts, amps, zeta, clock: _Clock, rec_q, j, y):
     """Tool-tip displacement and acceleration and workpiece displacement (T, 3) in the record
-    window, from its modal coordinates ``rec_q`` at angle indices ``j`` and slide positions
+    window, from its modal coordinates ``rec_q`` (or the complex modes' state, see
+    :func:`_whole_cut`) at angle indices ``j`` and slide positions
     ``y`` [m] (T + 1,) (from one sample before the window), static correction included."""
     geo = parts[0]
     n = clock.n
@@ -236,7 +267,12 @@ def _record_motion(parts, amps, zeta, clock: _Clock, rec_q, j, y):
         for g, amp in zip(parts, amps, strict=True)
     ]
     fs = sum((g.w[:, j] + y * g.w_y[:, j]) * a for g, a in zip(parts, chips, strict=True))
-    q, qd, qdd = _modal_rates(geo.basis, zeta, clock.dt, fs, rec_q)
+    modes = damped_modes(geo.basis, zeta)
+    if modes is None:
+        q, qd, qdd = _modal_rates(geo.basis, zeta, clock.dt, fs, rec_q)
+    else:  # the complex modes' state itself
+        q, qd = modes.state(rec_q[:, 1:])
+        qdd = modes.acceleration(fs[:, 1:], q, qd)
     tip, acc, work = tool_and_workpiece_motion(geo, j[1:], y[1:], q, qd, qdd, clock.spindle_hz)
     for g, a in zip(parts, chips, strict=True):
         if g.static_tool is not None:
