@@ -199,12 +199,14 @@ def simulate(
     n_modes, basis_cutoff_hz : the modal basis: every mode below ``basis_cutoff_hz`` [Hz]
         (default 5 kHz, :mod:`ufmt.defaults`), or the first ``n_modes`` when given (the
         paper's choice is 30); the static residual stands for the modes above.
-    zeta : modal damping ratio, scalar or (n_modes,) array (default 0.03, see
-        :mod:`ufmt.machining.recurrence`).
+    zeta : structural modal damping ratio, scalar or (n_modes,) array (default 0.03, see
+        :mod:`ufmt.machining.recurrence`); the model's hinge dampers act on top of it
+        (:mod:`ufmt.machining.damping`, carried by the basis).
     method : "periodic" (frequency domain, milliseconds; quasi-static in the slide position)
         or "time" (every revolution, exact recurrence, seconds); :mod:`ufmt.machining.response`.
     basis : modal basis to use instead of the model's (it is cut to ``n_modes`` or to the
-        modes below ``basis_cutoff_hz``).
+        modes below ``basis_cutoff_hz``; its ``hinge_damping``, or none, is the hinge damping
+        used).
     force_scale : factor on the force coefficients; default the model's ``machine.force_scale``
         (1 when absent).
     coefficients, n_phi, table_rows : force model and discretisation (see

@@ -35,7 +35,7 @@ def tool_workpiece_receptance(
     Parameters
     ----------
     freq_hz : (F,) frequencies [Hz].
-    zeta : modal damping, scalar or (n,).
+    zeta : structural modal damping, scalar or (n,); the basis' hinge damping adds to it.
     tool_angle : spindle angle phi of the tool tip [rad] (0: tip along +y, over the middle of
         the workpiece).
     residual : static correction (:func:`ufmt.machining.static.residual_flexibility`); none:

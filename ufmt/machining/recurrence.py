@@ -7,10 +7,13 @@ pole (:func:`discretise`). Both response paths use it: the time path as real fil
 coefficients (:func:`real_recurrence`), the periodic path through its periodic steady state
 (:func:`discrete_receptance` per harmonic, :class:`PeriodicRecurrence` per sample).
 
-Modal damping (not part of the basis): ``DEFAULT_ZETA`` = 0.03 for every mode. Modal damping
-ratios measured on precision machine structures with bolted and aerostatic joints lie around
-0.01-0.05; aerostatic films add little damping, granite beds and bolted joints most of it, so
-the middle of that band is taken. A per-mode array overrides it.
+Structural modal damping (not part of the basis): ``DEFAULT_ZETA`` = 0.03 for every mode.
+Modal damping ratios measured on precision machine structures with bolted and aerostatic joints
+lie around 0.01-0.05; aerostatic films add little damping, granite beds and bolted joints most
+of it, so the middle of that band is taken. A per-mode array overrides it. The model's hinge
+dampers add to it and couple the modes (:mod:`ufmt.machining.damping`); their complex modes use
+the same recurrence with a unit input weight (:func:`discretise_poles`, :func:`pole_transfer`,
+:func:`pole_recurrence`).
 """
 
 from __future__ import annotations
