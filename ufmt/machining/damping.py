@@ -37,9 +37,10 @@ unchanged.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import lru_cache
+from functools import cache, lru_cache
 
 import numpy as np
+from threadpoolctl import ThreadpoolController
 
 from ufmt.assembled import point_motion
 from ufmt.errors import UfmtError
@@ -52,6 +53,19 @@ from ufmt.mstmm.overall import TransferSystem
 #: Condition number of the complex-mode matrix above which the damped modal equations are
 #: taken as defective (coalescing poles): their complex modes do not exist.
 MAX_CONDITION = 1e10
+
+
+def serial_blas():
+    """A context in which BLAS runs on one thread: the complex modes' products are small
+    (n x n times n x N), where BLAS threads only add synchronisation (tens of ms on a loaded
+    machine against a fraction of one on one thread)."""
+    return _blas_controller().limit(limits=1, user_api="blas")
+
+
+@cache
+def _blas_controller() -> ThreadpoolController:
+    """The loaded BLAS libraries, found once (a new controller scans every shared library)."""
+    return ThreadpoolController()
 
 
 def hinge_damping_matrix(model: Model, shapes: ModeShapes) -> np.ndarray | None:

@@ -30,7 +30,7 @@ from ufmt.machining.cutting import (
     force_vector,
     part_amplitude,
 )
-from ufmt.machining.damping import DampedModes, damped_modes
+from ufmt.machining.damping import DampedModes, damped_modes, serial_blas
 from ufmt.machining.recurrence import (
     DEFAULT_ZETA,
     PeriodicRecurrence,
@@ -120,8 +120,10 @@ class PeriodicZreTable:
             kern = np.matmul(ch.reshape(active, 2 * samples, -1), plan.w)
         else:  # complex modes: 2 Re sum_j (c^(a) P)_j[k] z_j[k - m] (L w^(b))_j[m]
             z = _pole_recurrence(modes, n, self.spindle_hz).impulse(plan.lags).T  # (L, m)
-            ch = z[plan.lag_index][:, :, None, :] * (plan.c @ modes.outputs)  # (A, K, 2, m)
-            kern = 2 * np.matmul(ch.reshape(active, 2 * samples, -1), modes.inputs @ plan.w).real
+            with serial_blas():
+                ch = z[plan.lag_index][:, :, None, :] * (plan.c @ modes.outputs)  # (A, K, 2, m)
+                w = modes.inputs @ plan.w
+                kern = 2 * np.matmul(ch.reshape(active, 2 * samples, -1), w).real
         kern = kern.reshape(active, samples, 2, len(self.parts), 2)
         powers = np.stack(  # of Y: p = a + b
             [kern[..., 0, :, 0], kern[..., 0, :, 1] + kern[..., 1, :, 0], kern[..., 1, :, 1]],
@@ -238,9 +240,11 @@ def periodic_response(geo, process, zeta=DEFAULT_ZETA, force_scale: float = 1.0)
         q, qd = periodic_state(_recurrence(b, n, f, tuple(zeta.tolist())), fs, geo.active)
         qdd = fs - (2 * zeta * b.omega)[:, None] * qd - (b.omega**2)[:, None] * q
     else:
-        z = periodic_coordinates(_pole_recurrence(modes, n, f), modes.inputs @ fs, geo.active)
-        q, qd = modes.state(z)
-        qdd = modes.acceleration(fs, q, qd)
+        with serial_blas():
+            u = modes.inputs @ fs
+            z = periodic_coordinates(_pole_recurrence(modes, n, f), u, geo.active)
+            q, qd = modes.state(z)
+            qdd = modes.acceleration(fs, q, qd)
     y_rec = record_slide(geo.machine)
     tip, acc, work = tool_and_workpiece_motion(geo, np.arange(n), np.full(n, y_rec), q, qd, qdd, f)
     for amp, u in zip(amps, units, strict=True):
@@ -370,7 +374,8 @@ def _periodic_kernels(parts: tuple[CutGeometry, ...], spindle_hz: float, zeta: t
         coef, static = _kernel_coefficients(parts)
     else:  # each complex mode and its conjugate: a term of its own
         hq = np.concatenate(pole_transfer(modes.poles, 1 / (spindle_hz * n), 2 * np.pi * k / n))
-        coef, static = _complex_kernel_coefficients(parts, modes)
+        with serial_blas():
+            coef, static = _complex_kernel_coefficients(parts, modes)
     # one product of the receptances, shifted by each output harmonic l, with the coefficients
     shifted = np.concatenate(
         [hq.T[1 - l : half + 2 - l] for l in OUTPUT_HARMONICS], axis=1

@@ -25,7 +25,7 @@ from threadpoolctl import threadpool_limits
 from ufmt.machining.basis import ModalBasis
 from ufmt.machining.cut_geometry import CutGeometry
 from ufmt.machining.cutting import chip_factor_cells, cutting_force, part_amplitude
-from ufmt.machining.damping import damped_modes
+from ufmt.machining.damping import damped_modes, serial_blas
 from ufmt.machining.recurrence import (
     DEFAULT_ZETA,
     discretise,
@@ -271,8 +271,9 @@ def _record_motion(parts, amps, zeta, clock: _Clock, rec_q, j, y):
     if modes is None:
         q, qd, qdd = _modal_rates(geo.basis, zeta, clock.dt, fs, rec_q)
     else:  # the complex modes' state itself
-        q, qd = modes.state(rec_q[:, 1:])
-        qdd = modes.acceleration(fs[:, 1:], q, qd)
+        with serial_blas():
+            q, qd = modes.state(rec_q[:, 1:])
+            qdd = modes.acceleration(fs[:, 1:], q, qd)
     tip, acc, work = tool_and_workpiece_motion(geo, j[1:], y[1:], q, qd, qdd, clock.spindle_hz)
     for g, a in zip(parts, chips, strict=True):
         if g.static_tool is not None:
