@@ -136,10 +136,14 @@ def _whole_cut(parts, amps, zeta, clock: _Clock, block_samples: int):
 
     Returns rows (n_rev + 1, N + 3) [m], the z_re of each revolution in columns 1..N (the
     padding columns are filled by :func:`_zre_table`), and rec_q (n, record samples + 1), the
-    modal coordinates in the record window from one sample before it.
+    modal coordinates in the record window from one sample before it. With hinge damping the
+    recurrence runs on the complex modes: their inputs L w and outputs 2 c P replace the
+    modal force and output shapes, and rec_q holds their state z (m, record samples + 1).
     """
     geo = parts[0]
     nm, n = geo.basis.n_modes, clock.n
+    w_both = [np.concatenate([g.w_trig, g.w_y_trig], axis=1) for g in parts]
+    c_both = np.vstack([geo.c_trig, geo.c_y])
     modes = damped_modes(geo.basis, zeta)
     if modes is None:
         num, den = real_recurrence(geo.basis.omega, zeta, clock.dt)
@@ -147,34 +151,28 @@ def _whole_cut(parts, amps, zeta, clock: _Clock, block_samples: int):
     else:
         num, den = _pole_filters(modes.poles, clock.dt)
         state = np.zeros((modes.poles.size, 1), complex)
+        w_both = [modes.inputs @ w for w in w_both]
+        c_both = 2 * (c_both @ modes.outputs)  # z_re terms: Re(c_both z)
     rows = np.empty((clock.n_rev + 1, n + 3))  # padded as ZreTable wants: sample -1 and N, N + 1
     # the record window from one sample before it: q, or the complex modes' state
     rec_q = np.zeros((state.shape[0], (clock.rec1 - clock.rec0) * n + 1), state.dtype)
     step = max(1, block_samples // n)
     runs = _cutting_runs(geo.active)
-    forces = np.zeros((nm, step, n))
+    forces = np.zeros((state.shape[0], step, n), state.dtype)
     peak = 0.0  # largest |q| so far
     static = np.zeros((step, n))  # static-correction z_re of a block
-    w_both = [np.concatenate([g.w_trig, g.w_y_trig], axis=1) for g in parts]
-    c_both = np.vstack([geo.c_trig, geo.c_y])
     # skinny products over the modes: BLAS threads only add synchronisation here
     with threadpool_limits(limits=1, user_api="blas"):
         for r0 in range(0, clock.n_rev + 1, step):
             r1 = min(r0 + step, clock.n_rev + 1)
             c = r1 - r0
             _block_forces(parts, amps, w_both, runs, clock, r0, r1, forces[:, :c], static[:c])
-            if modes is None:
-                q, peak = _recur_block(num, den, forces[:, :c], state, peak)
-                kept = q
-            else:
-                u = (modes.inputs @ forces[:, :c].reshape(nm, -1)).reshape(-1, c, n)
-                kept, peak = _recur_block(num, den, u, state, peak)
-                q = 2 * (modes.outputs @ kept).real
-            zc = (c_both @ q).reshape(4, c, n)
+            q, peak = _recur_block(num, den, forces[:, :c], state, peak)
+            zc = (c_both @ q).real.reshape(4, c, n)
             y = clock.y_start + clock.delta * (np.arange(r0, r1)[:, None] + np.arange(n) / n)
             rows[r0:r1, 1 : n + 1] = np.einsum("irj,ij->rj", zc[:3], geo.trig[:3]) + y * zc[3]
             rows[r0:r1, 1 : n + 1] += static[:c]
-            _keep_record(rec_q, kept, clock, r0, r1)
+            _keep_record(rec_q, q, clock, r0, r1)
     return rows, rec_q
 
 
