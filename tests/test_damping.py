@@ -6,7 +6,8 @@ import pytest
 from machine_table import MACHINE
 from test_response import SMALL, dynamic_surface, synthetic_basis
 
-from ufmt.assembled import assemble, point_motion
+from ufmt.assembled import assemble
+from ufmt.kinematics import point_motion
 from ufmt.machining.basis import ModalBasis
 from ufmt.machining.cut_geometry import cut_geometry
 from ufmt.machining.cutting import tool_tip
@@ -17,8 +18,9 @@ from ufmt.machining.periodic_path import periodic_response
 from ufmt.machining.process import Process
 from ufmt.machining.surface import steady_region
 from ufmt.machining.time_path import time_response
-from ufmt.model.load import model_from_dict, model_to_toml
+from ufmt.model.load import model_from_dict
 from ufmt.model.machine import machine_of, read_machine
+from ufmt.model.write import model_to_toml
 from ufmt.simulate import simulate
 
 INERTIA = [[4.0, 0.0, 0.0], [0.0, 5.0, 0.0], [0.0, 0.0, 6.0]]

@@ -11,7 +11,7 @@ by the modal masses, D = diag(2 zeta w) + M^-1 Phi_rel^T C Phi_rel [1/s]
 (:func:`damping_matrix`) is not diagonal: the hinge dampers couple the modes.
 
 The motion of a body at a hinge point: a rigid body's [r_C; theta] carried rigidly to P
-(:func:`ufmt.assembled.point_motion`), a virtual body's motion at its point (every hinge on it
+(:func:`ufmt.kinematics.point_motion`), a virtual body's motion at its point (every hinge on it
 shares that point), a beam's motion at the end the hinge sits on (the MSTMM field transferred
 along the beam, :func:`ufmt.mstmm.modes.beam_shape`); ground does not move. Rigid directions
 (stiffness inf) carry no relative motion and their damping is left out. The modes above the
@@ -42,8 +42,8 @@ from functools import cache, lru_cache
 import numpy as np
 from threadpoolctl import ThreadpoolController
 
-from ufmt.assembled import point_motion
 from ufmt.errors import UfmtError
+from ufmt.kinematics import point_motion
 from ufmt.machining.basis import ModalBasis
 from ufmt.machining.recurrence import modal_damping
 from ufmt.model.schema import GROUND, Beam, Model, RigidBody
