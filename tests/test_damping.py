@@ -3,8 +3,7 @@ without it, the two response paths with it, and the model-file contract."""
 
 import numpy as np
 import pytest
-from machine_table import MACHINE
-from test_response import SMALL, dynamic_surface, synthetic_basis
+from synthetic import MACHINE, SMALL, dynamic_surface, synthetic_basis
 
 from ufmt.assembled import assemble
 from ufmt.kinematics import point_motion
