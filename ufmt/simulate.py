@@ -199,7 +199,7 @@ def simulate(
     n_modes, basis_cutoff_hz : the modal basis: every mode below ``basis_cutoff_hz`` [Hz]
         (default 5 kHz, :mod:`ufmt.defaults`), or the first ``n_modes`` when given (the
         paper's choice is 30); the static residual stands for the modes above.
-    zeta : structural modal damping ratio, scalar or (n_modes,) array (default 0.03, see
+    zeta : structural modal damping ratio, scalar or (n_modes,) array (default 0.01, see
         :mod:`ufmt.machining.recurrence`); the model's hinge dampers act on top of it
         (:mod:`ufmt.machining.damping`, carried by the basis).
     method : "periodic" (frequency domain, milliseconds; quasi-static in the slide position)

@@ -68,6 +68,7 @@ def _add_basis_arguments(p) -> None:
 def _register_simulate(subparsers) -> None:
     """Add the ``simulate`` sub-parser."""
     from ufmt.cli.common import positive
+    from ufmt.machining.recurrence import DEFAULT_ZETA
     from ufmt.machining.sources import SOURCES
     from ufmt.machining.surface import DEFAULT_APERTURE_MARGIN, DEFAULT_PSD2_PATCH
 
@@ -92,7 +93,7 @@ def _register_simulate(subparsers) -> None:
         "--zeta",
         type=positive(float, below=1.0),
         default=None,
-        help="modal damping ratio (default 0.03)",
+        help=f"structural modal damping ratio (default {DEFAULT_ZETA:g}; hinge dampers add to it)",
     )
     p.add_argument(
         "--sources",
@@ -123,6 +124,7 @@ def _register_simulate(subparsers) -> None:
 def _register_frf(subparsers) -> None:
     """Add the ``frf`` sub-parser."""
     from ufmt.cli.common import positive
+    from ufmt.machining.recurrence import DEFAULT_ZETA
 
     p = subparsers.add_parser("frf", help="tool-workpiece receptance in z (table and plot)")
     p.add_argument("model", nargs="?", help="model TOML (default: packaged UFMT)")
@@ -133,7 +135,10 @@ def _register_frf(subparsers) -> None:
     )
     _add_basis_arguments(p)
     p.add_argument(
-        "--zeta", type=positive(float, below=1.0), default=None, help="damping ratio (0.03)"
+        "--zeta",
+        type=positive(float, below=1.0),
+        default=None,
+        help=f"structural damping ratio ({DEFAULT_ZETA:g})",
     )
     p.add_argument("--no-static", action="store_true", help="modal sum without static correction")
     p.add_argument("--output-dir", default=str(DEFAULT_FRF_DIR), help=f"({DEFAULT_FRF_DIR})")

@@ -7,10 +7,13 @@ pole (:func:`discretise`). Both response paths use it: the time path as real fil
 coefficients (:func:`real_recurrence`), the periodic path through its periodic steady state
 (:func:`discrete_receptance` per harmonic, :class:`PeriodicRecurrence` per sample).
 
-Structural modal damping (not part of the basis): ``DEFAULT_ZETA`` = 0.03 for every mode.
-Modal damping ratios measured on precision machine structures with bolted and aerostatic joints
-lie around 0.01-0.05; aerostatic films add little damping, granite beds and bolted joints most
-of it, so the middle of that band is taken. A per-mode array overrides it. The model's hinge
+Structural modal damping (not part of the basis): ``DEFAULT_ZETA`` = 0.01 for every mode, the
+damping of the bodies themselves (material, and joints inside a body that the model does not
+resolve). Modal damping ratios measured on precision machine structures with bolted and
+aerostatic joints lie around 0.01-0.05, most of it in the joints; the model's joints are its
+hinges, whose dampers carry that share (zeta 1-5 % per joint, docs/ufmt-model.md), so the
+global ratio takes only the low end of the band (with 0.03 on top of the hinges the packaged
+modes reached 4-9 %, above what is measured). A per-mode array overrides it. The model's hinge
 dampers add to it and couple the modes (:mod:`ufmt.machining.damping`); their complex modes use
 the same recurrence with a unit input weight (:func:`discretise_poles`, :func:`pole_transfer`,
 :func:`pole_recurrence`).
@@ -23,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-DEFAULT_ZETA = 0.03
+DEFAULT_ZETA = 0.01
 
 
 def modal_damping(zeta, n_modes: int) -> np.ndarray:
