@@ -13,6 +13,7 @@ from ufmt.machining.frf import tool_workpiece_receptance
 from ufmt.machining.periodic_path import periodic_response, periodic_state
 from ufmt.machining.process import Process
 from ufmt.machining.recurrence import (
+    DEFAULT_ZETA,
     discrete_receptance,
     discretise,
     periodic_recurrence,
@@ -216,7 +217,7 @@ def surfaces(case):
 def settle(case):
     """20 time constants 1/(zeta w) of the slowest mode, as slide travel [m]."""
     basis, _, p, _, _ = case
-    return 20 / (0.03 * basis.omega[0]) * p.feed_m_s
+    return 20 / (DEFAULT_ZETA * basis.omega[0]) * p.feed_m_s
 
 
 def test_periodic_and_time_paths_agree_over_the_steady_part(turning, still):

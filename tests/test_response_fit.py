@@ -134,8 +134,8 @@ def test_packaged_response_targets_read_the_paper():
         read_toml(packaged_path("calibration.toml"))["response"], ref, "calibration.toml"
     )
     paper = {t.metric: t.paper for t in settings.targets}
-    assert paper["pv_nm"] == 142.91 and paper["zre_peak_nm"] == 34.0
-    assert paper["tip_acc_peak_mm_s2"] == pytest.approx(66.0)  # 0.066 read as m/s^2
+    assert paper["pv_measured_nm"] == 142.91 and paper["zre_peak_nm"] == 34.0
+    assert paper["tip_acc_measured_mm_s2"] == pytest.approx(66.0)  # 0.066 read as m/s^2
     assert {p.key for p in settings.parameters} >= {"force_scale", "workpiece_size"}
     for p in settings.parameters:
         if p.key == "force_scale":
