@@ -369,7 +369,13 @@ def test_cli_calibrate_is_deterministic_and_reports_the_response_fit(tmp_path, c
         outputs.append(((tmp_path / "out.toml").read_bytes(), log.read_bytes()))
     assert outputs[0] == outputs[1]
     out = capsys.readouterr().out
-    for needle in ("pv_measured_nm", "zre_peak_nm", "tip_acc_measured_mm_s2", "centre_rise_nm", "GPa"):
+    for needle in (
+        "pv_measured_nm",
+        "zre_peak_nm",
+        "tip_acc_measured_mm_s2",
+        "centre_rise_nm",
+        "GPa",
+    ):
         assert needle in out
     model = load_model(tmp_path / "out.toml")
     assert 0.3 <= model.machine.force_scale <= 3.0
