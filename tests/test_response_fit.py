@@ -117,10 +117,22 @@ def test_centre_rise_of_closed_form_surfaces():
 @pytest.mark.parametrize(
     ("parameter", "message"),
     [
-        ({"key": "force_scale", "band": [3.0, 0.3], "start": 1.0}, "field 'band'"),
-        ({"key": "force_scale", "band": [0.3, 3.0], "start": 5.0}, "field 'start'"),
-        ({"key": "force_scale", "band": [0.0, 3.0], "start": 1.0}, "> 0 for scale 'log'"),
-        ({"key": "force_scale", "band": [0.3, 3.0], "start": 1.0, "bnd": 1}, "unknown field"),
+        (
+            {"key": "force_scale", "band": [3.0, 0.3], "start": 1.0},
+            "field 'band': reversed bounds \\[3, 0.3\\]",
+        ),
+        (
+            {"key": "force_scale", "band": [0.3, 3.0], "start": 5.0},
+            r"field 'start': 5 is outside the allowed range \[0.3, 3\]",
+        ),
+        (
+            {"key": "force_scale", "band": [0.0, 3.0], "start": 1.0},
+            r"field 'band\[0\]': 0 is not positive \(allowed: > 0 for scale 'log'\)",
+        ),
+        (
+            {"key": "force_scale", "band": [0.3, 3.0], "start": 1.0, "bnd": 1},
+            "unknown field 'bnd' \\(did you mean 'band'",
+        ),
     ],
 )
 def test_bad_response_parameter_names_the_field(parameter, message):
@@ -199,5 +211,5 @@ def test_held_parameters_keep_their_documented_value(model, basis):
     held = response_metrics(with_values(model, fit.values), REFERENCE, basis, "periodic")
     assert fit.metrics == pytest.approx(held, rel=1e-12, nan_ok=True)
     parameters[1]["fit"] = "no"
-    with pytest.raises(StudyError, match="field 'fit'"):
+    with pytest.raises(StudyError, match="field 'fit': expected true or false"):
         _settings(parameters, targets, reference)

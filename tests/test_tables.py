@@ -84,3 +84,39 @@ def test_numbers_ranges_and_choices():
     assert message(lambda: MACHINE.choice("b", "x", ("hub", "arm"), "body", "bodies")).endswith(
         "field 'b': unknown body 'x' (valid bodies: hub, arm)"
     )
+
+
+def test_counts_minimums_intervals_and_duplicates():
+    assert MACHINE.integer("n", 3, 1, 5) == 3 and MACHINE.integer("seed", 0, 0) == 0
+    assert message(lambda: MACHINE.integer("n", 9, 1, 5)).endswith(
+        "field 'n': 9 is outside the allowed range [1, 5]"
+    )
+    assert message(lambda: MACHINE.integer("starts", 0, 1)).endswith(
+        "field 'starts': 0 is too small (allowed: >= 1)"
+    )
+    assert message(lambda: MACHINE.integer("n", 2.5, 1)).endswith(
+        "field 'n': expected an integer, got float 2.5 (allowed: >= 1)"
+    )
+    assert message(lambda: MACHINE.minimum("factor", 1.0, 1.0, strict=True)).endswith(
+        "field 'factor': 1 is too small (allowed: > 1)"
+    )
+    assert MACHINE.interval("range", [1, 2.5]) == (1.0, 2.5)
+    assert MACHINE.interval("band", [1, 1], allow_equal=True) == (1.0, 1.0)
+    assert message(lambda: MACHINE.interval("range", [400, 200])).endswith(
+        "field 'range': reversed bounds [400, 200] (allowed: lower < upper)"
+    )
+    assert message(lambda: MACHINE.interval("range", [300, 300])).endswith(
+        "field 'range': empty range [300, 300] (allowed: lower < upper)"
+    )
+    assert MACHINE.unique("axis", ["rpm", "feed"]) == ["rpm", "feed"]
+    assert message(lambda: MACHINE.unique("axis", ["rpm", "rpm"])).endswith(
+        "field 'axis': 'rpm' appears more than once"
+    )
+    assert MACHINE.items("hinges", ("h1",), "hinge name") == ["h1"]
+    assert message(lambda: MACHINE.items("hinges", [], "hinge name", required=True)).endswith(
+        "field 'hinges': empty (at least one hinge name is required)"
+    )
+    assert MACHINE.boolean("fit", False) is False
+    assert message(lambda: MACHINE.boolean("fit", "no")).endswith(
+        "field 'fit': expected true or false, got string 'no'"
+    )

@@ -29,8 +29,13 @@ NaN                ``nan is not a number (allowed: finite [m])``
 sign               ``-5 is not positive (allowed: > 0 [kg])``, ``-5 is negative (allowed: ...)``
 infinite           ``inf is not finite (allowed: finite [m])``
 range              ``0.5 is outside the allowed range [0.0001, 0.05] [m]``
+minimum            ``0 is too small (allowed: >= 1)``, ``1 is too small (allowed: > 1)``
+reversed bounds    ``reversed bounds [400, 200] (allowed: lower < upper)``
+empty range        ``empty range [300, 300] (allowed: lower < upper)``
+duplicate          ``'rpm' appears more than once``
 choice             ``unknown kind 'rigd' (did you mean 'rigid'?)``, or ``(valid kinds: ...)``
 length             ``expected 3 numbers [m], got an array of 2``
+empty array        ``empty (at least one hinge name is required)``
 empty string       ``empty (allowed: a non-empty string)``
 =================  ==========================================================================
 
@@ -124,11 +129,27 @@ class Where:
             self.fail(field, "empty (allowed: a non-empty string)")
         return value
 
-    def integer(self, field: str, value) -> int:
-        """An integer (not a boolean, not a float)."""
+    def boolean(self, field: str, value) -> bool:
+        """A boolean (true or false)."""
+        if not isinstance(value, bool | np.bool_):
+            self.fail(field, f"expected true or false, got {type_name(value)}")
+        return bool(value)
+
+    def integer(self, field: str, value, low: int | None = None, high: int | None = None) -> int:
+        """An integer (not a boolean, not a float), from ``low`` to ``high`` where given."""
         if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Integral):
-            self.fail(field, f"expected an integer, got {type_name(value)}")
-        return int(value)
+            allowed = (
+                ""
+                if low is None
+                else f" (allowed: {f'[{low}, {high}]' if high is not None else f'>= {low}'})"
+            )
+            self.fail(field, f"expected an integer, got {type_name(value)}{allowed}")
+        n = int(value)
+        if low is not None and high is not None:
+            self.within(field, n, low, high)
+        elif low is not None:
+            self.minimum(field, n, low)
+        return n
 
     def number(
         self,
@@ -169,6 +190,36 @@ class Where:
         band = f"[{low:g}, {high:g}]" + (f" {unit}" if unit else "")
         self.fail(field, f"{short_number(x)} is outside the allowed range {band}")
 
+    def minimum(
+        self, field: str, x: float, low: float, *, strict: bool = False, unit: str = ""
+    ) -> float:
+        """``x`` if ``x >= low`` (``x > low`` if ``strict``), else ``x is too small``."""
+        if x < low or (strict and x == low):
+            allowed = f"{'>' if strict else '>='} {low:g}" + (f" {unit}" if unit else "")
+            self.fail(field, f"{short_number(x)} is too small (allowed: {allowed})")
+        return x
+
+    def interval(self, field: str, value, *, allow_equal: bool = False, **rules):
+        """``[lower, upper]``: two numbers (each checked by :meth:`number` with ``rules``) with
+        lower < upper (lower <= upper if ``allow_equal``); returns (lower, upper)."""
+        low, high = self.numbers(field, value, 2, **rules)
+        if low > high:
+            self.fail(
+                field, f"reversed bounds {short_vector([low, high])} (allowed: lower < upper)"
+            )
+        if low == high and not allow_equal:
+            self.fail(field, f"empty range {short_vector([low, high])} (allowed: lower < upper)")
+        return low, high
+
+    def unique(self, field: str, values) -> list:
+        """``values`` as a list if none appears twice, else ``'x' appears more than once``."""
+        seen = []
+        for value in values:
+            if value in seen:
+                self.fail(field, f"{value!r} appears more than once")
+            seen.append(value)
+        return seen
+
     def choice(self, field: str, value, choices, noun: str, plural: str | None = None):
         """``value`` if it is one of ``choices``, else ``unknown <noun> 'x'`` with the closest
         choice or the list of ``plural`` (default noun + "s")."""
@@ -189,6 +240,17 @@ class Where:
             self.fail(field, f"expected {what}, got {type_name(value)}")
         if len(value) != n:
             self.fail(field, f"expected {what}, got an array of {len(value)}")
+        return list(value)
+
+    def items(self, field: str, value, item: str, required: bool = False) -> list:
+        """An array of any length (at least one element if ``required``); ``item`` names one
+        element in the messages, e.g. "hinge name"."""
+        if isinstance(value, np.ndarray):
+            value = value.tolist()
+        if not isinstance(value, list | tuple):
+            self.fail(field, f"expected an array of {item}s, got {type_name(value)}")
+        if required and not value:
+            self.fail(field, f"empty (at least one {item} is required)")
         return list(value)
 
     def numbers(self, field: str, value, n: int, **rules) -> list[float]:

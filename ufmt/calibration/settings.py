@@ -26,11 +26,12 @@ from pathlib import Path
 import numpy as np
 
 from ufmt.calibration.frequencies import Reference, read_reference
-from ufmt.calibration.tables import check_keys, fail, read_band, suggest
 from ufmt.defaults import PAPER_MODES
+from ufmt.errors import StudyError
 from ufmt.model.load import load_model
 from ufmt.model.machine import Machine
 from ufmt.model.schema import Model
+from ufmt.tables import Where, short_vector
 from ufmt.tomlfile import read_toml
 
 FIELDS = ("stiffness", "rotational_stiffness")  # the hinge fields a [[parameter]] scales
@@ -133,9 +134,6 @@ _SETTING_RULES = {  # name -> (type, lower bound, strict)
     "population": (int, 1, False),
     "generations": (int, 1, False),
 }
-
-
-_KIND_NAMES = {float: "a number", int: "an integer"}
 
 
 @dataclass(frozen=True)
@@ -259,30 +257,28 @@ def load_calibration(
     its directory. Raises :class:`~ufmt.errors.StudyError` (or ModelError for the prior) with
     one line naming the file, the table and the field.
     """
-    where = str(path)
+    source = str(path)
+    top = Where(source, error=StudyError)
     data = read_toml(path)
-    check_keys(where, data, TOP_KEYS)
+    top.keys(data, TOP_KEYS, required=("prior", "reference", "output"))
     base = Path(path).parent
     for key in ("prior", "reference", "output"):
-        if not isinstance(data.get(key), str):
-            fail(where, f"field {key!r}: {data.get(key)!r} must be a file path (string)")
+        top.string(key, data[key], allow_empty=True)
     prior_path = Path(prior) if prior is not None else base / data["prior"]
     out_path = Path(output) if output is not None else base / data["output"]
     reference_path = base / data["reference"]
     model = load_model(prior_path)
     reference = read_reference(reference_path)
-    settings = _settings(where, data.get("settings", {}))
-    parameters = _parameters(where, data.get("parameter", []), model)
-    targets = _targets(where, data.get("targets"), reference, settings, reference_path)
-    name = data.get("output_name", "UFMT")
-    if not isinstance(name, str) or not name:
-        fail(where, f"field 'output_name': {name!r} must be a non-empty string")
-    constraint = _constraint(where, data.get("constraint"), model)
+    settings = _settings(top, data.get("settings", {}))
+    parameters = _parameters(top, data.get("parameter", []), model)
+    targets = _targets(top, data.get("targets"), reference, settings, reference_path)
+    name = top.string("output_name", data.get("output_name", "UFMT"))
+    constraint = _constraint(top, data.get("constraint"), model)
     response = None
     if data.get("response") is not None:  # checked now, not after the identification
-        response = read_response_settings(data["response"], read_toml(reference_path), where)
+        response = read_response_settings(data["response"], read_toml(reference_path), source)
     calibration = Calibration(
-        where,
+        source,
         prior_path,
         reference_path,
         out_path,
@@ -296,91 +292,60 @@ def load_calibration(
     return calibration, model, reference
 
 
-def _settings(where: str, table) -> Settings:
-    if not isinstance(table, dict):
-        fail(where, "[settings] must be a table")
-    check_keys(f"{where}: [settings]", table, _SETTING_RULES)
+def _settings(top: Where, table) -> Settings:
+    top.mapping("settings", table, "[settings]")
+    where = top.sub("settings")
+    where.keys(table, _SETTING_RULES)
     values = {}
     for key, value in table.items():
         kind, low, strict = _SETTING_RULES[key]
-        ok = (
-            isinstance(value, bool)
-            if kind is bool
-            else (isinstance(value, int | float) and not isinstance(value, bool))
-        )
-        if ok and kind is int:
-            ok = isinstance(value, int)
-        if ok and low is not None:
-            ok = math.isfinite(value) and (value > low if strict else value >= low)
-        if not ok:
-            need = (
-                "true or false"
-                if kind is bool
-                else f"{_KIND_NAMES[kind]} {'>' if strict else '>='} {low:g}"
-            )
-            fail(f"{where}: [settings]", f"field {key!r}: {value!r} must be {need}")
-        values[key] = kind(value)
+        if kind is bool:
+            values[key] = where.boolean(key, value)
+        elif kind is int:
+            values[key] = where.integer(key, value, low)
+        else:
+            values[key] = where.number(key, value, sign="positive" if strict else "nonnegative")
     return Settings(**values)
 
 
-def _parameters(where: str, tables, model: Model) -> tuple[Parameter, ...]:
-    if not isinstance(tables, list) or not tables:
-        fail(where, "[[parameter]]: none given; list at least one parameter to identify")
+def _parameters(top: Where, tables, model: Model) -> tuple[Parameter, ...]:
+    tables = top.tables("parameter", tables, required=True)
     hinge_names = [h.name for h in model.hinges]
-    seen_names, seen_entries = set(), {}
+    seen_names, seen_entries = [], {}
     out = []
     for i, t in enumerate(tables):
-        label = f"{where}: parameter[{i}]"
-        if not isinstance(t, dict):
-            fail(label, "must be a table")
-        name = t.get("name")
-        if not isinstance(name, str) or not name:
-            fail(label, f"field 'name': {name!r} must be a non-empty string")
-        label = f"{where}: parameter {name!r}"
-        check_keys(label, t, PARAMETER_KEYS)
-        if name in seen_names:
-            fail(label, "field 'name': used by another parameter")
-        seen_names.add(name)
-        hinges = t.get("hinges")
-        if not isinstance(hinges, list) or not hinges:
-            fail(label, f"field 'hinges': {hinges!r} must list hinge names")
-        for h in hinges:
-            if h not in hinge_names:
-                fail(
-                    label,
-                    f"field 'hinges': {h!r} is not a hinge of {model.source}"
-                    f"{suggest(h, hinge_names)}; hinges: {', '.join(hinge_names)}",
-                )
-        fld = t.get("field")
-        if fld not in FIELDS:
-            fail(label, f"field 'field': {fld!r} is not one of {', '.join(FIELDS)}")
-        comps = t.get("components")
-        if (
-            not isinstance(comps, list)
-            or not comps
-            or not all(
-                isinstance(c, int) and not isinstance(c, bool) and 0 <= c <= 2 for c in comps
+        name = top.sub(f"parameter[{i}]").string("name", t.get("name"))
+        where = top.sub(f"parameter {name!r}")
+        where.keys(t, PARAMETER_KEYS, required=("hinges", "field", "components", "band"))
+        seen_names = where.unique("name", [*seen_names, name])
+        hinges = where.items("hinges", t["hinges"], "hinge name", required=True)
+        for j, h in enumerate(hinges):
+            where.choice(f"hinges[{j}]", h, hinge_names, "hinge")
+        fld = where.choice("field", t["field"], FIELDS, "hinge field")
+        comps = where.items("components", t["components"], "component", required=True)
+        for j, c in enumerate(comps):
+            where.integer(f"components[{j}]", c, 0, 2)
+        where.unique("components", comps)
+        band = where.interval("band", t["band"], allow_equal=True, sign="positive")
+        if not band[0] <= 1.0 <= band[1]:
+            where.fail(
+                "band",
+                f"{short_vector(band)} does not contain 1, the prior"
+                " (allowed: 0 < lower <= 1 <= upper)",
             )
-            or len(set(comps)) != len(comps)
-        ):
-            fail(label, f"field 'components': {comps!r} must list distinct 0, 1, 2 (x, y, z)")
-        band = read_band(
-            label, t.get("band"), lambda lo, hi: 0 < lo <= 1 <= hi, "0 < lower <= 1 <= upper"
-        )
         for h in hinges:
             values = getattr(model.hinge(h), fld)
             for c in comps:
                 if not (0 < values[c] < math.inf):
-                    fail(
-                        label,
-                        f"field 'components': {h} {fld}[{c}] is {values[c]!r} in {model.source}; "
+                    where.fail(
+                        "components",
+                        f"{h} {fld}[{c}] is {values[c]!r} in {model.source}; "
                         "only finite, nonzero stiffness can be scaled",
                     )
                 if (h, fld, c) in seen_entries:
-                    fail(
-                        label,
-                        f"field 'hinges': {h} {fld}[{c}] is also scaled by parameter "
-                        f"{seen_entries[(h, fld, c)]!r}",
+                    where.fail(
+                        "hinges",
+                        f"{h} {fld}[{c}] is also scaled by parameter {seen_entries[(h, fld, c)]!r}",
                     )
                 seen_entries[(h, fld, c)] = name
         reason = t.get("reason", "")
@@ -388,59 +353,48 @@ def _parameters(where: str, tables, model: Model) -> tuple[Parameter, ...]:
     return tuple(out)
 
 
-def _constraint(where: str, table, model: Model) -> Constraint | None:
+def _constraint(top: Where, table, model: Model) -> Constraint | None:
     if table is None:
         return None
-    label = f"{where}: [constraint]"
-    if not isinstance(table, dict):
-        fail(where, "[constraint] must be a table")
-    check_keys(label, table, CONSTRAINT_KEYS)
+    top.mapping("constraint", table, "[constraint]")
+    where = top.sub("constraint")
+    where.keys(table, CONSTRAINT_KEYS, required=("hinges", "factor", "max_change_percent"))
     names = [h.name for h in model.hinges]
-    hinges = table.get("hinges")
-    if not isinstance(hinges, list) or not hinges or any(h not in names for h in hinges):
-        fail(label, f"field 'hinges': {hinges!r} must list hinges of {model.source}")
-    values = {}
-    for key, low in (("factor", 1.0), ("max_change_percent", 0.0), ("weight", 0.0)):
-        v = table.get(key, 1.0 if key == "weight" else None)
-        if (
-            isinstance(v, bool)
-            or not isinstance(v, int | float)
-            or not math.isfinite(v)
-            or v <= low
-        ):
-            fail(label, f"field {key!r}: {v!r} must be a number > {low:g}")
-        values[key] = float(v)
-    modes = table.get("modes", [])
-    if not isinstance(modes, list) or not all(isinstance(k, int) for k in modes):
-        fail(label, f"field 'modes': {modes!r} must list Table 3 mode numbers")
+    hinges = where.items("hinges", table["hinges"], "hinge name", required=True)
+    for j, h in enumerate(hinges):
+        where.choice(f"hinges[{j}]", h, names, "hinge")
+    factor = where.minimum("factor", where.number("factor", table["factor"]), 1.0, strict=True)
+    values = {"factor": factor}
+    for key in ("max_change_percent", "weight"):
+        values[key] = where.number(key, table.get(key, 1.0), sign="positive")
+    modes = where.items("modes", table.get("modes", []), "Table 3 mode number")
+    for j, k in enumerate(modes):
+        where.integer(f"modes[{j}]", k)
     return Constraint(
         tuple(hinges), source=str(table.get("source", "")), modes=tuple(modes), **values
     )
 
 
-def _targets(where: str, table, reference: Reference, settings: Settings, ref_path) -> Targets:
-    label = f"{where}: [targets]"
-    if not isinstance(table, dict):
-        fail(where, "[targets]: missing; give the Table 3 modes to match")
-    check_keys(label, table, TARGET_KEYS)
-    column = table.get("column", "modal_test_hz")
-    if column not in COLUMNS:
-        fail(label, f"field 'column': {column!r} is not one of {', '.join(COLUMNS)}")
-    modes = table.get("modes")
-    if not isinstance(modes, list) or not modes:
-        fail(label, f"field 'modes': {modes!r} is empty; list at least one Table 3 mode number")
+def _targets(top: Where, table, reference: Reference, settings: Settings, ref_path) -> Targets:
+    if table is None:
+        top.missing("targets", "give the Table 3 modes to match")
+    top.mapping("targets", table, "[targets]")
+    where = top.sub("targets")
+    where.keys(table, TARGET_KEYS, required=("modes",))
+    column = where.choice("column", table.get("column", "modal_test_hz"), COLUMNS, "column")
+    modes = where.items("modes", table["modes"], "Table 3 mode number", required=True)
     values = reference.column(column)
-    for k in modes:
-        if not isinstance(k, int) or isinstance(k, bool) or k not in values:
-            fail(
-                label,
-                f"field 'modes': {k!r} has no {column!r} in {ref_path}; modes with one: "
+    for j, k in enumerate(modes):
+        where.integer(f"modes[{j}]", k)
+        if k not in values:
+            where.fail(
+                f"modes[{j}]",
+                f"{k!r} has no {column!r} in {ref_path}; modes with one: "
                 f"{', '.join(map(str, values))}",
             )
         if k > settings.n_modes:
-            fail(label, f"field 'modes': {k} exceeds [settings] n_modes = {settings.n_modes}")
-    if len(set(modes)) != len(modes):
-        fail(label, f"field 'modes': {modes!r} lists a mode twice")
+            where.fail(f"modes[{j}]", f"{k} exceeds settings n_modes = {settings.n_modes}")
+    where.unique("modes", modes)
     modes = sorted(modes)
     hz = np.array([values[k] for k in modes])
     return Targets(tuple(modes), hz, column, str(table.get("source", "")))
@@ -451,89 +405,61 @@ def known_machine_keys() -> tuple[str, ...]:
     return tuple(f.name for f in dataclasses.fields(Machine))
 
 
-def _number(where, table, key, default=None, positive=False) -> float:
-    v = table.get(key, default)
-    if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
-        fail(where, f"field {key!r}: {v!r} must be a finite number")
-    if positive and v <= 0:
-        fail(where, f"field {key!r}: {v!r} must be > 0")
-    return float(v)
-
-
-def _count(where, table, key) -> int:
-    """An integer field >= 1 (default 1)."""
-    value = table.get(key, 1)
-    if isinstance(value, bool) or not isinstance(value, int) or value < 1:
-        fail(where, f"field {key!r}: {value!r} must be an integer >= 1")
-    return value
-
-
-def _lookup(reference: Mapping, dotted: str, where: str) -> float:
+def _lookup(reference: Mapping, dotted: str, where: Where) -> float:
     value = reference
     for part in dotted.split("."):
         if not isinstance(value, Mapping) or part not in value:
-            fail(where, f"field 'reference': {dotted!r} is not a value of paper_reference.toml")
+            where.fail("reference", f"{dotted!r} is not a value of paper_reference.toml")
         value = value[part]
     if isinstance(value, bool) or not isinstance(value, int | float):
-        fail(where, f"field 'reference': {dotted!r} is not a number")
+        where.fail("reference", f"{dotted!r} is not a number")
     return float(value)
 
 
-def read_response_settings(table, reference: Mapping, where: str) -> ResponseSettings:
-    """Check the ``[response]`` table of a calibration file (``where`` names it in errors);
+def read_response_settings(table, reference: Mapping, source: str) -> ResponseSettings:
+    """Check the ``[response]`` table of a calibration file (``source`` names it in errors);
     ``reference`` is the paper_reference.toml the targets' values are read from."""
-    where = f"{where}: [response]"
-    if not isinstance(table, Mapping):
-        fail(where, "must be a table")
-    check_keys(where, table, RESPONSE_KEYS)
+    Where(source, error=StudyError).mapping("response", table, "[response]")
+    where = Where(source, "response", error=StudyError)
+    where.keys(table, RESPONSE_KEYS)
     known = known_machine_keys()
     parameters, skipped = [], []
-    for i, t in enumerate(table.get("parameter", [])):
-        parameter = _fit_parameter(f"{where}: parameter[{i}]", where, t)
+    for i, t in enumerate(where.tables("parameter", table.get("parameter", []))):
+        parameter = _fit_parameter(where, i, t)
         if parameter.key not in known:
             skipped.append(parameter.key)
             continue
         parameters.append(parameter)
     targets = [
-        _fit_target(f"{where}: target[{i}]", where, t, reference)
-        for i, t in enumerate(table.get("target", []))
+        _fit_target(where, i, t, reference)
+        for i, t in enumerate(where.tables("target", table.get("target", []), required=True))
     ]
-    if not targets:
-        fail(where, "[[response.target]]: none given")
-    method = table.get("method", "periodic")
-    if method not in ("periodic", "time"):
-        fail(where, f"field 'method': {method!r} is not one of periodic, time")
+    method = where.choice("method", table.get("method", "periodic"), ("periodic", "time"), "method")
     return ResponseSettings(
         tuple(parameters),
         tuple(skipped),
         tuple(targets),
         method,
-        _number(where, table, "diff_step", 1e-2, positive=True),
-        int(_number(where, table, "max_evaluations", 200, positive=True)),
-        _count(where, table, "starts"),
+        where.number("diff_step", table.get("diff_step", 1e-2), sign="positive"),
+        int(where.number("max_evaluations", table.get("max_evaluations", 200), sign="positive")),
+        where.integer("starts", table.get("starts", 1), 1),
     )
 
 
-def _fit_parameter(label: str, where: str, t) -> FitParameter:
-    """One ``[[response.parameter]]`` table (``label``: its place, until its key is known)."""
-    if not isinstance(t, Mapping) or not isinstance(t.get("key"), str):
-        fail(label, "must be a table with a 'key' (a [machine] field name)")
-    label = f"{where}: parameter {t['key']!r}"
-    check_keys(label, t, FIT_PARAMETER_KEYS)
-    band = read_band(label, t.get("band"), lambda lo, hi: lo < hi, "lower < upper")
-    scale = t.get("scale", "log")
-    if scale not in FIT_SCALES:
-        fail(label, f"field 'scale': {scale!r} is not one of {', '.join(FIT_SCALES)}")
-    if scale == "log" and band[0] <= 0:
-        fail(label, f"field 'band': {list(band)!r} must be > 0 for scale 'log'")
-    start = _number(label, t, "start")
-    if not band[0] <= start <= band[1]:
-        fail(label, f"field 'start': {start!r} must lie in the band {list(band)!r}")
-    fit = t.get("fit", True)
-    if not isinstance(fit, bool):
-        fail(label, f"field 'fit': {fit!r} must be true or false")
+def _fit_parameter(response: Where, index: int, t) -> FitParameter:
+    """The ``index``-th ``[[response.parameter]]`` table."""
+    at = response.sub(f"parameter[{index}]")
+    at.required(t, ("key",))
+    key = at.string("key", t["key"], allow_empty=True)
+    where = response.sub(f"parameter {key!r}")
+    where.keys(t, FIT_PARAMETER_KEYS, required=("band", "start"))
+    scale = where.choice("scale", t.get("scale", "log"), FIT_SCALES, "scale")
+    positive = {"sign": "positive", "allowed": "> 0 for scale 'log'"} if scale == "log" else {}
+    band = where.interval("band", t["band"], **positive)
+    start = where.within("start", where.number("start", t["start"]), *band)
+    fit = where.boolean("fit", t.get("fit", True))
     return FitParameter(
-        t["key"],
+        key,
         band,
         start,
         scale,
@@ -543,27 +469,26 @@ def _fit_parameter(label: str, where: str, t) -> FitParameter:
     )
 
 
-def _fit_target(label: str, where: str, t, reference: Mapping) -> FitTarget:
-    """One ``[[response.target]]`` table (``label``: its place, until its metric is known)."""
-    if not isinstance(t, Mapping) or not isinstance(t.get("metric"), str):
-        fail(label, "must be a table with a 'metric'")
-    label = f"{where}: target {t['metric']!r}"
-    check_keys(label, t, FIT_TARGET_KEYS)
-    kind = t.get("kind", "value")
-    if kind not in FIT_TARGET_KINDS:
-        fail(label, f"field 'kind': {kind!r} is not one of {', '.join(FIT_TARGET_KINDS)}")
+def _fit_target(response: Where, index: int, t, reference: Mapping) -> FitTarget:
+    """The ``index``-th ``[[response.target]]`` table."""
+    at = response.sub(f"target[{index}]")
+    at.required(t, ("metric",))
+    metric = at.string("metric", t["metric"], allow_empty=True)
+    where = response.sub(f"target {metric!r}")
+    where.keys(t, FIT_TARGET_KEYS)
+    kind = where.choice("kind", t.get("kind", "value"), FIT_TARGET_KINDS, "kind")
     paper = (
         0.0
         if kind == "positive"
-        else _lookup(reference, str(t.get("reference", "")), label)
-        * _number(label, t, "factor", 1.0, positive=True)
+        else _lookup(reference, str(t.get("reference", "")), where)
+        * where.number("factor", t.get("factor", 1.0), sign="positive")
     )
     return FitTarget(
-        t["metric"],
+        metric,
         paper,
         kind,
         str(t.get("unit", "")),
-        _number(label, t, "scale_nm", 1.0, positive=True),
-        _number(label, t, "weight", 1.0, positive=True),
+        where.number("scale_nm", t.get("scale_nm", 1.0), sign="positive"),
+        where.number("weight", t.get("weight", 1.0), sign="positive"),
         str(t.get("note", "")),
     )
