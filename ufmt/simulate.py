@@ -216,8 +216,7 @@ def simulate(
     spacing, trailing_arc : surface grid step [m] (one value or (x, y)) and back-cutting (off),
         see :func:`ufmt.machining.surface.surface_passes`.
     record_periods : spindle periods in the time path's record window.
-    sources : error sources switched on (default all of
-        :data:`ufmt.machining.sources.SOURCES`).
+    sources : error sources switched on (default all of :mod:`ufmt.machining.sources`).
     static_correction : add the residual flexibility of the modes above the basis
         (:mod:`ufmt.machining.static`; needs the model's assembled static solve).
     aperture_margin : clear-aperture edge exclusion [m] (default 5 mm).
@@ -230,7 +229,8 @@ def simulate(
         model = load_model(model)
     machine = _machine(model)
     basis = _basis(model, basis, n_modes, basis_cutoff_hz)
-    n_phi = n_phi or samples_per_rev(float(basis.omega[-1]) / (2 * np.pi), process.rpm / 60.0)
+    if n_phi is None:  # 0 stays an error of the discretisation, not the default
+        n_phi = samples_per_rev(float(basis.omega[-1]) / (2 * np.pi), process.rpm / 60.0)
     residual = _residual(model, basis, machine) if static_correction else None
     options = SimulationOptions(
         zeta=zeta,
