@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import tomllib
 from collections.abc import Mapping
 from pathlib import Path
 
@@ -18,6 +17,7 @@ from ufmt.studies.fields import COMMON_FIELDS, check_values, read_common, study_
 from ufmt.studies.kinds import KINDS
 from ufmt.studies.spec import Study
 from ufmt.tables import Where
+from ufmt.tomlfile import parse_toml, read_text
 
 
 def load_study(path: str | Path) -> Study:
@@ -29,25 +29,14 @@ def load_study(path: str | Path) -> Study:
         One line naming the file and the field.
     """
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise StudyError(f"{path}: file not found") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise StudyError(f"{path}: cannot read: {exc}") from None
-    return parse_study(text, path)
+    return parse_study(read_text(path, StudyError), path)
 
 
 def parse_study(text: str, path: str | Path = "study.toml") -> Study:
     """Parse and validate study TOML ``text``; ``path`` names it and anchors relative paths."""
     path = Path(path)
     where = Where(str(path), error=StudyError)
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        where.fail_table(f"malformed TOML: {' '.join(str(exc).split())}")
-    except RecursionError:
-        where.fail_table("malformed TOML: values nested too deeply")
+    data = parse_toml(text, str(path), StudyError)
     content_sha = _content_sha256(data)
     names = tuple(KINDS)
     if "kind" not in data:
