@@ -11,6 +11,7 @@ reads its own fields with this API and nothing else::
     grids = read_grids(where, data, parameters)                      # [[grid]] tables
     name = parameters.check(where.sub("draw[0]"), "parameter", t["parameter"])  # own tables
     if "rpm" in parameters.base: where.sub("base").fail("rpm", "is searched; remove it")
+    k = parameters.baseline("head_axial_stiffness_N_m")  # base, else reference/calibrated
 
 ``where`` is the file's :class:`~ufmt.tables.Where` at its top level (``where.sub("optimiser")``
 for a table, ``where.fail(field, problem)`` for a check of the kind's own); ``data`` the parsed
