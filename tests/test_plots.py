@@ -179,24 +179,6 @@ def test_points_outside_table1_are_shaded_on_the_sweep():
 # response figures on hand-made data
 
 
-def test_surface_map_marks_the_pv_extremes():
-    from types import SimpleNamespace
-
-    from ufmt.plots.response import plot_surface
-
-    x, y = np.linspace(-0.1, 0.1, 21), np.linspace(-0.2, 0.2, 41)
-    z = np.zeros((y.size, x.size))
-    z[30, 4], z[7, 15] = 5e-9, -3e-9  # highest at (x[4], y[30]), lowest at (x[15], y[7])
-    fig = plot_surface(SimpleNamespace(x=x, y=y, z=z))
-    marks = {
-        line.get_label().split(" point")[0]: (line.get_xdata()[0], line.get_ydata()[0])
-        for line in fig.axes[0].get_lines()
-    }
-    np.testing.assert_allclose(marks["highest"], (x[4] * 1e3, y[30] * 1e3))
-    np.testing.assert_allclose(marks["lowest"], (x[15] * 1e3, y[7] * 1e3))
-    assert "PV 8.00 nm" in fig.axes[0].get_title()
-
-
 def test_time_plots_shade_exactly_when_the_tool_cuts():
     from types import SimpleNamespace
 
