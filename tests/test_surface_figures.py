@@ -97,3 +97,22 @@ def test_time_frame_is_the_record_window(result, tmp_path):
         result.to_frame(kind="modes")
     names = {p.name for p in result.save(tmp_path)}
     assert {"surface.sdf", "surface.xyz", "time.csv", "surface_measured.png"} <= names
+
+
+def test_psd_figure_draws_the_psd_the_band_rms_integrates(result):
+    from ufmt.machining.psd import BANDS, band_power
+    from ufmt.plots.psd import KDP_SPEC_RMS_NM, band_verdict, plot_psd
+
+    fig = plot_psd(result)
+    ax = fig.axes[0]
+    along = next(line for line in ax.get_lines() if line.get_label().startswith("along"))
+    f_mm, psd_nm2mm = along.get_data()
+    # the drawn curve is in 1/mm and nm^2 mm: back to SI, its PSD1 power is the metric's
+    power = band_power(np.r_[0.0, f_mm * 1e3], np.r_[0.0, psd_nm2mm * 1e-21], BANDS["psd1"])
+    assert np.sqrt(power) * 1e9 == pytest.approx(result.metrics["psd1_rms_along_nm"], rel=1e-9)
+    text = fig.texts[-1].get_text()
+    value = result.metrics["psd1_rms_along_nm"]
+    verdict = "passes" if value <= KDP_SPEC_RMS_NM["psd1"] else "fails"
+    assert f"PSD1 RMS along : {value:.2f} nm (limit 1.8 nm: {verdict})" in text
+    assert "grid" in band_verdict(float("nan"), 1.1, 100, 1e-3, BANDS["psd2"])
+    assert "profile 52 mm < 3 x 33 mm" in band_verdict(float("nan"), 1.8, 53, 1e-3, BANDS["psd1"])

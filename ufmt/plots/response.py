@@ -17,6 +17,7 @@ from matplotlib.figure import Figure
 
 from ufmt.defaults import REFERENCE_RPM
 from ufmt.plots import new_axes, new_figure, save_figure
+from ufmt.plots.psd import plot_psd
 from ufmt.plots.surface import plot_pv_by_source, plot_surface_map
 
 _AXES = ("x", "y", "z")
@@ -138,7 +139,8 @@ def plot_frf(
 def simulation_figures(result) -> dict[str, Figure]:
     """The figures of a :class:`ufmt.simulate.SimulationResult` by file stem: Figs. 6, 7, 13,
     14 (the surface as machined and as the interferometer measures it, the maps of
-    ``SimulationResult.plot``) and the PV of each error source alone next to the total."""
+    ``SimulationResult.plot``), the surface PSDs and the PV of each error source alone next to
+    the total."""
     r = result.response
     figures = {
         "tool_tip_displacement": plot_tool_tip(r, "displacement"),
@@ -146,6 +148,7 @@ def simulation_figures(result) -> dict[str, Figure]:
         "z_re": plot_zre(r),
         "surface": plot_surface_map(result, "machined"),
         "surface_measured": plot_surface_map(result, "measured"),
+        "psd": plot_psd(result),
         "pv_by_source": plot_pv_by_source([result], [_process_label(result.process)]),
     }
     figures["pv_by_source"].axes[0].set_title("Surface PV of each error source alone and in total")
