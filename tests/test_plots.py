@@ -143,10 +143,73 @@ def test_pareto_log_axis_reads_plain_numbers_and_points_carry_their_recipe():
     texts = _tick_texts(fig)
     assert "100" in texts and "200" in texts
     assert not any("10^" in t or "times" in t or "×" in t for t in texts)
-    notes = [t.get_text() for t in fig.axes[0].texts]
-    assert "300 rpm, 16 mm/min, 2 µm" in notes
+    # front points are numbered on the axes; their recipes are listed in the legend
+    assert [t.get_text() for t in fig.axes[0].texts] == ["1", "2", "3"]
     legend = [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
+    assert any("1: 300 rpm, 16 mm/min, 2 µm" in t for t in legend)  # shortest time first
     assert not any("min-pv" in t for t in legend) and any("minimum PV" in t for t in legend)
+    assert "Table 1" not in fig.axes[0].get_title()  # no bounds given: no claim about them
+    table1 = [
+        {"parameter": "rpm", "range": [200.0, 400.0]},
+        {"parameter": "feed_mm_min", "range": [4.0, 16.0]},
+        {"parameter": "depth_um", "range": [2.0, 8.0]},
+    ]
+    titled = plot_pareto(points, front, optima, bounds=table1).axes[0].get_title()
+    assert "(Table 1 ranges)" in titled
+    narrower = [{**table1[0], "range": [250.0, 400.0]}, *table1[1:]]
+    assert "Table 1" not in plot_pareto(points, front, optima, bounds=narrower).axes[0].get_title()
+
+
+def test_narrow_log_range_labels_every_digit():
+    import pandas as pd
+
+    from ufmt.plots.studies import plot_convergence
+
+    convergence = pd.DataFrame(
+        {
+            "stage": "min-pv",
+            "phase": "global",
+            "evaluation": [1, 2, 3],
+            "best_objective_nm": [150.0, 90.0, 74.0],
+        }
+    )
+    texts = _tick_texts(plot_convergence(convergence))
+    assert {"70", "80", "90", "100"} <= set(texts)  # the 74 nm optimum is read between them
+    annotations = [t.get_text() for t in plot_convergence(convergence).axes[0].texts]
+    assert "74" in annotations
+
+
+def test_sweep_lines_show_the_interferometer_pv_and_leave_out_zero_sources():
+    import pandas as pd
+
+    from ufmt.plots.studies import plot_pv_lines
+
+    x = np.array([1.0, 2.0, 4.0])
+    points = pd.DataFrame(
+        {
+            "group": "k",
+            "k": x,
+            "pv_nm": [150.0, 140.0, 137.0],
+            "pv_measured_nm": [60.0, 55.0, 52.0],
+            "pv_dynamic_nm": [12.0, 9.0, 8.0],
+            "pv_spindle_tilt_nm": 0.0,
+            "pv_straightness_nm": 70.9,
+            "status": "ok",
+        }
+    )
+    groups = [{"name": "k", "axes": [{"parameter": "k", "log": True}]}]
+    fig = plot_pv_lines(points, groups, {"k": 2.0})
+    labels = [t.get_text() for t in fig.legends[0].get_texts()]
+    assert len(fig.legends) == 1 and all(a.get_legend() is None for a in fig.axes)
+    assert any(t.startswith("interferometer PV") for t in labels)
+    assert any(t.startswith("whole-plate PV") for t in labels)
+    assert not any("spindle tilt" in t for t in labels)  # zero: left out
+    assert any("straightness alone: 70.9 nm at every point" in t for t in labels)
+    vibration = next(
+        a for a in fig.axes for line in a.get_lines() if line.get_label().startswith("cutting")
+    )
+    low, high = vibration.get_ylim()
+    assert low > 0 and high < 20  # its own axis: the 12 -> 8 nm change fills it
 
 
 def test_design_tradeoff_cost_is_the_optimisers_cost():
