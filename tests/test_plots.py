@@ -63,6 +63,36 @@ def test_mode_plot_legend_names_undeformed_and_tool_tip(bridge, tmp_path):
     assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
+def test_mode_colour_is_the_displacement_magnitude_and_bodies_are_keyed(bridge):
+    from mpl_toolkits.mplot3d.art3d import Line3DCollection
+
+    model, solution = bridge
+    fig = plot_mode(model, solution.shapes, 0)
+    ax = fig.axes[0]
+    (deformed,) = [c for c in ax.collections if isinstance(c, Line3DCollection)]
+    shares = np.asarray(deformed.get_array())
+    # every edge's colour is its mean |displacement| over the largest: in [0, 1], and the
+    # edge of the most moving corners near 1 (the largest is reached at a corner or station)
+    assert shares.min() >= 0 and 0.9 <= shares.max() <= 1.0
+    assert len(fig.axes) == 2 and "displacement" in fig.axes[1].get_ylabel()  # colour bar
+    labels = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert "workpiece (top centre)" in labels
+    numbers = {t.get_text() for t in ax.texts}
+    key = fig.texts[-1].get_text().splitlines()
+    assert {line.split(":")[0] for line in key} == numbers  # each number keyed to a name
+
+
+def test_mode_animation_is_a_gif_of_the_requested_frames(bridge, tmp_path):
+    from PIL import Image
+
+    from ufmt.plots.modes import animate_mode
+
+    model, solution = bridge
+    path = animate_mode(model, solution.shapes, 0, tmp_path / "mode.gif", frames=4)
+    with Image.open(path) as image:
+        assert image.format == "GIF" and image.n_frames == 4  # phases 1, 0, -1, 0
+
+
 def test_small_grounded_body_is_in_view(bridge):
     # the bridge stands on ground but is the machine itself: it must not be cut off
     model, solution = bridge
