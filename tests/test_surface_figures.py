@@ -116,3 +116,20 @@ def test_psd_figure_draws_the_psd_the_band_rms_integrates(result):
     assert f"PSD1 RMS along : {value:.2f} nm (limit 1.8 nm: {verdict})" in text
     assert "grid" in band_verdict(float("nan"), 1.1, 100, 1e-3, BANDS["psd2"])
     assert "profile 52 mm < 3 x 33 mm" in band_verdict(float("nan"), 1.8, 53, 1e-3, BANDS["psd1"])
+
+
+def test_pv_by_source_draws_acting_sources_and_names_the_rest(result):
+    from ufmt.plots.surface import plot_pv_by_source
+
+    fig = plot_pv_by_source([result], ["reference cut"])
+    ax = fig.axes[0]
+    acting = [n for n, v in result.pv_by_source_nm.items() if v]
+    idle = [n for n, v in result.pv_by_source_nm.items() if not v]
+    bars = [b for c in ax.containers for b in c]
+    assert len(bars) == len(acting) + 2  # each acting source, the whole-plate and measured totals
+    heights = [b.get_height() for b in bars]
+    expected = [result.pv_by_source_nm[n] for n in acting]
+    expected += [result.metrics["pv_nm"], result.metrics["pv_measured_nm"]]
+    np.testing.assert_allclose(heights, expected)
+    for name in idle:
+        assert name.replace("_", " ") in ax.get_xlabel()

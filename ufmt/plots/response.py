@@ -151,12 +151,11 @@ def simulation_figures(result) -> dict[str, Figure]:
         "psd": plot_psd(result),
         "pv_by_source": plot_pv_by_source([result], [_process_label(result.process)]),
     }
-    figures["pv_by_source"].axes[0].set_title("Surface PV of each error source alone and in total")
     return figures
 
 
 def _process_label(process) -> str:
-    return f"{process.rpm:g} rpm, {process.feed_mm_min:g} mm/min, {process.depth_um:g} um"
+    return f"{process.rpm:g} rpm, {process.feed_mm_min:g} mm/min, {process.depth_um:g} µm"
 
 
 def plot_simulation(result, directory) -> list[Path]:

@@ -23,6 +23,10 @@ from ufmt.plots import new_axes, new_figure
 
 STAGES = ("machined", "measured")
 FEED_MARKS = "feed_marks"
+SOURCE_NAMES = {
+    "dynamic": "cutting-force\nvibration",
+    "total (every source)": "total, whole\nplate",
+}
 SCALLOPS_SHOWN = 4  # scallop periods drawn in the feed-mark inset
 _UNIT = {"nm": 1e9}
 
@@ -197,21 +201,28 @@ def plot_pv_by_source(results, labels, ax=None) -> Figure:
     fig, ax = new_axes(ax, (7.5, 4.2))
     names = [n for n in results[0].pv_by_source_nm if any(r.pv_by_source_nm[n] for r in results)]
     idle = [n for n in results[0].pv_by_source_nm if n not in names]
+    measured = all(np.isfinite(r.metrics.get("pv_measured_nm", np.nan)) for r in results)
     categories = [*names, "total (every source)"]
+    if measured:
+        categories.append("total, as\nmeasured")
     width = 0.8 / len(results)
     pos = np.arange(len(categories))
     for k, (result, label) in enumerate(zip(results, labels, strict=True)):
         values = [result.pv_by_source_nm[n] for n in names] + [result.metrics["pv_nm"]]
+        if measured:
+            values.append(result.metrics["pv_measured_nm"])
         bars = ax.bar(pos + k * width, values, width, label=label)
         ax.bar_label(bars, fmt="%.1f", fontsize=7, padding=1)
-    ax.set_xticks(pos + (len(results) - 1) * width / 2, [c.replace("_", " ") for c in categories])
+    names_shown = [SOURCE_NAMES.get(c, c.replace("_", " ")) for c in categories]
+    ax.set_xticks(pos + (len(results) - 1) * width / 2, names_shown)
     ax.tick_params(axis="x", labelsize=8)
-    ax.set_ylabel("PV, whole plate [nm]")
+    ax.set_ylabel("PV [nm]")
     ax.margins(y=0.12)
     if len(results) > 1:
         ax.legend(fontsize=8)
     else:
-        ax.set_title(labels[0], fontsize=9)
+        ax.set_title(f"PV of each error source alone and in total: {labels[0]}", fontsize=10)
     if idle:
-        ax.set_xlabel(f"no effect (0 nm or switched off): {', '.join(idle)}", fontsize=8)
+        idle_names = ", ".join(SOURCE_NAMES.get(n, n.replace("_", " ")) for n in idle)
+        ax.set_xlabel(f"no effect (0 nm or switched off): {idle_names}", fontsize=8)
     return fig
