@@ -27,6 +27,7 @@ VALIDATION = "validation"
 REFERENCE_CUT = "reference-process"
 FRF = "frf"
 MAX_TABLE_ROWS = 40  # longer tables are shown in full behind a <details> toggle
+COLUMN_CHARS = 40  # a column's width follows its longest cell up to this many characters
 
 _STYLE = """
 body { font-family: sans-serif; max-width: 1100px; margin: 2em auto; color: #222; }
@@ -440,7 +441,25 @@ def _csv(path: Path) -> str:
 
 
 def _table(table: pd.DataFrame) -> str:
-    return table.to_html(index=False, na_rep="", float_format=lambda v: f"{v:.6g}", border=0)
+    """The table as HTML in the page's fixed layout: each column's share of the width follows
+    its longest cell (capped at COLUMN_CHARS characters), so long text wraps in wide columns
+    and numbers keep narrow ones."""
+    text = table.to_html(index=False, na_rep="", float_format=lambda v: f"{v:.6g}", border=0)
+    lengths = [
+        min(
+            COLUMN_CHARS,
+            max([len(str(c)) // 2, *(len(_shown(v)) for v in table[c])], default=4),
+        )
+        + 2
+        for c in table.columns
+    ]
+    total = sum(lengths) or 1
+    cols = "".join(f'<col style="width:{100 * n / total:.1f}%">' for n in lengths)
+    return text.replace(">\n  <thead>", f"><colgroup>{cols}</colgroup>\n  <thead>", 1)
+
+
+def _shown(value) -> str:
+    return f"{value:.6g}" if isinstance(value, float) else str(value)
 
 
 def _details(summary: str, content: str) -> str:
