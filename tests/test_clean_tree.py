@@ -37,3 +37,14 @@ def test_a_run_that_computes_keeps_its_own_timings():
     assert settled_meta(changed, previous)["run"]["points_new"] == 0
     reused = {"fingerprint": "a", "status": "complete", "run": {"points_new": 0}}
     assert settled_meta(reused, previous)["run"]["points_new"] == 5
+
+
+def test_cli_says_when_a_rerun_reused_every_point(tmp_path, capsys):
+    from ufmt.cli import main
+
+    study = write_study(tmp_path, "said", SWEEP)
+    command = ["run", str(study), "--results", str(tmp_path / "r"), "--jobs", "1", "--no-progress"]
+    assert main(command) == 0
+    assert "20 points (20 new, 0 reused, 0 failed)" in capsys.readouterr().out
+    assert main(command) == 0
+    assert "20 points, every one reused from the run of" in capsys.readouterr().out

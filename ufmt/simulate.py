@@ -21,7 +21,6 @@ from pathlib import Path
 import numpy as np
 
 from ufmt.defaults import DEFAULT_BASIS_CUTOFF_HZ, DEFAULT_SPACING
-from ufmt.exports import time_frame, write_sdf, write_xyz
 from ufmt.machining.basis import ModalBasis
 from ufmt.machining.cut_geometry import DEFAULT_TABLE_ROWS, cut_geometry, samples_per_rev
 from ufmt.machining.cutting import DEFAULT_COEFFICIENTS, FORCE_PARTS, ForceCoefficients
@@ -129,6 +128,8 @@ class SimulationResult:
         import pandas as pd
 
         if kind == "time":
+            from ufmt.exports import time_frame  # loaded only to export, never to compute
+
             return time_frame(self.response)
         if kind != "summary":
             raise ValueError(f"kind must be 'summary' or 'time', got {kind!r}")
@@ -149,6 +150,7 @@ class SimulationResult:
         surface without the feed marks as surface.xyz and surface.sdf (ISO 25178-71),
         surface.npz (x_m, y_m, z_m: every source; z_smooth_m: without the feed marks) and the
         maps surface.png and surface_measured.png (:mod:`ufmt.exports`)."""
+        from ufmt.exports import write_sdf, write_xyz
         from ufmt.plots import save_figure
 
         d = Path(directory)

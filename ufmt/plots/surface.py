@@ -5,9 +5,11 @@ One surface figure serves the API (``SimulationResult.plot`` / ``.save``), the C
 (``ufmt simulate --plot``) and the report. The map shows the height about its mean [nm] in a
 diverging colour map centred on zero, the two points that set the PV marked, the clear
 aperture outlined. The feed marks (scallops tens of um apart) are not drawn on the map: its
-grid is about 1 mm, which would only alias them into a moire. Where they are switched on, an
-inset draws their profile across the feed at their own scale (the parabolic scallop of the
-tool nose, eq. 4.1, at the largest scallop inside the clear aperture).
+grid is about 1 mm, which would only alias them into a moire. Where they are switched on, a
+strip below the map (an inset when drawing into a given axes) draws their profile across the
+feed at their own scale (the parabolic scallop of the tool nose, eq. 4.1, at the largest
+scallop inside the clear aperture). The clear aperture is that of the default instrument
+(:class:`ufmt.machining.instruments.Interferometer`).
 """
 
 from __future__ import annotations
@@ -28,7 +30,6 @@ SOURCE_NAMES = {
     "total (every source)": "total, whole\nplate",
 }
 SCALLOPS_SHOWN = 4  # scallop periods drawn in the feed-mark inset
-_UNIT = {"nm": 1e9}
 
 
 def measured_map(result, instrument: Interferometer | None = None):
@@ -62,8 +63,8 @@ def plot_surface_map(result, stage: str = "machined", ax=None) -> Figure:
     stage: "machined" (the whole plate as cut, without the feed marks: the surface the
     bands and the whole-plate PV of every smooth source use) or "measured" (the clear
     aperture as the interferometer reports it, :func:`measured_map`). The highest and lowest
-    points are marked, the clear aperture outlined, the feed marks drawn in an inset at their
-    own scale where they are switched on. Draws into ``ax`` if given, else a new figure.
+    points are marked, the clear aperture outlined, the feed marks drawn at their own scale
+    where they are switched on. Draws into ``ax`` if given, else a new figure.
     """
     if stage not in STAGES:
         raise ValueError(f"stage must be one of {STAGES}, got {stage!r}")
@@ -88,7 +89,8 @@ def plot_surface_map(result, stage: str = "machined", ax=None) -> Figure:
         norm=TwoSlopeNorm(0.0, -limit, limit),
         rasterized=True,
     )
-    fig.colorbar(mesh, ax=ax, label="height about the mean plane [nm]", shrink=0.85)
+    about = "its mean" if stage == "machined" else "the best-fit plane (piston, tilt)"
+    fig.colorbar(mesh, ax=ax, label=f"height about {about} [nm]", shrink=0.85)
     _mark_extremes(ax, x_mm, y_mm, z_nm)
     _outline_aperture(ax, result.smooth_surface, stage)
     ax.set_aspect("equal")
