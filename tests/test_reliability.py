@@ -417,7 +417,7 @@ def test_comments_and_another_clone_keep_the_rows(tmp_path):
         (clone / "model.toml").write_bytes(ufmt.packaged_path().read_bytes())
     body = 'model = "../model.toml"\n' + RPM_SWEEP.format(n=3)
     study_a = study_file(clone_a / "studies", "s", body)
-    _run(study_a, clone_a / "r")
+    first = read_meta(_run(study_a, clone_a / "r"))["run"]
     # the same study in another place, with comments added to the study and the model file
     study_b = study_file(clone_b / "studies", "s", "# a comment\n" + body + "# another\n")
     with (clone_b / "model.toml").open("a", encoding="utf-8") as f:
@@ -425,7 +425,8 @@ def test_comments_and_another_clone_keep_the_rows(tmp_path):
     (clone_b / "r").mkdir()
     os.replace(clone_a / "r" / "s", clone_b / "r" / "s")  # committed results, new clone
     out = _run(study_b, clone_b / "r")
-    assert read_meta(out)["run"]["points_reused"] == 3
+    # every row reused: the record stays that of the run that computed them
+    assert read_meta(out)["run"] == first and first["points_new"] == 3
     assert load_study(study_a).content_sha256 != ""
 
 

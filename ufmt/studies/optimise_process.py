@@ -205,7 +205,10 @@ def figures(out_dir: Path) -> dict[str, Figure]:
     return {
         "convergence.png": plot_convergence(outputs.read_table(out_dir / CONVERGENCE)),
         "pareto.png": plot_pareto(
-            points, outputs.read_table(out_dir / PARETO), outputs.read_table(out_dir / OPTIMA)
+            points,
+            outputs.read_table(out_dir / PARETO),
+            outputs.read_table(out_dir / OPTIMA),
+            bounds=outputs.read_meta(out_dir).get("bounds"),
         ),
     }
 

@@ -93,6 +93,9 @@ def sweep_headline(table: pd.DataFrame, study) -> str:
                     f"; its cutting-force vibration part {short(dyn[np.argmin(x)])} ->"
                     f" {short(dyn[np.argmax(x)])} nm"
                 )
+            if lo == hi:  # one value: nothing rises or falls
+                parts.append(f"PV {short(pv.min())} nm at {name} = {short(lo)} (one point)")
+                continue
             parts.append(
                 f"PV {trend(x, pv)} as {name} rises from {short(lo)} to {short(hi)}"
                 f" (PV {short(pv[np.argmin(x)])} -> {short(pv[np.argmax(x)])} nm,"
