@@ -20,8 +20,9 @@ __version__ = "0.1.0"
 from ufmt.evaluate import evaluate  # noqa: E402
 from ufmt.machining.process import Process  # noqa: E402
 from ufmt.model.load import load_model, packaged_path  # noqa: E402
-from ufmt.mstmm.solve import ModalSolution, solve_modes  # noqa: E402
+from ufmt.mstmm.solve import ModalSolution  # noqa: E402
 from ufmt.simulate import simulate  # noqa: E402
+from ufmt.solvers import solve_modes  # noqa: E402
 
 __all__ = [
     "ModalSolution",
