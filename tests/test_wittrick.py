@@ -2,6 +2,8 @@
 (clamped-free and free-free beams, a spring-mass chain), against the assembled model's count
 at fine meshes (the packaged model, the bridge example), and on repeated roots."""
 
+import json
+
 import numpy as np
 import pytest
 import scipy.linalg as sla
@@ -237,3 +239,53 @@ def test_a_massless_mechanism_is_a_model_error():
     )
     with pytest.raises(ModelError, match=r"body 'hub': massless mechanism.*\(rx\)"):
         RootCounter(model)
+
+
+def assert_each_root_is_where_the_count_steps(model, f: np.ndarray) -> None:
+    """Oracle: J (the exact dynamic stiffness, no transfer matrix) just below and above each
+    distinct root found steps from the number of roots below to that plus its multiplicity."""
+    distinct, first, multiplicity = np.unique(
+        np.round(f / f[0], 8), return_index=True, return_counts=True
+    )
+    roots = f[first]
+    counter = RootCounter(model)
+    np.testing.assert_array_equal(counter.below(roots * (1 - 1e-8)), first)
+    np.testing.assert_array_equal(counter.below(roots * (1 + 1e-8)), first + multiplicity)
+
+
+@pytest.mark.slow
+def test_packaged_model_first_150_modes_are_all_found():
+    """count=150 (up to 108 kHz) lost 11 roots with the assembled brackets."""
+    model = load_model()
+    sol = solve_modes(model, count=150, shapes=False)
+    assert sol.frequencies_hz.size == sol.expected == 150
+    assert_each_root_is_where_the_count_steps(model, sol.frequencies_hz)
+
+
+def test_packaged_model_to_20_khz_finds_every_counted_root(capsys):
+    """``ufmt modes --fmax 20000`` on the packaged model: as many roots as J counts, each
+    where J steps."""
+    from ufmt.cli import main
+
+    assert main(["modes", "--fmax", "20000", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    model = load_model()
+    assert out["count"] == out["expected_count"] == RootCounter(model).below(20000.0)[0] >= 80
+    assert_each_root_is_where_the_count_steps(model, np.array(out["frequencies_hz"]))
+
+
+@pytest.mark.parametrize(
+    "model",
+    [model_from_dict(rotor_dict()), *(model_from_dict(axisymmetric_chain(s)) for s in (1, 3))],
+    ids=["rotor", "chain1", "chain3"],
+)
+def test_repeated_roots_found_with_their_multiplicity(model):
+    """The isotropic rotor to 10 kHz and random axisymmetric chains (every root): each double
+    root twice, each root where J steps by its multiplicity."""
+    fmax = 10000.0 if model.name == "rotor" else None
+    sol = solve_modes(
+        model, fmax_hz=fmax, count=None if fmax else int(RootCounter(model).total_modes())
+    )
+    assert sol.frequencies_hz.size == sol.expected
+    assert np.sum(np.diff(sol.frequencies_hz) <= 1e-9 * sol.frequencies_hz[1:]) >= 3
+    assert_each_root_is_where_the_count_steps(model, sol.frequencies_hz)
