@@ -305,7 +305,7 @@ def _search_range(counter: RootCounter, fmax_hz, count, one_more: bool) -> Brack
     if fmax_hz is not None and counter.below(float(fmax_hz))[0] < wanted:
         return counter.brackets(float(fmax_hz))
     upper = counter.upper_for(wanted, DEFAULT_FMAX_HZ if fmax_hz is None else float(fmax_hz))
-    found = counter.brackets(upper * (1 + 1e-9))
+    found = counter.brackets(upper * (1 + 1e-9), first=wanted)
     last = int(np.searchsorted(np.cumsum(found.multiplicity), wanted))  # holds root `wanted`
     top = found.hi_hz[last]
     if last + 1 < found.lo_hz.size:  # half-way (geometrically) to the next bracket

@@ -8,8 +8,9 @@ nodal exact dynamic stiffness matrix (:mod:`ufmt.mstmm.nodal`). s{K} is the iner
 LDLᵀ factorisation (LAPACK ``dsytrf``, Bunch-Kaufman pivoting: backward stable for
 indefinite matrices; by Sylvester's law the signs of D's 1x1 and 2x2 blocks give the inertia;
 23 µs per matrix of order 78 on the packaged model, against 165 µs for the eigenvalues
-``eigvalsh`` would compute only to read their signs; CPU time, one BLAS thread). Zero-frequency (rigid-body and mechanism) modes lie
-below every ω > 0 and are subtracted (counted from geometry, :mod:`ufmt.mstmm.nodal`).
+``eigvalsh`` would compute only to read their signs; CPU time, one BLAS thread).
+Zero-frequency (rigid-body and mechanism) modes lie below every ω > 0 and are subtracted
+(counted from geometry, :mod:`ufmt.mstmm.nodal`).
 
 Bisection on J brackets every root: an interval [a, b] with J(b) - J(a) = m holds exactly m
 roots, and splitting it until each holds one (or is narrower than CLUSTER_RTOL, a repeated
@@ -110,10 +111,13 @@ class RootCounter:
             hz *= 2.0
         return hz
 
-    def brackets(self, below_hz: float, start_rtol: float | None = None) -> Brackets:
-        """Brackets of every natural frequency below ``below_hz`` [Hz], by bisection on J
-        (geometric middles, all brackets at once): single roots to ``start_rtol`` (relative
-        width; default START_RTOL), clusters to CLUSTER_RTOL."""
+    def brackets(
+        self, below_hz: float, start_rtol: float | None = None, first: int | None = None
+    ) -> Brackets:
+        """Brackets of every natural frequency below ``below_hz`` [Hz] (only the ``first``
+        ones, if given), by bisection on J (geometric middles, all brackets at once): single
+        roots to ``start_rtol`` (relative width; default START_RTOL), clusters to
+        CLUSTER_RTOL."""
         start_rtol = START_RTOL if start_rtol is None else start_rtol
         top = float(below_hz)
         grid = top * np.geomspace(10.0**-GRID_DECADES, 1.0, GRID_POINTS)
@@ -124,6 +128,9 @@ class RootCounter:
         keep = np.flatnonzero(np.diff(counts) > 0)
         lo, hi, lo_c, hi_c = grid[keep], grid[keep + 1], counts[keep], counts[keep + 1]
         for _ in range(MAX_BISECTIONS):
+            if first is not None:  # intervals above the wanted roots: not refined
+                keep = lo_c < first
+                lo, hi, lo_c, hi_c = lo[keep], hi[keep], lo_c[keep], hi_c[keep]
             m = hi_c - lo_c
             wide = np.where(m > 1, CLUSTER_RTOL, start_rtol) * hi < hi - lo
             if not wide.any():
