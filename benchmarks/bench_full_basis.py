@@ -150,11 +150,8 @@ def compare(model, count: int | None, label: str, errors: dict) -> None:
     for target in TARGETS:
         best = min(chosen[target], key=lambda c: seconds[c[:2]])
         for name, elements, reached in chosen[target]:
-            note = (
-                ""
-                if reached
-                else f"  (not reached: finest tried, {errors[name][elements][:n].max():.1e})"
-            )
+            worst = errors[name][elements][:n].max()
+            note = "" if reached else f"  (not reached: the most accurate tried, {worst:.1e})"
             ms = 1e3 * seconds[(name, elements)]
             print(f"  {target:.0e}: {name:22s} {elements:4d} el/beam {ms:9.1f} ms{note}")
         bound = "" if best[2] else " (bound: the baseline has not reached the target)"
