@@ -34,6 +34,8 @@ def solve_modes(
         return mstmm_modes(model, fmax_hz, count, shapes=shapes)
     if fmax_hz is not None and not (fmax_hz > 0 and fmax_hz < float("inf")):
         raise UfmtError(f"--fmax: {fmax_hz} must be a positive number of Hz")
+    if count is not None and count < 1:
+        raise UfmtError(f"number of modes: {count} must be >= 1")
     from ufmt.assembled import assembled_modes
 
     t0 = time.perf_counter()
