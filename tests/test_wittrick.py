@@ -110,9 +110,9 @@ def test_free_free_beam_counts_six_rigid_body_modes_and_the_closed_form():
     assert sol.rigid_body_modes == 6
 
 
-def test_spring_mass_chain_counts_its_eigenvalues():
+def spring_chain():
     """Three point masses in a line on x springs (every other direction rigid to ground):
-    oracle the eigenvalues of the 3x3 (K, M) of the chain."""
+    the model and its exact frequencies [Hz] (eigenvalues of the chain's 3x3 (K, M))."""
     k, m = np.array([4e6, 2.5e6, 1e6]), np.array([12.0, 7.0, 3.0])
     bodies, hinges = [], []
     for i in range(3):
@@ -134,12 +134,27 @@ def test_spring_mass_chain_counts_its_eigenvalues():
         hinges.append({"name": f"guide{i}", "between": ["ground", f"m{i}"], "at": at} | guide)
     model = model_from_dict({"name": "chain", "body": bodies, "hinge": hinges})
     stiffness = np.diag(k + np.r_[k[1:], 0.0]) - np.diag(k[1:], 1) - np.diag(k[1:], -1)
-    exact = np.sqrt(sla.eigh(stiffness, np.diag(m), eigvals_only=True)) / (2 * np.pi)
+    return model, np.sqrt(sla.eigh(stiffness, np.diag(m), eigvals_only=True)) / (2 * np.pi)
+
+
+def test_spring_mass_chain_counts_its_eigenvalues():
+    """Oracle: the eigenvalues of the chain's (K, M) (:func:`spring_chain`)."""
+    model, exact = spring_chain()
     counter = RootCounter(model)
     assert counter.total_modes() == 3
     assert_counts_match(counter, exact, 1e-12)
     assert counter.below(10 * exact[-1])[0] == 3
     np.testing.assert_allclose(solve_modes(model, count=3).frequencies_hz, exact, rtol=1e-10)
+
+
+def test_bisection_on_the_count_finds_the_roots_alone():
+    """The fallback when Newton cannot certify a bracket: bisection on J from 1 % brackets
+    reaches the chain's eigenvalues to 1e-12 (oracle as above)."""
+    model, exact = spring_chain()
+    counter = RootCounter(model)
+    brackets = counter.brackets(2 * exact[-1], start_rtol=1e-2)
+    assert np.all(brackets.hi_hz - brackets.lo_hz > 1e-3 * brackets.hi_hz)
+    np.testing.assert_allclose(counter.refine(brackets.lo_hz, brackets.hi_hz), exact, rtol=1e-12)
 
 
 @pytest.mark.parametrize(
