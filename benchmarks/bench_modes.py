@@ -1,7 +1,7 @@
 """Benchmark: 30 modes with shapes of the packaged UFMT model, MSTMM against the assembled
 model at equal accuracy and equal BLAS threads.
 
-* MSTMM: ``solve_modes(model, count=30)`` (its own coarse assembled count and estimates,
+* MSTMM: ``solve_modes(model, count=30)`` (its Wittrick-Williams count and brackets,
   Newton roots to 1e-12, inverse-iteration shapes on every body).
 * Baseline: assembled build (mesh, K, M, exact condensation of the massless dofs) plus an
   eigen-solver, eigenvectors included, at the coarsest beam mesh whose 30 frequencies are

@@ -14,7 +14,7 @@ from ufmt.mstmm.solve import continuation, solve_modes
 
 
 @pytest.mark.parametrize(
-    ("steps", "count", "assembled_solves"),
+    ("steps", "count", "counted_solves"),
     [
         ((1.0, 1.002, 1.004, 1.006), 12, 1),
         ((1.0, 1.02, 1.04, 1.06), 12, 1),
@@ -23,24 +23,22 @@ from ufmt.mstmm.solve import continuation, solve_modes
     ],
 )
 def test_sweep_with_continuation_equals_independent_solves(
-    monkeypatch, steps, count, assembled_solves
+    monkeypatch, steps, count, counted_solves
 ):
     """Stiffness sweeps of the packaged model: oracle = each design solved on its own (with
-    the assembled estimates). In small steps only the first design needs the assembled
-    solve; in 50 % steps the Courant-Fischer brackets of the 10.2 and 10.4 Hz modes overlap,
-    so every design takes the assembled path, with the same result."""
+    the Wittrick-Williams brackets). In small steps only the first design needs the count;
+    in 50 % steps the Courant-Fischer brackets of the 10.2 and 10.4 Hz modes overlap, so
+    every design takes the counted path, with the same result."""
     base = load_model(packaged_path("ufmt-prior.toml"))
     hinge = base.hinges[0]
     designs = [base.with_hinge(hinge.name, stiffness=hinge.stiffness6[:3] * s) for s in steps]
     independent = [solve_modes(m, count=count) for m in designs]
     calls = []
-    real = solve_module.assembled_modes
-    monkeypatch.setattr(
-        solve_module, "assembled_modes", lambda *a, **k: calls.append(1) or real(*a, **k)
-    )
+    real = solve_module.RootCounter
+    monkeypatch.setattr(solve_module, "RootCounter", lambda m: calls.append(1) or real(m))
     with continuation(("sweep", steps, count)):
         tracked = [solve_modes(m, count=count) for m in designs]
-    assert len(calls) == assembled_solves
+    assert len(calls) == counted_solves
     for a, b in zip(independent, tracked, strict=True):
         np.testing.assert_allclose(b.frequencies_hz, a.frequencies_hz, rtol=1e-10)
         for name, motion in a.shapes.rigid.items():  # unit modal mass, up to sign

@@ -208,7 +208,36 @@ def test_no_tracker_numbers_in_code_or_docs():
     assert not hits, "\n".join(hits)
 
 
+def independence_violations(found: list[Import], pairs) -> list[str]:
+    """Imports between two packages that must stay independent (either direction)."""
+    return [
+        f"{imp.importer}:{imp.line} imports {imp.target}"
+        for imp in found
+        for a, b in pairs
+        for own, other in ((a, b), (b, a))
+        if (imp.importer == own or imp.importer.startswith(own + "."))
+        and (imp.target == other or imp.target.startswith(other + "."))
+    ]
+
+
+# the MSTMM and its oracle, the assembled model, share only the layers above both
+INDEPENDENT = [("ufmt.mstmm", "ufmt.assembled")]
+
+
+def test_the_mstmm_and_the_assembled_model_import_nothing_from_each_other():
+    problems = independence_violations(_all_imports(), INDEPENDENT)
+    assert not problems, "\n".join(problems)
+
+
 # The checker itself must be able to fail: synthetic modules breaking each rule.
+
+
+def test_the_checker_reports_an_import_between_independent_packages():
+    source = "def solve():\n    from ufmt.assembled import assembled_modes\n"
+    found = imports_of(source, "ufmt.mstmm.solve")
+    assert independence_violations(found, INDEPENDENT) == [
+        "ufmt.mstmm.solve:2 imports ufmt.assembled"
+    ]
 
 
 def test_the_checker_reports_a_late_import_up_a_layer():

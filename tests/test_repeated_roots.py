@@ -11,11 +11,12 @@ from synthetic import axisymmetric_chain
 from ufmt.assembled import assembled_modes
 from ufmt.cli import main
 from ufmt.model.load import load_model, model_from_dict, packaged_path
-from ufmt.mstmm import solve as solve_module
+from ufmt.mstmm import wittrick
 from ufmt.mstmm.modes import modal_mass, mode_shapes, shape_state_keys
 from ufmt.mstmm.overall import TransferSystem
 from ufmt.mstmm.roots import RootsLostError, natural_frequencies
 from ufmt.mstmm.solve import solve_modes
+from ufmt.mstmm.wittrick import RootCounter
 
 INF = float("inf")
 RIGID = {"stiffness": [INF] * 3, "rotational_stiffness": [INF] * 3}
@@ -142,17 +143,17 @@ def test_a_counted_root_that_is_not_found_is_reported():
 
 @pytest.fixture
 def lossy_rotor(tmp_path, monkeypatch):
-    """The rotor file with the assembled count given one extra (fake) mode at 1234.5 Hz."""
+    """The rotor file with the count given one extra (fake) mode at 1234.5 Hz, which neither
+    Newton nor the fallback (here failing: NaN) can find."""
     path = tmp_path / "rotor.toml"
     path.write_text(to_toml(rotor_dict()))
-    real = solve_module.assembled_modes
+    real_below = RootCounter.below
 
-    def with_fake_mode(*args, **kwargs):
-        out = real(*args, **kwargs)
-        f = np.sort(np.r_[out.frequencies_hz, 1234.5])
-        return type(out)(f, out.rigid_body_modes, out.shapes, out.assembled)
+    def with_fake_mode(self, hz):
+        return real_below(self, hz) + (np.atleast_1d(hz) > 1234.5)
 
-    monkeypatch.setattr(solve_module, "assembled_modes", with_fake_mode)
+    monkeypatch.setattr(RootCounter, "below", with_fake_mode)
+    monkeypatch.setattr(RootCounter, "refine", lambda self, lo, hi: np.full(len(lo), np.nan))
     return path
 
 
@@ -199,10 +200,12 @@ def test_newton_null_space_matches_inverse_iteration(seed):
         np.testing.assert_allclose(cosines, 1.0, atol=1e-8)
 
 
-def test_rotor_roots_found_from_a_coarse_first_mesh(monkeypatch):
-    """With 4 elements per beam the 4.2 kHz estimates are too far off for Newton and the scan
-    (found 17 of 21): the solve retries with a finer assembled mesh instead of failing."""
-    monkeypatch.setattr(solve_module, "BRACKETING_MESHES", (4, 24, 64))
+@pytest.mark.parametrize("start_rtol", [3e-2, 1e-8])
+def test_rotor_roots_found_from_coarse_or_fine_brackets(monkeypatch, start_rtol):
+    """Brackets of 3 % (Newton may leave some to the fallback bisection on the count) or
+    1e-8: every root of the rotor below 5 kHz either way (oracle: the extrapolated assembled
+    reference)."""
+    monkeypatch.setattr(wittrick, "START_RTOL", start_rtol)
     sol = solve_modes(model_from_dict(rotor_dict()), fmax_hz=5000.0)
     fine = rotor_reference()
     np.testing.assert_allclose(sol.frequencies_hz, fine[fine <= 5000.0], rtol=1e-6)

@@ -12,23 +12,50 @@ Public entry points:
   ``process`` is a ``ufmt.Process`` or a dict.
 """
 
+import sys
+import types
+
 __version__ = "0.1.0"
 
-# Imported eagerly: the functions ``simulate`` and ``evaluate`` share their names with their
-# modules, and binding them here (after the submodules load) keeps ``ufmt.simulate`` the
-# function whatever is imported later.
-from ufmt.evaluate import evaluate  # noqa: E402
-from ufmt.machining.process import Process  # noqa: E402
-from ufmt.model.load import load_model, packaged_path  # noqa: E402
-from ufmt.mstmm.solve import ModalSolution, solve_modes  # noqa: E402
-from ufmt.simulate import simulate  # noqa: E402
+# The public names load their modules on first use (PEP 562): ``import ufmt`` and
+# ``ufmt --version`` stay instant, and a command pays only for the stages it runs.
+_PUBLIC = {
+    "ModalSolution": "ufmt.mstmm.solve",
+    "Process": "ufmt.machining.process",
+    "evaluate": "ufmt.evaluate",
+    "load_model": "ufmt.model.load",
+    "packaged_path": "ufmt.model.load",
+    "simulate": "ufmt.simulate",
+    "solve_modes": "ufmt.solvers",
+}
+__all__ = sorted(_PUBLIC)
 
-__all__ = [
-    "ModalSolution",
-    "Process",
-    "evaluate",
-    "load_model",
-    "packaged_path",
-    "simulate",
-    "solve_modes",
-]
+
+def __getattr__(name: str):
+    """The public function or class ``name``, imported from its module when first asked for
+    and bound here."""
+    if name not in _PUBLIC:
+        raise AttributeError(f"module 'ufmt' has no attribute {name!r}")
+    import importlib
+
+    value = getattr(importlib.import_module(_PUBLIC[name]), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted([*globals(), *_PUBLIC])
+
+
+class _Package(types.ModuleType):
+    """The package module: ``simulate`` and ``evaluate`` share their names with their modules,
+    and importing ``ufmt.simulate`` binds the module on the package; the function is bound
+    instead, so ``ufmt.simulate`` is the function whatever is imported when."""
+
+    def __setattr__(self, name, value):
+        if name in _PUBLIC and isinstance(value, types.ModuleType) and hasattr(value, name):
+            value = getattr(value, name)
+        super().__setattr__(name, value)
+
+
+sys.modules[__name__].__class__ = _Package

@@ -31,8 +31,9 @@ PHYSICS = (
     "tomlfile.py",  # the file reader whose messages a failed evaluation records
     "model",  # loading and validating model files, [machine] and [design] tables
     "kinematics.py",  # rigid-point kinematics of both solvers
-    "assembled",  # the mass-stiffness model that counts and brackets the MSTMM roots
-    "mstmm",  # natural frequencies and mode shapes
+    "assembled",  # the mass-stiffness model (static flexibility, calibration's reduced model)
+    "mstmm",  # natural frequencies (counted by Wittrick-Williams) and mode shapes
+    "solvers.py",  # solve_modes by either solver
     "machining",  # modal basis, cutting force, error sources, response, surface
     "simulate.py",  # one cut
     "design.py",  # design parameters -> hinge values, the reference process, record names

@@ -15,16 +15,7 @@ import os
 import sys
 import warnings
 
-import numpy as np
-from threadpoolctl import threadpool_limits
-
 from ufmt import __version__
-from ufmt.cli.calibration import register as register_calibration
-from ufmt.cli.common import positive
-from ufmt.cli.machining import register as register_machining
-from ufmt.cli.modes import cmd_modes
-from ufmt.cli.report import register as register_report
-from ufmt.cli.studies import add_run_parser
 from ufmt.errors import UfmtError
 
 DESCRIPTION = (
@@ -39,6 +30,15 @@ MAX_MODE_FREQUENCY_HZ = 2e4
 
 
 def build_parser() -> argparse.ArgumentParser:
+    """The full parser: every sub-command registers its arguments (their modules, and the
+    defaults their help shows, load here, not when ``ufmt.cli`` is imported)."""
+    from ufmt.cli.calibration import register as register_calibration
+    from ufmt.cli.common import positive
+    from ufmt.cli.machining import register as register_machining
+    from ufmt.cli.modes import cmd_modes
+    from ufmt.cli.report import register as register_report
+    from ufmt.cli.studies import add_run_parser
+
     parser = _Parser(prog="ufmt", description=DESCRIPTION)
     parser.add_argument("--version", action="version", version=f"ufmt {__version__}")
     sub = parser.add_subparsers(dest="command", title="commands")
@@ -71,6 +71,10 @@ def _warning_line(message, category, filename, lineno, file=None, line=None):
 
 
 def main(argv=None) -> int:
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if argv[:1] == ["--version"]:  # as argparse's version action, without building the parser
+        print(f"ufmt {__version__}")
+        raise SystemExit(0)
     with warnings.catch_warnings():
         warnings.showwarning = _warning_line
         return _main(argv)
@@ -82,6 +86,9 @@ def _main(argv) -> int:
     if args.command is None:  # bare `ufmt`: the help, not an error
         parser.print_help()
         return 0
+    import numpy as np  # here, not at the top: `ufmt --version` and `--help` stay instant
+    from threadpoolctl import threadpool_limits
+
     try:
         if args.command == "run":  # the study runner limits BLAS threads per worker itself
             return int(args.func(args) or 0)

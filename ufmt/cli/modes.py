@@ -10,7 +10,8 @@ from ufmt.jsonout import dumps_strict
 
 def cmd_modes(args) -> int:
     """Natural frequencies (and dominant bodies/directions) of a model."""
-    from ufmt.mstmm.solve import describe, solve_modes
+    from ufmt.mstmm.solve import describe
+    from ufmt.solvers import solve_modes
 
     model = load(args.model)
     sol = solve_modes(model, args.fmax, args.count, args.method, shapes=args.method == "mstmm")
@@ -41,7 +42,7 @@ def cmd_modes(args) -> int:
         print(f"{i + 1:>5} {f:>14.6f}  {desc}")
     if sol.expected != sol.frequencies_hz.size:
         print(
-            f"warning: the assembled model counts {sol.expected} modes in this range",
+            f"warning: {sol.expected} modes are counted in this range",
             file=sys.stderr,
         )
     return 0

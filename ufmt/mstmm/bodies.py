@@ -114,8 +114,6 @@ class BodyRules:
         :class:`ShapeParts`;
     kinetic(body, rigid_a, beams_a, rigid_b, beams_b, out) -> None: its mass products
         ⟨V_a, M V_b⟩ (n, 6) [kg] per direction into ``out``;
-    distributed: it has distributed mass (the assembled model's count of its modes depends on
-        a mesh);
     edge_matrix(omega, body, rotation), edge_rotation(body, p_in, p_out): the transfer matrix
         of its own edge and that edge's rotation to the global frame (None without an edge).
     """
@@ -126,7 +124,6 @@ class BodyRules:
     state_key: Callable
     shape: Callable
     kinetic: Callable
-    distributed: bool
     edge_matrix: Callable | None = None
     edge_rotation: Callable | None = None
 
@@ -328,7 +325,6 @@ BODY_RULES: dict[type, BodyRules] = {
         state_key=_rigid_state_key,
         shape=_rigid_shape,
         kinetic=_rigid_kinetic,
-        distributed=False,
     ),
     VirtualBody: BodyRules(
         graph=_virtual_graph,
@@ -337,7 +333,6 @@ BODY_RULES: dict[type, BodyRules] = {
         state_key=_virtual_state_key,
         shape=_virtual_shape,
         kinetic=_no_mass,
-        distributed=False,
     ),
     Beam: BodyRules(
         graph=_beam_graph,
@@ -346,7 +341,6 @@ BODY_RULES: dict[type, BodyRules] = {
         state_key=_beam_state_key,
         shape=_beam_shape,
         kinetic=_beam_kinetic,
-        distributed=True,
         edge_matrix=lambda omega, body, rotation: elements.beam(omega, body, rotation=rotation),
         edge_rotation=elements.beam_rotation,
     ),

@@ -1,28 +1,31 @@
 """Natural frequencies: every root of det U_all(ω) = 0 in (0, f_max] (paper eq. 2.23).
 
-The assembled mass-stiffness model of the same file (``ufmt.assembled``) counts the roots and
-says where they are (within ~1e-5 on the packaged model); the MSTMM then finds each one on its
-own:
+The Wittrick-Williams count (:mod:`ufmt.mstmm.wittrick`) brackets every root, each bracket
+holding a known number of them (:func:`bracketed_roots`); :func:`natural_frequencies` takes
+estimates of the roots instead (any independent model's). The MSTMM then finds each root:
 
-1. **Newton on det, batched over all roots.** Estimates closer than 1e-6 form a cluster of
-   multiplicity m (a repeated root of a symmetric structure). From the cluster's estimate,
+1. **Newton on det, batched over all roots.** A bracket of m roots (or estimates closer than
+   1e-6) is a cluster of multiplicity m (a repeated root of a symmetric structure). From the
+   cluster's start (the bracket's geometric centre, or the estimate),
    ω_k ← ω_k - m_k / (tr(U_all⁻¹ dU_all/dω) - Σ_j≠k m_j / (ω_k - ω_j)), the
    multiplicity-corrected Newton step on det U_all (d ln det U/dω = tr(U⁻¹ U')) with the
    other clusters' current roots divided out (Aberth-Ehrlich), converges at least
    quadratically for simple and semisimple repeated roots alike and keeps two clusters off
    one root. dU/dω is a forward difference of U_all (its entries are smooth in ω).
    A cluster is certified when its steps contract superlinearly (a wrong multiplicity
-   converges linearly or oscillates) inside the cluster's window (half-way, geometrically,
-   to the neighbouring estimates; a step that would leave it goes half-way to its end) and
+   converges linearly or oscillates) inside the cluster's window (its bracket, or half-way,
+   geometrically, to the neighbouring estimates; a step that would leave it goes half-way
+   to its end) and
    no two clusters meet. A cluster that does not converge as one repeated root may be a
    pair split by a small asymmetry (multiplicity-2 Newton then 2-cycles): its m roots are
    solved again as m simple ones, each with its own Aberth iterate (``_split_clusters``).
-2. **Fallback scan, only for the clusters Newton could not certify:** the sign of det on a
-   grid refined around every estimate, Illinois refinement of each sign change, and a golden
-   section on the smallest singular values for even-multiplicity roots the sign cannot see.
+2. **Fallback, only for the clusters Newton could not certify:** in a bracket, bisection on
+   the count down to 1e-13; from estimates, the sign of det on a grid refined around every
+   estimate, Illinois refinement of each sign change, and a golden section on the smallest
+   singular values for even-multiplicity roots the sign cannot see.
 3. **Continuation** (:func:`continued_roots`): in a sweep over hinge stiffnesses the roots
    are tracked from the neighbouring design's inside Courant-Fischer brackets, without the
-   assembled model (see :func:`ufmt.mstmm.solve.continuation`).
+   count (see :func:`ufmt.mstmm.solve.continuation`).
 4. **Never lose a root.** A cluster whose roots neither method finds is reported in
    :attr:`Roots.missing_hz`; :func:`ufmt.mstmm.solve.solve_modes` then raises
    :class:`RootsLostError` naming the missing frequencies.
@@ -55,8 +58,8 @@ class Roots:
     """Natural frequencies [Hz] ascending, repeated roots listed once per multiplicity."""
 
     frequencies_hz: np.ndarray
-    expected: int  # how many the assembled model counts in (0, f_max]
-    missing_hz: np.ndarray  # assembled estimates in (0, f_max] whose root was not found
+    expected: int  # how many are counted (or estimated) in (0, f_max]
+    missing_hz: np.ndarray  # counted roots in (0, f_max] not found (their bracket's centre)
     newton: int = 0  # roots certified by Newton (the rest came from the fallback scan)
     # (n, size) null vectors of U_all per root, an orthonormal basis over a repeated root
     # (NaN rows for roots of the fallback scan: see ufmt.mstmm.modes.null_vectors)
@@ -67,7 +70,7 @@ class Roots:
 
 
 class RootsLostError(UfmtError):
-    """Fewer MSTMM roots than the assembled model counts: never returned silently."""
+    """Fewer MSTMM roots than counted: never returned silently."""
 
 
 def det_sign(system: TransferSystem, omega: np.ndarray) -> np.ndarray:
@@ -234,7 +237,7 @@ def _merge_noise_roots(found: np.ndarray, windows) -> np.ndarray:
     """Undo sign flips of det U_all caused by rounding noise near a root.
 
     At noise level det flips sign an odd number of times within ~NOISE_RTOL of one root.
-    Within each cluster window that holds more roots than the assembled model counts there,
+    Within each cluster window that holds more roots than its estimates count there,
     three consecutive roots a < b < c spanning less than NOISE_RTOL are replaced by b.
     """
     out = np.sort(found)
@@ -263,47 +266,105 @@ def _clusters(est: np.ndarray, rel: float = CLUSTER_RTOL) -> list[np.ndarray]:
 def natural_frequencies(
     system: TransferSystem, fmax_hz: float, estimates_hz, rtol: float = 1e-12, state_keys=()
 ) -> Roots:
-    """Every natural frequency in (0, fmax_hz] [Hz], to relative precision ``rtol``.
+    """Every natural frequency in (0, fmax_hz] [Hz], to relative precision ``rtol``, from
+    estimates of where they are.
 
-    ``estimates_hz`` are the assembled model's nonzero frequencies (ascending, repeated roots
-    repeated); they bracket and count the roots, the MSTMM values are computed independently.
-    A root the assembled model counts but neither Newton nor the fallback scan finds is
-    listed in ``missing_hz`` (never dropped silently). ``state_keys``: state maps
+    ``estimates_hz``: nonzero frequencies near the roots (ascending, repeated roots repeated),
+    e.g. an independent model's; they count the roots and set each one's window (half-way,
+    geometrically, to the neighbouring estimates), the MSTMM values are computed
+    independently. A counted root that neither Newton nor the fallback scan finds is listed
+    in ``missing_hz`` (never dropped silently). ``state_keys``: state maps
     (:meth:`TransferSystem.states` keys) wanted at the roots, taken from the Newton walks
     (see ``_newton``) when every root comes from them (:attr:`Roots.states`).
+    :func:`bracketed_roots` takes certified brackets instead (the Wittrick-Williams count).
     """
     system.segment_for(fmax_hz)
     est = np.sort(np.asarray(estimates_hz, dtype=float))
     est = est[est > 0]
-    expected = int(np.sum(est <= fmax_hz))
     if est.size == 0:
         return Roots(np.zeros(0), 0, np.zeros(0), 0, np.zeros((0, system.size)))
     near = est[est <= fmax_hz * 1.05]
     windows = _windows(near, 0.5 * est[0], fmax_hz)
-    centre = np.array([c for _, c, _, _ in windows])
     lo = np.array([a for _, _, a, _ in windows])
     hi = np.array([b for _, _, _, b in windows])
-    mult = np.array([len(idx) for idx, _, _, _ in windows])
+
+    def scan(failed):
+        scanned = _scan(system, fmax_hz, est, rtol)
+        inside = np.zeros(scanned.size, dtype=bool)
+        for j in failed:
+            inside |= (scanned >= lo[j]) & (scanned <= hi[j])
+        return scanned[inside]
+
+    found = Windows(
+        np.array([c for _, c, _, _ in windows]),
+        lo,
+        hi,
+        np.array([len(idx) for idx, _, _, _ in windows]),
+        [near[idx] for idx, _, _, _ in windows],
+    )
+    return roots_in_windows(
+        system, fmax_hz, int(np.sum(est <= fmax_hz)), found, scan, rtol, state_keys
+    )
+
+
+def bracketed_roots(system: TransferSystem, brackets, refine, rtol: float = 1e-12, state_keys=()):
+    """Every natural frequency in certified brackets (:class:`ufmt.mstmm.wittrick.Brackets`,
+    bracket j holds exactly ``multiplicity[j]`` roots) [Hz], to relative precision ``rtol``.
+
+    Newton starts at each bracket's geometric centre and must converge inside it; a bracket
+    Newton cannot certify falls back to ``refine(lo_hz, hi_hz)``, bisection on the count
+    (:meth:`ufmt.mstmm.wittrick.RootCounter.refine`, no null vector then). Parameters and
+    result as :func:`natural_frequencies`.
+    """
+    fmax_hz = brackets.below_hz
+    system.segment_for(fmax_hz)
+    lo, hi = brackets.lo_hz * (1 - 1e-9), brackets.hi_hz * (1 + 1e-9)  # rounding only
+    mult = np.asarray(brackets.multiplicity, dtype=int)
+    centre = np.sqrt(lo * hi)
+
+    def bisect(failed):
+        return np.repeat(refine(brackets.lo_hz[failed], brackets.hi_hz[failed]), mult[failed])
+
+    windows = Windows(
+        centre, lo, hi, mult, [np.full(m, c) for c, m in zip(centre, mult, strict=True)]
+    )
+    return roots_in_windows(system, fmax_hz, int(mult.sum()), windows, bisect, rtol, state_keys)
+
+
+@dataclass(frozen=True)
+class Windows:
+    """Where the roots are [Hz]: per cluster its start, window [lo, hi], number of roots and
+    the estimates of its roots (spread for :func:`_split_clusters`)."""
+
+    centre: np.ndarray
+    lo: np.ndarray
+    hi: np.ndarray
+    mult: np.ndarray
+    estimates: list
+
+
+def roots_in_windows(system, fmax_hz, expected, windows: Windows, fallback, rtol, state_keys):
+    """The roots in each window (Newton, split clusters, then ``fallback(failed windows)``
+    returning roots [Hz] inside those windows); see :func:`natural_frequencies`."""
+    centre, lo, hi, mult = windows.centre, windows.lo, windows.hi, windows.mult
+    if centre.size == 0:
+        return Roots(np.zeros(0), expected, np.zeros(0), 0, np.zeros((0, system.size)))
     root, ok, basis, walked = _newton(
         system, TWO_PI * centre, TWO_PI * lo, TWO_PI * hi, mult, rtol, state_keys
     )
     root /= TWO_PI
     found = np.repeat(root[ok], mult[ok])
     vectors = [basis[j].T for j in np.flatnonzero(ok)]
-    estimates = [near[idx] for idx, _, _, _ in windows]
     split, split_hz, split_vectors = _split_clusters(
-        system, root, ~ok & (mult > 1), estimates, lo, hi, found, rtol
+        system, root, ~ok & (mult > 1), windows.estimates, lo, hi, found, rtol
     )
     ok |= split
     found = np.concatenate([found, split_hz])
     vectors.append(split_vectors)
     if not ok.all():
-        scanned = _scan(system, fmax_hz, est, rtol)
-        inside = np.zeros(scanned.size, dtype=bool)
-        for j in np.flatnonzero(~ok):
-            inside |= (scanned >= lo[j]) & (scanned <= hi[j])
-        found = np.concatenate([found, scanned[inside]])
-        vectors.append(np.full((int(inside.sum()), system.size), np.nan))
+        fallen = fallback(np.flatnonzero(~ok))
+        found = np.concatenate([found, fallen])
+        vectors.append(np.full((fallen.size, system.size), np.nan))
     vectors = np.concatenate(vectors) if vectors else np.zeros((0, system.size))
     keep = np.flatnonzero(found <= fmax_hz)
     order = keep[np.argsort(found[keep], kind="stable")]
@@ -530,7 +591,7 @@ def continued_roots(
     system: TransferSystem, start_hz, lo_hz, hi_hz, rtol: float = 1e-12
 ) -> Roots | None:
     """The roots of ``system`` tracked from a neighbouring design's, or None if they cannot
-    be certified without the assembled count.
+    be certified without the Wittrick-Williams count.
 
     ``start_hz``: the neighbour's lowest roots (ascending, repeated roots repeated);
     [lo_hz, hi_hz]: where each of them is now (Courant-Fischer bounds, see

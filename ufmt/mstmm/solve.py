@@ -1,9 +1,10 @@
 """Natural frequencies and mode shapes of a model: the MSTMM eigen-solution end to end.
 
-The assembled mass-stiffness model of the same file counts and brackets the roots; the MSTMM
-finds each one from det U_all(ω) = 0 and builds its shape from the null vector of U_all.
-A root the assembled model counts but the MSTMM cannot find raises :class:`RootsLostError`
-(the CLI prints one line naming the missing frequencies and exits non-zero).
+The Wittrick-Williams count of the model's exact dynamic stiffness (:mod:`ufmt.mstmm.wittrick`,
+no mesh) counts the roots below any frequency and brackets each one; the MSTMM finds each
+root in its bracket from det U_all(ω) = 0 and builds its shape from the null vector of U_all.
+A counted root the MSTMM cannot find raises :class:`RootsLostError` (the CLI prints one line
+naming the missing frequencies and exits non-zero).
 """
 
 from __future__ import annotations
@@ -19,18 +20,14 @@ from dataclasses import dataclass
 import numpy as np
 from threadpoolctl import ThreadpoolController
 
-from ufmt.assembled import assembled_modes
 from ufmt.errors import UfmtError
 from ufmt.model.schema import Model
-from ufmt.mstmm.bodies import rules_of
 from ufmt.mstmm.modes import ModeShapes, kinetic_terms, mode_shapes, shape_state_keys
 from ufmt.mstmm.overall import State, TransferSystem
-from ufmt.mstmm.roots import RootsLostError, continued_roots, natural_frequencies
+from ufmt.mstmm.roots import RootsLostError, bracketed_roots, continued_roots
+from ufmt.mstmm.wittrick import Brackets, RootCounter
 
 DEFAULT_FMAX_HZ = 1000.0
-# beam elements of the assembled model that only counts and brackets; the finer meshes are
-# tried in turn only when a counted root was not found (estimates too far from the roots)
-BRACKETING_MESHES = (8, 24, 64)
 DIRECTIONS = ("x", "y", "z", "rx", "ry", "rz")
 
 
@@ -43,7 +40,7 @@ class ModalSolution:
     frequencies_hz : (n,) natural frequencies [Hz], ascending (zero-frequency modes excluded).
     order : order of the overall transfer matrix U_all (0 for the assembled method).
     method : "mstmm" or "assembled".
-    expected : modes the assembled model counts in the same range.
+    expected : modes counted in the same range (the Wittrick-Williams count for the MSTMM).
     rigid_body_modes : zero-frequency modes (counted, not listed).
     shapes : :class:`ufmt.mstmm.modes.ModeShapes` (unit modal mass), or None.
     seconds : wall time of the solution [s].
@@ -52,7 +49,7 @@ class ModalSolution:
     frequencies_hz: np.ndarray
     order: int
     method: str
-    expected: int  # modes the assembled model counts in the same range
+    expected: int  # modes counted in the same range
     rigid_body_modes: int
     shapes: ModeShapes | None
     seconds: float
@@ -120,24 +117,6 @@ class ModalSolution:
         return [csv, save_figure(self.plot(model=model), directory / "modes.png")]
 
 
-def _range(fmax_hz, count, estimates) -> float:
-    """Upper frequency of the search [Hz] from --fmax and/or --count."""
-    if count is None:
-        return DEFAULT_FMAX_HZ if fmax_hz is None else float(fmax_hz)
-    if count < 1:
-        raise UfmtError(f"number of modes: {count} must be >= 1")
-    if estimates.size < count:
-        if fmax_hz is not None:
-            return float(fmax_hz)
-        raise UfmtError(
-            f"number of modes: {count} asked for, but the model has only {estimates.size} "
-            "nonzero modes; ask for fewer"
-        )
-    top = estimates[count - 1]
-    upper = top * (1 + 1e-6) if count == estimates.size else np.sqrt(top * estimates[count])
-    return min(float(fmax_hz), upper) if fmax_hz is not None else float(upper)
-
-
 def solve_modes(
     model: Model,
     fmax_hz: float | None = None,
@@ -156,16 +135,17 @@ def solve_modes(
     fmax_hz : upper end of the search [Hz] (default 1000 when ``count`` is not given).
     count : number of lowest nonzero modes to find (with ``fmax_hz``: at most that many
         below it).
-    method : "mstmm" (default) roots det U_all(ω) = 0 (paper eq. 2.23) and builds each shape
-        from the null vector of U_all Z_all = 0 (eq. 2.15); "assembled" is the independent
-        mass-stiffness eigen-solution, for cross-checks (frequencies only).
+    method : "mstmm", the only one here: roots det U_all(ω) = 0 (paper eq. 2.23) in the
+        brackets of the Wittrick-Williams count and builds each shape from the null vector of
+        U_all Z_all = 0 (eq. 2.15); :func:`ufmt.solvers.solve_modes` also takes the
+        independent "assembled" mass-stiffness eigen-solution.
     shapes : False skips the mode shapes (frequencies only, faster).
 
     Returns
     -------
     ModalSolution
         ``frequencies_hz`` (n,) [Hz] ascending without the zero-frequency modes, ``order`` of
-        U_all, ``expected`` (the assembled model's count in the range), ``rigid_body_modes``,
+        U_all, ``expected`` (the Wittrick-Williams count in the range), ``rigid_body_modes``,
         ``shapes`` (unit-modal-mass :class:`~ufmt.mstmm.modes.ModeShapes`, or None), and
         ``seconds``; ``.to_frame(model)``, ``.plot(ax=None, model=None)``,
         ``.save(directory, model=None)``.
@@ -173,8 +153,10 @@ def solve_modes(
     Raises
     ------
     UfmtError
-        A non-positive ``fmax_hz`` or ``count``, an unknown method, or more modes asked for
-        than the model has.
+        A non-positive ``fmax_hz`` or ``count``, a method other than "mstmm", or more modes
+        asked for than the model has.
+    RootsLostError
+        A counted root the MSTMM cannot find (the message names the missing frequencies).
     """
     with _blas_controller().limit(limits=1, user_api="blas"):
         return _solve_modes(model, fmax_hz, count, method, shapes)
@@ -197,10 +179,10 @@ def continuation(key):
     and max(1, s_i) K_old, so by Courant-Fischer its k-th natural frequency lies in
     [f_k √min(1, s_i), f_k √max(1, s_i)] around the last design's k-th one. When those
     brackets of the n + 1 lowest roots do not overlap, each holds exactly its own roots:
-    Newton tracks them from the last design with no assembled solve, each certified inside
-    its bracket as usual (contracting steps, right multiplicity), and det U_all must change
+    Newton tracks them from the last design without the count, each certified inside its
+    bracket as usual (contracting steps, right multiplicity), and det U_all must change
     sign between them as their multiplicities say. Otherwise (large steps, a split repeated
-    root) the assembled estimates are used as usual.
+    root) the Wittrick-Williams brackets are used as usual.
     """
     token = _CONTINUATION.set(key)
     try:
@@ -273,74 +255,68 @@ def _remember(key, model, roots_hz, rigid_body_modes) -> None:
 def _solve_modes(model, fmax_hz, count, method, shapes) -> ModalSolution:
     if fmax_hz is not None and not (np.isfinite(fmax_hz) and fmax_hz > 0):
         raise UfmtError(f"--fmax: {fmax_hz} must be a positive number of Hz")
-    if method not in ("mstmm", "assembled"):
-        raise UfmtError(f"--method: {method!r} is not one of 'mstmm', 'assembled'")
+    if method != "mstmm":
+        raise UfmtError(
+            f"method: {method!r}: this is the MSTMM solver; ufmt.solve_modes takes 'assembled'"
+        )
+    if count is not None and count < 1:
+        raise UfmtError(f"number of modes: {count} must be >= 1")
     t0 = time.perf_counter()
-    tracking = method == "mstmm" and fmax_hz is None and count is not None and count >= 1
-    tracking = tracking and _CONTINUATION.get() is not None
+    tracking = fmax_hz is None and count is not None and _CONTINUATION.get() is not None
     if tracking and (solution := _continued(model, count, shapes, t0)) is not None:
         return solution
-    guess_fmax = (DEFAULT_FMAX_HZ if fmax_hz is None else fmax_hz) if count is None else None
-    system = TransferSystem(model) if method == "mstmm" else None
-    for elements in BRACKETING_MESHES:  # a finer mesh only if a root was not found
-        asm = assembled_modes(
-            model,
-            fmax_hz=_pad(guess_fmax),
-            count=None if count is None else count + 1,
-            elements_per_beam=None if method == "assembled" else elements,
-            shapes=False,
-        )
-        est = np.asarray(asm.frequencies_hz)
-        fmax = _range(fmax_hz, count, est)
-        if tracking and est.size > count:  # the next design tracks count + 1 roots
-            fmax = float(est[count]) * (1 + 1e-6)
-        if method == "assembled":
-            f = est[est <= fmax]
-            return ModalSolution(
-                f, 0, "assembled", f.size, asm.rigid_body_modes, None, time.perf_counter() - t0
-            )
-        keys = shape_state_keys(system) if shapes else ()
-        roots = natural_frequencies(system, fmax, est, state_keys=keys)
-        if roots.missing_hz.size == 0 or not _distributed(model):
-            break
+    counter = RootCounter(model)
+    # the next design of a continuation tracks one root more
+    brackets = _search_range(counter, fmax_hz, count, count is not None and tracking)
+    system = TransferSystem(model)
+    keys = shape_state_keys(system) if shapes else ()
+    roots = bracketed_roots(system, brackets, counter.refine, state_keys=keys)
     if roots.missing_hz.size:
         raise RootsLostError(
             f"{model.source}: the MSTMM found {roots.frequencies_hz.size} of the "
-            f"{roots.expected} natural frequencies the assembled model counts below "
-            f"{fmax:.6g} Hz; missing near "
-            + ", ".join(f"{x:.6g}" for x in roots.missing_hz)
+            f"{roots.expected} natural frequencies counted below {brackets.below_hz:.6g} Hz "
+            "(Wittrick-Williams); missing near "  # known to the brackets' START_RTOL
+            + ", ".join(f"{x:.5g}" for x in roots.missing_hz)
             + " Hz"
         )
     f, z = roots.frequencies_hz[:count], roots.null_vectors[:count]
     states = None if roots.states is None else _first(roots.states, f.size)
     modes = mode_shapes(system, f, z, states) if shapes and f.size else None
     if tracking:
-        _remember(_CONTINUATION.get(), model, roots.frequencies_hz, asm.rigid_body_modes)
+        _remember(_CONTINUATION.get(), model, roots.frequencies_hz, counter.rigid_body_modes)
     return ModalSolution(
         f,
         system.order,
         "mstmm",
         min(roots.expected, count or roots.expected),
-        asm.rigid_body_modes,
+        counter.rigid_body_modes,
         modes,
         time.perf_counter() - t0,
     )
 
 
+def _search_range(counter: RootCounter, fmax_hz, count, one_more: bool) -> Brackets:
+    """Certified brackets of the roots to find: all below ``fmax_hz`` (default 1000 Hz),
+    or the first ``count`` (``one_more``: count + 1) and at most those below ``fmax_hz``;
+    the upper frequency lies between the last wanted root and the next one."""
+    if count is None:
+        return counter.brackets(DEFAULT_FMAX_HZ if fmax_hz is None else float(fmax_hz))
+    wanted = count + 1 if one_more and count + 1 <= counter.total_modes() else count
+    if fmax_hz is not None and counter.below(float(fmax_hz))[0] < wanted:
+        return counter.brackets(float(fmax_hz))
+    upper = counter.upper_for(wanted, DEFAULT_FMAX_HZ if fmax_hz is None else float(fmax_hz))
+    found = counter.brackets(upper * (1 + 1e-9), first=wanted)
+    last = int(np.searchsorted(np.cumsum(found.multiplicity), wanted))  # holds root `wanted`
+    top = found.hi_hz[last]
+    if last + 1 < found.lo_hz.size:  # half-way (geometrically) to the next bracket
+        top = np.sqrt(top * found.lo_hz[last + 1])
+    keep = slice(0, last + 1)
+    return Brackets(found.lo_hz[keep], found.hi_hz[keep], found.multiplicity[keep], float(top))
+
+
 def _first(states: dict, count: int) -> dict:
     """The state maps at the first ``count`` roots."""
     return {key: State(m.cols, m.arr[:count]) for key, m in states.items()}
-
-
-def _distributed(model: Model) -> bool:
-    """Whether a body has distributed mass (a beam): then a finer assembled mesh can bring
-    an estimate the MSTMM missed."""
-    return any(rules_of(b).distributed for b in model.bodies)
-
-
-def _pad(fmax_hz):
-    """Assembled estimates a little beyond f_max so roots near the limit are bracketed."""
-    return None if fmax_hz is None else 1.05 * fmax_hz
 
 
 def energy_shares(model: Model, shapes: ModeShapes) -> np.ndarray:

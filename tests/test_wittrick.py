@@ -1,0 +1,306 @@
+"""The Wittrick-Williams count J(ω) of the exact dynamic stiffness, against closed forms
+(clamped-free and free-free beams, a spring-mass chain), against the assembled model's count
+at fine meshes (the packaged model, the bridge example), and on repeated roots."""
+
+import json
+
+import numpy as np
+import pytest
+import scipy.linalg as sla
+from scipy.optimize import brentq
+from synthetic import axisymmetric_chain
+from test_repeated_roots import rotor_dict, rotor_reference
+
+from ufmt.assembled import assembled_modes
+from ufmt.errors import ModelError
+from ufmt.model.load import load_model, model_from_dict, packaged_path
+from ufmt.mstmm import members
+from ufmt.mstmm.solve import solve_modes
+from ufmt.mstmm.wittrick import RootCounter, negative_eigenvalues
+
+INF = float("inf")
+RIGID = {"stiffness": [INF] * 3, "rotational_stiffness": [INF] * 3}
+RELEASED = {"stiffness": [0.0] * 3, "rotational_stiffness": [0.0] * 3}
+E, G, RHO, L = 2.1e11, 8.1e10, 7850.0, 1.2
+# a rectangular 40 x 25 mm section: two bending planes with different frequencies
+B, H = 0.04, 0.025
+AREA, I_Y, I_Z = B * H, B * H**3 / 12, H * B**3 / 12
+J_T, J_P = 0.2287 * B * H**3, B * H * (B**2 + H**2) / 12
+SECTION = {
+    "area": AREA,
+    "second_moment_y": I_Y,
+    "second_moment_z": I_Z,
+    "polar_moment": J_P,
+    "torsion_constant": J_T,
+}
+
+
+def beam_model(hinges) -> dict:
+    body = {"name": "b", "kind": "beam", "start": [0, 0, 0], "end": [L, 0, 0]}
+    body |= {"density": RHO, "youngs_modulus": E, "shear_modulus": G} | SECTION
+    return {"name": "beam", "body": [body], "hinge": hinges}
+
+
+def closed_form_hz(bending_roots, rod_factor, count=6) -> np.ndarray:
+    """Frequencies [Hz] of the beam, ascending: bending βL roots in both planes, axial and
+    torsion κL = rod_factor(n) for n = 1..count; all of them below 0.9 times the lowest of
+    the four families' last (so none is left out)."""
+    n = np.arange(1, count + 1)
+    families = [
+        bending_roots**2 / L**2 * np.sqrt(E * second_moment / (RHO * AREA))
+        for second_moment in (I_Y, I_Z)
+    ]
+    families += [rod_factor(n) / L * np.sqrt(E / RHO)]
+    families += [rod_factor(n) / L * np.sqrt(G * J_T / (RHO * J_P))]
+    out = np.sort(np.concatenate(families)) / (2 * np.pi)
+    return out[out < 0.9 * min(f[-1] for f in families) / (2 * np.pi)]
+
+
+def beta_roots(char, count=8) -> np.ndarray:
+    """The first ``count`` positive roots of a characteristic function of βL."""
+    x = np.linspace(0.5, 3.2 * count + 3, 20000)
+    y = char(x)
+    idx = np.flatnonzero(np.sign(y[1:]) != np.sign(y[:-1]))[:count]
+    return np.array([brentq(char, x[i], x[i + 1], xtol=1e-14) for i in idx])
+
+
+def assert_counts_match(counter: RootCounter, exact_hz: np.ndarray, rtol: float) -> None:
+    """J at the geometric middles between consecutive exact frequencies (and just below the
+    first) equals the number of exact frequencies below; only gaps wider than ``rtol``."""
+    gaps = np.flatnonzero(exact_hz[1:] > exact_hz[:-1] * (1 + 10 * rtol))
+    test_hz = np.r_[0.5 * exact_hz[0], np.sqrt(exact_hz[gaps] * exact_hz[gaps + 1])]
+    expected = np.r_[0, gaps + 1]
+    np.testing.assert_array_equal(counter.below(test_hz), expected)
+
+
+def test_clamped_free_beam_count_and_roots_match_the_closed_form():
+    """Oracle: cantilever bending 1 + cos βL cosh βL = 0 (two planes), axial and torsion
+    κL = (2n - 1)π/2."""
+    model = model_from_dict(
+        beam_model([{"name": "root", "between": ["ground", "b"], "at": [0, 0, 0]} | RIGID])
+    )
+    exact = closed_form_hz(
+        beta_roots(lambda x: 1 + np.cos(x) * np.cosh(x)), lambda n: (2 * n - 1) * np.pi / 2
+    )
+    counter = RootCounter(model)
+    assert counter.rigid_body_modes == 0
+    assert_counts_match(counter, exact, 1e-9)
+    assert exact.size >= 12
+    sol = solve_modes(model, fmax_hz=float(exact[-1]) * 1.0001)
+    # the roots themselves come from the transfer matrices, which carry cosh βL (4e8 at the
+    # last bending mode here, βL = 20.4): good to ~1e-8 there, as in test_mstmm's beams
+    np.testing.assert_allclose(sol.frequencies_hz, exact, rtol=1e-8)
+    assert sol.expected == exact.size
+
+
+def test_free_free_beam_counts_six_rigid_body_modes_and_the_closed_form():
+    """Oracle: free-free bending 1 - cos βL cosh βL = 0, axial and torsion κL = nπ, and the
+    six rigid-body motions (a hinge with every direction released holds nothing)."""
+    model = model_from_dict(
+        beam_model([{"name": "none", "between": ["ground", "b"], "at": [0, 0, 0]} | RELEASED])
+    )
+    bending = beta_roots(lambda x: 1 - np.cos(x) * np.cosh(x))
+    exact = closed_form_hz(bending, lambda n: n * np.pi)
+    counter = RootCounter(model)
+    assert counter.rigid_body_modes == 6
+    assert_counts_match(counter, exact, 1e-9)
+    assert exact.size >= 12
+    sol = solve_modes(model, count=exact.size)
+    np.testing.assert_allclose(sol.frequencies_hz, exact, rtol=1e-8)  # as above: cosh βL
+    assert sol.rigid_body_modes == 6
+
+
+def spring_chain():
+    """Three point masses in a line on x springs (every other direction rigid to ground):
+    the model and its exact frequencies [Hz] (eigenvalues of the chain's 3x3 (K, M))."""
+    k, m = np.array([4e6, 2.5e6, 1e6]), np.array([12.0, 7.0, 3.0])
+    bodies, hinges = [], []
+    for i in range(3):
+        at = [0.3 * i, 0, 0]
+        inertia = (1e-3 * np.eye(3)).tolist()
+        bodies.append(
+            {
+                "name": f"m{i}",
+                "kind": "rigid",
+                "mass": m[i],
+                "center_of_mass": at,
+                "inertia": inertia,
+            }
+        )
+        spring = {"stiffness": [k[i], 0.0, 0.0], "rotational_stiffness": [0.0] * 3}
+        other = "ground" if i == 0 else f"m{i - 1}"
+        hinges.append({"name": f"k{i}", "between": [other, f"m{i}"], "at": at} | spring)
+        guide = {"stiffness": [0.0, INF, INF], "rotational_stiffness": [INF] * 3}
+        hinges.append({"name": f"guide{i}", "between": ["ground", f"m{i}"], "at": at} | guide)
+    model = model_from_dict({"name": "chain", "body": bodies, "hinge": hinges})
+    stiffness = np.diag(k + np.r_[k[1:], 0.0]) - np.diag(k[1:], 1) - np.diag(k[1:], -1)
+    return model, np.sqrt(sla.eigh(stiffness, np.diag(m), eigvals_only=True)) / (2 * np.pi)
+
+
+def test_spring_mass_chain_counts_its_eigenvalues():
+    """Oracle: the eigenvalues of the chain's (K, M) (:func:`spring_chain`)."""
+    model, exact = spring_chain()
+    counter = RootCounter(model)
+    assert counter.total_modes() == 3
+    assert_counts_match(counter, exact, 1e-12)
+    assert counter.below(10 * exact[-1])[0] == 3
+    np.testing.assert_allclose(solve_modes(model, count=3).frequencies_hz, exact, rtol=1e-10)
+
+
+def test_bisection_on_the_count_finds_the_roots_alone():
+    """The fallback when Newton cannot certify a bracket: bisection on J from 1 % brackets
+    reaches the chain's eigenvalues to 1e-12 (oracle as above)."""
+    model, exact = spring_chain()
+    counter = RootCounter(model)
+    brackets = counter.brackets(2 * exact[-1], start_rtol=1e-2)
+    assert np.all(brackets.hi_hz - brackets.lo_hz > 1e-3 * brackets.hi_hz)
+    np.testing.assert_allclose(counter.refine(brackets.lo_hz, brackets.hi_hz), exact, rtol=1e-12)
+
+
+@pytest.mark.parametrize(
+    "path, fmax_hz",
+    [(packaged_path(), 5000.0), (packaged_path().parents[2] / "examples" / "bridge.toml", 3000.0)],
+    ids=["packaged", "bridge"],
+)
+def test_count_equals_the_assembled_count_at_a_fine_mesh(path, fmax_hz):
+    """Oracle: the assembled model with 48 elements per beam (its frequencies converge from
+    above, within ~1e-6 here), J at the middle of every gap wider than 1e-4."""
+    model = load_model(path)
+    fine = assembled_modes(model, fmax_hz=1.2 * fmax_hz, elements_per_beam=48, shapes=False)
+    exact = fine.frequencies_hz[fine.frequencies_hz <= fmax_hz]
+    counter = RootCounter(model)
+    assert counter.rigid_body_modes == fine.rigid_body_modes
+    assert_counts_match(counter, exact, 1e-5)
+    assert counter.below(fmax_hz)[0] == exact.size
+
+
+def test_repeated_roots_jump_the_count_by_their_multiplicity():
+    """The isotropic rotor's bending modes are double roots: J jumps by 2 there (oracle: the
+    Richardson-extrapolated assembled reference, each pair equal to 1e-9), and the
+    axisymmetric chains (rigid bodies: the assembled model is exact) likewise."""
+    fine = rotor_reference()
+    brackets = RootCounter(model_from_dict(rotor_dict())).brackets(5000.0)
+    expected = np.diff(np.r_[0, np.flatnonzero(np.diff(fine) > 1e-9 * fine[1:]) + 1, fine.size])
+    np.testing.assert_array_equal(brackets.multiplicity, expected)
+    assert (brackets.multiplicity == 2).sum() >= 5
+    for seed in (1, 2, 3):
+        model = model_from_dict(axisymmetric_chain(seed))
+        exact = assembled_modes(model).frequencies_hz
+        found = RootCounter(model).brackets(1.01 * exact[-1])
+        np.testing.assert_array_equal(
+            np.repeat(np.sqrt(found.lo_hz * found.hi_hz), found.multiplicity).size, exact.size
+        )
+        assert np.all(
+            (np.repeat(found.lo_hz, found.multiplicity) <= exact * (1 + 1e-9))
+            & (exact <= np.repeat(found.hi_hz, found.multiplicity) * (1 + 1e-9))
+        )
+        assert (found.multiplicity == 2).sum() >= 3
+
+
+def test_member_stiffness_tends_to_the_static_frame_element():
+    """At ω → 0 the exact dynamic stiffness is the static Euler-Bernoulli frame element
+    (oracle: 12EI/L³, 6EI/L², 4EI/L, 2EI/L, EA/L, GJ/L); symmetric at every ω."""
+    body = model_from_dict(
+        beam_model([{"name": "r", "between": ["ground", "b"], "at": [0, 0, 0]} | RIGID])
+    ).bodies[0]
+    k = members.member_stiffness(np.array([1e-6, 3e3]), body)
+    np.testing.assert_allclose(k[1], k[1].T, rtol=1e-12, atol=1e-12 * np.abs(k[1]).max())
+    s = k[0]
+    np.testing.assert_allclose([s[0, 0], s[3, 3]], [E * AREA / L, G * J_T / L], rtol=1e-9)
+    np.testing.assert_allclose(
+        [s[1, 1], s[1, 5], s[5, 5], s[5, 11]],
+        np.array([12, 6 * L, 4 * L**2, 2 * L**2]) * E * I_Z / L**3,
+        rtol=1e-9,
+    )
+    np.testing.assert_allclose(
+        [s[2, 2], s[2, 4], s[4, 4]], np.array([12, -6 * L, 4 * L**2]) * E * I_Y / L**3, rtol=1e-9
+    )
+
+
+def test_negative_eigenvalues_match_eigvalsh_on_indefinite_matrices():
+    """Oracle: the signs of numpy's eigenvalues, on random symmetric matrices with zero
+    diagonals (forcing 2x2 pivots)."""
+    rng = np.random.default_rng(4)
+    for n in (2, 5, 17, 40):
+        a = rng.standard_normal((6, n, n))
+        a = a + a.transpose(0, 2, 1)
+        a[::2, np.arange(n), np.arange(n)] = 0.0
+        np.testing.assert_array_equal(
+            negative_eigenvalues(a), (np.linalg.eigvalsh(a) < 0).sum(axis=1)
+        )
+
+
+def test_a_massless_mechanism_is_a_model_error():
+    """A virtual body whose rotation about x nothing holds: no count is defined."""
+    hub = {"stiffness": [1e8] * 3, "rotational_stiffness": [0.0, 1e6, 1e6]}
+    model = model_from_dict(
+        {
+            "name": "m",
+            "body": [
+                {"name": "hub", "kind": "virtual"},
+                {
+                    "name": "mass",
+                    "kind": "rigid",
+                    "mass": 5.0,
+                    "center_of_mass": [0.1, 0, 0],
+                    "inertia": (0.01 * np.eye(3)).tolist(),
+                },
+            ],
+            "hinge": [
+                {"name": "a", "between": ["ground", "hub"], "at": [0, 0, 0]} | hub,
+                {"name": "b", "between": ["hub", "mass"], "at": [0, 0, 0]} | hub,
+            ],
+        }
+    )
+    with pytest.raises(ModelError, match=r"body 'hub': massless mechanism.*\(rx\)"):
+        RootCounter(model)
+
+
+def assert_each_root_is_where_the_count_steps(model, f: np.ndarray) -> None:
+    """Oracle: J (the exact dynamic stiffness, no transfer matrix) just below and above each
+    distinct root found steps from the number of roots below to that plus its multiplicity."""
+    distinct, first, multiplicity = np.unique(
+        np.round(f / f[0], 8), return_index=True, return_counts=True
+    )
+    roots = f[first]
+    counter = RootCounter(model)
+    np.testing.assert_array_equal(counter.below(roots * (1 - 1e-8)), first)
+    np.testing.assert_array_equal(counter.below(roots * (1 + 1e-8)), first + multiplicity)
+
+
+@pytest.mark.slow
+def test_packaged_model_first_150_modes_are_all_found():
+    """count=150 (up to 108 kHz) lost 11 roots with the assembled brackets."""
+    model = load_model()
+    sol = solve_modes(model, count=150, shapes=False)
+    assert sol.frequencies_hz.size == sol.expected == 150
+    assert_each_root_is_where_the_count_steps(model, sol.frequencies_hz)
+
+
+def test_packaged_model_to_20_khz_finds_every_counted_root(capsys):
+    """``ufmt modes --fmax 20000`` on the packaged model: as many roots as J counts, each
+    where J steps."""
+    from ufmt.cli import main
+
+    assert main(["modes", "--fmax", "20000", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    model = load_model()
+    assert out["count"] == out["expected_count"] == RootCounter(model).below(20000.0)[0] >= 80
+    assert_each_root_is_where_the_count_steps(model, np.array(out["frequencies_hz"]))
+
+
+@pytest.mark.parametrize(
+    "model",
+    [model_from_dict(rotor_dict()), *(model_from_dict(axisymmetric_chain(s)) for s in (1, 3))],
+    ids=["rotor", "chain1", "chain3"],
+)
+def test_repeated_roots_found_with_their_multiplicity(model):
+    """The isotropic rotor to 10 kHz and random axisymmetric chains (every root): each double
+    root twice, each root where J steps by its multiplicity."""
+    fmax = 10000.0 if model.name == "rotor" else None
+    sol = solve_modes(
+        model, fmax_hz=fmax, count=None if fmax else int(RootCounter(model).total_modes())
+    )
+    assert sol.frequencies_hz.size == sol.expected
+    assert np.sum(np.diff(sol.frequencies_hz) <= 1e-9 * sol.frequencies_hz[1:]) >= 3
+    assert_each_root_is_where_the_count_steps(model, sol.frequencies_hz)

@@ -1,0 +1,244 @@
+"""The nodal exact dynamic stiffness matrix K(ω) of a model, for the Wittrick-Williams count.
+
+Nodes carry six small motions ``[r; θ]`` each (global frame, paper eq. 2.5): a rigid body's
+at its centre of mass, a virtual body's at its point, a beam's at each end. K(ω) is
+
+* each rigid body's ``-ω² M`` (mass and inertia tensor at the centre of mass, eqs. 2.8, 2.9);
+* each hinge's springs on the relative motion ``d = u_A(P) - u_B(P)`` of its two bodies at
+  the hinge point P (eqs. 2.13, 2.14), ``u(P) = [r_C + θ × (P - C); θ]`` for a rigid body,
+  the node's own motion for a virtual body or a beam end, zero for ground: ``k d_j²`` per
+  finite direction, nothing for a released one (stiffness 0);
+* each beam's exact dynamic stiffness (:func:`ufmt.mstmm.members.member_stiffness`).
+
+A rigid direction (stiffness inf) is the linear constraint ``d_j = 0``: the motions it allows
+are ``u = N v`` with N an orthonormal basis of the constraints' null space, and K(ω) is
+taken as ``Nᵀ K(ω) N``, the dynamic stiffness of the constrained structure (any other basis
+is a congruence of it, so its inertia, the count, is the same: Sylvester's law).
+"""
+
+from __future__ import annotations
+
+import functools
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg as sla
+
+from ufmt.errors import ModelError
+from ufmt.kinematics import point_motion
+from ufmt.model.schema import GROUND, Beam, Model, RigidBody, VirtualBody
+from ufmt.mstmm.members import clamped_count, local_to_global, member_stiffness
+from ufmt.recent import Recent
+
+RANK_RTOL = 1e-9  # rank of geometric (unit-row) matrices, relative to the largest value
+END_RTOL = 1e-9  # a hinge point within this (relative to the beam length) of a beam end
+COMPONENTS = ("x", "y", "z", "rx", "ry", "rz")
+
+
+@dataclass(frozen=True, eq=False)
+class NodalStiffness:
+    """K(ω) = static - ω² mass + Σ_beams Gᵀ D_beam(ω) G on the constrained motions v.
+
+    Attributes
+    ----------
+    static : (n, n) the hinge springs' stiffness [N/m, N, N m/rad].
+    mass : (n, n) the rigid bodies' mass [kg, kg m, kg m²].
+    beams : (beam, columns (c,), G (12, c)) per beam: G maps the c coordinates v[columns]
+        its ends depend on to its local end motions.
+    zero_modes : motions that strain nothing (rigid-body and mechanism modes).
+    """
+
+    static: np.ndarray
+    mass: np.ndarray
+    beams: tuple
+    zero_modes: int
+
+    @property
+    def order(self) -> int:
+        """Number of constrained nodal motions n."""
+        return self.static.shape[0]
+
+    def matrix(self, omega) -> np.ndarray:
+        """K(ω) (len(ω), n, n) at ω [rad/s]."""
+        omega = np.atleast_1d(np.asarray(omega, dtype=float))
+        k = np.repeat(self.static[None], omega.size, axis=0)
+        rows, cols = self.mass_entries
+        k[:, rows, cols] -= (omega**2)[:, None] * self.mass[rows, cols]
+        for beam, columns, g in self.beams:
+            k[:, columns[:, None], columns] += g.T @ member_stiffness(omega, beam) @ g
+        return k
+
+    @functools.cached_property
+    def mass_entries(self) -> tuple[np.ndarray, np.ndarray]:
+        """Rows and columns of the nonzero entries of ``mass``."""
+        return np.nonzero(self.mass)
+
+    def clamped(self, omega) -> np.ndarray:
+        """J₀(ω): the beams' clamped-clamped frequencies below ω [rad/s] (len(ω),)."""
+        omega = np.atleast_1d(np.asarray(omega, dtype=float))
+        total = np.zeros(omega.size, dtype=int)
+        for beam, _, _ in self.beams:
+            total += clamped_count(omega, beam)
+        return total
+
+
+class _Layout:
+    """Node dofs of every body: name -> (first dof, node points (k, 3) [m])."""
+
+    def __init__(self, model: Model):
+        self.model = model
+        self.nodes: dict[str, tuple[int, np.ndarray]] = {}
+        self.size = 0
+        for body in model.bodies:
+            points = _node_points(model, body)
+            self.nodes[body.name] = (self.size, points)
+            self.size += 6 * len(points)
+
+    def point_map(self, name: str, point) -> tuple[np.ndarray, np.ndarray]:
+        """(dofs (6,), T (6, 6)): the motion ``[r; θ]`` at ``point`` of body ``name`` is
+        ``T u[dofs]``."""
+        body = self.model.body(name)
+        first, points = self.nodes[name]
+        point = np.asarray(point, dtype=float)
+        if isinstance(body, RigidBody):
+            return first + np.arange(6), point_motion(point - body.center_of_mass)
+        node = 0
+        if isinstance(body, Beam):
+            gap = np.linalg.norm(points - point, axis=1)
+            node = int(np.argmin(gap))
+            if gap[node] > END_RTOL * body.length:
+                raise ModelError(
+                    f"{self.model.source}: body {name!r}: a hinge at {point.tolist()} is not "
+                    "at an end of the beam"
+                )
+        return first + 6 * node + np.arange(6), np.eye(6)
+
+
+def _node_points(model: Model, body) -> np.ndarray:
+    """The points (k, 3) [m] of a body's nodes."""
+    if isinstance(body, RigidBody):
+        return np.asarray(body.center_of_mass, dtype=float)[None]
+    if isinstance(body, Beam):
+        return np.array([body.start, body.end], dtype=float)
+    if isinstance(body, VirtualBody):
+        for hinge in model.hinges:
+            if body.name in hinge.between:
+                return np.asarray(hinge.at, dtype=float)[None]
+    raise ModelError(f"{model.source}: body {body.name!r}: no hinge names it")
+
+
+def _hinge_rows(layout: _Layout, hinge) -> np.ndarray:
+    """(6, size) relative motion ``d = u_A(P) - u_B(P)`` of the hinge's two bodies."""
+    rows = np.zeros((6, layout.size))
+    for name, sign in zip(hinge.between, (1.0, -1.0), strict=True):
+        if name != GROUND:
+            dofs, t = layout.point_map(name, hinge.at)
+            rows[:, dofs] += sign * t
+    return rows
+
+
+def _null_basis(constraints: np.ndarray, size: int) -> np.ndarray:
+    """Basis N (size, n) of the motions the rigid directions allow (``C N = 0``), sparse:
+    the dependent dofs are picked by column-pivoted QR of the unit rows of C, and every
+    independent dof is a coordinate of its own (a unit column), so a beam or a body couples
+    only to the few coordinates its own dofs depend on."""
+    if len(constraints) == 0:
+        return np.eye(size)
+    rows = constraints / np.linalg.norm(constraints, axis=1, keepdims=True)
+    r, perm = sla.qr(rows, mode="r", pivoting=True)
+    pivots = np.abs(np.diag(r))
+    rank = int(np.count_nonzero(pivots > RANK_RTOL * pivots[0]))
+    dependent, independent = perm[:rank], perm[rank:]
+    basis = np.zeros((size, independent.size))
+    basis[independent, np.arange(independent.size)] = 1.0
+    basis[dependent] = -sla.solve_triangular(r[:rank, :rank], r[:rank, rank:])
+    basis[np.abs(basis) < RANK_RTOL * np.abs(basis).max()] = 0.0  # rounding of exact zeros
+    return basis
+
+
+def _rank(a: np.ndarray) -> int:
+    """Numerical rank of a geometric matrix (singular values above RANK_RTOL of the largest)."""
+    if a.size == 0:
+        return 0
+    s = sla.svdvals(a)
+    return int(np.count_nonzero(s > RANK_RTOL * max(s[0], 1.0)))
+
+
+def _beam_rigidity(layout: _Layout, beam: Beam) -> np.ndarray:
+    """(6, size) rows that vanish when the beam moves rigidly (end = start carried)."""
+    first, _ = layout.nodes[beam.name]
+    rows = np.zeros((6, layout.size))
+    rows[:, first : first + 6] = -point_motion(beam.end - beam.start)
+    rows[:, first + 6 : first + 12] = np.eye(6)
+    return rows
+
+
+def _check_massless_mechanism(layout, basis, springs, massless) -> None:
+    """ModelError if a motion of the virtual bodies alone strains no hinge."""
+    if not massless.any():
+        return
+    alone = basis @ sla.null_space(basis[~massless], rcond=RANK_RTOL)
+    if alone.shape[1] == 0 or _rank(springs @ alone) == alone.shape[1]:
+        return
+    z = alone @ sla.null_space(springs @ alone, rcond=RANK_RTOL)[:, 0]
+    dof = int(np.argmax(np.abs(z)))
+    name = next(n for n, (first, p) in layout.nodes.items() if first <= dof < first + 6 * len(p))
+    raise ModelError(
+        f"{layout.model.source}: body {name!r}: massless mechanism: it moves "
+        f"({COMPONENTS[dof % 6]}) without straining any hinge; give the hinges on it a "
+        "nonzero stiffness in that direction"
+    )
+
+
+_GEOMETRY = Recent(8)  # Model.structure_key() -> (layout, basis, zero modes)
+
+
+def _geometry(model: Model):
+    """Layout, constraint basis and zero-mode count: the same for every design of a
+    stiffness study (built once per structure)."""
+
+    def build():
+        layout = _Layout(model)
+        rows = [_hinge_rows(layout, h) for h in model.hinges]
+        k = [h.stiffness6 for h in model.hinges]
+        rigid = [r[np.isinf(s)] for r, s in zip(rows, k, strict=True)]
+        elastic = [r[np.isfinite(s) & (s > 0)] for r, s in zip(rows, k, strict=True)]
+        basis = _null_basis(np.concatenate([np.zeros((0, layout.size)), *rigid]), layout.size)
+        springs = np.concatenate([np.zeros((0, layout.size)), *elastic])
+        norms = np.linalg.norm(springs, axis=1, keepdims=True)
+        springs = springs / np.where(norms > 0, norms, 1.0)
+        massless = np.zeros(layout.size, dtype=bool)
+        for body in model.bodies:
+            if isinstance(body, VirtualBody):
+                massless[layout.nodes[body.name][0] + np.arange(6)] = True
+        _check_massless_mechanism(layout, basis, springs, massless)
+        beams = [_beam_rigidity(layout, b) for b in model.bodies if isinstance(b, Beam)]
+        strain = np.concatenate([springs, *beams]) @ basis
+        return layout, basis, basis.shape[1] - _rank(strain)
+
+    return _GEOMETRY.get(model.structure_key(), build)
+
+
+def nodal_stiffness(model: Model) -> NodalStiffness:
+    """The :class:`NodalStiffness` of ``model`` (module docstring)."""
+    layout, basis, zero_modes = _geometry(model)
+    static = np.zeros((layout.size, layout.size))
+    mass = np.zeros((layout.size, layout.size))
+    for hinge in model.hinges:
+        k = hinge.stiffness6
+        elastic = np.isfinite(k) & (k > 0)
+        d = _hinge_rows(layout, hinge)[elastic]
+        static += d.T @ (k[elastic, None] * d)
+    beams = []
+    for body in model.bodies:
+        first, _ = layout.nodes[body.name]
+        if isinstance(body, RigidBody):
+            mass[first + np.arange(3), first + np.arange(3)] = body.mass
+            mass[first + 3 : first + 6, first + 3 : first + 6] = body.inertia
+        elif isinstance(body, Beam):
+            g = local_to_global(body) @ basis[first : first + 12]
+            columns = np.flatnonzero(np.any(g != 0.0, axis=0))
+            beams.append((body, columns, g[:, columns]))
+    return NodalStiffness(
+        basis.T @ static @ basis, basis.T @ mass @ basis, tuple(beams), zero_modes
+    )
