@@ -153,6 +153,12 @@ def _tag(label: str, row: dict) -> Tag | None:
     return Tag(tuple(bodies), motion, phase)
 
 
+def tag_bodies(reference: Reference) -> set[str]:
+    """The body names the reference's shape tags mention (a model must have them all for the
+    tag checks)."""
+    return {b for m in reference.modes.values() if m.tag is not None for b in m.tag.bodies}
+
+
 # ---------------------------------------------------------------------------------------------
 # modes in a form every solver can fill
 

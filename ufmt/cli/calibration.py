@@ -18,7 +18,7 @@ import argparse
 import time
 from pathlib import Path
 
-from ufmt.cli.common import load, positive
+from ufmt.cli.common import load, positive, results_dir
 from ufmt.defaults import PAPER_MODES
 from ufmt.errors import UfmtError
 from ufmt.model.load import packaged_path
@@ -53,9 +53,21 @@ def register(subparsers) -> None:
     p.add_argument("--log", default=str(DEFAULT_LOG), help=f"iteration log (default {DEFAULT_LOG})")
     p.set_defaults(func=cmd_calibrate)
 
-    p = subparsers.add_parser("validate", help="validation table and plots against Table 3")
+    p = subparsers.add_parser(
+        "validate", help="modes against a modal test (--test FILE) or the paper's Table 3"
+    )
     p.add_argument("model", nargs="?", help="model TOML (default: packaged UFMT)")
-    p.add_argument("--output-dir", default=str(RESULTS), help=f"default {RESULTS}")
+    p.add_argument(
+        "--test",
+        metavar="FILE",
+        help="modal-test CSV (docs/modal-test.md): pair the modes by MAC or order, write "
+        "correlation.csv, mac.csv, mac.png",
+    )
+    p.add_argument("--json", action="store_true", help="with --test: one JSON object on stdout")
+    p.add_argument(
+        "--output-dir",
+        help=f"default {RESULTS} (packaged model), results/<model file name>/validation/ (yours)",
+    )
     p.add_argument(
         "--modes",
         type=_mode_list,
@@ -147,16 +159,29 @@ def _print_summary(model, s: dict) -> None:
 
 
 def cmd_validate(args) -> int:
-    """Write frequencies.csv, frequencies.png, the mode plots and (for a model with a
+    """With ``--test``: correlate the model with the modal test (:func:`_validate_test`).
+    Without: write frequencies.csv, frequencies.png, the mode plots and (for a model with a
     ``[machine]`` table) response.csv of section 4.2 / Table 4; print the summary."""
-    from ufmt.calibration.frequencies import read_reference, validate, write_table
+    from ufmt.calibration.frequencies import read_reference, tag_bodies, validate, write_table
     from ufmt.mstmm.solve import describe
     from ufmt.plots import save_figure
     from ufmt.plots.modes import plot_frequencies, plot_mode
 
     model = load(args.model)
-    out = Path(args.output_dir)
-    result = validate(model, read_reference(packaged_path("paper_reference.toml")), PAPER_MODES)
+    out = Path(args.output_dir or results_dir(args.model, "validation", RESULTS))
+    if args.test:
+        return _validate_test(model, args.test, out, args.json)
+    if args.json:
+        raise UfmtError("--json: only with --test FILE (the validation against a modal test)")
+    reference = read_reference(packaged_path("paper_reference.toml"))
+    missing = sorted(tag_bodies(reference) - {b.name for b in model.bodies})
+    if missing:
+        raise UfmtError(
+            f"{model.source}: no modal test given, and the paper's Table 3 (the default test) "
+            f"describes the packaged UFMT: bodies {', '.join(missing)} are not in this model; "
+            "give your machine's test with --test FILE (docs/modal-test.md)"
+        )
+    result = validate(model, reference, PAPER_MODES)
     write_table(result.table, out / "frequencies.csv")
     save_figure(plot_frequencies(result.table), out / "frequencies.png")
     lines = describe(model, result.modes.shares, top=3)
@@ -174,6 +199,28 @@ def cmd_validate(args) -> int:
         table.to_csv(out / "response.csv", index=False, float_format="%.6g")
         print(table.drop(columns=["source"]).to_string(index=False))
         print(f"wrote response.csv in {out}")
+    return 0
+
+
+def _validate_test(model, test: str, out: Path, as_json: bool) -> int:
+    """Pair the model's modes with the test's, write correlation.csv, mac.csv and mac.png in
+    ``out``, print the pair table (or, with ``as_json``, one JSON object)."""
+    from ufmt.calibration.correlation import correlate
+    from ufmt.jsonout import dumps_strict
+
+    result = correlate(model, test)
+    written = result.save(out)
+    if as_json:
+        print(dumps_strict(result.to_dict()))
+        return 0
+    s = result.summary()
+    print(result.table.to_string(index=False, float_format=lambda v: f"{v:.4g}"))
+    print(
+        f"{model.name} against {test}: {s['paired']} of {len(result.table)} test modes paired, "
+        f"max |error| {s['max_abs_error_percent']:.3f} %, mean "
+        f"{s['mean_abs_error_percent']:.3f} %, lowest MAC {s['min_mac']:.3f}"
+    )
+    print(f"wrote {', '.join(p.name for p in written)} in {out}")
     return 0
 
 

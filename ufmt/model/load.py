@@ -105,3 +105,9 @@ def model_from_dict(data: Mapping[str, Any], source: str = "<dict>") -> Model:
         design=parse_design(source, data.get("design", {}), {h.name: h for h in hinges}),
         source=source,
     )
+
+
+def as_model(model: Model | str | Path | None) -> Model:
+    """``model`` itself if it is a loaded :class:`Model`, else :func:`load_model` of it (a path;
+    None: the packaged UFMT): what every public entry point calls first."""
+    return model if isinstance(model, Model) else load_model(model)
