@@ -24,7 +24,7 @@ from ufmt.errors import ModelError
 from ufmt.model.bodies import parse_bodies
 from ufmt.model.design import parse_design
 from ufmt.model.hinges import check_connected, check_numbers, parse_hinges
-from ufmt.model.machine import check_machine_bodies, read_machine
+from ufmt.model.machine import check_machine_bodies, check_machine_geometry, read_machine
 from ufmt.model.rules import TOP_FIELDS
 from ufmt.model.schema import Model
 from ufmt.tables import Where, one_line, type_name
@@ -97,6 +97,7 @@ def model_from_dict(data: Mapping[str, Any], source: str = "<dict>") -> Model:
     check_connected(source, bodies, hinges)
     if machine is not None:
         check_machine_bodies(machine, bodies, source)
+        check_machine_geometry(machine, bodies.values(), source)
     return Model(
         name=name,
         bodies=tuple(bodies.values()),
