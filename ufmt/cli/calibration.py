@@ -28,18 +28,21 @@ DEFAULT_LOG = RESULTS / "identification-log.csv"
 DEFAULT_PLOTTED_MODES = "1,11,12,18,29"  # mode 1 and the tool-tip z modes of section 4.1
 
 
-def _mode_number(text: str) -> int:
+def _mode_number(text: str, highest: int | None = None) -> int:
+    """A mode number (1-based, as every table numbers modes), at most ``highest`` if given."""
     try:
         value = int(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"{text!r} is not a mode number") from None
-    if not 1 <= value <= PAPER_MODES:
-        raise argparse.ArgumentTypeError(f"mode {value} is outside 1..{PAPER_MODES}")
+    if value < 1 or (highest is not None and value > highest):
+        top = "" if highest is None else f"..{highest}"
+        raise argparse.ArgumentTypeError(f"mode {value} is outside 1{top}" + ("" if top else "+"))
     return value
 
 
 def _mode_list(text: str) -> list[int]:
-    return [_mode_number(t) for t in text.split(",") if t.strip()]
+    """Modes of the validation (the paper's first PAPER_MODES), comma-separated."""
+    return [_mode_number(t, PAPER_MODES) for t in text.split(",") if t.strip()]
 
 
 def register(subparsers) -> None:
@@ -77,7 +80,7 @@ def register(subparsers) -> None:
     p.set_defaults(func=cmd_validate)
 
     p = subparsers.add_parser("plot-mode", help="draw mode N in 3-D to a PNG")
-    p.add_argument("mode", type=_mode_number, help=f"mode number 1..{PAPER_MODES}")
+    p.add_argument("mode", type=_mode_number, help="mode number, 1-based (1 = the lowest)")
     p.add_argument("model", nargs="?", help="model TOML (default: packaged UFMT)")
     p.add_argument(
         "--output",
