@@ -51,8 +51,18 @@ def register(subparsers) -> None:
         "calibrate", help="identify hinge stiffness (Table 3), fit the response (Table 4)"
     )
     p.add_argument("--prior", help="prior model (default: the calibration file's)")
+    p.add_argument(
+        "--test",
+        metavar="FILE",
+        help="your modal-test CSV (docs/modal-test.md): calibrate --prior against it; "
+        "--settings is then a model-update file (docs/modal-test.md), optional",
+    )
     p.add_argument("--settings", help="calibration file (default: packaged calibration.toml)")
-    p.add_argument("--output", help="identified model (default: the calibration file's)")
+    p.add_argument(
+        "--output",
+        help="identified model (default: the calibration file's; with --test "
+        "results/<prior file name>/calibration/<prior file name>-calibrated.toml)",
+    )
     p.add_argument("--log", default=str(DEFAULT_LOG), help=f"iteration log (default {DEFAULT_LOG})")
     p.set_defaults(func=cmd_calibrate)
 
@@ -94,6 +104,8 @@ def cmd_calibrate(args) -> int:
     """Identify, fit the response parameters, write the model and the log, print the result."""
     from ufmt.calibration.pipeline import calibrate
 
+    if args.test:
+        return _calibrate_test(args)
     t0 = time.perf_counter()
     run = calibrate(
         args.settings or packaged_path("calibration.toml"),
@@ -119,6 +131,30 @@ def cmd_calibrate(args) -> int:
     if run.response is not None:
         _print_response(run)
     print(f"wrote {run.output} and {args.log}")
+    return 0
+
+
+def _calibrate_test(args) -> int:
+    """Calibrate a model against its modal test (:mod:`ufmt.calibration.model_update`): write
+    the calibrated model, parameters.csv, residuals.csv and its correlation; print them."""
+    from ufmt.calibration.model_update import read_update_settings, update_model, write_model
+
+    prior = load(args.prior)
+    settings, parameters = (
+        read_update_settings(args.settings, prior) if args.settings else (None, None)
+    )
+    t0 = time.perf_counter()
+    update = update_model(prior, args.test, parameters, settings)
+    stem = "ufmt" if args.prior is None else Path(args.prior).stem
+    folder = results_dir(args.prior, "calibration", Path("results") / "calibration")
+    output = write_model(update, args.output or folder / f"{stem}-calibrated.toml", args.settings)
+    written = update.save(Path(args.output).parent if args.output else folder)
+    print(f"{update!r} in {time.perf_counter() - t0:.1f} s ({update.evaluations} MSTMM solves)")
+    print(update.to_frame().to_string(index=False, float_format=lambda v: f"{v:.4g}"))
+    if update.at_bound:
+        print(f"AT BOUND (the test asks for more than the band): {', '.join(update.at_bound)}")
+    print(update.residuals().to_string(index=False, float_format=lambda v: f"{v:.4g}"))
+    print(f"wrote {output} and {', '.join(p.name for p in written)} in {written[0].parent}")
     return 0
 
 
