@@ -107,3 +107,12 @@ def test_study_process_values_get_simulates_range_warnings(tmp_path):
         expected.append(f"{path}: {caught[0].message}")
     assert found == expected
     assert default_results(study) == Path("results") / "bridge"
+
+
+def test_report_of_a_users_model_goes_to_its_own_folder(tmp_path, monkeypatch):
+    from ufmt.cli import main
+
+    monkeypatch.chdir(tmp_path)
+    assert main(["report", str(BRIDGE)]) == 0
+    assert (tmp_path / "results" / "bridge" / "report.html").exists()
+    assert not (tmp_path / "results" / "report.html").exists()
