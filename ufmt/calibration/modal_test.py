@@ -17,6 +17,13 @@ column             required  meaning
 
 A file with only ``mode`` and ``frequency_hz`` (one row per mode) is a frequency-only test.
 Lines starting with ``#`` are comments (the test's source, its conditions).
+
+A universal file (UFF, ``.uff``/``.unv``, read with pyuff) works too: dataset 15 gives the
+node positions [m], each dataset 55 one mode (normal modes: its frequency and viscous damping
+ratio; complex modes: from the eigenvalue, the shape rotated to its largest component and its
+real part taken); the translations r1, r2, r3 of each node are the sensors x, y, z. Which body
+a node is on is not in the UFF: the file ``<name>.nodes.csv`` beside it (columns ``node``,
+``body``) says, and nodes it does not list are left out.
 A sensor is the triple (body, point, direction); a mode need not be measured at every sensor
 (missing components are NaN and left out of that mode's MAC).
 """
@@ -37,6 +44,8 @@ REQUIRED = ("mode", "frequency_hz")
 SHAPE_COLUMNS = ("body", "x_m", "y_m", "z_m", "direction", "shape")
 COLUMNS = (*REQUIRED, "damping_ratio", *SHAPE_COLUMNS)
 AXES = ("x", "y", "z")
+UFF_SUFFIXES = (".uff", ".unv")
+NODE_COLUMNS = ("node", "body")
 
 
 @dataclass(frozen=True)
@@ -126,8 +135,11 @@ def modal_test(modes, frequencies_hz, damping_ratio=None, sensors=(), shapes=Non
 
 
 def read_modal_test(path) -> ModalTest:
-    """Read a modal-test CSV (module docstring); a mistake is one line naming the file, the
-    row (as a spreadsheet numbers it, header = row 1) and the column."""
+    """Read a modal-test file: a CSV (module docstring; a mistake is one line naming the file,
+    the row as a spreadsheet numbers it, header = row 1, and the column) or a universal file
+    (``.uff``/``.unv``, :func:`read_uff`)."""
+    if Path(path).suffix.lower() in UFF_SUFFIXES:
+        return read_uff(path)
     where = Where(str(path), error=StudyError)
     try:
         frame = pd.read_csv(path, dtype={"body": str, "direction": str}, comment="#")
@@ -191,3 +203,76 @@ def _cell(value):
     if value is None or (isinstance(value, float) and math.isnan(value)):
         return None
     return value.item() if isinstance(value, np.generic) else value
+
+
+def read_uff(path) -> ModalTest:
+    """A :class:`ModalTest` from a universal file (module docstring) and its node map."""
+    import pyuff
+
+    where = Where(str(path), error=StudyError)
+    if not Path(path).is_file():
+        where.fail_table("no such file")
+    try:
+        sets = pyuff.UFF(str(path)).read_sets()
+    except Exception as exc:  # pyuff raises bare exceptions on malformed files
+        where.fail_table(f"not a readable universal file ({type(exc).__name__}: {exc})")
+    sets = sets if isinstance(sets, list) else [sets]
+    nodes = {}
+    for d in (d for d in sets if d.get("type") == 15):
+        for n, x, y, z in zip(d["node_nums"], d["x"], d["y"], d["z"], strict=True):
+            nodes[int(n)] = (float(x), float(y), float(z))
+    shapes = [d for d in sets if d.get("type") == 55]
+    if not shapes:
+        where.fail_table("no mode shapes (dataset 55)")
+    bodies = _node_map(Path(path).with_suffix(".nodes.csv"))
+    placed = [(n, axis) for n in sorted(bodies) if n in nodes for axis in AXES]
+    sensors = [Sensor(bodies[n], nodes[n], axis) for n, axis in placed]
+    modes, freq, zeta, rows = [], [], [], []
+    for i, d in enumerate(shapes):
+        f, z = _uff_frequency(where.sub(f"dataset 55 [{i}]"), d)
+        values = _uff_shape(d, placed)
+        modes.append(int(d.get("mode_n", i + 1)))
+        freq.append(f)
+        zeta.append(z)
+        rows.append(values)
+    where.unique("mode_n", modes)
+    return modal_test(modes, freq, zeta, sensors, np.array(rows).reshape(len(modes), -1), str(path))
+
+
+def _node_map(path: Path) -> dict[int, str]:
+    """node -> body from the node-map CSV beside a universal file."""
+    where = Where(str(path), error=StudyError)
+    if not path.is_file():
+        where.fail_table("missing: a universal file needs its node map (columns node, body)")
+    frame = pd.read_csv(path, comment="#", dtype={"body": str})
+    where.keys(dict.fromkeys(frame.columns), valid=NODE_COLUMNS, required=NODE_COLUMNS)
+    out = {}
+    for i, row in enumerate(frame.to_dict("records")):
+        here = where.sub(f"row {i + 2}")
+        node = here.integer("node", _cell(row["node"]), low=0)
+        out[node] = here.string("body", _cell(row["body"])).strip()
+    return out
+
+
+def _uff_frequency(where: Where, d: dict) -> tuple[float, float]:
+    """(frequency [Hz], damping ratio) of a dataset 55: normal or complex mode."""
+    if d.get("analysis_type") == 3:
+        lam = complex(d["eig"])
+        return abs(lam) / (2 * math.pi), -lam.real / abs(lam)
+    f = where.number("freq", float(d.get("freq", math.nan)), sign="positive", unit="[Hz]")
+    return f, float(d.get("modal_damp_vis", math.nan))
+
+
+def _uff_shape(d: dict, placed) -> np.ndarray:
+    """The translations of a dataset 55 at the (node, axis) sensors (NaN where a node is not
+    in it); a complex shape rotated to its largest component, real part."""
+    at = {int(n): i for i, n in enumerate(d["node_nums"])}
+    parts = np.stack([np.asarray(d[k]) for k in ("r1", "r2", "r3")], axis=1)
+    if np.iscomplexobj(parts):
+        big = parts.flat[np.argmax(np.abs(parts))]
+        parts = (parts * np.conj(big) / abs(big)).real
+    values = np.full(len(placed), np.nan)
+    for j, (node, axis) in enumerate(placed):
+        if node in at:
+            values[j] = parts[at[node], AXES.index(axis)]
+    return values
