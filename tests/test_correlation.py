@@ -171,3 +171,16 @@ def test_a_universal_file_reads_as_the_same_test(tmp_path, complex_modes):
     result = correlate(model, back)
     assert (result.table["mac"] > 1 - 1e-6).all()
     assert list(result.table["model_mode"]) == list(range(1, 7))
+
+
+def test_table3_tags_of_bodies_a_model_lacks_are_mismatches_not_a_crash():
+    """The API's Table 3 validation of a user's model: tags naming absent bodies say so."""
+    from ufmt.calibration.frequencies import modeset_from_mstmm, validation_table
+
+    model = ufmt.load_model(BRIDGE)
+    reference = read_reference(ufmt.packaged_path("paper_reference.toml"))
+    solution = ufmt.solve_modes(model, count=3)
+    modes = modeset_from_mstmm(model, solution.shapes)
+    table = validation_table(model, reference, modes, solution.frequencies_hz)
+    assert set(table["tag_check"]) == {"bodies"}
+    assert table["tag_detail"].str.contains("not in the model").all()

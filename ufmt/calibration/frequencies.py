@@ -266,6 +266,9 @@ def modeset_from_dofs(
 
 def check_tag(modes: ModeSet, index: int, tag: Tag) -> tuple[str, str]:
     """(status, detail) of model mode ``index`` (0-based) against a Table 3 tag (see module)."""
+    absent = [b for b in tag.bodies if b not in modes.body_names]
+    if absent:
+        return "bodies", f"{', '.join(absent)} not in the model"
     cls, _ = modes.classes()
     if cls[index] != tag.mode_class:
         return "class", f"{CLASSES[cls[index]]} mode, tag is {CLASSES[tag.mode_class]}"
