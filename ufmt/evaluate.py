@@ -117,7 +117,7 @@ class EvaluationRecord(Mapping):
 
     @property
     def status(self) -> str:
-        """ "ok" or "error"."""
+        """The outcome: "ok" or "error"."""
         return self.values["status"]
 
     @property

@@ -34,9 +34,10 @@ def _mode_number(text: str, highest: int | None = None) -> int:
         value = int(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"{text!r} is not a mode number") from None
-    if value < 1 or (highest is not None and value > highest):
-        top = "" if highest is None else f"..{highest}"
-        raise argparse.ArgumentTypeError(f"mode {value} is outside 1{top}" + ("" if top else "+"))
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"mode {value}: mode numbers start at 1")
+    if highest is not None and value > highest:
+        raise argparse.ArgumentTypeError(f"mode {value} is outside 1..{highest}")
     return value
 
 
@@ -54,7 +55,7 @@ def register(subparsers) -> None:
     p.add_argument(
         "--test",
         metavar="FILE",
-        help="your modal-test CSV (docs/modal-test.md): calibrate --prior against it; "
+        help="your modal-test file, CSV or UFF (docs/modal-test.md): calibrate --prior against it; "
         "--settings is then a model-update file (docs/modal-test.md), optional",
     )
     p.add_argument("--settings", help="calibration file (default: packaged calibration.toml)")
@@ -73,8 +74,8 @@ def register(subparsers) -> None:
     p.add_argument(
         "--test",
         metavar="FILE",
-        help="modal-test CSV (docs/modal-test.md): pair the modes by MAC or order, write "
-        "correlation.csv, mac.csv, mac.png",
+        help="modal-test file, CSV or UFF (docs/modal-test.md): pair the modes by MAC or "
+        "order, write correlation.csv, mac.csv, mac.png",
     )
     p.add_argument("--json", action="store_true", help="with --test: one JSON object on stdout")
     p.add_argument(

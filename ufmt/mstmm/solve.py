@@ -121,9 +121,16 @@ class ModalSolution:
         n = self.frequencies_hz.size
         if isinstance(mode, bool) or not isinstance(mode, int | np.integer):
             raise UfmtError(f"mode: {mode!r} is not a mode number 1..{n}")
-        if not 1 <= mode <= n or self.shapes is None or model is None:
-            why = "the model the shapes belong to is needed" if model is None else "no shapes"
-            why = f"{n} modes were solved" if self.shapes is not None and model else why
+        why = (
+            "pass model=, the model the shapes belong to"
+            if model is None
+            else "solved without shapes"
+            if self.shapes is None
+            else f"{n} modes were solved"
+            if not 1 <= mode <= n
+            else ""
+        )
+        if why:
             raise UfmtError(f"mode {mode}: cannot draw it (1..{n}; {why})")
         model = as_model(model)
         line = describe(model, self.energy_shares(model), top=3)[mode - 1]
