@@ -15,6 +15,7 @@ User errors raise :class:`~ufmt.errors.UfmtError`; the CLI prints one line and e
 from __future__ import annotations
 
 import argparse
+import math
 import time
 from pathlib import Path
 
@@ -255,10 +256,11 @@ def _validate_test(model, test: str, out: Path, as_json: bool) -> int:
         return 0
     s = result.summary()
     print(result.table.to_string(index=False, float_format=lambda v: f"{v:.4g}"))
+    mac = "no shapes" if math.isnan(s["min_mac"]) else f"lowest MAC {s['min_mac']:.3f}"
     print(
         f"{model.name} against {test}: {s['paired']} of {len(result.table)} test modes paired, "
         f"max |error| {s['max_abs_error_percent']:.3f} %, mean "
-        f"{s['mean_abs_error_percent']:.3f} %, lowest MAC {s['min_mac']:.3f}"
+        f"{s['mean_abs_error_percent']:.3f} %, {mac}"
     )
     print(f"wrote {', '.join(p.name for p in written)} in {out}")
     return 0
