@@ -184,3 +184,13 @@ def test_table3_tags_of_bodies_a_model_lacks_are_mismatches_not_a_crash():
     table = validation_table(model, reference, modes, solution.frequencies_hz)
     assert set(table["tag_check"]) == {"bodies"}
     assert table["tag_detail"].str.contains("not in the model").all()
+
+
+def test_unreadable_test_files_are_one_line(tmp_path):
+    with pytest.raises(StudyError, match="nothere.csv: file not found"):
+        read_modal_test(tmp_path / "nothere.csv")
+    (tmp_path / "empty.csv").write_text("")
+    with pytest.raises(StudyError, match="empty.csv: not a readable CSV file"):
+        read_modal_test(tmp_path / "empty.csv")
+    with pytest.raises(StudyError, match="t.uff: file not found"):
+        read_modal_test(tmp_path / "t.uff")

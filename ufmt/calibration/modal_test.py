@@ -30,6 +30,7 @@ A sensor is the triple (body, point, direction); a mode need not be measured at 
 
 from __future__ import annotations
 
+import io
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -39,6 +40,7 @@ import pandas as pd
 
 from ufmt.errors import StudyError
 from ufmt.tables import Where
+from ufmt.tomlfile import read_text
 
 REQUIRED = ("mode", "frequency_hz")
 SHAPE_COLUMNS = ("body", "x_m", "y_m", "z_m", "direction", "shape")
@@ -141,12 +143,7 @@ def read_modal_test(path) -> ModalTest:
     if Path(path).suffix.lower() in UFF_SUFFIXES:
         return read_uff(path)
     where = Where(str(path), error=StudyError)
-    try:
-        frame = pd.read_csv(path, dtype={"body": str, "direction": str}, comment="#")
-    except FileNotFoundError:
-        where.fail_table("no such file")
-    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
-        where.fail_table(f"not a readable CSV file ({exc})")
+    frame = _read_csv(where, path, {"body": str, "direction": str})
     where.keys(dict.fromkeys(frame.columns), valid=COLUMNS, required=REQUIRED)
     shaped = [c for c in SHAPE_COLUMNS if c in frame.columns]
     if shaped and len(shaped) != len(SHAPE_COLUMNS):
@@ -198,6 +195,16 @@ def _read_row(where: Where, row: dict, shaped, by_mode: dict, sensors: dict) -> 
     entry["shape"][j] = where.number("shape", _cell(row["shape"]))
 
 
+def _read_csv(where: Where, path, dtype) -> pd.DataFrame:
+    """The CSV at ``path`` (``#`` comment lines), unreadable files in the one wording of
+    :mod:`ufmt.tomlfile`."""
+    text = read_text(path)
+    try:
+        return pd.read_csv(io.StringIO(text), dtype=dtype, comment="#")
+    except (pd.errors.ParserError, pd.errors.EmptyDataError) as exc:
+        where.fail_table(f"not a readable CSV file ({' '.join(str(exc).split())})")
+
+
 def _cell(value):
     """None for an empty CSV cell, else the value (numpy integers as int)."""
     if value is None or (isinstance(value, float) and math.isnan(value)):
@@ -211,7 +218,7 @@ def read_uff(path) -> ModalTest:
 
     where = Where(str(path), error=StudyError)
     if not Path(path).is_file():
-        where.fail_table("no such file")
+        where.fail_table("file not found" if not Path(path).exists() else "not a file")
     try:
         sets = pyuff.UFF(str(path)).read_sets()
     except Exception as exc:  # pyuff raises bare exceptions on malformed files
@@ -242,9 +249,9 @@ def read_uff(path) -> ModalTest:
 def _node_map(path: Path) -> dict[int, str]:
     """node -> body from the node-map CSV beside a universal file."""
     where = Where(str(path), error=StudyError)
-    if not path.is_file():
-        where.fail_table("missing: a universal file needs its node map (columns node, body)")
-    frame = pd.read_csv(path, comment="#", dtype={"body": str})
+    if not path.exists():
+        where.fail_table("file not found (a universal file needs its node map: node, body)")
+    frame = _read_csv(where, path, {"body": str})
     where.keys(dict.fromkeys(frame.columns), valid=NODE_COLUMNS, required=NODE_COLUMNS)
     out = {}
     for i, row in enumerate(frame.to_dict("records")):
