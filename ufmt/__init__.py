@@ -9,7 +9,11 @@ Public entry points:
 - ``ufmt.simulate(model, ufmt.Process(rpm, feed_mm_min, depth_um), ...)``: tool-tip response,
   machined surface and its PV;
 - ``ufmt.evaluate(design, process, model=None)``: the study function (design, process) → PV;
-  ``process`` is a ``ufmt.Process`` or a dict.
+  ``process`` is a ``ufmt.Process`` or a dict; returns a :class:`ufmt.EvaluationRecord`;
+- ``ufmt.frf(model, direction="z", kind="receptance", output=None, input=None, ...)``:
+  tool-workpiece or point-to-point FRF in any direction (:class:`ufmt.FrfResult`).
+
+Every ``model`` argument takes a path or a loaded model; modes are numbered from 1.
 """
 
 import sys
@@ -20,9 +24,12 @@ __version__ = "0.1.0"
 # The public names load their modules on first use (PEP 562): ``import ufmt`` and
 # ``ufmt --version`` stay instant, and a command pays only for the stages it runs.
 _PUBLIC = {
+    "EvaluationRecord": "ufmt.evaluate",
+    "FrfResult": "ufmt.machining.frf",
     "ModalSolution": "ufmt.mstmm.solve",
     "Process": "ufmt.machining.process",
     "evaluate": "ufmt.evaluate",
+    "frf": "ufmt.machining.frf",
     "load_model": "ufmt.model.load",
     "packaged_path": "ufmt.model.load",
     "simulate": "ufmt.simulate",

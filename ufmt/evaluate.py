@@ -22,7 +22,7 @@ import math
 import os
 import warnings
 from collections.abc import Mapping
-from dataclasses import fields, is_dataclass
+from dataclasses import dataclass, fields, is_dataclass
 from pathlib import Path
 
 from ufmt import evaluate_cache
@@ -84,6 +84,65 @@ def _load_model(path: str, file_sha: str) -> tuple[Model, str]:
 
 
 # ---------------------------------------------------------------------------------------------
+# the record
+
+
+@dataclass(frozen=True, eq=False, repr=False)
+class EvaluationRecord(Mapping):
+    """What :func:`evaluate` returns: one (design, process) point and its outcome.
+
+    A read-only mapping of the record's names (the design parameters, ``rpm``,
+    ``feed_mm_min``, ``depth_um``, the metrics, ``f1_hz`` .., ``status``, ``message``) to
+    values, in that order, so ``record["pv_nm"]`` and ``dict(record)`` work as with a dict and
+    two records are equal when their items are; ``.to_dict()`` is that dict (the form the
+    studies and the cache keep), ``.to_frame()`` one row. ``status`` and ``message`` are also
+    attributes.
+    """
+
+    values: dict
+
+    def __getitem__(self, key):
+        return self.values[key]
+
+    def __iter__(self):
+        return iter(self.values)
+
+    def __len__(self) -> int:
+        return len(self.values)
+
+    def __eq__(self, other) -> bool:
+        return isinstance(other, Mapping) and dict(self.values) == dict(other.items())
+
+    __hash__ = None  # a mutable-looking mapping: no hash, as a dict
+
+    @property
+    def status(self) -> str:
+        """The outcome: "ok" or "error"."""
+        return self.values["status"]
+
+    @property
+    def message(self) -> str:
+        """Warnings or the error, one line (empty if none)."""
+        return self.values["message"]
+
+    def __repr__(self) -> str:
+        pv = self.values.get("pv_nm", math.nan)
+        process = ", ".join(f"{k}={self.values[k]:g}" for k in PROCESS_PARAMETERS)
+        tail = f", message={self.message!r}" if self.message else ""
+        return f"EvaluationRecord({process}: pv_nm={pv:.4g}, status={self.status!r}{tail})"
+
+    def to_dict(self) -> dict:
+        """The record as a plain dict (a copy)."""
+        return dict(self.values)
+
+    def to_frame(self):
+        """The record as a one-row pandas DataFrame (units in the column names)."""
+        import pandas as pd
+
+        return pd.DataFrame([self.values])
+
+
+# ---------------------------------------------------------------------------------------------
 # evaluation
 
 
@@ -93,7 +152,7 @@ def evaluate(
     model: str | os.PathLike | Model | None = None,
     *,
     parameters: Mapping[str, DesignParameter] | None = None,
-) -> dict:
+) -> EvaluationRecord:
     """Surface metrics and natural frequencies of one design under one cutting process.
 
     Parameters
@@ -111,8 +170,9 @@ def evaluate(
 
     Returns
     -------
-    dict
-        The inputs, then ``pv_nm``, ``pv_aperture_nm`` (clear aperture), ``pv_tilt_removed_nm``,
+    EvaluationRecord
+        A read-only mapping (``.to_dict()`` the plain dict): the inputs, then ``pv_nm``,
+        ``pv_aperture_nm`` (clear aperture), ``pv_tilt_removed_nm``,
         ``pv_measured_nm`` and ``rms_measured_nm`` (as the interferometer reports them,
         :mod:`ufmt.machining.instruments`), ``rms_nm``, ``psd1_rms_nm``, ``psd2_rms_nm`` [nm]
         (surface of paper eq. 4.1; NaN where a band is not resolved), ``force_peak_n`` [N],
@@ -156,7 +216,7 @@ def evaluate(
     except Exception as exc:  # any physics failure becomes a recorded error
         record.update(dict.fromkeys(METRICS + FREQUENCIES, math.nan))
         record.update(status="error", message=_one_line(f"{type(exc).__name__}: {exc}"))
-    return record
+    return EvaluationRecord(record)
 
 
 def _process_mapping(process) -> dict:

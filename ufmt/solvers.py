@@ -5,8 +5,10 @@ packages import nothing from each other; this module is the one place that knows
 from __future__ import annotations
 
 import time
+from pathlib import Path
 
 from ufmt.errors import UfmtError
+from ufmt.model.load import as_model
 from ufmt.model.schema import Model
 from ufmt.mstmm.solve import DEFAULT_FMAX_HZ, ModalSolution
 from ufmt.mstmm.solve import solve_modes as mstmm_modes
@@ -15,7 +17,7 @@ METHODS = ("mstmm", "assembled")
 
 
 def solve_modes(
-    model: Model,
+    model: Model | str | Path | None,
     fmax_hz: float | None = None,
     count: int | None = None,
     method: str = "mstmm",
@@ -26,8 +28,10 @@ def solve_modes(
     ``method`` "mstmm" (default): :func:`ufmt.mstmm.solve.solve_modes` (exact beams, mode
     shapes); "assembled": the assembled model on its automatic mesh (frequencies only,
     ``order`` 0, ``expected`` the number it finds). Other parameters and the result as
-    :func:`ufmt.mstmm.solve.solve_modes`.
+    :func:`ufmt.mstmm.solve.solve_modes`; ``model`` is a loaded model or a path (None: the
+    packaged UFMT).
     """
+    model = as_model(model)
     if method not in METHODS:
         raise UfmtError(f"--method: {method!r} is not one of 'mstmm', 'assembled'")
     if method == "mstmm":

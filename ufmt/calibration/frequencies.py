@@ -155,6 +155,12 @@ def _tag(mode: Where, row: dict) -> Tag | None:
     return Tag(tuple(bodies), motion, phase)
 
 
+def tag_bodies(reference: Reference) -> set[str]:
+    """The body names the reference's shape tags mention (a model must have them all for the
+    tag checks)."""
+    return {b for m in reference.modes.values() if m.tag is not None for b in m.tag.bodies}
+
+
 # ---------------------------------------------------------------------------------------------
 # modes in a form every solver can fill
 
@@ -262,6 +268,9 @@ def modeset_from_dofs(
 
 def check_tag(modes: ModeSet, index: int, tag: Tag) -> tuple[str, str]:
     """(status, detail) of model mode ``index`` (0-based) against a Table 3 tag (see module)."""
+    absent = [b for b in tag.bodies if b not in modes.body_names]
+    if absent:
+        return "bodies", f"{', '.join(absent)} not in the model"
     cls, _ = modes.classes()
     if cls[index] != tag.mode_class:
         return "class", f"{CLASSES[cls[index]]} mode, tag is {CLASSES[tag.mode_class]}"

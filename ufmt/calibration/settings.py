@@ -353,6 +353,12 @@ def _parameters(top: Where, tables, model: Model) -> tuple[Parameter, ...]:
     return tuple(out)
 
 
+def read_parameters(top: Where, tables, model: Model) -> tuple[Parameter, ...]:
+    """The ``[[parameter]]`` tables of any calibration or settings file (``top`` names the
+    file) against ``model``: the one reading of identified stiffness factors."""
+    return _parameters(top, tables, model)
+
+
 def _constraint(top: Where, table, model: Model) -> Constraint | None:
     if table is None:
         return None

@@ -15,10 +15,11 @@ User errors raise :class:`~ufmt.errors.UfmtError`; the CLI prints one line and e
 from __future__ import annotations
 
 import argparse
+import math
 import time
 from pathlib import Path
 
-from ufmt.cli.common import load, positive
+from ufmt.cli.common import load, positive, results_dir
 from ufmt.defaults import PAPER_MODES
 from ufmt.errors import UfmtError
 from ufmt.model.load import packaged_path
@@ -28,18 +29,22 @@ DEFAULT_LOG = RESULTS / "identification-log.csv"
 DEFAULT_PLOTTED_MODES = "1,11,12,18,29"  # mode 1 and the tool-tip z modes of section 4.1
 
 
-def _mode_number(text: str) -> int:
+def _mode_number(text: str, highest: int | None = None) -> int:
+    """A mode number (1-based, as every table numbers modes), at most ``highest`` if given."""
     try:
         value = int(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"{text!r} is not a mode number") from None
-    if not 1 <= value <= PAPER_MODES:
-        raise argparse.ArgumentTypeError(f"mode {value} is outside 1..{PAPER_MODES}")
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"mode {value}: mode numbers start at 1")
+    if highest is not None and value > highest:
+        raise argparse.ArgumentTypeError(f"mode {value} is outside 1..{highest}")
     return value
 
 
 def _mode_list(text: str) -> list[int]:
-    return [_mode_number(t) for t in text.split(",") if t.strip()]
+    """Modes of the validation (the paper's first PAPER_MODES), comma-separated."""
+    return [_mode_number(t, PAPER_MODES) for t in text.split(",") if t.strip()]
 
 
 def register(subparsers) -> None:
@@ -48,14 +53,36 @@ def register(subparsers) -> None:
         "calibrate", help="identify hinge stiffness (Table 3), fit the response (Table 4)"
     )
     p.add_argument("--prior", help="prior model (default: the calibration file's)")
+    p.add_argument(
+        "--test",
+        metavar="FILE",
+        help="your modal-test file, CSV or UFF (docs/modal-test.md): calibrate --prior against it; "
+        "--settings is then a model-update file (docs/modal-test.md), optional",
+    )
     p.add_argument("--settings", help="calibration file (default: packaged calibration.toml)")
-    p.add_argument("--output", help="identified model (default: the calibration file's)")
+    p.add_argument(
+        "--output",
+        help="identified model (default: the calibration file's; with --test "
+        "results/<prior file name>/calibration/<prior file name>-calibrated.toml)",
+    )
     p.add_argument("--log", default=str(DEFAULT_LOG), help=f"iteration log (default {DEFAULT_LOG})")
     p.set_defaults(func=cmd_calibrate)
 
-    p = subparsers.add_parser("validate", help="validation table and plots against Table 3")
+    p = subparsers.add_parser(
+        "validate", help="modes against a modal test (--test FILE) or the paper's Table 3"
+    )
     p.add_argument("model", nargs="?", help="model TOML (default: packaged UFMT)")
-    p.add_argument("--output-dir", default=str(RESULTS), help=f"default {RESULTS}")
+    p.add_argument(
+        "--test",
+        metavar="FILE",
+        help="modal-test file, CSV or UFF (docs/modal-test.md): pair the modes by MAC or "
+        "order, write correlation.csv, mac.csv, mac.png",
+    )
+    p.add_argument("--json", action="store_true", help="with --test: one JSON object on stdout")
+    p.add_argument(
+        "--output-dir",
+        help=f"default {RESULTS} (packaged model), results/<model file name>/validation/ (yours)",
+    )
     p.add_argument(
         "--modes",
         type=_mode_list,
@@ -65,7 +92,7 @@ def register(subparsers) -> None:
     p.set_defaults(func=cmd_validate)
 
     p = subparsers.add_parser("plot-mode", help="draw mode N in 3-D to a PNG")
-    p.add_argument("mode", type=_mode_number, help=f"mode number 1..{PAPER_MODES}")
+    p.add_argument("mode", type=_mode_number, help="mode number, 1-based (1 = the lowest)")
     p.add_argument("model", nargs="?", help="model TOML (default: packaged UFMT)")
     p.add_argument(
         "--output",
@@ -82,6 +109,8 @@ def cmd_calibrate(args) -> int:
     """Identify, fit the response parameters, write the model and the log, print the result."""
     from ufmt.calibration.pipeline import calibrate
 
+    if args.test:
+        return _calibrate_test(args)
     t0 = time.perf_counter()
     run = calibrate(
         args.settings or packaged_path("calibration.toml"),
@@ -107,6 +136,30 @@ def cmd_calibrate(args) -> int:
     if run.response is not None:
         _print_response(run)
     print(f"wrote {run.output} and {args.log}")
+    return 0
+
+
+def _calibrate_test(args) -> int:
+    """Calibrate a model against its modal test (:mod:`ufmt.calibration.model_update`): write
+    the calibrated model, parameters.csv, residuals.csv and its correlation; print them."""
+    from ufmt.calibration.model_update import read_update_settings, update_model, write_model
+
+    prior = load(args.prior)
+    settings, parameters = (
+        read_update_settings(args.settings, prior) if args.settings else (None, None)
+    )
+    t0 = time.perf_counter()
+    update = update_model(prior, args.test, parameters, settings)
+    stem = "ufmt" if args.prior is None else Path(args.prior).stem
+    folder = results_dir(args.prior, "calibration", Path("results") / "calibration")
+    output = write_model(update, args.output or folder / f"{stem}-calibrated.toml", args.settings)
+    written = update.save(Path(args.output).parent if args.output else folder)
+    print(f"{update!r} in {time.perf_counter() - t0:.1f} s ({update.evaluations} MSTMM solves)")
+    print(update.to_frame().to_string(index=False, float_format=lambda v: f"{v:.4g}"))
+    if update.at_bound:
+        print(f"AT BOUND (the test asks for more than the band): {', '.join(update.at_bound)}")
+    print(update.residuals().to_string(index=False, float_format=lambda v: f"{v:.4g}"))
+    print(f"wrote {output} and {', '.join(p.name for p in written)} in {written[0].parent}")
     return 0
 
 
@@ -150,16 +203,29 @@ def _print_summary(model, s: dict) -> None:
 
 
 def cmd_validate(args) -> int:
-    """Write frequencies.csv, frequencies.png, the mode plots and (for a model with a
+    """With ``--test``: correlate the model with the modal test (:func:`_validate_test`).
+    Without: write frequencies.csv, frequencies.png, the mode plots and (for a model with a
     ``[machine]`` table) response.csv of section 4.2 / Table 4; print the summary."""
-    from ufmt.calibration.frequencies import read_reference, validate, write_table
+    from ufmt.calibration.frequencies import read_reference, tag_bodies, validate, write_table
     from ufmt.mstmm.solve import describe
     from ufmt.plots import save_figure
     from ufmt.plots.modes import plot_frequencies, plot_mode
 
     model = load(args.model)
-    out = Path(args.output_dir)
-    result = validate(model, read_reference(packaged_path("paper_reference.toml")), PAPER_MODES)
+    out = Path(args.output_dir or results_dir(args.model, "validation", RESULTS))
+    if args.test:
+        return _validate_test(model, args.test, out, args.json)
+    if args.json:
+        raise UfmtError("--json: only with --test FILE (the validation against a modal test)")
+    reference = read_reference(packaged_path("paper_reference.toml"))
+    missing = sorted(tag_bodies(reference) - {b.name for b in model.bodies})
+    if missing:
+        raise UfmtError(
+            f"{model.source}: no modal test given, and the paper's Table 3 (the default test) "
+            f"describes the packaged UFMT: bodies {', '.join(missing)} are not in this model; "
+            "give your machine's test with --test FILE (docs/modal-test.md)"
+        )
+    result = validate(model, reference, PAPER_MODES)
     write_table(result.table, out / "frequencies.csv")
     save_figure(plot_frequencies(result.table), out / "frequencies.png")
     lines = describe(model, result.modes.shares, top=3)
@@ -177,6 +243,29 @@ def cmd_validate(args) -> int:
         table.to_csv(out / "response.csv", index=False, float_format="%.6g")
         print(table.drop(columns=["source"]).to_string(index=False))
         print(f"wrote response.csv in {out}")
+    return 0
+
+
+def _validate_test(model, test: str, out: Path, as_json: bool) -> int:
+    """Pair the model's modes with the test's, write correlation.csv, mac.csv and mac.png in
+    ``out``, print the pair table (or, with ``as_json``, one JSON object)."""
+    from ufmt.calibration.correlation import correlate
+    from ufmt.jsonout import dumps_strict
+
+    result = correlate(model, test)
+    written = result.save(out)
+    if as_json:
+        print(dumps_strict(result.to_dict()))
+        return 0
+    s = result.summary()
+    print(result.table.to_string(index=False, float_format=lambda v: f"{v:.4g}"))
+    mac = "no shapes" if math.isnan(s["min_mac"]) else f"lowest MAC {s['min_mac']:.3f}"
+    print(
+        f"{model.name} against {test}: {s['paired']} of {len(result.table)} test modes paired, "
+        f"max |error| {s['max_abs_error_percent']:.3f} %, mean "
+        f"{s['mean_abs_error_percent']:.3f} %, {mac}"
+    )
+    print(f"wrote {', '.join(p.name for p in written)} in {out}")
     return 0
 
 

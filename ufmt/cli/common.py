@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import math
+from pathlib import Path
 
 
 def load(path: str | None):
@@ -31,3 +32,10 @@ def positive(kind, below=None, at_most=None):
         return value
 
     return parse
+
+
+def results_dir(model_path: str | None, kind: str, packaged: Path) -> Path:
+    """Default output folder of a command: ``packaged`` for the packaged model (no path given),
+    else ``results/<model file name>/<kind>/``, so a user's model never writes over the
+    packaged model's results."""
+    return packaged if model_path is None else Path("results") / Path(model_path).stem / kind

@@ -134,7 +134,9 @@ def _register_frf(subparsers) -> None:
     from ufmt.cli.common import positive
     from ufmt.machining.recurrence import DEFAULT_ZETA
 
-    p = subparsers.add_parser("frf", help="tool-workpiece receptance in z (table and plot)")
+    p = subparsers.add_parser(
+        "frf", help="tool-workpiece or point-to-point FRF in any direction (table and plot)"
+    )
     p.add_argument("model", nargs="?", help="model TOML (default: packaged UFMT)")
     p.add_argument("--fmin", type=positive(float), default=1.0, help="[Hz] (1)")
     p.add_argument("--fmax", type=positive(float), default=1000.0, help="[Hz] (1000)")
@@ -149,7 +151,25 @@ def _register_frf(subparsers) -> None:
         help=f"structural damping ratio ({DEFAULT_ZETA:g})",
     )
     p.add_argument("--no-static", action="store_true", help="modal sum without static correction")
-    p.add_argument("--output-dir", default=str(DEFAULT_FRF_DIR), help=f"({DEFAULT_FRF_DIR})")
+    p.add_argument(
+        "--direction",
+        default="z",
+        help="response then force axis: x, y, z or a pair such as xz (default z = zz)",
+    )
+    p.add_argument(
+        "--kind", choices=("receptance", "mobility", "accelerance"), default="receptance"
+    )
+    p.add_argument(
+        "--at",
+        nargs=2,
+        metavar=("RESPONSE", "FORCE"),
+        help="point-to-point: BODY:x,y,z [m] for the response and the force points (default: "
+        "tool tip relative to the workpiece, force pair)",
+    )
+    p.add_argument(
+        "--output-dir",
+        help=f"default {DEFAULT_FRF_DIR} (packaged model), results/<model file name>/frf/ (yours)",
+    )
     p.add_argument("--json", action="store_true", help="summary as one JSON object")
     p.set_defaults(func=cmd_frf)
 
@@ -203,55 +223,71 @@ def cmd_simulate(args) -> int:
 
 
 def cmd_frf(args) -> int:
-    """Tool-workpiece receptance in z: CSV table and magnitude/phase plot."""
-    import pandas as pd
-
-    from ufmt.cli.common import load
+    """An FRF of the model (:func:`ufmt.machining.frf.frf`): CSV table and magnitude/phase
+    plot in the output folder (``frf.csv``/``frf.png`` for the tool-workpiece z receptance,
+    ``frf-<directions>-<kind>.*`` otherwise)."""
+    from ufmt.cli.common import load, results_dir
     from ufmt.errors import UfmtError
-    from ufmt.machining.frf import tool_workpiece_receptance
-    from ufmt.machining.modal import modal_basis
-    from ufmt.machining.static import residual_flexibility
-    from ufmt.model.machine import machine_of
-    from ufmt.plots import save_figure
-    from ufmt.plots.response import plot_frf
+    from ufmt.machining.frf import frf
 
     if args.fmin >= args.fmax:
         raise UfmtError(f"--fmin {args.fmin} must be below --fmax {args.fmax}")
     model = load(args.model)
-    basis = modal_basis(model, args.modes, args.basis_cutoff)
-    freq = np.geomspace(args.fmin, args.fmax, args.points)
+    output, force = (None, None) if args.at is None else (_point(t) for t in args.at)
     options = {} if args.zeta is None else {"zeta": args.zeta}
-    machine = machine_of(model)
-    if not args.no_static:
-        options["residual"] = residual_flexibility(model, basis, machine)
-    h = tool_workpiece_receptance(basis, machine, freq, **options)
-    out = Path(args.output_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    table = pd.DataFrame(
-        {
-            "frequency_hz": freq,
-            "magnitude_m_per_N": np.abs(h),
-            "phase_deg": np.degrees(np.angle(h)),
-            "real_m_per_N": h.real,
-            "imag_m_per_N": h.imag,
-        }
+    if args.modes is not None:
+        options["n_modes"] = args.modes
+    if args.basis_cutoff is not None:
+        options["basis_cutoff_hz"] = args.basis_cutoff
+    result = frf(
+        model,
+        args.direction,
+        args.kind,
+        output=output,
+        input=force,
+        fmin_hz=args.fmin,
+        fmax_hz=args.fmax,
+        points=args.points,
+        static_correction=not args.no_static,
+        **options,
     )
-    table.to_csv(out / "frf.csv", index=False, float_format="%.8g")
-    save_figure(plot_frf(freq, h, natural_hz=basis.omega / (2 * np.pi)), out / "frf.png")
-    peak = int(np.argmax(np.abs(h)))
+    out = Path(args.output_dir or results_dir(args.model, "frf", DEFAULT_FRF_DIR))
+    table, plot = result.save(out)
+    h = np.abs(result.values)
+    peak = int(np.argmax(h))
     summary = {
         "model": model.name,
-        "static_compliance_m_per_N": float(abs(h[0])),
-        "peak_hz": float(freq[peak]),
-        "peak_m_per_N": float(abs(h[peak])),
-        "table": str(out / "frf.csv"),
-        "plot": str(out / "frf.png"),
+        "kind": result.kind,
+        "direction": "".join(result.direction),
+        "output": result.output,
+        "input": result.input,
+        f"low_frequency_{result.unit}": float(h[0]),
+        "peak_hz": float(result.frequencies_hz[peak]),
+        f"peak_{result.unit}": float(h[peak]),
+        "table": str(table),
+        "plot": str(plot),
     }
+    if result.unit == "m_per_N":
+        summary["static_compliance_m_per_N"] = float(h[0])
     if args.json:
         print(dumps_strict(summary))
     else:
         print(
-            f"{model.name}: peak receptance {summary['peak_m_per_N']:.3e} m/N at "
-            f"{summary['peak_hz']:.1f} Hz; wrote {summary['table']} and {summary['plot']}"
+            f"{model.name}: peak {result.kind} {''.join(result.direction)} {h[peak]:.3e} "
+            f"{result.unit} at {summary['peak_hz']:.1f} Hz; wrote {table} and {plot}"
         )
     return 0
+
+
+def _point(text: str):
+    """``BODY:x,y,z`` -> (body, (x, y, z)) [m]."""
+    from ufmt.errors import UfmtError
+
+    body, _, coords = text.partition(":")
+    try:
+        point = tuple(float(v) for v in coords.split(","))
+    except ValueError:
+        point = ()
+    if not body or len(point) != 3:
+        raise UfmtError(f"--at {text!r}: expected BODY:x,y,z with the point in metres")
+    return body, point

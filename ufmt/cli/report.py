@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ufmt.cli.common import load
+from ufmt.cli.common import load, results_dir
 
 
 def register(subparsers) -> None:
@@ -13,7 +13,11 @@ def register(subparsers) -> None:
         "report", help="one self-contained HTML page of results/ (figures embedded)"
     )
     p.add_argument("model", nargs="?", help="model summarised (default: packaged UFMT)")
-    p.add_argument("--results", type=Path, default=Path("results"), help="results folder")
+    p.add_argument(
+        "--results",
+        type=Path,
+        help="results folder (default results/, or results/<model file name>/ for your model)",
+    )
     p.add_argument("--output", type=Path, help="HTML file (default RESULTS/report.html)")
     p.set_defaults(func=cmd_report)
 
@@ -22,6 +26,7 @@ def cmd_report(args) -> int:
     """Write the report from the files in ``--results`` (nothing is recomputed)."""
     from ufmt.report import write_report
 
-    path = write_report(args.results, load(args.model), args.output)
+    results = args.results or results_dir(args.model, "", Path("results"))
+    path = write_report(results, load(args.model), args.output)
     print(f"wrote {path} ({path.stat().st_size / 1e6:.1f} MB)")
     return 0

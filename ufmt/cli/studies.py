@@ -12,7 +12,8 @@ Arguments of ``ufmt run`` (built by :func:`add_run_parser`):
     dask scheduler address, e.g. ``tcp://10.0.0.5:8786`` (with ``--backend dask``; without it a
     local cluster of ``--jobs`` workers is started).
 ``--results DIR``
-    Root of the results tree (default ``results``); outputs go to ``DIR/<study name>/``.
+    Root of the results tree (default ``results``, or ``results/<model file name>`` for a
+    study on a user's model); outputs go to ``DIR/<study name>/``.
 ``--fresh``
     Discard rows of an earlier, interrupted run instead of resuming it.
 ``--no-progress``
@@ -60,7 +61,12 @@ def add_run_parser(subparsers) -> argparse.ArgumentParser:
     parser.add_argument(
         "--scheduler", metavar="ADDRESS", help="dask scheduler, e.g. tcp://host:8786"
     )
-    parser.add_argument("--results", type=Path, default=Path("results"), help="results root")
+    parser.add_argument(
+        "--results",
+        type=Path,
+        help="results root (default results/, or results/<model file name>/ for a study on "
+        "your own model)",
+    )
     parser.add_argument("--fresh", action="store_true", help="ignore rows of an earlier run")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     parser.add_argument("--no-plots", action="store_true", help="skip the PNG plots")

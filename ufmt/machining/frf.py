@@ -1,15 +1,115 @@
-"""Tool-workpiece receptance in z: the frequency response behind z_re (paper eqs. 3.9-3.11)."""
+"""Frequency response functions of a model: tool-workpiece (the response behind z_re) and
+point-to-point, in any pair of directions, as receptance, mobility or accelerance (paper eqs.
+3.9-3.11).
+
+An *end* of an FRF is a weighted set of points on rigid bodies: the tool-workpiece end is the
+tool tip on the tool body (+1) and the same point on the workpiece body (-1), so its output is
+the relative displacement and its input a force pair (+F on the tool, -F on the workpiece); a
+point end is one point on one body. Along a unit direction d, the modal participation of an
+end in mode s is ``c_s = sum_p w_p phi_s(body_p, point_p) . d``, and
+
+    H(W) = sum_s c_out,s c_in,s / (M_s (w_s^2 - W^2 + 2 i zeta_s w_s W))  + residual
+
+(modal superposition), or over the complex modes when the basis carries hinge damping
+(:mod:`ufmt.machining.damping`): ``H = sum_j a_j / (i W - lambda_j) + conj``, ``a_j = (c_out^T
+P)_j (L c_in / M)_j``. The residual is the static flexibility of the modes above the basis
+(:func:`ufmt.machining.static.static_flexibility` minus the basis' own), so H(0) is the full
+static compliance. Mobility is ``i W H``, accelerance ``-W^2 H``.
+"""
 
 from __future__ import annotations
 
-import numpy as np
+from dataclasses import dataclass
+from pathlib import Path
 
+import numpy as np
+import pandas as pd
+
+from ufmt.defaults import DEFAULT_BASIS_CUTOFF_HZ
+from ufmt.errors import UfmtError
+from ufmt.kinematics import point_motion
 from ufmt.machining.basis import ModalBasis
 from ufmt.machining.cutting import tool_tip
 from ufmt.machining.damping import damped_modes
+from ufmt.machining.modal import modal_basis
 from ufmt.machining.recurrence import DEFAULT_ZETA, modal_damping
-from ufmt.machining.static import ResidualFlexibility
-from ufmt.model.machine import Machine
+from ufmt.machining.static import ResidualFlexibility, static_flexibility
+from ufmt.model.load import as_model
+from ufmt.model.machine import Machine, machine_of
+from ufmt.model.schema import RigidBody
+
+AXES = {"x": (1.0, 0.0, 0.0), "y": (0.0, 1.0, 0.0), "z": (0.0, 0.0, 1.0)}
+#: kind -> (factor on the receptance as a function of i W, unit of the columns)
+KINDS = {"receptance": "m_per_N", "mobility": "m_per_s_per_N", "accelerance": "m_per_s2_per_N"}
+
+
+@dataclass(frozen=True)
+class End:
+    """One end of an FRF: ``terms`` of (body, point (3,) [m], weight)."""
+
+    label: str
+    terms: tuple[tuple[str, tuple[float, float, float], float], ...]
+
+
+def tool_workpiece_end(machine: Machine, tool_angle: float = 0.0) -> End:
+    """The tool tip at spindle angle ``tool_angle`` [rad] on the tool body (+1) and on the
+    workpiece body (-1): relative displacement, force pair."""
+    tip = tuple(float(v) for v in tool_tip(np.array([tool_angle]), machine)[0])
+    return End(
+        "tool-workpiece",
+        ((machine.tool_body, tip, 1.0), (machine.workpiece_body, tip, -1.0)),
+    )
+
+
+def point_end(body: str, point) -> End:
+    """A point [m] (global frame) on a rigid body."""
+    p = tuple(float(v) for v in point)
+    return End(f"{body}({','.join(f'{v:g}' for v in p)})", ((body, p, 1.0),))
+
+
+def participation(basis: ModalBasis, end: End, direction) -> np.ndarray:
+    """c (n,): the end's weighted point translations along ``direction`` in every mode."""
+    d = np.asarray(direction, dtype=float)
+    return sum(w * basis.point_shapes(body, np.asarray(p)) @ d for body, p, w in end.terms)
+
+
+def modal_receptance(basis: ModalBasis, c_out, c_in, freq_hz, zeta=DEFAULT_ZETA) -> np.ndarray:
+    """The basis' part of H (F,) [m/N] between participations ``c_out`` and ``c_in`` (module
+    docstring), vectorised over the frequencies."""
+    zeta = modal_damping(zeta, basis.n_modes)
+    w = 2 * np.pi * np.asarray(freq_hz, dtype=float)[None, :]
+    modes = damped_modes(basis, zeta)
+    if modes is None:
+        om = basis.omega[:, None]
+        den = basis.modal_mass[:, None] * (om**2 - w**2 + 2j * zeta[:, None] * om * w)
+        return np.sum((c_out * c_in)[:, None] / den, axis=0)
+    a = ((c_out @ modes.outputs) * (modes.inputs @ (c_in / basis.modal_mass)))[:, None]
+    lam = modes.poles[:, None]
+    return np.sum(a / (1j * w - lam) + np.conj(a) / (1j * w - np.conj(lam)), axis=0)
+
+
+def residual_receptance(model, basis: ModalBasis, out: End, d_out, inp: End, d_in) -> float:
+    """Static flexibility of the modes above the basis between the two ends [m/N]: G_static
+    of the ends' bodies minus the basis' sum of v v^T / (M w^2), projected on the points."""
+    bodies = tuple(dict.fromkeys(b for b, _, _ in out.terms + inp.terms))
+    for name in bodies:
+        if not isinstance(model.body(name), RigidBody):
+            raise UfmtError(f"{model.source}: FRF point on body {name!r}: a rigid body is needed")
+    g = static_flexibility(model, bodies)
+    v = np.concatenate([basis.body_shapes[b] for b in bodies], axis=1)
+    g = g - (v.T / (basis.modal_mass * basis.omega**2)) @ v
+    return float(_row(basis, bodies, out, d_out) @ g @ _row(basis, bodies, inp, d_in))
+
+
+def _row(basis: ModalBasis, bodies, end: End, direction) -> np.ndarray:
+    """(6B,) map from the bodies' centre-of-mass motions to the end's weighted translation."""
+    row = np.zeros(6 * len(bodies))
+    d = np.asarray(direction, dtype=float)
+    for body, p, w in end.terms:
+        i = bodies.index(body)
+        t = point_motion(np.asarray(p) - basis.body_centers[body])[:3, :]
+        row[6 * i : 6 * i + 6] += w * (d @ t)
+    return row
 
 
 def tool_workpiece_receptance(
@@ -20,47 +120,163 @@ def tool_workpiece_receptance(
     tool_angle: float = 0.0,
     residual: ResidualFlexibility | None = None,
 ) -> np.ndarray:
-    """Relative z displacement per unit force pair in z at the tool tip [m/N].
+    """Relative z displacement per unit force pair in z at the tool tip [m/N] (F,) complex.
 
-    A force +F z on the tool tip and -F z on the workpiece at the same point give
-    z_re(W) = H(W) F with H(W) = sum_s c_s^2 / (M_s (w_s^2 - W^2 + 2 i zeta_s w_s W)),
-    c_s = (V_tool,s - V_work,s)_z at the tip (modal superposition, eqs. 3.9-3.11), plus the
-    residual flexibility of the modes above the basis (``residual``, frequency-independent;
-    :mod:`ufmt.machining.static`), so that H(0) is the full static compliance. With hinge
-    damping on the basis (:mod:`ufmt.machining.damping`) the modes couple:
-    H(W) = sum_j [a_j / (i W - lambda_j) + conj(a_j) / (i W - conj(lambda_j))],
-    a_j = (c^T P)_j (L c / M)_j, over the complex modes (exactly c^T (Omega^2 - W^2 + i W D)^-1
-    (c / M)).
+    The z-z case of :func:`frf` on a given basis, with the residual of the tool and workpiece
+    bodies (``residual``: :func:`ufmt.machining.static.residual_flexibility`; None: modal
+    superposition alone). ``tool_angle``: spindle angle phi of the tip [rad] (0: along +y).
+    """
+    end = tool_workpiece_end(machine, tool_angle)
+    c = participation(basis, end, AXES["z"])
+    h = modal_receptance(basis, c, c, freq_hz, zeta)
+    if residual is not None:
+        tip = end.terms[0][1]
+        tool, work = residual.relative(tip, tip, [0.0, 0.0, 1.0])
+        h = h + (tool[2] - work[2])
+    return h
+
+
+@dataclass(frozen=True, eq=False, repr=False)
+class FrfResult:
+    """One FRF of a model: ``values`` (F,) complex [unit of ``kind``] at ``frequencies_hz``
+    (F,), between ``output`` and ``input`` (labels) along ``direction`` (output axis, input
+    axis), as ``kind``; ``natural_hz`` the basis' natural frequencies [Hz]."""
+
+    model_name: str
+    frequencies_hz: np.ndarray
+    values: np.ndarray
+    kind: str
+    output: str
+    input: str
+    direction: tuple[str, str]
+    natural_hz: np.ndarray
+
+    @property
+    def unit(self) -> str:
+        """Column-name unit of the values, e.g. ``m_per_N``."""
+        return KINDS[self.kind]
+
+    @property
+    def name(self) -> str:
+        """``frf`` for the tool-workpiece z receptance, else ``frf-<dirs>-<kind>``."""
+        default = self.direction == ("z", "z") and self.kind == "receptance"
+        tw = self.output == self.input == "tool-workpiece"
+        return "frf" if default and tw else f"frf-{''.join(self.direction)}-{self.kind}"
+
+    def __repr__(self) -> str:
+        peak = int(np.argmax(np.abs(self.values)))
+        return (
+            f"FrfResult({self.model_name!r}: {self.kind} {self.output} {self.direction[0]} / "
+            f"{self.input} {self.direction[1]}, {self.frequencies_hz.size} frequencies "
+            f"{self.frequencies_hz[0]:.4g}-{self.frequencies_hz[-1]:.4g} Hz, peak "
+            f"{abs(self.values[peak]):.3e} {self.unit} at {self.frequencies_hz[peak]:.4g} Hz)"
+        )
+
+    def to_frame(self) -> pd.DataFrame:
+        """frequency_hz, magnitude_<unit>, phase_deg, real_<unit>, imag_<unit>, model."""
+        h = self.values
+        return pd.DataFrame(
+            {
+                "frequency_hz": self.frequencies_hz,
+                f"magnitude_{self.unit}": np.abs(h),
+                "phase_deg": np.degrees(np.angle(h)),
+                f"real_{self.unit}": h.real,
+                f"imag_{self.unit}": h.imag,
+                "model": self.model_name,
+            }
+        )
+
+    def plot(self, ax=None):
+        """Magnitude and phase against frequency (:func:`ufmt.plots.frf.plot_frf_result`)."""
+        from ufmt.plots.frf import plot_frf_result
+
+        return plot_frf_result(self, ax=ax)
+
+    def save(self, directory) -> list[Path]:
+        """Write ``<name>.csv`` (:meth:`to_frame`) and ``<name>.png`` to ``directory``."""
+        from ufmt.plots import save_figure
+
+        directory = Path(directory)
+        directory.mkdir(parents=True, exist_ok=True)
+        csv = directory / f"{self.name}.csv"
+        self.to_frame().to_csv(csv, index=False, float_format="%.8g")
+        return [csv, save_figure(self.plot(), directory / f"{self.name}.png")]
+
+
+def frf(
+    model=None,
+    direction: str = "z",
+    kind: str = "receptance",
+    *,
+    output=None,
+    input=None,
+    fmin_hz: float = 1.0,
+    fmax_hz: float = 1000.0,
+    points: int = 4000,
+    n_modes: int | None = None,
+    basis_cutoff_hz: float = DEFAULT_BASIS_CUTOFF_HZ,
+    zeta=DEFAULT_ZETA,
+    static_correction: bool = True,
+    tool_angle: float = 0.0,
+) -> FrfResult:
+    """An FRF of ``model`` (a path, a loaded model or None for the packaged UFMT).
 
     Parameters
     ----------
-    freq_hz : (F,) frequencies [Hz].
-    zeta : structural modal damping, scalar or (n,); the basis' hinge damping adds to it.
-    tool_angle : spindle angle phi of the tool tip [rad] (0: tip along +y, over the middle of
-        the workpiece).
-    residual : static correction (:func:`ufmt.machining.static.residual_flexibility`); none:
-        modal superposition alone.
-
-    Returns
-    -------
-    (F,) complex receptance [m/N].
+    direction : output axis then input axis, e.g. ``"xz"`` (x response to a z force); one
+        letter means both (``"z"`` = ``"zz"``).
+    kind : ``"receptance"`` [m/N], ``"mobility"`` [m/(s N)] or ``"accelerance"`` [m/(s^2 N)].
+    output, input : ``None`` for the tool-workpiece end (relative displacement at the tool
+        tip, force pair; needs ``[machine]``), or ``(body, (x, y, z))`` a point [m] on a rigid
+        body; ``input`` defaults to ``output`` (a driving point).
+    fmin_hz, fmax_hz, points : log-spaced frequencies [Hz].
+    n_modes, basis_cutoff_hz : the modal basis (first n modes, or every mode below the cutoff).
+    zeta : structural modal damping ratio (the hinge damping adds to it).
+    static_correction : add the residual flexibility of the modes above the basis.
+    tool_angle : spindle angle of the tool tip [rad] (0: along +y).
     """
-    tip = tool_tip(np.array([tool_angle]), machine)
-    c = (
-        basis.point_shapes(machine.tool_body, tip) - basis.point_shapes(machine.workpiece_body, tip)
-    )[:, 0, 2]
-    zeta = modal_damping(zeta, basis.n_modes)
-    w = 2 * np.pi * np.asarray(freq_hz, dtype=float)[None, :]
-    modes = damped_modes(basis, zeta)
-    if modes is None:
-        om = basis.omega[:, None]
-        den = basis.modal_mass[:, None] * (om**2 - w**2 + 2j * zeta[:, None] * om * w)
-        h = np.sum(c[:, None] ** 2 / den, axis=0)
-    else:
-        a = ((c @ modes.outputs) * (modes.inputs @ (c / basis.modal_mass)))[:, None]
-        lam = modes.poles[:, None]
-        h = np.sum(a / (1j * w - lam) + np.conj(a) / (1j * w - np.conj(lam)), axis=0)
-    if residual is not None:
-        tool, work = residual.relative(tip[0], tip[0], [0.0, 0.0, 1.0])
-        h = h + (tool[2] - work[2])
-    return h
+    model = as_model(model)
+    axes = _directions(direction)
+    if kind not in KINDS:
+        raise UfmtError(f"FRF kind {kind!r}: one of {', '.join(KINDS)}")
+    if not (0 < fmin_hz < fmax_hz and points >= 2):
+        raise UfmtError(f"FRF range: need 0 < fmin {fmin_hz} < fmax {fmax_hz} and points >= 2")
+    out = _end(model, output, tool_angle)
+    inp = out if input is None else _end(model, input, tool_angle)
+    basis = modal_basis(model, n_modes, basis_cutoff_hz)
+    freq = np.geomspace(fmin_hz, fmax_hz, int(points))
+    d_out, d_in = (AXES[a] for a in axes)
+    c_out, c_in = participation(basis, out, d_out), participation(basis, inp, d_in)
+    h = modal_receptance(basis, c_out, c_in, freq, zeta)
+    if static_correction:
+        h = h + residual_receptance(model, basis, out, d_out, inp, d_in)
+    iw = 2j * np.pi * freq
+    h = {"receptance": h, "mobility": iw * h, "accelerance": iw**2 * h}[kind]
+    return FrfResult(
+        model.name, freq, h, kind, out.label, inp.label, axes, basis.omega / (2 * np.pi)
+    )
+
+
+def _directions(direction: str) -> tuple[str, str]:
+    text = str(direction).lower()
+    axes = (text, text) if len(text) == 1 else tuple(text)
+    if len(axes) != 2 or any(a not in AXES for a in axes):
+        raise UfmtError(
+            f"FRF direction {direction!r}: x, y or z, or two of them (output then input, e.g. 'xz')"
+        )
+    return axes
+
+
+def _end(model, spec, tool_angle: float) -> End:
+    if spec is None:
+        return tool_workpiece_end(machine_of(model), tool_angle)
+    try:
+        body, point = spec
+        point = np.asarray(point, dtype=float).reshape(3)
+    except (TypeError, ValueError):
+        raise UfmtError(f"FRF point {spec!r}: expected (body name, (x, y, z) [m])") from None
+    names = [b.name for b in model.bodies]
+    if body not in names or not isinstance(model.body(body), RigidBody):
+        rigid = [b.name for b in model.bodies if isinstance(b, RigidBody)]
+        raise UfmtError(f"FRF point on {body!r}: not a rigid body (rigid bodies: {rigid})")
+    return point_end(body, point)

@@ -23,7 +23,7 @@ from ufmt.errors import ModelError
 from ufmt.model.bodies import parse_bodies
 from ufmt.model.design import parse_design
 from ufmt.model.hinges import check_connected, check_numbers, parse_hinges
-from ufmt.model.machine import check_machine_bodies, read_machine
+from ufmt.model.machine import check_machine_bodies, check_machine_geometry, read_machine
 from ufmt.model.rules import TOP_FIELDS
 from ufmt.model.schema import Model
 from ufmt.tables import Where, type_name
@@ -80,6 +80,7 @@ def model_from_dict(data: Mapping[str, Any], source: str = "<dict>") -> Model:
     check_connected(source, bodies, hinges)
     if machine is not None:
         check_machine_bodies(machine, bodies, source)
+        check_machine_geometry(machine, bodies.values(), source)
     return Model(
         name=name,
         bodies=tuple(bodies.values()),
@@ -88,3 +89,9 @@ def model_from_dict(data: Mapping[str, Any], source: str = "<dict>") -> Model:
         design=parse_design(source, data.get("design", {}), {h.name: h for h in hinges}),
         source=source,
     )
+
+
+def as_model(model: Model | str | Path | None) -> Model:
+    """``model`` itself if it is a loaded :class:`Model`, else :func:`load_model` of it (a path;
+    None: the packaged UFMT): what every public entry point calls first."""
+    return model if isinstance(model, Model) else load_model(model)

@@ -168,6 +168,8 @@ def read_machine(machine: Mapping, source: str = "<memory>") -> Machine:
             f"y = {m.workpiece_center_xy[1]!r} must equal spindle_axis_xy y = "
             f"{m.spindle_axis_xy[1]!r} (the workpiece centre is under the spindle halfway)",
         )
+    for field in ("tool_radius", "workpiece_size", "spindle_axis_xy", "workpiece_center_xy"):
+        _not_huge(where, field, getattr(m, field), MAX_LENGTH_M, "any fly-cutting machine")
     far = m.workpiece_size[0] / 2 + abs(m.offset_x)
     if far >= m.tool_radius:
         where.fail(
@@ -176,6 +178,109 @@ def read_machine(machine: Mapping, source: str = "<memory>") -> Machine:
             f"x| = {far!r} (the tool circle must cross the whole workpiece width)",
         )
     return m
+
+
+#: Longest plausible length [m] of a fly-cutting machine's geometry (the largest reported
+#: machines are a few metres): a length beyond it was typed in mm or cm.
+MAX_LENGTH_M = 20.0
+
+
+def unit_hint(value: float, fits) -> str:
+    """``did you mean ...?`` for a length typed in mm or cm: ``value`` / 1000 or / 100 when
+    ``fits(candidate)`` accepts it, else a request to give metres."""
+    guesses = [
+        f"{value / factor:.6g} m ({value:g} {unit})"
+        for factor, unit in ((1000.0, "mm"), (100.0, "cm"))
+        if fits(value / factor)
+    ]
+    if guesses:
+        return f"did you mean {' or '.join(guesses)}?"
+    return "lengths are in metres [m], in the model's global frame"
+
+
+def _not_huge(where: Where, field: str, value, limit: float, what: str) -> None:
+    """Fail if the largest |component| of ``value`` [m] exceeds ``limit`` [m]."""
+    largest = float(np.max(np.abs(value)))
+    if largest > limit:
+        hint = unit_hint(largest, lambda x: x <= limit)
+        where.fail(field, f"{largest:g} m is larger than {what} ({limit:g} m): {hint}")
+
+
+def body_points(body) -> np.ndarray:
+    """(P, 3) points [m] that place a body: a rigid body's centre of mass, a beam's two ends
+    (a virtual body has none)."""
+    if hasattr(body, "center_of_mass"):
+        return np.atleast_2d(np.asarray(body.center_of_mass, dtype=float))
+    if hasattr(body, "start"):
+        return np.array([body.start, body.end], dtype=float)
+    return np.zeros((0, 3))
+
+
+def body_size(body) -> float:
+    """Largest extent [m] of a body: a beam's length, a rigid body's largest edge of the box
+    with its mass and principal moments (``I_x = m (b^2 + c^2) / 12``), 0 for a point."""
+    if hasattr(body, "inertia"):
+        ix, iy, iz = np.diag(np.asarray(body.inertia, dtype=float))
+        squares = 6.0 * np.array([iy + iz - ix, ix + iz - iy, ix + iy - iz]) / body.mass
+        return float(np.sqrt(np.clip(squares, 0.0, None)).max())
+    points = body_points(body)
+    return float(np.linalg.norm(points[-1] - points[0])) if len(points) else 0.0
+
+
+def check_machine_geometry(machine: Machine, bodies, source: str) -> None:
+    """Plausibility of the ``[machine]`` lengths against the machine the bodies describe, so
+    that a length typed in mm or cm is caught with its field and the likely unit:
+
+    * ``tool_radius`` <= the larger of the machine's extent E (the largest span, along x, y or
+      z, of the bodies' centres of mass and beam ends) and the tool body's size;
+    * ``cutting_plane_z`` within the tool body's size + ``tool_radius`` + E / 4 of the tool
+      body (its centre of mass, or its beam) in z: the tip is on the tool body;
+    * the workpiece (``workpiece_size`` and its centre) within E of the workpiece body.
+    """
+    where = Where(source, "machine", error=ModelError)
+    bodies = list(bodies)
+    points = np.concatenate([body_points(b) for b in bodies] + [np.zeros((0, 3))])
+    extent = float(np.max(np.ptp(points, axis=0))) if len(points) else 0.0
+    tool = next(b for b in bodies if b.name == machine.tool_body)
+    limit = max(extent, body_size(tool))
+    if limit > 0 and machine.tool_radius > limit:
+        where.fail(
+            "tool_radius",
+            f"{machine.tool_radius:g} m is larger than the machine (its bodies span {limit:.3g}"
+            f" m): {unit_hint(machine.tool_radius, lambda r: r <= limit)}",
+        )
+    _plane_near_tool(where, machine, tool, extent)
+    work = next(b for b in bodies if b.name == machine.workpiece_body)
+    anchor = body_points(work)
+    if len(anchor) and extent > 0:
+        half = max(machine.workpiece_size) / 2
+        reach = max(extent, body_size(work))
+        if half > reach:
+            where.fail(
+                "workpiece_size",
+                f"{max(machine.workpiece_size):g} m is larger than the machine (its bodies span "
+                f"{reach:.3g} m): {unit_hint(half * 2, lambda w: w / 2 <= reach)}",
+            )
+
+
+def _plane_near_tool(where: Where, machine: Machine, tool, extent: float) -> None:
+    """``cutting_plane_z`` near the tool body in z (see :func:`check_machine_geometry`)."""
+    points = body_points(tool)
+    if not len(points):
+        return
+    low, high = points[:, 2].min(), points[:, 2].max()
+    z = machine.cutting_plane_z
+    gap = max(low - z, z - high, 0.0)
+    allowed = body_size(tool) + machine.tool_radius + extent / 4
+    if gap > allowed:
+        hint = unit_hint(z, lambda c: max(low - c, c - high, 0.0) <= allowed)
+        where.fail(
+            "cutting_plane_z",
+            f"{z:g} m is {gap:.3g} m from the tool body {tool.name!r} (z {low:.4g}"
+            + ("" if high == low else f" to {high:.4g}")
+            + f" m; allowed within {allowed:.3g} m: its size, the tool radius and a quarter of "
+            f"the machine): {hint}",
+        )
 
 
 def _pair(where: Where, machine: Mapping, field: str, sign: str | None = None):

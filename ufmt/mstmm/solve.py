@@ -21,6 +21,7 @@ import numpy as np
 from threadpoolctl import ThreadpoolController
 
 from ufmt.errors import UfmtError
+from ufmt.model.load import as_model
 from ufmt.model.schema import Model
 from ufmt.mstmm.modes import ModeShapes, kinetic_terms, mode_shapes, shape_state_keys
 from ufmt.mstmm.overall import State, TransferSystem
@@ -63,11 +64,12 @@ class ModalSolution:
             f"shapes={'yes' if self.shapes is not None else 'no'}, seconds={self.seconds:.3g})"
         )
 
-    def energy_shares(self, model: Model) -> np.ndarray:
-        """Kinetic-energy share (n_modes, n_bodies, 6) per body and direction."""
-        return energy_shares(model, self.shapes)
+    def energy_shares(self, model) -> np.ndarray:
+        """Kinetic-energy share (n_modes, n_bodies, 6) per body and direction; ``model`` a
+        loaded model or its path."""
+        return energy_shares(as_model(model), self.shapes)
 
-    def to_frame(self, model: Model | None = None):
+    def to_frame(self, model=None):
         """One row per mode: ``mode``, ``frequency_hz`` and, given the model the shapes belong
         to, the dominant ``body``, ``direction`` and its ``energy_share`` (of kinetic energy).
 
@@ -84,6 +86,7 @@ class ModalSolution:
             }
         )
         if model is not None and self.shapes is not None:
+            model = as_model(model)
             shares = self.energy_shares(model).reshape(self.frequencies_hz.size, -1)
             top = np.argmax(shares, axis=1)
             table["body"] = [model.bodies[i // 6].name for i in top]
@@ -91,25 +94,53 @@ class ModalSolution:
             table["energy_share"] = shares[np.arange(top.size), top]
         return table
 
-    def plot(self, ax=None, model: Model | None = None):
-        """Natural frequency of each mode; given the model, each mode's kinetic energy split
-        over the bodies (which part of the machine moves in which mode).
+    def plot(self, ax=None, model=None, mode: int | None = None, scale: float | None = None):
+        """Natural frequency of each mode; given the model (loaded or its path), each mode's
+        kinetic energy split over the bodies (which part of the machine moves in which mode).
+        With ``mode``, a mode number (1-based, as the CLI and every table number modes), that
+        mode's shape in 3-D instead (``scale``: displacement factor, default automatic).
 
         Returns
         -------
         matplotlib.figure.Figure
+
+        Raises
+        ------
+        UfmtError
+            ``mode`` outside 1..n (the modes solved), without ``model`` or without shapes.
         """
-        from ufmt.plots.modes import plot_modal_solution
+        if mode is None:
+            from ufmt.plots.modes import plot_modal_solution
 
-        return plot_modal_solution(self, model, ax=ax)
+            return plot_modal_solution(self, None if model is None else as_model(model), ax=ax)
+        from ufmt.plots.modes import plot_mode
 
-    def save(self, directory, model: Model | None = None) -> list:
+        n = self.frequencies_hz.size
+        if isinstance(mode, bool) or not isinstance(mode, int | np.integer):
+            raise UfmtError(f"mode: {mode!r} is not a mode number 1..{n}")
+        why = (
+            "pass model=, the model the shapes belong to"
+            if model is None
+            else "solved without shapes"
+            if self.shapes is None
+            else f"{n} modes were solved"
+            if not 1 <= mode <= n
+            else ""
+        )
+        if why:
+            raise UfmtError(f"mode {mode}: cannot draw it (1..{n}; {why})")
+        model = as_model(model)
+        line = describe(model, self.energy_shares(model), top=3)[mode - 1]
+        return plot_mode(model, self.shapes, mode - 1, scale, line, ax=ax)
+
+    def save(self, directory, model=None) -> list:
         """Write ``modes.csv`` (:meth:`to_frame`) and ``modes.png`` (:meth:`plot`) to
         ``directory``; returns the paths."""
         from pathlib import Path
 
         from ufmt.plots import save_figure
 
+        model = None if model is None else as_model(model)
         directory = Path(directory)
         directory.mkdir(parents=True, exist_ok=True)
         csv = directory / "modes.csv"
@@ -118,7 +149,7 @@ class ModalSolution:
 
 
 def solve_modes(
-    model: Model,
+    model,
     fmax_hz: float | None = None,
     count: int | None = None,
     method: str = "mstmm",
@@ -131,7 +162,7 @@ def solve_modes(
 
     Parameters
     ----------
-    model : the validated model (:func:`ufmt.load_model`).
+    model : the validated model (:func:`ufmt.load_model`) or a model file's path.
     fmax_hz : upper end of the search [Hz] (default 1000 when ``count`` is not given).
     count : number of lowest nonzero modes to find (with ``fmax_hz``: at most that many
         below it).
@@ -158,6 +189,7 @@ def solve_modes(
     RootsLostError
         A counted root the MSTMM cannot find (the message names the missing frequencies).
     """
+    model = as_model(model)
     with _blas_controller().limit(limits=1, user_api="blas"):
         return _solve_modes(model, fmax_hz, count, method, shapes)
 

@@ -22,6 +22,7 @@ from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
 from mpl_toolkits.mplot3d.art3d import Line3DCollection
 
+from ufmt.errors import UfmtError
 from ufmt.machining.cutting import tool_tip
 from ufmt.model.schema import GROUND, Beam, Model, RigidBody
 from ufmt.plots import new_axes, new_figure
@@ -207,6 +208,12 @@ def plot_mode(
     -------
     matplotlib.figure.Figure
     """
+    n = shapes.frequencies_hz.size
+    if not 0 <= index < n:
+        raise UfmtError(
+            f"mode index {index}: outside 0..{n - 1} (a 0-based position in the {n} solved "
+            f"shapes; mode number = index + 1, as ModalSolution.plot(model=..., mode=N) takes it)"
+        )
     view = _view_box(model)
     boxes, beams, dots = _geometry(model, shapes, index, view)
     extent = float(np.max(view[1] - view[0])) / (1.0 + 2.0 * VIEW_MARGIN)

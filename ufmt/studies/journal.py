@@ -29,6 +29,7 @@ from ufmt.evaluate import model_file, resolve_model
 from ufmt.fingerprint import code_sha256, source_sha256
 from ufmt.studies import outputs
 from ufmt.studies.parallel import evaluate_point, pool_lost_errors
+from ufmt.studies.ranges import process_warnings
 from ufmt.studies.spec import Study
 
 # ---------------------------------------------------------------------------------------------
@@ -219,6 +220,7 @@ def start_meta(study: Study, identity: Mapping[str, str]) -> dict:
             for b in study.bounds
         ],
         "options": study.options,
+        "warnings": process_warnings(study),
         "status": "running",
         "started": outputs.now(),
         "versions": outputs.package_versions(),

@@ -13,6 +13,7 @@ from pathlib import Path
 import pandas as pd
 
 from ufmt import evaluate_cache
+from ufmt.machining.process import ProcessRangeWarning
 from ufmt.plots import save_figure
 from ufmt.studies import outputs
 from ufmt.studies.journal import (
@@ -34,12 +35,12 @@ DEFAULT_EXECUTION = Execution()  # loky workers on this machine, one per core
 def run_study(
     study: Study | str | Path,
     execution: Execution = DEFAULT_EXECUTION,
-    results: str | Path = "results",
+    results: str | Path | None = None,
     progress: bool = True,
     fresh: bool = False,
     plots: bool = True,
 ) -> Path:
-    """Run (or resume) a study; returns its results directory ``results/<name>/``.
+    """Run (or resume) a study; returns its results directory ``<results>/<name>/``.
 
     Every input is checked before any point runs (the study file, its model, every design
     and process value it can set). The directory is locked while the run writes it: a second
@@ -54,7 +55,8 @@ def run_study(
     execution
         Workers, backend and scheduler.
     results
-        Root of the results tree; ``README.md`` there is regenerated.
+        Root of the results tree; ``README.md`` there is regenerated. None:
+        :func:`default_results`.
     progress
         Show a tqdm progress bar on stderr.
     fresh
@@ -75,9 +77,15 @@ def run_study(
     resolve_function(study.function)
     evaluate_cache.directory()  # an unusable cache: one warning here, not one per worker
     identity = fingerprint(study)
-    out_dir = Path(results) / study.name
+    out_dir = default_results(study) / study.name if results is None else Path(results) / study.name
     with locked(out_dir), sigterm_interrupts():
         return _run_locked(study, execution, out_dir, identity, progress, fresh, plots)
+
+
+def default_results(study: Study) -> Path:
+    """Results root of a study: ``results/`` on the packaged model, ``results/<model file
+    name>/`` on a user's model (so its outputs and index stay apart from the packaged ones)."""
+    return Path("results") if study.model is None else Path("results") / Path(study.model).stem
 
 
 def _run_locked(study, execution, out_dir, identity, progress, fresh, plots) -> Path:
@@ -91,6 +99,8 @@ def _run_locked(study, execution, out_dir, identity, progress, fresh, plots) -> 
         for name in (outputs.POINTS, *RESULT_TABLES, outputs.META, *previous.get("plots", [])):
             (out_dir / name).unlink(missing_ok=True)
     meta = start_meta(study, identity)
+    for message in meta["warnings"]:  # process values outside Table 1, as simulate warns
+        warnings.warn(message, ProcessRangeWarning, stacklevel=2)
     if reuse and previous.get("plots"):
         meta["plots"] = previous["plots"]  # kept on disk; listed until replaced
     outputs.write_json(meta, out_dir / outputs.META)

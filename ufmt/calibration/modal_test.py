@@ -1,0 +1,285 @@
+"""A modal test of any machine: measured natural frequencies, damping and mode shapes at named
+sensor points, read from one tidy CSV file (the format is documented in ``docs/modal-test.md``).
+
+Layout: one row per mode and sensor (long format), columns
+
+=================  ========  =============================================================
+column             required  meaning
+=================  ========  =============================================================
+``mode``           yes       test mode number (1, 2, ...), as the test numbers it
+``frequency_hz``   yes       measured natural frequency [Hz] (equal on every row of a mode)
+``damping_ratio``  no        measured modal damping ratio [-] (equal on a mode's rows)
+``body``           no        body of the model the sensor sits on (empty: no shape on row)
+``x_m y_m z_m``    with body sensor position in the global frame [m]
+``direction``      with body measured translation: ``x``, ``y`` or ``z`` (global axes)
+``shape``          with body real mode-shape component (any scale, any sign)
+=================  ========  =============================================================
+
+A file with only ``mode`` and ``frequency_hz`` (one row per mode) is a frequency-only test.
+Lines starting with ``#`` are comments (the test's source, its conditions).
+
+A universal file (UFF, ``.uff``/``.unv``, read with pyuff) works too: dataset 15 gives the
+node positions [m], each dataset 55 one mode (normal modes: its frequency and viscous damping
+ratio; complex modes: from the eigenvalue, the shape rotated to its largest component and its
+real part taken); the translations r1, r2, r3 of each node are the sensors x, y, z. Which body
+a node is on is not in the UFF: the file ``<name>.nodes.csv`` beside it (columns ``node``,
+``body``) says, and nodes it does not list are left out.
+A sensor is the triple (body, point, direction); a mode need not be measured at every sensor
+(missing components are NaN and left out of that mode's MAC).
+"""
+
+from __future__ import annotations
+
+import io
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from ufmt.errors import StudyError
+from ufmt.tables import Where
+from ufmt.tomlfile import read_text
+
+REQUIRED = ("mode", "frequency_hz")
+SHAPE_COLUMNS = ("body", "x_m", "y_m", "z_m", "direction", "shape")
+COLUMNS = (*REQUIRED, "damping_ratio", *SHAPE_COLUMNS)
+AXES = ("x", "y", "z")
+UFF_SUFFIXES = (".uff", ".unv")
+NODE_COLUMNS = ("node", "body")
+
+
+@dataclass(frozen=True)
+class Sensor:
+    """A measured translation: the ``body`` it sits on, its ``point`` (x, y, z) [m] in the
+    global frame and its ``direction`` (``x``, ``y`` or ``z``)."""
+
+    body: str
+    point: tuple[float, float, float]
+    direction: str
+
+    @property
+    def label(self) -> str:
+        """Short name, e.g. ``head(0,0,0.965)z``."""
+        return f"{self.body}({','.join(f'{c:g}' for c in self.point)}){self.direction}"
+
+
+@dataclass(frozen=True, eq=False)
+class ModalTest:
+    """A modal test: ``modes`` (n,) test mode numbers, ascending; ``frequencies_hz`` (n,) [Hz];
+    ``damping_ratio`` (n,) [-] (NaN: not measured); ``sensors`` (S,); ``shapes`` (n, S) real
+    shape components (NaN: not measured at that sensor); ``source`` the file."""
+
+    source: str
+    modes: np.ndarray
+    frequencies_hz: np.ndarray
+    damping_ratio: np.ndarray
+    sensors: tuple[Sensor, ...]
+    shapes: np.ndarray
+
+    def __repr__(self) -> str:
+        f = self.frequencies_hz
+        return (
+            f"ModalTest({self.source!r}, modes={f.size} ({f.min():.4g}-{f.max():.4g} Hz), "
+            f"sensors={len(self.sensors)}, shaped={int(self.has_shape().sum())})"
+        )
+
+    def has_shape(self, minimum: int = 2) -> np.ndarray:
+        """(n,) bool: the mode is measured at ``minimum`` sensors or more (a MAC needs two)."""
+        return np.sum(np.isfinite(self.shapes), axis=1) >= minimum
+
+    def to_frame(self) -> pd.DataFrame:
+        """The test in its file layout (one row per mode and measured sensor)."""
+        rows = []
+        for i, k in enumerate(self.modes):
+            base = {
+                "mode": int(k),
+                "frequency_hz": self.frequencies_hz[i],
+                "damping_ratio": self.damping_ratio[i],
+            }
+            measured = np.flatnonzero(np.isfinite(self.shapes[i]))
+            if not measured.size:
+                rows.append(base)
+            for j in measured:
+                s = self.sensors[j]
+                x, y, z = s.point
+                rows.append(
+                    base
+                    | {"body": s.body, "x_m": x, "y_m": y, "z_m": z, "direction": s.direction}
+                    | {"shape": self.shapes[i, j]}
+                )
+        return pd.DataFrame(rows, columns=list(COLUMNS))
+
+    def save(self, path) -> Path:
+        """Write the test as CSV (the layout :func:`read_modal_test` reads)."""
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        self.to_frame().to_csv(path, index=False, float_format="%.10g")
+        return path
+
+
+def modal_test(modes, frequencies_hz, damping_ratio=None, sensors=(), shapes=None, source=""):
+    """A :class:`ModalTest` from arrays (a synthetic or converted test); shapes (n, S)."""
+    modes = np.asarray(modes, dtype=int)
+    n = modes.size
+    damping = np.full(n, np.nan) if damping_ratio is None else np.asarray(damping_ratio, float)
+    shapes = np.full((n, len(sensors)), np.nan) if shapes is None else np.asarray(shapes, float)
+    order = np.argsort(modes)
+    return ModalTest(
+        source,
+        modes[order],
+        np.asarray(frequencies_hz, dtype=float)[order],
+        damping[order],
+        tuple(sensors),
+        shapes[order].reshape(n, len(sensors)),
+    )
+
+
+def read_modal_test(path) -> ModalTest:
+    """Read a modal-test file: a CSV (module docstring; a mistake is one line naming the file,
+    the row as a spreadsheet numbers it, header = row 1, and the column) or a universal file
+    (``.uff``/``.unv``, :func:`read_uff`)."""
+    if Path(path).suffix.lower() in UFF_SUFFIXES:
+        return read_uff(path)
+    where = Where(str(path), error=StudyError)
+    frame = _read_csv(where, path, {"body": str, "direction": str})
+    where.keys(dict.fromkeys(frame.columns), valid=COLUMNS, required=REQUIRED)
+    shaped = [c for c in SHAPE_COLUMNS if c in frame.columns]
+    if shaped and len(shaped) != len(SHAPE_COLUMNS):
+        missing = [c for c in SHAPE_COLUMNS if c not in frame.columns]
+        where.missing(missing[0], "required with the shape columns " + ", ".join(shaped))
+    if frame.empty:
+        where.fail_table("no modes (at least one row is required)")
+    by_mode: dict[int, dict] = {}
+    sensors: dict[Sensor, int] = {}
+    for i, row in enumerate(frame.to_dict("records")):
+        _read_row(where.sub(f"row {i + 2}"), row, shaped, by_mode, sensors)
+    modes = sorted(by_mode)
+    shapes = np.full((len(modes), len(sensors)), np.nan)
+    for i, k in enumerate(modes):
+        for j, value in by_mode[k]["shape"].items():
+            shapes[i, j] = value
+    return ModalTest(
+        str(path),
+        np.array(modes, dtype=int),
+        np.array([by_mode[k]["frequency_hz"] for k in modes]),
+        np.array([by_mode[k]["damping_ratio"] for k in modes]),
+        tuple(sensors),
+        shapes,
+    )
+
+
+def _read_row(where: Where, row: dict, shaped, by_mode: dict, sensors: dict) -> None:
+    """Check one CSV row and add it to ``by_mode`` (mode -> frequency, damping, shape)."""
+    k = where.integer("mode", _cell(row["mode"]), low=1)
+    f = where.number("frequency_hz", _cell(row["frequency_hz"]), sign="positive", unit="[Hz]")
+    zeta = _cell(row.get("damping_ratio"))
+    zeta = math.nan if zeta is None else where.number("damping_ratio", zeta)
+    if not math.isnan(zeta):
+        where.within("damping_ratio", zeta, 0.0, 1.0)
+    entry = by_mode.setdefault(k, {"frequency_hz": f, "damping_ratio": zeta, "shape": {}})
+    for key, value in (("frequency_hz", f), ("damping_ratio", zeta)):
+        first = entry[key]
+        if value != first and not (math.isnan(value) and math.isnan(first)):
+            where.fail(key, f"{value:g} differs from {first:g} on another row of mode {k}")
+    if not shaped or _cell(row["body"]) is None:
+        return
+    body = where.string("body", row["body"]).strip()
+    point = tuple(where.number(c, _cell(row[c]), unit="[m]") for c in ("x_m", "y_m", "z_m"))
+    direction = where.choice("direction", _cell(row["direction"]), AXES, "direction")
+    sensor = Sensor(body, point, direction)
+    j = sensors.setdefault(sensor, len(sensors))
+    if j in entry["shape"]:
+        where.fail("shape", f"mode {k} is measured twice at {sensor.label}")
+    entry["shape"][j] = where.number("shape", _cell(row["shape"]))
+
+
+def _read_csv(where: Where, path, dtype) -> pd.DataFrame:
+    """The CSV at ``path`` (``#`` comment lines), unreadable files in the one wording of
+    :mod:`ufmt.tomlfile`."""
+    text = read_text(path)
+    try:
+        return pd.read_csv(io.StringIO(text), dtype=dtype, comment="#")
+    except (pd.errors.ParserError, pd.errors.EmptyDataError) as exc:
+        where.fail_table(f"not a readable CSV file ({' '.join(str(exc).split())})")
+
+
+def _cell(value):
+    """None for an empty CSV cell, else the value (numpy integers as int)."""
+    if value is None or (isinstance(value, float) and math.isnan(value)):
+        return None
+    return value.item() if isinstance(value, np.generic) else value
+
+
+def read_uff(path) -> ModalTest:
+    """A :class:`ModalTest` from a universal file (module docstring) and its node map."""
+    import pyuff
+
+    where = Where(str(path), error=StudyError)
+    if not Path(path).is_file():
+        where.fail_table("file not found" if not Path(path).exists() else "not a file")
+    try:
+        sets = pyuff.UFF(str(path)).read_sets()
+    except Exception as exc:  # pyuff raises bare exceptions on malformed files
+        where.fail_table(f"not a readable universal file ({type(exc).__name__}: {exc})")
+    sets = sets if isinstance(sets, list) else [sets]
+    nodes = {}
+    for d in (d for d in sets if d.get("type") == 15):
+        for n, x, y, z in zip(d["node_nums"], d["x"], d["y"], d["z"], strict=True):
+            nodes[int(n)] = (float(x), float(y), float(z))
+    shapes = [d for d in sets if d.get("type") == 55]
+    if not shapes:
+        where.fail_table("no mode shapes (dataset 55)")
+    bodies = _node_map(Path(path).with_suffix(".nodes.csv"))
+    placed = [(n, axis) for n in sorted(bodies) if n in nodes for axis in AXES]
+    sensors = [Sensor(bodies[n], nodes[n], axis) for n, axis in placed]
+    modes, freq, zeta, rows = [], [], [], []
+    for i, d in enumerate(shapes):
+        f, z = _uff_frequency(where.sub(f"dataset 55 [{i}]"), d)
+        values = _uff_shape(d, placed)
+        modes.append(int(d.get("mode_n", i + 1)))
+        freq.append(f)
+        zeta.append(z)
+        rows.append(values)
+    where.unique("mode_n", modes)
+    return modal_test(modes, freq, zeta, sensors, np.array(rows).reshape(len(modes), -1), str(path))
+
+
+def _node_map(path: Path) -> dict[int, str]:
+    """node -> body from the node-map CSV beside a universal file."""
+    where = Where(str(path), error=StudyError)
+    if not path.exists():
+        where.fail_table("file not found (a universal file needs its node map: node, body)")
+    frame = _read_csv(where, path, {"body": str})
+    where.keys(dict.fromkeys(frame.columns), valid=NODE_COLUMNS, required=NODE_COLUMNS)
+    out = {}
+    for i, row in enumerate(frame.to_dict("records")):
+        here = where.sub(f"row {i + 2}")
+        node = here.integer("node", _cell(row["node"]), low=0)
+        out[node] = here.string("body", _cell(row["body"])).strip()
+    return out
+
+
+def _uff_frequency(where: Where, d: dict) -> tuple[float, float]:
+    """(frequency [Hz], damping ratio) of a dataset 55: normal or complex mode."""
+    if d.get("analysis_type") == 3:
+        lam = complex(d["eig"])
+        return abs(lam) / (2 * math.pi), -lam.real / abs(lam)
+    f = where.number("freq", float(d.get("freq", math.nan)), sign="positive", unit="[Hz]")
+    return f, float(d.get("modal_damp_vis", math.nan))
+
+
+def _uff_shape(d: dict, placed) -> np.ndarray:
+    """The translations of a dataset 55 at the (node, axis) sensors (NaN where a node is not
+    in it); a complex shape rotated to its largest component, real part."""
+    at = {int(n): i for i, n in enumerate(d["node_nums"])}
+    parts = np.stack([np.asarray(d[k]) for k in ("r1", "r2", "r3")], axis=1)
+    if np.iscomplexobj(parts):
+        big = parts.flat[np.argmax(np.abs(parts))]
+        parts = (parts * np.conj(big) / abs(big)).real
+    values = np.full(len(placed), np.nan)
+    for j, (node, axis) in enumerate(placed):
+        if node in at:
+            values[j] = parts[at[node], AXES.index(axis)]
+    return values

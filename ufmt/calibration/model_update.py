@@ -1,0 +1,248 @@
+"""Calibration of any model against its modal test: ``ufmt calibrate --prior MODEL --test
+FILE [--settings FILE]``.
+
+Parameters are stiffness factors ``k = s k_prior`` on listed hinge components, each within a
+declared band (the ``[[parameter]]`` tables of the calibration file, read by
+:func:`ufmt.calibration.settings.read_parameters`; without a settings file, one factor per
+hinge field with finite stiffness, band DEFAULT_BAND). With ``u = ln s`` the fit minimises
+
+    J(u) = sum_m (ln f_m(u) - ln f_t,m)^2 + rho^2 sum_p u_p^2,      ln band_p[0] <= u_p <= ..[1]
+
+over the test modes m paired with a model mode (:func:`ufmt.calibration.correlation.
+correlate`: by MAC where the test has shapes, by order otherwise; paired again at every
+evaluation), f_m by the MSTMM. scipy's bounded trust-region least squares solves it with
+finite-difference sensitivities. rho (``regularisation``) keeps parameters the test cannot
+see at the prior.
+
+Identifiability. At the solution the sensitivity matrix S = d ln f / d u gives each
+parameter's standard deviation ``sigma_f sqrt(diag((S^T S + rho^2 I)^-1))`` for a frequency
+uncertainty sigma_f (``frequency_error_percent``, relative): a parameter whose deviation is
+comparable to its band is not identified by this test. Every residual (before and after) and
+every factor with its band, bound flag and deviation is reported.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from scipy.optimize import least_squares
+
+from ufmt.calibration.correlation import Correlation, correlate
+from ufmt.calibration.modal_test import ModalTest, read_modal_test
+from ufmt.calibration.reduced import apply_parameters
+from ufmt.calibration.settings import Parameter, read_parameters
+from ufmt.errors import StudyError
+from ufmt.model.load import as_model
+from ufmt.model.schema import Model
+from ufmt.model.write import model_to_toml
+from ufmt.tables import Where
+from ufmt.tomlfile import read_toml
+
+DEFAULT_BAND = (0.5, 2.0)  # default band of each factor: a stiffness known to a factor of two
+AT_BOUND = 1e-3  # |u - ln bound| below this: the factor sits at its bound
+SETTINGS_KEYS = ("settings", "parameter")
+
+
+@dataclass(frozen=True)
+class UpdateSettings:
+    """``[settings]`` of a model-update file: regularisation rho [-], max_evaluations of the
+    least squares, frequency_error_percent (sigma_f of the identifiability) [%], step: the
+    finite-difference step in u [-]."""
+
+    regularisation: float = 0.01
+    max_evaluations: int = 200
+    frequency_error_percent: float = 0.5
+    step: float = 1e-4
+
+
+_RULES = {  # key -> (kind, lower, upper)
+    "regularisation": (float, 0.0, 10.0),
+    "max_evaluations": (int, 1, 100_000),
+    "frequency_error_percent": (float, 1e-6, 50.0),
+    "step": (float, 1e-8, 0.1),
+}
+
+
+def default_parameters(model: Model) -> tuple[Parameter, ...]:
+    """One factor per hinge field (translational, rotational) over its finite, nonzero
+    components, band DEFAULT_BAND."""
+    out = []
+    for hinge in model.hinges:
+        for field in ("stiffness", "rotational_stiffness"):
+            values = getattr(hinge, field)
+            comps = tuple(i for i in range(3) if 0.0 < values[i] < math.inf)
+            if comps:
+                name = f"{hinge.name}.{field}"
+                out.append(Parameter(name, (hinge.name,), field, comps, DEFAULT_BAND, "default"))
+    return tuple(out)
+
+
+def read_update_settings(path, model: Model) -> tuple[UpdateSettings, tuple[Parameter, ...]]:
+    """The settings file of a model update: ``[settings]`` (optional, :class:`UpdateSettings`)
+    and ``[[parameter]]`` tables (as in calibration.toml: name, hinges, field, components,
+    band, reason) against ``model``; one line naming file, table and field on a mistake."""
+    top = Where(str(path), error=StudyError)
+    data = read_toml(path)
+    top.keys(data, SETTINGS_KEYS, required=("parameter",))
+    values = {}
+    table = top.mapping("settings", data.get("settings", {}), "[settings]")
+    where = top.sub("settings")
+    where.keys(table, _RULES)
+    for key, value in table.items():
+        kind, low, high = _RULES[key]
+        if kind is int:
+            values[key] = where.integer(key, value, low, high)
+        else:
+            values[key] = where.within(key, where.number(key, value), low, high)
+    return UpdateSettings(**values), read_parameters(top, data["parameter"], model)
+
+
+@dataclass(frozen=True, eq=False, repr=False)
+class ModelUpdate:
+    """A calibrated model and how it was found: ``parameters`` with their identified
+    ``scales`` s, ``deviation`` (the relative standard deviation of each s, module docstring),
+    ``at_bound`` (names), the correlation ``before`` (prior) and ``after``, ``model`` the
+    calibrated model, ``evaluations`` of the MSTMM."""
+
+    prior: Model
+    model: Model
+    parameters: tuple[Parameter, ...]
+    scales: np.ndarray
+    deviation: np.ndarray
+    at_bound: tuple[str, ...]
+    before: Correlation
+    after: Correlation
+    settings: UpdateSettings
+    evaluations: int
+
+    def __repr__(self) -> str:
+        b, a = self.before.summary(), self.after.summary()
+        return (
+            f"ModelUpdate({self.prior.name!r}: {len(self.parameters)} factors, mean |error| "
+            f"{b['mean_abs_error_percent']:.3g} % -> {a['mean_abs_error_percent']:.3g} %, "
+            f"max {b['max_abs_error_percent']:.3g} % -> {a['max_abs_error_percent']:.3g} %)"
+        )
+
+    def to_frame(self) -> pd.DataFrame:
+        """One row per parameter: name, hinges, field, components, band, scale, deviation
+        (relative std of s), at_bound."""
+        return pd.DataFrame(
+            {
+                "parameter": [p.name for p in self.parameters],
+                "hinges": [" ".join(p.hinges) for p in self.parameters],
+                "field": [p.field for p in self.parameters],
+                "components": [" ".join(map(str, p.components)) for p in self.parameters],
+                "band_low": [p.band[0] for p in self.parameters],
+                "band_high": [p.band[1] for p in self.parameters],
+                "scale": self.scales,
+                "deviation": self.deviation,
+                "at_bound": [p.name in self.at_bound for p in self.parameters],
+            }
+        )
+
+    def residuals(self) -> pd.DataFrame:
+        """Every test mode: its pair, frequency error [%] and MAC with the prior
+        (``*_prior``) and with the calibrated model."""
+        keys = ["test_mode", "test_hz"]
+        pair = ["model_mode", "model_hz", "error_percent", "mac"]
+        prior = self.before.table[keys + pair].rename(columns={c: f"{c}_prior" for c in pair})
+        return pd.concat([prior, self.after.table[pair]], axis=1)
+
+    def plot(self, ax=None):
+        """The MAC matrix of the calibrated model against the test."""
+        return self.after.plot(ax=ax)
+
+    def save(self, directory) -> list[Path]:
+        """Write ``parameters.csv``, ``residuals.csv`` and the calibrated correlation
+        (``correlation.csv``, ``mac.csv``, ``mac.png``) to ``directory``."""
+        directory = Path(directory)
+        directory.mkdir(parents=True, exist_ok=True)
+        paths = [directory / "parameters.csv", directory / "residuals.csv"]
+        self.to_frame().to_csv(paths[0], index=False, float_format="%.8g")
+        self.residuals().to_csv(paths[1], index=False, float_format="%.8g")
+        return paths + self.after.save(directory)
+
+
+def update_model(
+    prior, test, parameters=None, settings: UpdateSettings | None = None
+) -> ModelUpdate:
+    """Calibrate ``prior`` (a path or a model) against ``test`` (a path or a ModalTest) by the
+    bounded, regularised fit of the module docstring."""
+    prior = as_model(prior)
+    test = test if isinstance(test, ModalTest) else read_modal_test(test)
+    parameters = tuple(parameters or default_parameters(prior))
+    settings = settings or UpdateSettings()
+    if not parameters:
+        raise StudyError(f"{prior.source}: no hinge with a finite stiffness to calibrate")
+    lower = np.log([p.band[0] for p in parameters])
+    upper = np.log([p.band[1] for p in parameters])
+    target = np.log(test.frequencies_hz)
+    count = [0]
+
+    def residual(u):
+        count[0] += 1
+        table = correlate(apply_parameters(prior, parameters, u), test).table
+        f = table["model_hz"].to_numpy(dtype=float)
+        r = np.where(np.isfinite(f), np.log(np.where(np.isfinite(f), f, 1.0)) - target, 0.0)
+        return np.concatenate([r, settings.regularisation * np.asarray(u)])
+
+    u0 = np.clip(np.zeros(len(parameters)), lower + 1e-12, upper - 1e-12)
+    fit = least_squares(
+        residual,
+        u0,
+        bounds=(lower, upper + 1e-15 * (upper == lower)),
+        diff_step=settings.step,
+        max_nfev=settings.max_evaluations,
+        x_scale=1.0,
+    )
+    u = fit.x
+    s = fit.jac[: target.size]
+    info = s.T @ s + settings.regularisation**2 * np.eye(len(parameters))
+    sigma = settings.frequency_error_percent / 100.0
+    deviation = sigma * np.sqrt(np.diag(np.linalg.pinv(info)))
+    at_bound = tuple(
+        p.name
+        for p, ui, lo, hi in zip(parameters, u, lower, upper, strict=True)
+        if min(ui - lo, hi - ui) < AT_BOUND and lo < hi
+    )
+    model = apply_parameters(prior, parameters, u)
+    model = replace(model, name=f"{prior.name} (calibrated against {Path(test.source).name})")
+    return ModelUpdate(
+        prior,
+        model,
+        parameters,
+        np.exp(u),
+        deviation,
+        at_bound,
+        correlate(prior, test),
+        correlate(model, test),
+        settings,
+        count[0],
+    )
+
+
+def write_model(update: ModelUpdate, path, settings_path=None) -> Path:
+    """Write the calibrated model with a provenance header (how it was made, every factor
+    and the errors); the only way a calibrated user model is written."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    b, a = update.before.summary(), update.after.summary()
+    lines = [
+        "# GENERATED FILE - do not edit by hand. Written by `ufmt calibrate --prior "
+        f"{update.prior.source} --test {update.after.test.source}"
+        + (f" --settings {settings_path}`." if settings_path else "`."),
+        f"# Test modes paired: {a['paired']}; mean |error| {b['mean_abs_error_percent']:.4g} % "
+        f"(prior) -> {a['mean_abs_error_percent']:.4g} %, max {b['max_abs_error_percent']:.4g}"
+        f" % -> {a['max_abs_error_percent']:.4g} %; lowest MAC {a['min_mac']:.4g}.",
+        "# Factors (k = s * k_prior; band; relative std at "
+        f"{update.settings.frequency_error_percent:g} % frequency error):",
+    ]
+    for p, s, d in zip(update.parameters, update.scales, update.deviation, strict=True):
+        flag = "  AT BOUND" if p.name in update.at_bound else ""
+        lines.append(f"#   {p.name}  s = {s:.6g}  [{p.band[0]:g}, {p.band[1]:g}]  +-{d:.2g}{flag}")
+    path.write_text("\n".join(lines) + "\n" + model_to_toml(update.model))
+    return path
