@@ -39,6 +39,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from ufmt import files
 from ufmt.assembled import AssembledModel, assembled_modes
 from ufmt.defaults import PAPER_MODES
 from ufmt.errors import StudyError
@@ -429,7 +430,4 @@ def validate(model: Model, reference: Reference, n_modes: int = PAPER_MODES) -> 
 
 def write_table(table: pd.DataFrame, path: str | Path) -> Path:
     """Write the validation table as CSV (10 significant digits)."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    table.to_csv(path, index=False, float_format="%.10g")
-    return path
+    return files.write_with(path, lambda b: table.to_csv(b, index=False, float_format="%.10g"))

@@ -15,6 +15,7 @@ User errors raise :class:`~ufmt.errors.UfmtError`; the CLI prints one line and e
 from __future__ import annotations
 
 import argparse
+import io
 import time
 from pathlib import Path
 
@@ -149,32 +150,44 @@ def _print_summary(model, s: dict) -> None:
 def cmd_validate(args) -> int:
     """Write frequencies.csv, frequencies.png, the mode plots and (for a model with a
     ``[machine]`` table) response.csv of section 4.2 / Table 4; print the summary."""
-    from ufmt.calibration.frequencies import read_reference, validate, write_table
+    from ufmt import files
+    from ufmt.calibration.frequencies import read_reference, validate
     from ufmt.mstmm.solve import describe
-    from ufmt.plots import save_figure
+    from ufmt.plots import DPI
     from ufmt.plots.modes import plot_frequencies, plot_mode
 
     model = load(args.model)
     out = Path(args.output_dir)
     result = validate(model, read_reference(packaged_path("paper_reference.toml")), PAPER_MODES)
-    write_table(result.table, out / "frequencies.csv")
-    save_figure(plot_frequencies(result.table), out / "frequencies.png")
     lines = describe(model, result.modes.shares, top=3)
-    for n in args.modes:
-        figure = plot_mode(model, result.solution.shapes, n - 1, description=lines[n - 1])
-        save_figure(figure, out / f"mode-{n}.png")
-    _print_summary(model, result.summary)
-    plots = ", ".join(f"mode-{n}.png" for n in args.modes)
-    print(f"wrote frequencies.csv, frequencies.png, {plots} in {out}")
+    response = None
     if model.machine:
         from ufmt.calibration.response import response_table
 
         # the response's default basis (every mode below the cutoff), not the validated 30
-        table = response_table(model, packaged_path("paper_reference.toml"))
-        table.to_csv(out / "response.csv", index=False, float_format="%.6g")
-        print(table.drop(columns=["source"]).to_string(index=False))
+        response = response_table(model, packaged_path("paper_reference.toml"))
+    with files.FileSet(out) as written:  # every file of the validation or none
+        written.add("frequencies.csv", _csv(result.table, "%.10g"))
+        written.add("frequencies.png", files.figure_png(plot_frequencies(result.table), DPI))
+        for n in args.modes:
+            figure = plot_mode(model, result.solution.shapes, n - 1, description=lines[n - 1])
+            written.add(f"mode-{n}.png", files.figure_png(figure, DPI))
+        if response is not None:
+            written.add("response.csv", _csv(response, "%.6g"))
+    _print_summary(model, result.summary)
+    plots = ", ".join(f"mode-{n}.png" for n in args.modes)
+    print(f"wrote frequencies.csv, frequencies.png, {plots} in {out}")
+    if response is not None:
+        print(response.drop(columns=["source"]).to_string(index=False))
         print(f"wrote response.csv in {out}")
     return 0
+
+
+def _csv(table, float_format: str) -> bytes:
+    """A table as CSV bytes."""
+    buffer = io.BytesIO()
+    table.to_csv(buffer, index=False, float_format=float_format)
+    return buffer.getvalue()
 
 
 def cmd_plot_mode(args) -> int:
@@ -191,7 +204,10 @@ def cmd_plot_mode(args) -> int:
             f"{solution.frequencies_hz.size} modes"
         )
     line = describe(model, solution.energy_shares(model), top=3)[args.mode - 1]
-    path = args.output or _plot_mode_default(args.model, model) / f"mode-{args.mode}.png"
+    name = f"mode-{args.mode}.png"
+    path = Path(args.output) if args.output else _plot_mode_default(args.model, model) / name
+    if path.is_dir():  # an existing directory: the plot goes into it
+        path = path / name
     figure = plot_mode(model, solution.shapes, args.mode - 1, args.scale, line)
     written = save_figure(figure, path)
     print(f"mode {args.mode}: {solution.frequencies_hz[-1]:.3f} Hz ({line}); wrote {written}")

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import io
 from pathlib import Path
 
 import numpy as np
@@ -198,13 +199,14 @@ def cmd_frf(args) -> int:
     """Tool-workpiece receptance in z: CSV table and magnitude/phase plot."""
     import pandas as pd
 
+    from ufmt import files
     from ufmt.cli.common import load
     from ufmt.errors import UfmtError
     from ufmt.machining.frf import tool_workpiece_receptance
     from ufmt.machining.modal import modal_basis
     from ufmt.machining.static import residual_flexibility
     from ufmt.model.machine import machine_of
-    from ufmt.plots import save_figure
+    from ufmt.plots import DPI
     from ufmt.plots.response import plot_frf
 
     if args.fmin >= args.fmax:
@@ -218,7 +220,6 @@ def cmd_frf(args) -> int:
         options["residual"] = residual_flexibility(model, basis, machine)
     h = tool_workpiece_receptance(basis, machine, freq, **options)
     out = Path(args.output_dir)
-    out.mkdir(parents=True, exist_ok=True)
     table = pd.DataFrame(
         {
             "frequency_hz": freq,
@@ -228,8 +229,12 @@ def cmd_frf(args) -> int:
             "imag_m_per_N": h.imag,
         }
     )
-    table.to_csv(out / "frf.csv", index=False, float_format="%.8g")
-    save_figure(plot_frf(freq, h, natural_hz=basis.omega / (2 * np.pi)), out / "frf.png")
+    csv = io.BytesIO()
+    table.to_csv(csv, index=False, float_format="%.8g")
+    figure = plot_frf(freq, h, natural_hz=basis.omega / (2 * np.pi))
+    with files.FileSet(out) as written:
+        written.add("frf.csv", csv.getvalue())
+        written.add("frf.png", files.figure_png(figure, DPI))
     peak = int(np.argmax(np.abs(h)))
     summary = {
         "model": model.name,

@@ -31,6 +31,7 @@ from pathlib import Path
 
 import pandas as pd
 
+from ufmt import files
 from ufmt.jsonout import dumps_strict
 
 POINTS = "points.csv"
@@ -108,8 +109,12 @@ class PointLog:
     def close(self) -> None:
         """Close the file (appending reopens it)."""
         if self._file is not None:
-            self._file.close()
-            self._file = None
+            try:
+                self._file.close()
+            except OSError:
+                pass  # a row cut by a full disk: dropped (recomputed) by the next read
+            finally:
+                self._file = None
 
     def _open(self) -> None:
         """Open for appending; rewrite the file first if its header differs from ``columns``."""
@@ -121,7 +126,9 @@ class PointLog:
                 write_table(read_table(self.path).reindex(columns=self.columns), self.path)
         else:
             write_table(pd.DataFrame(columns=self.columns), self.path)
-        self._file = self.path.open("a", newline="", encoding="utf-8")
+        flags = os.O_WRONLY | os.O_APPEND | os.O_CREAT | os.O_NOFOLLOW | os.O_CLOEXEC
+        descriptor = os.open(self.path, flags, 0o666)  # never appends through a planted link
+        self._file = open(descriptor, "a", newline="", encoding="utf-8")
 
 
 def _parse_line(line: bytes) -> list[str] | None:
@@ -181,11 +188,8 @@ def read_table(path: Path) -> pd.DataFrame:
 
 
 def write_table(table: pd.DataFrame, path: Path) -> None:
-    """Write ``table`` atomically (temporary file, then rename), floats at full precision."""
-    path = Path(path)
-    tmp = _temporary(path)
-    table.to_csv(tmp, index=False)
-    os.replace(tmp, path)
+    """Write ``table`` atomically (:mod:`ufmt.files`), floats at full precision."""
+    files.write_with(path, lambda buffer: table.to_csv(buffer, index=False))
 
 
 def write_json(data: Mapping, path: Path) -> None:
@@ -193,16 +197,8 @@ def write_json(data: Mapping, path: Path) -> None:
     _write_text(dumps_strict(data, indent=2) + "\n", path)
 
 
-def _temporary(path: Path) -> Path:
-    """A temporary name next to ``path``, unique to this process (two runs never share it)."""
-    return path.with_name(f".{path.name}.{os.getpid()}.tmp")
-
-
 def _write_text(text: str, path: Path) -> None:
-    path = Path(path)
-    tmp = _temporary(path)
-    tmp.write_text(text, encoding="utf-8")
-    os.replace(tmp, path)
+    files.write_text(path, text)
 
 
 def read_meta(out_dir: Path) -> dict:
