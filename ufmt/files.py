@@ -14,6 +14,9 @@ member is staged first and only then renamed into place, so a failure while stag
 nothing; into a directory that does not exist yet, the whole staged directory is renamed into
 place in one rename.
 
+An append-only log (a study's points.csv) appends each record with one ``os.write`` through
+:func:`open_append` and :func:`append`.
+
 Errors come out as :class:`~ufmt.errors.OutputError` (an ``OSError`` and a user error: the
 CLI prints it as one line naming the path).
 """
@@ -67,6 +70,25 @@ def figure_png(fig, dpi: int) -> bytes:
     buffer = io.BytesIO()
     fig.savefig(buffer, format="png", dpi=dpi)
     return buffer.getvalue()
+
+
+def open_append(path: str | os.PathLike) -> int:
+    """A descriptor appending to ``path`` (created if absent), never through a symlink."""
+    flags = os.O_WRONLY | os.O_APPEND | os.O_CREAT | _NOFOLLOW | getattr(os, "O_CLOEXEC", 0)
+    try:
+        return os.open(path, flags, 0o666)
+    except OSError as exc:
+        raise output_error(Path(path), exc) from None
+
+
+def append(fd: int, data: bytes, path: str | os.PathLike) -> None:
+    """Append ``data`` (one record of a log) to the descriptor of :func:`open_append`; a
+    failure raises :class:`OutputError` naming ``path`` (what was cut off is a partial line,
+    which the log's reader drops)."""
+    try:
+        _write_all(fd, data)
+    except OSError as exc:
+        raise output_error(Path(path), exc) from None
 
 
 def output_error(path: Path, exc: OSError) -> OutputError:

@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from ufmt.defaults import DEFAULT_BASIS_CUTOFF_HZ, DEFAULT_SPACING
+from ufmt.machining import validity
 from ufmt.machining.basis import ModalBasis
 from ufmt.machining.cut_geometry import DEFAULT_TABLE_ROWS, cut_geometry, samples_per_rev
 from ufmt.machining.cutting import DEFAULT_COEFFICIENTS, FORCE_PARTS, ForceCoefficients
@@ -137,19 +138,25 @@ class SimulationResult:
         return plot_surface_map(self, ax=ax)
 
     def save(self, directory) -> list[Path]:
-        """Write metrics.json (strict JSON), summary.csv, surface.npz and surface.png."""
-        d = Path(directory)
-        d.mkdir(parents=True, exist_ok=True)
-        paths = [d / "metrics.json", d / "summary.csv", d / "surface.npz", d / "surface.png"]
-        paths[0].write_text(json.dumps(self.to_dict(), indent=2, allow_nan=False) + "\n")
-        self.to_frame().to_csv(paths[1], index=False, float_format="%.8g")
-        np.savez_compressed(paths[2], x_m=self.surface.x, y_m=self.surface.y, z_m=self.surface.z)
-        fig = self.plot()
-        fig.savefig(paths[3], dpi=120)
-        import matplotlib.pyplot as plt
+        """Write metrics.json (strict JSON), summary.csv, surface.npz and surface.png as one
+        set (:class:`ufmt.files.FileSet`, metrics.json last): a failure keeps the earlier set."""
+        import io
 
-        plt.close(fig)
-        return paths
+        from ufmt import files
+        from ufmt.plots import DPI
+
+        metrics = json.dumps(self.to_dict(), indent=2, allow_nan=False) + "\n"
+        summary = io.BytesIO()
+        self.to_frame().to_csv(summary, index=False, float_format="%.8g")
+        surface = io.BytesIO()
+        np.savez_compressed(surface, x_m=self.surface.x, y_m=self.surface.y, z_m=self.surface.z)
+        with files.FileSet(directory, manifest="metrics.json") as out:
+            paths = [
+                out.add("summary.csv", summary.getvalue()),
+                out.add("surface.npz", surface.getvalue()),
+                out.add("surface.png", files.figure_png(self.plot(), DPI)),
+            ]
+            return [out.add("metrics.json", metrics.encode()), *paths]
 
 
 def _short(value) -> str:
@@ -222,15 +229,26 @@ def simulate(
     aperture_margin : clear-aperture edge exclusion [m] (default 5 mm).
     psd2_patch : side [m] of a square patch at the plate centre, evaluated at 0.05 mm, on
         which the psd2 keys are computed (None: PSD2 is not resolved and reads NaN).
+
+    Raises
+    ------
+    OutsideDomainError
+        A cut outside the surface model's validity domain (:mod:`ufmt.machining.validity`).
     """
     if isinstance(model, str | Path):
         from ufmt.model.load import load_model
 
         model = load_model(model)
     machine = _machine(model)
+    validity.check_cut(process, machine)  # the validity domain, before any allocation
+    validity.check_bodies(machine)
+    validity.check_surface(machine, spacing, aperture_margin, psd2_patch)
     basis = _basis(model, basis, n_modes, basis_cutoff_hz)
+    validity.check_bodies(machine, basis.body_shapes)
+    highest_hz = float(basis.omega[-1]) / (2 * np.pi)
     if n_phi is None:  # 0 stays an error of the discretisation, not the default
-        n_phi = samples_per_rev(float(basis.omega[-1]) / (2 * np.pi), process.rpm / 60.0)
+        n_phi = samples_per_rev(highest_hz, process.rpm / 60.0)
+    validity.check_sampling(n_phi, process, highest_hz)
     residual = _residual(model, basis, machine) if static_correction else None
     options = SimulationOptions(
         zeta=zeta,

@@ -88,9 +88,9 @@ def _main(argv) -> int:
         # the matrices are small (order ~100): BLAS threads would only add contention
         with threadpool_limits(limits=1, user_api="blas"):
             return int(args.func(args) or 0)
-    except UfmtError as exc:
+    except UfmtError as exc:  # RunFailed: exit 1 (a study's finished rows are kept)
         print(f"ufmt {args.command}: error: {exc}", file=sys.stderr)
-        return 2
+        return getattr(exc, "exit_status", 2)
     except BrokenPipeError:
         # the reader closed stdout (e.g. `ufmt modes | head`): stop quietly, as SIGPIPE would
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())

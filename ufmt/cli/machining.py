@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import io
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -150,12 +151,24 @@ def _register_frf(subparsers) -> None:
 def cmd_simulate(args) -> int:
     """Run one process on a model and report the surface metrics and the PV per source."""
     from ufmt.cli.common import load
+    from ufmt.errors import UfmtError
     from ufmt.machining.process import Process
+    from ufmt.machining.sources import SOURCES
+    from ufmt.machining.validity import check_cut
+    from ufmt.model.machine import machine_of
     from ufmt.plots.response import plot_simulation
     from ufmt.simulate import simulate
 
     model = load(args.model)
-    process = Process(args.rpm, args.feed, args.depth)
+    sources = [s.strip() for s in args.sources.split(",") if s.strip()]
+    if not sources:
+        raise UfmtError(f"--sources: {args.sources!r} names no source ({','.join(SOURCES)})")
+    with warnings.catch_warnings(record=True) as caught:  # outside Table 1: said if valid
+        warnings.simplefilter("always")
+        process = Process(args.rpm, args.feed, args.depth)
+    check_cut(process, machine_of(model))  # outside the validity domain: the one line
+    for warning in caught:
+        warnings.warn(warning.message, warning.category, stacklevel=1)
     options = {} if args.zeta is None else {"zeta": args.zeta}
     if args.psd2_patch is not None:
         options["psd2_patch"] = args.psd2_patch * 1e-3
@@ -166,7 +179,7 @@ def cmd_simulate(args) -> int:
         basis_cutoff_hz=args.basis_cutoff,
         n_phi=args.samples_per_rev,
         method=args.method,
-        sources=[s.strip() for s in args.sources.split(",") if s.strip()],
+        sources=sources,
         static_correction=not args.no_static,
         aperture_margin=args.aperture_margin * 1e-3,
         **options,

@@ -7,7 +7,10 @@ file, function and physics code, checked by a fingerprint in ``meta.json``) read
 evaluates only the missing points and ends with the same table; with anything changed it starts
 afresh. A point whose function fails is a row with ``status = "error"`` and the message; a
 rerun tries failed points again (a failure may have been transient; a deterministic one gives
-the same row).
+the same row). A point outside the surface model's validity domain
+(:mod:`ufmt.machining.validity`) is a row with ``status = "invalid"`` and the limit it breaks;
+it is deterministic, so it is reused, and the kinds leave it out of optima and fits like a
+failed point (its outputs are empty).
 """
 
 from __future__ import annotations
@@ -23,6 +26,7 @@ import numpy as np
 import pandas as pd
 from tqdm import tqdm
 
+from ufmt import evaluate_cache
 from ufmt.design import PROCESS_PARAMETERS
 from ufmt.errors import StudyError
 from ufmt.evaluate import model_file, resolve_model
@@ -111,7 +115,9 @@ class Evaluator:
             for position, (_, (_, inputs)) in enumerate(todo)
         )
         try:
-            for position, record, seconds in self._parallel(tasks):
+            for position, record, seconds, notes in self._parallel(tasks):
+                for note in notes:  # a worker's cache failure, reported once
+                    evaluate_cache.warn_once(note)
                 key, (row, _) = todo[position]
                 outputs_ = {k: v for k, v in record.items() if k not in row}
                 full = {**row, **outputs_}
@@ -228,7 +234,9 @@ def start_meta(study: Study, identity: Mapping[str, str]) -> dict:
 
 def run_summary(execution, table: pd.DataFrame, evaluator: Evaluator, wall: float) -> dict:
     """The ``run`` entry of a finished run's ``meta.json``: workers, points, times [s]."""
-    ok = int((table.get("status", pd.Series(dtype=str)) == "ok").sum())
+    status = table.get("status", pd.Series(dtype=str))
+    ok = int((status == "ok").sum())
+    invalid = int((status == "invalid").sum())
     return {
         "jobs": execution.n_jobs,
         "backend": execution.backend,
@@ -237,7 +245,8 @@ def run_summary(execution, table: pd.DataFrame, evaluator: Evaluator, wall: floa
         "points_total": len(table),
         "points_new": evaluator.points_new,
         "points_reused": evaluator.points_reused,
-        "points_failed": len(table) - ok,
+        "points_failed": len(table) - ok - invalid,
+        "points_invalid": invalid,
         "evaluation_s": round(evaluator.evaluation_s, 3),
         "points_per_s": round(evaluator.points_new / wall, 3) if wall > 0 else None,
     }

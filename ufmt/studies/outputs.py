@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import csv
 import datetime
+import io
 import json
 import math
 import os
@@ -55,7 +56,7 @@ PACKAGES = (
 
 #: Columns of points.csv that hold text; every other column must parse as a float.
 TEXT_COLUMNS = ("group", "status", "message")
-STATUSES = ("ok", "error")
+STATUSES = ("ok", "error", "invalid")  # invalid: outside the surface model's domain
 _INTEGER = re.compile(r"[+-]?[0-9]+")
 
 
@@ -64,16 +65,16 @@ class PointLog:
 
     The file is created atomically (header written to a temporary file, then renamed) and
     appended to. On reading, every row is validated: a row with the wrong number of fields,
-    bytes that are not UTF-8, a number that does not parse, or a status other than "ok" or
-    "error" (a partial or corrupt line) is dropped, so its point is computed again; the file is
-    then rewritten with the valid rows. The header grows if a record brings new fields (the
-    file is then rewritten once).
+    bytes that are not UTF-8, a number that does not parse, or a status other than "ok",
+    "error" or "invalid" (a partial or corrupt line) is dropped, so its point is computed
+    again; the file is then rewritten with the valid rows. The header grows if a record
+    brings new fields (the file is then rewritten once).
     """
 
     def __init__(self, path: Path, columns: Iterable[str]):
         self.path = Path(path)
         self.columns = list(columns)
-        self._file = None
+        self._fd: int | None = None
         self.dropped = 0  # rows dropped as invalid by the last read
 
     def read(self) -> list[dict]:
@@ -98,23 +99,20 @@ class PointLog:
         return rows
 
     def append(self, row: Mapping) -> None:
-        """Write one row and flush it to the operating system."""
+        """Write one row to the operating system in one ``write`` (:func:`ufmt.files.append`)."""
         new = [k for k in row if k not in self.columns]
         self.columns += new
-        if self._file is None or new:
+        if self._fd is None or new:
             self._open()
-        csv.writer(self._file).writerow([_cell(row.get(c)) for c in self.columns])
-        self._file.flush()
+        line = io.StringIO(newline="")
+        csv.writer(line).writerow([_cell(row.get(c)) for c in self.columns])
+        files.append(self._fd, line.getvalue().encode("utf-8"), self.path)
 
     def close(self) -> None:
         """Close the file (appending reopens it)."""
-        if self._file is not None:
-            try:
-                self._file.close()
-            except OSError:
-                pass  # a row cut by a full disk: dropped (recomputed) by the next read
-            finally:
-                self._file = None
+        if self._fd is not None:
+            os.close(self._fd)
+            self._fd = None
 
     def _open(self) -> None:
         """Open for appending; rewrite the file first if its header differs from ``columns``."""
@@ -126,9 +124,7 @@ class PointLog:
                 write_table(read_table(self.path).reindex(columns=self.columns), self.path)
         else:
             write_table(pd.DataFrame(columns=self.columns), self.path)
-        flags = os.O_WRONLY | os.O_APPEND | os.O_CREAT | os.O_NOFOLLOW | os.O_CLOEXEC
-        descriptor = os.open(self.path, flags, 0o666)  # never appends through a planted link
-        self._file = open(descriptor, "a", newline="", encoding="utf-8")
+        self._fd = files.open_append(self.path)
 
 
 def _parse_line(line: bytes) -> list[str] | None:

@@ -13,6 +13,7 @@ from pathlib import Path
 import pandas as pd
 
 from ufmt import evaluate_cache
+from ufmt.errors import OutputError, RunFailed, StudyError
 from ufmt.plots import save_figure
 from ufmt.studies import outputs
 from ufmt.studies.journal import (
@@ -77,7 +78,28 @@ def run_study(
     identity = fingerprint(study)
     out_dir = Path(results) / study.name
     with locked(out_dir), sigterm_interrupts():
-        return _run_locked(study, execution, out_dir, identity, progress, fresh, plots)
+        try:
+            return _run_locked(study, execution, out_dir, identity, progress, fresh, plots)
+        except OSError as exc:  # a full disk, a permission lost mid-run
+            raise _failed(study, out_dir, exc) from None
+
+
+def _failed(study: Study, out_dir: Path, exc: OSError) -> RunFailed:
+    """The one-line error of a run stopped by ``exc``; meta.json records "failed" with the
+    reason where it still can be written."""
+    where = getattr(exc, "filename", None)
+    reason = str(exc) if isinstance(exc, OutputError) else f"{where}: {exc.strerror or exc}"
+    meta = outputs.read_meta(out_dir)
+    if meta:
+        meta.update(status="failed", reason=reason, stopped=outputs.now())
+        try:
+            outputs.write_json(meta, out_dir / outputs.META)
+        except OSError:
+            pass  # the disk is still full: the reason is in the error line
+    rows = out_dir / outputs.POINTS
+    return RunFailed(
+        f"{study.name}: stopped: {reason}; the finished rows are kept in {rows}; rerun to resume"
+    )
 
 
 def _run_locked(study, execution, out_dir, identity, progress, fresh, plots) -> Path:
@@ -93,19 +115,24 @@ def _run_locked(study, execution, out_dir, identity, progress, fresh, plots) -> 
     meta = start_meta(study, identity)
     if reuse and previous.get("plots"):
         meta["plots"] = previous["plots"]  # kept on disk; listed until replaced
-    outputs.write_json(meta, out_dir / outputs.META)
+    try:
+        outputs.write_json(meta, out_dir / outputs.META)
+    except OSError as exc:  # nothing has run yet: a plain input error
+        raise StudyError(f"--results: {exc}") from None
     start = time.perf_counter()
     evaluator, headline, table = _evaluate(study, kind, execution, out_dir, progress, meta)
     outputs.write_table(table, out_dir / outputs.POINTS)
     run = run_summary(execution, table, evaluator, time.perf_counter() - start)
     meta.update(status="complete", headline=headline, run=run)
     outputs.write_json(meta, out_dir / outputs.META)
-    if plots and run["points_failed"] < run["points_total"]:
+    if plots and run["points_failed"] + run["points_invalid"] < run["points_total"]:
         figures = kind.figures(out_dir)
         meta["plots"] = [save_figure(fig, out_dir / name).name for name, fig in figures.items()]
         outputs.write_json(meta, out_dir / outputs.META)
     elif plots:
-        warnings.warn(f"{study.name}: no plots: every point failed (see points.csv)", stacklevel=2)
+        warnings.warn(
+            f"{study.name}: no plots: no point succeeded (see points.csv)", stacklevel=2
+        )
     outputs.write_index(out_dir.parent)
     return out_dir
 
@@ -127,9 +154,10 @@ def _evaluate(
                 table = evaluator.table()
             finally:
                 evaluator.close()
-    except BaseException:
-        meta.update(status="interrupted", stopped=outputs.now())
-        outputs.write_json(meta, out_dir / outputs.META)
+    except BaseException as exc:
         stop_local_workers(execution)
+        if not isinstance(exc, OSError):  # a failure is recorded by run_study
+            meta.update(status="interrupted", stopped=outputs.now())
+            outputs.write_json(meta, out_dir / outputs.META)
         raise
     return evaluator, headline, table
