@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 import errno
+import json
 import math
 import os
 
@@ -30,6 +31,7 @@ from ufmt import evaluate_cache
 from ufmt.cli import main
 from ufmt.defaults import DEFAULT_SPACING
 from ufmt.errors import OutputError, ProcessError, RunFailed, StudyError
+from ufmt.evaluate import physical
 from ufmt.machining.process import Process
 from ufmt.machining.validity import (
     OutsideDomainError,
@@ -288,3 +290,77 @@ def test_a_study_records_points_outside_the_domain_as_invalid_and_goes_on(tmp_pa
     run = read_meta(tmp_path / "r" / "domain")["run"]
     assert run["points_invalid"] == 2 and run["points_failed"] == 0
     assert "300" in result.stdout  # the sweep's best point is a valid one (lowest pv: 300 rpm)
+
+
+# ---------------------------------------------------------------------------------------------
+# cache records checked before use
+
+
+NAMES = ("pv_nm", "psd2_rms_nm", "f1_hz")
+
+
+@pytest.mark.parametrize(
+    ("outputs_", "used"),
+    [
+        ({"pv_nm": 12.5, "psd2_rms_nm": "nan", "f1_hz": 20.0}, True),  # PSD2 unresolved: NaN
+        ({"pv_nm": -1.0, "psd2_rms_nm": 1.0, "f1_hz": 20.0}, False),  # a negative PV
+        ({"pv_nm": 1.0, "psd2_rms_nm": 1.0, "f1_hz": -5.0}, False),  # a negative frequency
+        ({"pv_nm": 1.0, "psd2_rms_nm": 1.0, "f1_hz": 0.0}, False),  # a zero frequency
+        ({"pv_nm": "nan", "psd2_rms_nm": 1.0, "f1_hz": 20.0}, False),  # PV is always a number
+        ({"pv_nm": "inf", "psd2_rms_nm": 1.0, "f1_hz": 20.0}, False),  # never infinite
+    ],
+)
+def test_cache_records_outside_their_physical_ranges_are_not_used(outputs_, used):
+    key = {"case": 1}
+    record = {"format": 1, "key": key, "outputs": {**outputs_, "message": ""}}
+    path = evaluate_cache._file(evaluate_cache.directory(), key)
+    path.parent.mkdir(parents=True)
+    path.write_text(json.dumps(record))
+    loaded = evaluate_cache.load(key, NAMES, physical)
+    assert (loaded is not None) == used
+
+
+def test_a_non_strict_nan_literal_in_a_cache_record_is_not_used():
+    key = {"case": 1}
+    path = evaluate_cache._file(evaluate_cache.directory(), key)
+    path.parent.mkdir(parents=True)
+    text = '{"format": 1, "key": {"case": 1}, "outputs": {"pv_nm": NaN, "psd2_rms_nm": 1.0,'
+    path.write_text(text + ' "f1_hz": 20.0, "message": ""}}')
+    assert evaluate_cache.load(key, NAMES) is None
+
+
+# ---------------------------------------------------------------------------------------------
+# resume that keeps data
+
+
+def test_a_new_description_keeps_the_rows(tmp_path):
+    body = RPM_SWEEP.format(n=4)
+    study = study_file(tmp_path, "desc", 'description = "first"\n' + body)
+    out = _run(study, tmp_path / "r")
+    study.write_text(study.read_text().replace('"first"', '"a better description"'))
+    out = _run(study, tmp_path / "r")
+    assert read_meta(out)["run"]["points_reused"] == 4
+    assert read_meta(out)["description"] == "a better description"
+
+
+def test_a_change_of_results_sets_the_old_table_aside(tmp_path):
+    study = study_file(tmp_path, "aside", RPM_SWEEP.format(n=4))
+    out = _run(study, tmp_path / "r")
+    old_rows = (out / "points.csv").read_bytes()
+    old_fingerprint = read_meta(out)["fingerprint"]
+    study.write_text(study.read_text().replace("n = 4", "n = 3") + "[base]\ndepth_um = 3.0\n")
+    out = _run(study, tmp_path / "r")
+    assert (out / f"points.{old_fingerprint[:16]}.csv").read_bytes() == old_rows
+    assert read_meta(out)["run"]["points_new"] == 3
+
+
+def test_stale_plot_names_from_an_untrusted_meta_never_delete_outside(tmp_path):
+    victim = tmp_path / "victim.png"
+    victim.write_text("precious")
+    study = study_file(tmp_path, "plots", RPM_SWEEP.format(n=3))
+    out = _run(study, tmp_path / "r")
+    meta = read_meta(out)
+    meta.update(fingerprint="0" * 64, plots=["../../victim.png"])
+    (out / "meta.json").write_text(json.dumps(meta))
+    _run(study, tmp_path / "r")
+    assert victim.read_text() == "precious"

@@ -18,6 +18,8 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+import os
+import tomllib
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
@@ -169,22 +171,51 @@ def _number(value) -> float:
 def fingerprint(study: Study) -> dict[str, str]:
     """Hashes that decide whether earlier rows of this study can be reused.
 
-    They cover what changes results and nothing else: the parsed study file (not its comments
-    or layout), the model's content (not its path or comments), the study function (its name,
-    or the syntax tree of a ``file.py`` function) and the physics code's syntax trees. The
-    same study in another clone or directory has the same fingerprint.
+    They cover what changes results and nothing else: the parsed study file (not its comments,
+    layout or ``description``: :data:`NOT_RESULTS`), the model's content (not its path or
+    comments), the study function (its name, or the syntax tree of a ``file.py`` function)
+    and the physics code's syntax trees. The same study in another clone or directory has the
+    same fingerprint.
     """
     module, _, attribute = study.function.rpartition(":")
     function = f"{source_sha256(module)}:{attribute}" if module.endswith(".py") else study.function
     _, model_sha = resolve_model(model_file(study.model))
     parts = {
-        "study_sha256": study.content_sha256,
+        "study_sha256": results_sha256(study),
         "function_sha256": hashlib.sha256(function.encode()).hexdigest(),
         "model_sha256": model_sha,
         "code_sha256": code_sha256(),
     }
     parts["fingerprint"] = hashlib.sha256(json.dumps(parts, sort_keys=True).encode()).hexdigest()
     return parts
+
+
+#: Study-file fields that do not change any result (editing them keeps the rows).
+NOT_RESULTS = ("description",)
+
+
+def results_sha256(study: Study) -> str:
+    """SHA-256 of the study file's parsed content without :data:`NOT_RESULTS` (comments and
+    layout never count)."""
+    data = {k: v for k, v in tomllib.loads(study.text).items() if k not in NOT_RESULTS}
+    text = json.dumps(data, sort_keys=True, separators=(",", ":"), default=str)
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def set_aside(out_dir: Path, previous: Mapping, others: Sequence[str]) -> Path | None:
+    """Move the rows of an earlier run that cannot be reused to ``points.<fingerprint>.csv``
+    (never deleted) and remove the files derived from them (``others``: tables, meta.json,
+    plots); returns where the rows went (None: there were none)."""
+    points = out_dir / outputs.POINTS
+    kept = None
+    if points.is_file():
+        tag = str(previous.get("fingerprint") or "previous")[:16]
+        kept = out_dir / f"points.{tag}.csv"
+        os.replace(points, kept)
+    for name in others:
+        if isinstance(name, str) and Path(name).name == name:  # never outside out_dir
+            (out_dir / name).unlink(missing_ok=True)
+    return kept
 
 
 def check_same_study(study: Study, out_dir: Path, previous: Mapping, identity, fresh) -> None:

@@ -21,6 +21,7 @@ from ufmt.studies.journal import (
     check_same_study,
     fingerprint,
     run_summary,
+    set_aside,
     start_meta,
 )
 from ufmt.studies.kinds import KINDS, RESULT_TABLES
@@ -109,9 +110,8 @@ def _run_locked(study, execution, out_dir, identity, progress, fresh, plots) -> 
     previous = outputs.read_meta(out_dir)
     check_same_study(study, out_dir, previous, identity, fresh)
     reuse = not fresh and previous.get("fingerprint") == identity["fingerprint"]
-    if not reuse:
-        for name in (outputs.POINTS, *RESULT_TABLES, outputs.META, *previous.get("plots", [])):
-            (out_dir / name).unlink(missing_ok=True)
+    if not reuse:  # the earlier rows are set aside as points.<fingerprint>.csv, never deleted
+        set_aside(out_dir, previous, (*RESULT_TABLES, outputs.META, *previous.get("plots", [])))
     meta = start_meta(study, identity)
     if reuse and previous.get("plots"):
         meta["plots"] = previous["plots"]  # kept on disk; listed until replaced
@@ -130,9 +130,7 @@ def _run_locked(study, execution, out_dir, identity, progress, fresh, plots) -> 
         meta["plots"] = [save_figure(fig, out_dir / name).name for name, fig in figures.items()]
         outputs.write_json(meta, out_dir / outputs.META)
     elif plots:
-        warnings.warn(
-            f"{study.name}: no plots: no point succeeded (see points.csv)", stacklevel=2
-        )
+        warnings.warn(f"{study.name}: no plots: no point succeeded (see points.csv)", stacklevel=2)
     outputs.write_index(out_dir.parent)
     return out_dir
 
