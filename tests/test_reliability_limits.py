@@ -13,7 +13,9 @@ import errno
 import json
 import math
 import os
+from pathlib import Path
 
+import joblib
 import pytest
 from test_files import full_disk_after
 from test_reliability import (
@@ -27,11 +29,13 @@ from test_reliability import (
 )
 
 import ufmt
-from ufmt import evaluate_cache
+from ufmt import evaluate_cache, files
 from ufmt.cli import main
+from ufmt.cli.environment import matplotlib_config_dir
 from ufmt.defaults import DEFAULT_SPACING
 from ufmt.errors import OutputError, ProcessError, RunFailed, StudyError
 from ufmt.evaluate import physical
+from ufmt.fingerprint import model_sha256
 from ufmt.machining.process import Process
 from ufmt.machining.validity import (
     OutsideDomainError,
@@ -42,8 +46,12 @@ from ufmt.machining.validity import (
 )
 from ufmt.model.machine import machine_of
 from ufmt.studies import outputs
+from ufmt.studies.load import load_study, parse_study
 from ufmt.studies.locking import locked
 from ufmt.studies.outputs import read_meta, read_table
+from ufmt.studies.parallel import Execution, within_cores
+from ufmt.studies.runner import run_study
+from ufmt.tomlfile import read_toml
 
 
 @pytest.fixture(autouse=True)
@@ -364,3 +372,130 @@ def test_stale_plot_names_from_an_untrusted_meta_never_delete_outside(tmp_path):
     (out / "meta.json").write_text(json.dumps(meta))
     _run(study, tmp_path / "r")
     assert victim.read_text() == "precious"
+
+
+# ---------------------------------------------------------------------------------------------
+# resource limits
+
+
+def test_jobs_beyond_the_cores_are_capped_with_one_warning(tmp_path):
+    cores = joblib.cpu_count()
+    with pytest.warns(UserWarning, match=f"only {cores} cores") as caught:
+        capped = within_cores(Execution(jobs=100_000))
+    assert capped.n_jobs == cores and len(caught) == 1
+    assert within_cores(Execution(jobs=1)).n_jobs == 1
+    remote = Execution(jobs=64, backend="dask", scheduler="tcp://10.0.0.5:8786")
+    assert within_cores(remote) is remote  # a remote cluster's size is its own
+    study = study_file(tmp_path, "many", RPM_SWEEP.format(n=3))
+    with pytest.warns(UserWarning, match="cores are available"):
+        out = run_study(study, Execution(jobs=10_000), results=tmp_path / "r", progress=False)
+    assert read_meta(out)["run"]["jobs"] == cores
+
+
+def test_an_oversized_study_file_is_one_line(tmp_path):
+    path = study_file(tmp_path, "huge", RPM_SWEEP.format(n=3))
+    with path.open("a", encoding="utf-8") as f:
+        f.write(("# " + "x" * 1000 + "\n") * 5000)
+    with pytest.raises(StudyError, match="a study file holds at most") as info:
+        load_study(path)
+    assert "huge.toml" in str(info.value)
+
+
+def test_meta_json_holds_the_study_text_once(tmp_path):
+    body = 'description = "a unique phrase"\n' + RPM_SWEEP.format(n=3)
+    study = study_file(tmp_path, "once", body)
+    out = _run(study, tmp_path / "r")
+    text = (out / "meta.json").read_text(encoding="utf-8")
+    assert text.count("range = [200.0, 400.0]") == 1
+
+
+# ---------------------------------------------------------------------------------------------
+# the last tracebacks: one line, exit 2
+
+
+def test_a_deep_dotted_key_names_the_file(tmp_path):
+    deep = "kind = 'sweep'\n" + ".".join(["a"] * 3000) + " = 1\n"
+    with pytest.raises(StudyError, match="nested too deeply") as info:
+        parse_study(deep, tmp_path / "deep.toml")
+    assert "deep.toml" in str(info.value)
+
+
+def test_a_utf8_byte_order_mark_is_accepted(tmp_path):
+    packaged = ufmt.packaged_path()
+    bom = tmp_path / "bom.toml"
+    bom.write_bytes(b"\xef\xbb\xbf" + packaged.read_bytes())
+    assert model_sha256(ufmt.load_model(bom)) == model_sha256(ufmt.load_model(packaged))
+    study = study_file(tmp_path, "bomstudy", RPM_SWEEP.format(n=3))
+    study.write_bytes(b"\xef\xbb\xbf" + study.read_bytes())
+    assert load_study(study).kind == "sweep"
+    assert read_toml(bom)["name"] == read_toml(packaged)["name"]
+
+
+@pytest.mark.parametrize(
+    "command",
+    [
+        ["simulate", "--save", "{file}"],
+        ["simulate", "--plot", "{file}"],
+        ["frf", "--output-dir", "{file}"],
+        ["validate", "--output-dir", "{file}"],
+        ["report", "--results", "{dir}", "--output", "{dir}"],
+        ["report", "--results", "{dir}/missing"],
+    ],
+)
+def test_outputs_in_the_way_are_one_line_with_exit_2(tmp_path, capsys, command):
+    (tmp_path / "file").write_text("keep")
+    (tmp_path / "dir").mkdir()
+    args = [a.format(file=tmp_path / "file", dir=tmp_path / "dir") for a in command]
+    assert main(args) == 2
+    error = capsys.readouterr().err.strip()
+    assert len(error.splitlines()) == 1 and "Traceback" not in error, error
+    assert (tmp_path / "file").read_text() == "keep"
+
+
+def test_a_study_that_cannot_write_its_results_is_one_line_exit_2(tmp_path, monkeypatch, capsys):
+    def refuse(path, data):
+        raise PermissionError(errno.EACCES, os.strerror(errno.EACCES))
+
+    monkeypatch.setattr(files, "_atomic_write", refuse)
+    study = study_file(tmp_path, "ro", RPM_SWEEP.format(n=3))
+    assert main(["run", str(study), "--results", str(tmp_path / "r"), "--no-progress"]) == 2
+    error = capsys.readouterr().err.strip()
+    assert len(error.splitlines()) == 1 and "meta.json: Permission denied" in error, error
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "phrase"),
+    [
+        ("workpiece_size = [0.0524, 0.0524]", "workpiece_size = [0.0524, 1e-9]", "grid steps"),
+        ('tool_body = "head"', 'tool_body = "slider"', "same body"),
+        ('tool_body = "head"', 'tool_body = "spindle_joint"', "no mode shapes"),
+    ],
+)
+def test_impossible_machines_in_a_model_file_are_one_line(tmp_path, capsys, old, new, phrase):
+    text = ufmt.packaged_path().read_text(encoding="utf-8")
+    assert old in text
+    model = tmp_path / "m.toml"
+    model.write_text(text.replace(old, new), encoding="utf-8")
+    assert main(["simulate", str(model)]) == 2
+    error = capsys.readouterr().err.strip()
+    assert len(error.splitlines()) == 1 and phrase in error, error
+
+
+def test_plot_mode_into_a_directory_writes_the_named_file(tmp_path, capsys):
+    assert main(["plot-mode", "1", "--output", str(tmp_path)]) == 0
+    assert (tmp_path / "mode-1.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert str(tmp_path / "mode-1.png") in capsys.readouterr().out
+
+
+def test_an_unwritable_matplotlib_config_dir_is_replaced_quietly(tmp_path, monkeypatch):
+    blocker = tmp_path / "not-a-dir"
+    blocker.write_text("")
+    monkeypatch.delenv("MPLCONFIGDIR", raising=False)
+    monkeypatch.setenv("XDG_CONFIG_HOME", str(blocker))  # matplotlib/ cannot exist below it
+    matplotlib_config_dir()
+    private = Path(os.environ["MPLCONFIGDIR"])
+    assert private.is_dir() and private.stat().st_uid == os.getuid()
+    monkeypatch.setenv("XDG_CONFIG_HOME", str(tmp_path))  # writable: left alone
+    monkeypatch.delenv("MPLCONFIGDIR")
+    matplotlib_config_dir()
+    assert "MPLCONFIGDIR" not in os.environ

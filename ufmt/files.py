@@ -181,6 +181,13 @@ def _remove_quietly(path: Path) -> None:
         pass
 
 
+def check_set_target(directory: str | os.PathLike | None) -> None:
+    """Raise :class:`OutputError` now if ``directory`` (a :class:`FileSet`'s, None: no
+    output) exists and is not a directory: a command checks before it computes."""
+    if directory is not None and Path(directory).exists() and not Path(directory).is_dir():
+        raise OutputError(errno.EEXIST, f"cannot write {directory}: exists and is not a directory")
+
+
 class FileSet:
     """Files written as a set into ``directory``: :meth:`add` stages each (nothing visible
     yet), :meth:`commit` puts them all in place; the set is lost as a whole on a failure.

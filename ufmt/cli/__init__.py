@@ -21,6 +21,7 @@ from threadpoolctl import threadpool_limits
 from ufmt import __version__
 from ufmt.cli.calibration import register as register_calibration
 from ufmt.cli.common import positive
+from ufmt.cli.environment import matplotlib_config_dir
 from ufmt.cli.machining import register as register_machining
 from ufmt.cli.modes import cmd_modes
 from ufmt.cli.report import register as register_report
@@ -71,6 +72,7 @@ def _warning_line(message, category, filename, lineno, file=None, line=None):
 
 
 def main(argv=None) -> int:
+    matplotlib_config_dir()
     with warnings.catch_warnings():
         warnings.showwarning = _warning_line
         return _main(argv)
@@ -95,6 +97,10 @@ def _main(argv) -> int:
         # the reader closed stdout (e.g. `ufmt modes | head`): stop quietly, as SIGPIPE would
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 141
+    except OSError as exc:  # a file the command reads or writes (outputs: OutputError, above)
+        where = f"{exc.filename}: " if exc.filename else ""
+        print(f"ufmt {args.command}: error: {where}{exc.strerror or exc}", file=sys.stderr)
+        return 2
     except KeyboardInterrupt:
         print(f"ufmt {args.command}: interrupted (finished results are kept)", file=sys.stderr)
         return 130

@@ -156,6 +156,7 @@ def cmd_validate(args) -> int:
     from ufmt.plots import DPI
     from ufmt.plots.modes import plot_frequencies, plot_mode
 
+    files.check_set_target(args.output_dir)
     model = load(args.model)
     out = Path(args.output_dir)
     result = validate(model, read_reference(packaged_path("paper_reference.toml")), PAPER_MODES)

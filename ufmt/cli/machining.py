@@ -150,6 +150,7 @@ def _register_frf(subparsers) -> None:
 
 def cmd_simulate(args) -> int:
     """Run one process on a model and report the surface metrics and the PV per source."""
+    from ufmt import files
     from ufmt.cli.common import load
     from ufmt.errors import UfmtError
     from ufmt.machining.process import Process
@@ -159,6 +160,8 @@ def cmd_simulate(args) -> int:
     from ufmt.plots.response import plot_simulation
     from ufmt.simulate import simulate
 
+    for target in (args.plot, args.save):
+        files.check_set_target(target)
     model = load(args.model)
     sources = [s.strip() for s in args.sources.split(",") if s.strip()]
     if not sources:
@@ -224,6 +227,7 @@ def cmd_frf(args) -> int:
 
     if args.fmin >= args.fmax:
         raise UfmtError(f"--fmin {args.fmin} must be below --fmax {args.fmax}")
+    files.check_set_target(args.output_dir)
     model = load(args.model)
     basis = modal_basis(model, args.modes, args.basis_cutoff)
     freq = np.geomspace(args.fmin, args.fmax, args.points)

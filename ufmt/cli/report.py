@@ -20,8 +20,11 @@ def register(subparsers) -> None:
 
 def cmd_report(args) -> int:
     """Write the report from the files in ``--results`` (nothing is recomputed)."""
+    from ufmt.errors import UfmtError
     from ufmt.report import write_report
 
+    if not args.results.is_dir():
+        raise UfmtError(f"--results: {args.results} is not a directory of results")
     path = write_report(args.results, load(args.model), args.output)
     print(f"wrote {path} ({path.stat().st_size / 1e6:.1f} MB)")
     return 0

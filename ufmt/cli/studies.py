@@ -5,7 +5,8 @@ Arguments of ``ufmt run`` (built by :func:`add_run_parser`):
 ``study``
     Path of the study file (``studies/*.toml``).
 ``--jobs N``
-    Worker processes (default: every core).
+    Worker processes (default: every core; more than the cores available: one warning and
+    one per core).
 ``--backend {loky,dask}``
     joblib backend: ``loky`` (local processes, default) or ``dask`` (dask.distributed).
 ``--scheduler ADDRESS``

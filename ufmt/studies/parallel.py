@@ -16,6 +16,7 @@ stays free of the study kinds and their plots.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import hashlib
 import importlib
@@ -168,6 +169,20 @@ class Execution:
     def n_jobs(self) -> int:
         """Number of workers (default: every core joblib sees)."""
         return self.jobs or joblib.cpu_count()
+
+
+def within_cores(execution: Execution) -> Execution:
+    """``execution`` with its local workers capped at the cores available (joblib's count:
+    CPU affinity and cgroup quota included); a larger ``jobs`` gives one warning. A remote
+    dask scheduler's cluster is not capped."""
+    cores = joblib.cpu_count()
+    if execution.jobs is None or execution.jobs <= cores or execution.scheduler is not None:
+        return execution
+    warnings.warn(
+        f"--jobs {execution.jobs}: only {cores} cores are available; using {cores} workers",
+        stacklevel=3,
+    )
+    return dataclasses.replace(execution, jobs=cores)
 
 
 @contextmanager

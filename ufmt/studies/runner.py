@@ -27,7 +27,13 @@ from ufmt.studies.journal import (
 from ufmt.studies.kinds import KINDS, RESULT_TABLES
 from ufmt.studies.load import load_study
 from ufmt.studies.locking import locked, sigterm_interrupts
-from ufmt.studies.parallel import Execution, parallel_pool, resolve_function, stop_local_workers
+from ufmt.studies.parallel import (
+    Execution,
+    parallel_pool,
+    resolve_function,
+    stop_local_workers,
+    within_cores,
+)
 from ufmt.studies.spec import Study, StudyKind
 
 DEFAULT_EXECUTION = Execution()  # loky workers on this machine, one per core
@@ -74,6 +80,7 @@ def run_study(
     """
     if not isinstance(study, Study):
         study = load_study(study)
+    execution = within_cores(execution)
     resolve_function(study.function)
     evaluate_cache.directory()  # an unusable cache: one warning here, not one per worker
     identity = fingerprint(study)
