@@ -22,12 +22,24 @@ from ufmt.errors import OutputError
 REPO = Path(__file__).resolve().parents[1]
 
 
-def full_disk_after(monkeypatch, budget: int) -> None:
-    """Make ``os.write`` raise ENOSPC once ``budget`` bytes have been written."""
+def on_disk(fd: int, where: Path) -> bool:
+    """Whether descriptor ``fd`` is a file below ``where`` (pipes and other files are left
+    alone by the fault injection: loky's resource tracker writes to a pipe)."""
+    try:
+        return os.readlink(f"/proc/self/fd/{fd}").startswith(str(where))
+    except OSError:
+        return False
+
+
+def full_disk_after(monkeypatch, budget: int, where: Path) -> None:
+    """Make ``os.write`` to a file below ``where`` raise ENOSPC once ``budget`` bytes have
+    been written there."""
     real = os.write
     left = [budget]
 
     def write(fd, data):
+        if not on_disk(fd, where):
+            return real(fd, data)
         if left[0] <= 0:
             raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
         n = real(fd, bytes(data)[: left[0]])
@@ -40,7 +52,7 @@ def full_disk_after(monkeypatch, budget: int) -> None:
 def test_a_full_disk_keeps_the_previous_file_and_leaves_no_temporary(tmp_path, monkeypatch):
     target = tmp_path / "report.html"
     files.write_text(target, "good\n" * 100)
-    full_disk_after(monkeypatch, 50)
+    full_disk_after(monkeypatch, 50, tmp_path)
     with pytest.raises(OutputError, match=r"cannot write .*report.html: No space left") as info:
         files.write_text(target, "new\n" * 1000)
     assert info.value.errno == errno.ENOSPC and isinstance(info.value, OSError)
@@ -103,7 +115,7 @@ def test_a_file_set_fails_as_a_whole(tmp_path, monkeypatch):
     with files.FileSet(out, manifest="m.json") as written:
         written.add("a.csv", b"old a")
         written.add("m.json", b"old m")
-    full_disk_after(monkeypatch, 8)
+    full_disk_after(monkeypatch, 8, tmp_path)
     with pytest.raises(OutputError):
         with files.FileSet(out, manifest="m.json") as written:
             written.add("a.csv", b"new a")

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import joblib
 import pytest
-from test_files import full_disk_after
+from test_files import full_disk_after, on_disk
 from test_reliability import (
     CACHE_FULL,
     RPM_SWEEP,
@@ -134,7 +134,7 @@ def test_a_full_disk_mid_study_is_one_line_exit_1_and_the_resume_is_identical(
     study = study_file(tmp_path, "full", body)
     results = tmp_path / "r"
     # room for five writes (meta.json, the header, three rows): then every write fails
-    full_disk_after_writes(monkeypatch, 5)
+    full_disk_after_writes(monkeypatch, 5, results)
     args = ["--results", str(results), "--jobs", "1", "--no-plots", "--no-progress"]
     status = main(["run", str(study), *args])
     error = capsys.readouterr().err.strip()
@@ -151,12 +151,15 @@ def test_a_full_disk_mid_study_is_one_line_exit_1_and_the_resume_is_identical(
     assert read_meta(out)["run"]["points_reused"] >= kept - 1
 
 
-def full_disk_after_writes(monkeypatch, writes: int) -> None:
-    """Make every ``os.write`` after the first ``writes`` raise ENOSPC."""
+def full_disk_after_writes(monkeypatch, writes: int, where: Path) -> None:
+    """Make every ``os.write`` to a file below ``where`` after the first ``writes`` raise
+    ENOSPC."""
     real = os.write
     done = [0]
 
     def write(fd, data):
+        if not on_disk(fd, where):
+            return real(fd, data)
         done[0] += 1
         if done[0] > writes:
             raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
@@ -190,7 +193,7 @@ def test_a_full_disk_keeps_the_previous_report(tmp_path, monkeypatch, capsys):
     assert main(["report", "--results", str(tmp_path / "r")]) == 0
     good = report.read_bytes()
     capsys.readouterr()
-    full_disk_after(monkeypatch, 1000)
+    full_disk_after(monkeypatch, 1000, tmp_path)
     assert main(["report", "--results", str(tmp_path / "r")]) == 2
     error = capsys.readouterr().err.strip()
     assert len(error.splitlines()) == 1 and "report.html: No space left" in error
@@ -199,7 +202,7 @@ def test_a_full_disk_keeps_the_previous_report(tmp_path, monkeypatch, capsys):
 
 
 def test_a_full_cache_is_one_warning_and_no_temporary_file(tmp_path, monkeypatch):
-    full_disk_after(monkeypatch, 0)
+    full_disk_after(monkeypatch, 0, tmp_path)
     with pytest.warns(evaluate_cache.CacheWarning, match="No space left") as caught:
         evaluate_cache.store({"case": 1}, {"pv_nm": 1.0, "message": ""})
         evaluate_cache.store({"case": 2}, {"pv_nm": 2.0, "message": ""})

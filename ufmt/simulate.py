@@ -230,25 +230,14 @@ def simulate(
     psd2_patch : side [m] of a square patch at the plate centre, evaluated at 0.05 mm, on
         which the psd2 keys are computed (None: PSD2 is not resolved and reads NaN).
 
-    Raises
-    ------
-    OutsideDomainError
-        A cut outside the surface model's validity domain (:mod:`ufmt.machining.validity`).
+    Raises OutsideDomainError for a cut outside the surface model's validity domain
+    (:mod:`ufmt.machining.validity`).
     """
-    if isinstance(model, str | Path):
-        from ufmt.model.load import load_model
-
-        model = load_model(model)
+    model = _loaded(model)
     machine = _machine(model)
-    validity.check_cut(process, machine)  # the validity domain, before any allocation
-    validity.check_bodies(machine)
-    validity.check_surface(machine, spacing, aperture_margin, psd2_patch)
+    validity.check_case(process, machine, spacing, aperture_margin, psd2_patch)
     basis = _basis(model, basis, n_modes, basis_cutoff_hz)
-    validity.check_bodies(machine, basis.body_shapes)
-    highest_hz = float(basis.omega[-1]) / (2 * np.pi)
-    if n_phi is None:  # 0 stays an error of the discretisation, not the default
-        n_phi = samples_per_rev(highest_hz, process.rpm / 60.0)
-    validity.check_sampling(n_phi, process, highest_hz)
+    n_phi = _sampling(machine, basis, process, n_phi)
     residual = _residual(model, basis, machine) if static_correction else None
     options = SimulationOptions(
         zeta=zeta,
@@ -266,6 +255,27 @@ def simulate(
         basis_cutoff_hz=basis_cutoff_hz if n_modes is None else None,
     )
     return _run(basis, machine, process, residual, options)
+
+
+def _loaded(model):
+    """``model``, loaded if it is a path."""
+    if isinstance(model, str | Path):
+        from ufmt.model.load import load_model
+
+        return load_model(model)
+    return model
+
+
+def _sampling(machine: Machine, basis: ModalBasis, process: Process, n_phi: int | None) -> int:
+    """Samples per revolution: ``n_phi`` or, if None, the default for the basis' highest mode
+    (:func:`~ufmt.machining.cut_geometry.samples_per_rev`), inside the validity domain (with
+    the tool and workpiece bodies in the basis)."""
+    validity.check_bodies(machine, basis.body_shapes)
+    highest_hz = float(basis.omega[-1]) / (2 * np.pi)
+    if n_phi is None:  # 0 stays an error of the discretisation, not the default
+        n_phi = samples_per_rev(highest_hz, process.rpm / 60.0)
+    validity.check_sampling(n_phi, process, highest_hz)
+    return n_phi
 
 
 @dataclass(frozen=True, eq=False)

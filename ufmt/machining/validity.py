@@ -49,6 +49,15 @@ class OutsideDomainError(ProcessError):
     the values. :func:`ufmt.evaluate` raises it; a study records the point as invalid."""
 
 
+def check_case(
+    process: Process, machine: Machine, spacing, aperture_margin: float, psd2_patch=None
+) -> None:
+    """Every limit that needs no modal basis (module doc): checked before any allocation."""
+    check_cut(process, machine)
+    check_bodies(machine)
+    check_surface(machine, spacing, aperture_margin, psd2_patch)
+
+
 def cut_width(nose_radius: float, depth: float) -> float:
     """Width [m] of the groove a nose of radius ``nose_radius`` [m] cuts at ``depth`` [m]:
     2 sqrt(2 r_n a_p - a_p^2) (for a_p <= r_n)."""
