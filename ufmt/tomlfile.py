@@ -13,7 +13,7 @@ def read_toml(path: str | Path, error: type[UfmtError] = StudyError) -> dict:
     where = str(path)
     try:
         with open(path, "rb") as fh:
-            return tomllib.loads(fh.read().decode("utf-8-sig"))  # a byte-order mark is allowed
+            return tomllib.load(fh)
     except FileNotFoundError:
         raise error(f"{where}: file not found") from None
     except tomllib.TOMLDecodeError as exc:

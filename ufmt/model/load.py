@@ -49,7 +49,7 @@ def load_model(source: str | Path | None = None) -> Model:
         source = packaged_path()
     where = str(source)
     try:
-        text = Path(source).read_text(encoding="utf-8-sig")  # a byte-order mark is no content
+        text = Path(source).read_text(encoding="utf-8")
     except FileNotFoundError:
         raise ModelError(f"{where}: file not found") from None
     except IsADirectoryError:

@@ -25,8 +25,6 @@ from ufmt.studies.spec import (
     study_baseline,
 )
 
-MAX_STUDY_BYTES = 4 << 20  # [bytes] a study file (meta.json holds it once)
-
 
 def load_study(path: str | Path) -> Study:
     """Read and validate the study file at ``path``.
@@ -38,12 +36,7 @@ def load_study(path: str | Path) -> Study:
     """
     path = Path(path)
     try:
-        if path.stat().st_size > MAX_STUDY_BYTES:
-            raise StudyError(
-                f"{path}: {path.stat().st_size:,} bytes; a study file holds at most"
-                f" {MAX_STUDY_BYTES:,} (its points are described, not listed at length)"
-            )
-        text = path.read_text(encoding="utf-8-sig")  # a byte-order mark is not content
+        text = path.read_text(encoding="utf-8")
     except FileNotFoundError:
         raise StudyError(f"{path}: file not found") from None
     except (OSError, UnicodeDecodeError) as exc:
@@ -61,10 +54,7 @@ def parse_study(text: str, path: str | Path = "study.toml") -> Study:
         where.fail("", f"malformed TOML: {' '.join(str(exc).split())}")
     except RecursionError:
         where.fail("", "malformed TOML: values nested too deeply")
-    try:
-        content_sha = _content_sha256(data)
-    except RecursionError:  # a deep dotted key: tomllib nests it without recursing
-        where.fail("", "malformed TOML: tables nested too deeply")
+    content_sha = _content_sha256(data)
     names = tuple(KINDS)
     kind = data.get("kind")
     if kind is None:
