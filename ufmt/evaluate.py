@@ -27,6 +27,7 @@ from dataclasses import fields, is_dataclass
 from pathlib import Path
 
 from ufmt import evaluate_cache
+from ufmt.defaults import DEFAULT_SPACING
 from ufmt.design import (
     FREQUENCIES,
     METRICS,
@@ -39,9 +40,11 @@ from ufmt.design import (
 from ufmt.errors import ProcessError, StudyError, closest_name
 from ufmt.fingerprint import code_sha256, file_sha256, model_sha256
 from ufmt.machining.modal import modal_basis
-from ufmt.machining.process import Process
-from ufmt.machining.validity import OutsideDomainError
+from ufmt.machining.process import Process, ProcessRangeWarning
+from ufmt.machining.surface import DEFAULT_APERTURE_MARGIN
+from ufmt.machining.validity import OutsideDomainError, check_case
 from ufmt.model.load import load_model, packaged_path
+from ufmt.model.machine import machine_of
 from ufmt.model.schema import DesignParameter, Model
 from ufmt.recent import Recent
 from ufmt.simulate import simulate
@@ -147,6 +150,7 @@ def evaluate(
     process_full = {**REFERENCE_PROCESS, **{k: _process_value(k, v) for k, v in process.items()}}
     record: dict = {**dict(design_items), **process_full}
     try:
+        _check_domain(designed, process_full)  # before the cache and the modal basis
         changes = _hinge_changes(base, designed)
         key = {
             "model_sha256": base_sha,
@@ -201,6 +205,15 @@ def _process_mapping(process) -> dict:
             f"evaluate: process must be a ufmt.Process or a mapping, not {type(process).__name__}"
         )
     return dict(process)
+
+
+def _check_domain(model: Model, process: Mapping[str, float]) -> None:
+    """Raise OutsideDomainError for a case outside the surface model's validity domain at the
+    default grid and aperture (:func:`ufmt.machining.validity.check_case`)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ProcessRangeWarning)  # recorded by the physics run
+        case = Process(**process)
+    check_case(case, machine_of(model), DEFAULT_SPACING, DEFAULT_APERTURE_MARGIN)
 
 
 def _process_value(name: str, value) -> float:
