@@ -43,10 +43,8 @@ from ufmt import files
 FORMAT = 1
 _NON_FINITE = {"nan": math.nan, "inf": math.inf, "-inf": -math.inf}
 _MAX_RECORD = 1 << 16  # bytes read of a record (a record is ~1 kB)
-_broken: set[str] = set()
-_warned: set[str] = (
-    set()
-)  # warnings issued by this process  # directories that failed a write in this process
+_broken: set[str] = set()  # directories that failed a write in this process
+_warned: set[str] = set()  # cache warnings this process issued
 
 
 class CacheWarning(UserWarning):
