@@ -348,9 +348,11 @@ def test_a_new_description_keeps_the_rows(tmp_path):
     body = RPM_SWEEP.format(n=4)
     study = study_file(tmp_path, "desc", 'description = "first"\n' + body)
     out = _run(study, tmp_path / "r")
+    rows, fingerprint = (out / "points.csv").read_bytes(), read_meta(out)["fingerprint"]
     study.write_text(study.read_text().replace('"first"', '"a better description"'))
     out = _run(study, tmp_path / "r")
-    assert read_meta(out)["run"]["points_reused"] == 4
+    assert read_meta(out)["fingerprint"] == fingerprint  # the rows were reused, not set aside
+    assert (out / "points.csv").read_bytes() == rows and not list(out.glob("points.*.csv"))
     assert read_meta(out)["description"] == "a better description"
 
 
@@ -502,3 +504,30 @@ def test_an_unwritable_matplotlib_config_dir_is_replaced_quietly(tmp_path, monke
     monkeypatch.delenv("MPLCONFIGDIR")
     matplotlib_config_dir()
     assert "MPLCONFIGDIR" not in os.environ
+
+
+@pytest.mark.parametrize(
+    "body",
+    [
+        'kind = "grid"\n'
+        '[[axis]]\nparameter = "rpm"\nrange = [200.0, 400.0]\nn = 1000\n'
+        '[[axis]]\nparameter = "feed_mm_min"\nrange = [4.0, 16.0]\nn = 1000\n',
+        'kind = "sweep"\n'
+        + "".join(
+            f'[[grid]]\nname = "g{i}"\n'
+            '[[grid.axis]]\nparameter = "rpm"\nrange = [200.0, 400.0]\nn = 100\n'
+            '[[grid.axis]]\nparameter = "feed_mm_min"\nrange = [4.0, 16.0]\nn = 100\n'
+            for i in range(20)
+        ),
+        'kind = "sweep"\n[[axis]]\nparameter = "rpm"\nvalues = ['
+        + ", ".join(str(200.0 + i * 1e-3) for i in range(100_001))
+        + "]\n",
+    ],
+    ids=["grid-kind", "twenty-grids", "values-list"],
+)
+def test_one_cap_on_the_total_points_of_a_study(tmp_path, body):
+    """2,000 points of 20 grids or 10^6 of a grid kind: each group alone may be under the cap,
+    the study is not (the count is the kind's planned points, made before any point list)."""
+    with pytest.raises(StudyError, match="more than the allowed 100,000") as info:
+        parse_study(body, tmp_path / "big.toml")
+    assert "\n" not in str(info.value) and "big.toml" in str(info.value)

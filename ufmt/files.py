@@ -223,10 +223,15 @@ class FileSet:
 
     def add(self, name: str, data: bytes) -> Path:
         """Stage ``data`` as ``name``; returns the path it will have."""
-        assert self._stage is not None, "use FileSet as a context manager"
-        write_bytes(self._stage / name, data)
-        self._names.append(name)
+        write_bytes(self.staged(name), data)
         return self.directory / name
+
+    def staged(self, name: str) -> Path:
+        """Where to write member ``name`` now (any writer; it is put in place on commit)."""
+        assert self._stage is not None, "use FileSet as a context manager"
+        if name not in self._names:
+            self._names.append(name)
+        return self._stage / name
 
     def __exit__(self, kind, value, traceback) -> None:
         try:

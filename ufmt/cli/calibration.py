@@ -73,6 +73,9 @@ def register(subparsers) -> None:
         help=f"PNG (default {RESULTS}/mode-N.png, or results/<model file name>/mode-N.png)",
     )
     p.add_argument("--scale", type=positive(float), help="displacement factor (default: automatic)")
+    p.add_argument(
+        "--gif", action="store_true", help="also write the mode animated over one period (GIF)"
+    )
     p.set_defaults(func=cmd_plot_mode)
 
 
@@ -195,7 +198,7 @@ def cmd_plot_mode(args) -> int:
     """Solve the first N modes by the MSTMM and draw mode N."""
     from ufmt.mstmm.solve import describe, solve_modes
     from ufmt.plots import save_figure
-    from ufmt.plots.modes import plot_mode
+    from ufmt.plots.modes import animate_mode, plot_mode
 
     model = load(args.model)
     solution = solve_modes(model, count=args.mode, method="mstmm", shapes=True)
@@ -210,8 +213,20 @@ def cmd_plot_mode(args) -> int:
     if path.is_dir():  # an existing directory: the plot goes into it
         path = path / name
     figure = plot_mode(model, solution.shapes, args.mode - 1, args.scale, line)
-    written = save_figure(figure, path)
-    print(f"mode {args.mode}: {solution.frequencies_hz[-1]:.3f} Hz ({line}); wrote {written}")
+    written = [save_figure(figure, path)]
+    if args.gif:
+        written.append(
+            animate_mode(
+                model,
+                solution.shapes,
+                args.mode - 1,
+                Path(path).with_suffix(".gif"),
+                args.scale,
+                line,
+            )
+        )
+    names = " and ".join(str(p) for p in written)
+    print(f"mode {args.mode}: {solution.frequencies_hz[-1]:.3f} Hz ({line}); wrote {names}")
     return 0
 
 

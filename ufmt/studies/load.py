@@ -1,29 +1,31 @@
 """Reading a study file: its common fields, its kind's own fields (through the kind registry)
 and every value it can set, checked against its model before any point runs.
 
-The file format is :mod:`ufmt.studies.spec`'s; each kind's fields are its module's.
+The file format is :mod:`ufmt.studies.spec`'s; each kind's fields are its module's, read with
+:mod:`ufmt.studies.fields`.
 """
 
 from __future__ import annotations
 
 import hashlib
 import json
-import tomllib
 from collections.abc import Mapping
 from pathlib import Path
 
 from ufmt.errors import StudyError
-from ufmt.studies.kinds import KINDS
-from ufmt.studies.spec import (
+from ufmt.studies.fields import (
     COMMON_FIELDS,
-    Study,
-    StudyContext,
-    check_keys,
+    MAX_POINTS,
     check_values,
-    name_hint,
     read_common,
     study_baseline,
 )
+from ufmt.studies.kinds import KINDS
+from ufmt.studies.spec import Study
+from ufmt.tables import Where
+from ufmt.tomlfile import parse_toml, read_text
+
+MAX_STUDY_BYTES = 4 << 20  # [bytes] a study file (meta.json holds its text once)
 
 
 def load_study(path: str | Path) -> Study:
@@ -36,40 +38,45 @@ def load_study(path: str | Path) -> Study:
     """
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise StudyError(f"{path}: file not found") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise StudyError(f"{path}: cannot read: {exc}") from None
-    return parse_study(text, path)
+        size = path.stat().st_size
+    except OSError:
+        size = 0  # read_text gives the one-line reason
+    if size > MAX_STUDY_BYTES:
+        Where(str(path), error=StudyError).fail_table(
+            f"{size:,} bytes; a study file holds at most {MAX_STUDY_BYTES:,} (its points are"
+            " described by axes, grids and bounds, not listed at length)"
+        )
+    return parse_study(read_text(path, StudyError), path)
 
 
 def parse_study(text: str, path: str | Path = "study.toml") -> Study:
     """Parse and validate study TOML ``text``; ``path`` names it and anchors relative paths."""
     path = Path(path)
-    where = StudyContext(str(path))
+    where = Where(str(path), error=StudyError)
+    data = parse_toml(text, str(path), StudyError)
     try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        where.fail("", f"malformed TOML: {' '.join(str(exc).split())}")
-    except RecursionError:
-        where.fail("", "malformed TOML: values nested too deeply")
-    content_sha = _content_sha256(data)
+        content_sha = _content_sha256(data)
+    except RecursionError:  # a deep dotted key: tomllib nests it without recursing
+        where.fail_table("malformed TOML: tables nested too deeply")
     names = tuple(KINDS)
-    kind = data.get("kind")
-    if kind is None:
-        where.fail("kind", f"missing (one of {', '.join(names)})")
-    if kind not in names:
-        where.fail("kind", f"unknown study kind {kind!r} ({name_hint(str(kind), names, 'kinds')})")
+    if "kind" not in data:
+        where.missing("kind", f"one of {', '.join(names)}")
+    kind = where.choice("kind", data["kind"], names, "study kind")
     study_kind = KINDS[kind]
-    check_keys(where, "", data, COMMON_FIELDS + study_kind.fields)
-    common = read_common(where, data, path)
+    where.keys(data, COMMON_FIELDS + study_kind.fields)
+    common, parameters = read_common(where, data, path)
     study = dict(path=path, kind=kind, text=text, content_sha256=content_sha, **common)
-    parts = study_kind.parse(where, data, common["base"])
-    parsed = Study(**study, **parts)
-    baseline = study_baseline(where, parsed)
-    check_values(where, parsed, baseline)
-    return Study(**study, **parts, baseline=baseline)
+    parts = study_kind.parse(where, data, parameters)
+    baseline = study_baseline(Study(**study, **parts), parameters)
+    parsed = Study(**study, **parts, baseline=baseline)
+    planned = study_kind.planned_points(parsed)  # a count: no point list is made yet
+    if planned > MAX_POINTS:
+        where.fail_table(
+            f"{planned:,} points in all (every axis, grid and value list, or the optimiser's"
+            f" budget) is more than the allowed {MAX_POINTS:,}"
+        )
+    check_values(where, parsed, parameters, baseline)
+    return parsed
 
 
 def _content_sha256(data: Mapping) -> str:
