@@ -18,6 +18,7 @@ import sys
 import textwrap
 import threading
 import time
+import warnings
 from pathlib import Path
 
 import pytest
@@ -73,6 +74,26 @@ def declared_k(design, process, model=None, parameters=None):
     """The h31 z stiffness that ``design`` sets through the study's own declarations."""
     changed = apply_design(load_model(model), design, parameters)
     return {"pv_nm": float(changed.hinge("h31").stiffness[2])}
+
+
+CACHE_FULL = "cache directory /x is unusable (No space left on device); running without it"
+
+
+def cache_warning_pv(design, process, model=None):
+    """line_pv, warning on every point as a worker with a full cache does."""
+    warnings.warn(CACHE_FULL, evaluate_cache.CacheWarning, stacklevel=1)
+    return line_pv(design, process, model)
+
+
+def domain_pv(design, process, model=None):
+    """line_pv inside the validity domain of the packaged machine; raises outside it."""
+    from ufmt.design import REFERENCE_PROCESS
+    from ufmt.machining.process import Process
+    from ufmt.machining.validity import check_cut
+    from ufmt.model.machine import machine_of
+
+    check_cut(Process(**{**REFERENCE_PROCESS, **process}), machine_of(load_model()))
+    return line_pv(design, process, model)
 
 
 def study_file(tmp_path: Path, name: str, body: str, function: str = "line_pv") -> Path:

@@ -78,7 +78,10 @@ def test_report_embeds_every_figure_and_needs_no_network(tmp_path, capsys):
     assert load_model(EXAMPLE).name in page
 
 
-def test_report_lists_what_is_missing(tmp_path):
+def test_report_lists_what_is_missing(tmp_path, capsys):
+    assert main(["report", str(EXAMPLE), "--results", str(tmp_path / "none")]) == 2  # no folder
+    assert "--results" in capsys.readouterr().err and not (tmp_path / "none").exists()
+    (tmp_path / "none").mkdir()  # an empty results folder: every part listed as missing
     assert main(["report", str(EXAMPLE), "--results", str(tmp_path / "none")]) == 0
     page = (tmp_path / "none" / "report.html").read_text(encoding="utf-8")
     assert "missing:" in page and "data:image/png" not in page

@@ -824,6 +824,7 @@ def test_evaluate_reuses_the_basis_and_caches_on_the_model_content(tmp_path, mon
 NOT_PHYSICS = {
     "ufmt": "the package root only binds the public entry points",
     "ufmt.evaluate_cache": "stores records under the key the fingerprint is part of",
+    "ufmt.files": "writes the cache's records atomically: how they are written, not what",
     "ufmt.fingerprint": "computes that key",
     "ufmt.recent": "a bounded memo of recent results: what it keeps, not what they are",
 }

@@ -23,3 +23,18 @@ def closest_name(word, choices, cutoff: float = 0.6) -> str | None:
     """The valid name closest to a misspelled ``word`` (difflib ratio >= cutoff), or None."""
     close = difflib.get_close_matches(str(word), [str(c) for c in choices], n=1, cutoff=cutoff)
     return close[0] if close else None
+
+
+class OutputError(UfmtError, OSError):
+    """An output that cannot be written (full disk, permissions, a directory in the way); the
+    message names the path. Also an ``OSError`` (``errno`` is the cause's)."""
+
+    def __str__(self) -> str:
+        return str(self.strerror)
+
+
+class RunFailed(UfmtError):
+    """A study run stopped by an error after its points began (a full disk, a permission):
+    the finished rows are kept and a rerun resumes; the CLI exits with status 1."""
+
+    exit_status = 1

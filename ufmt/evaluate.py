@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import functools
 import math
+import numbers
 import os
 import warnings
 from collections.abc import Mapping
@@ -26,6 +27,7 @@ from dataclasses import dataclass, fields, is_dataclass
 from pathlib import Path
 
 from ufmt import evaluate_cache
+from ufmt.defaults import DEFAULT_SPACING
 from ufmt.design import (
     FREQUENCIES,
     METRICS,
@@ -35,11 +37,14 @@ from ufmt.design import (
     SOURCE_METRICS,
     apply_design,
 )
-from ufmt.errors import StudyError, closest_name
+from ufmt.errors import ProcessError, StudyError, closest_name
 from ufmt.fingerprint import code_sha256, file_sha256, model_sha256
 from ufmt.machining.modal import modal_basis
-from ufmt.machining.process import Process
+from ufmt.machining.process import Process, ProcessRangeWarning
+from ufmt.machining.surface import DEFAULT_APERTURE_MARGIN
+from ufmt.machining.validity import OutsideDomainError, check_case
 from ufmt.model.load import load_model, packaged_path
+from ufmt.model.machine import machine_of
 from ufmt.model.schema import DesignParameter, Model
 from ufmt.recent import Recent
 from ufmt.simulate import simulate
@@ -184,6 +189,11 @@ def evaluate(
     ------
     StudyError
         An unknown design or process parameter name (a caller's mistake, not physics).
+    ProcessError
+        A process value that is not a real number (None, a string, a bool).
+    OutsideDomainError
+        A cut outside the surface model's validity domain
+        (:mod:`ufmt.machining.validity`); a study records it as ``invalid``.
     ModelError
         A model file that cannot be loaded, or a design value it could not hold (negative,
         NaN, outside the loader's ``LIMITS``).
@@ -197,9 +207,10 @@ def evaluate(
     base, base_sha = resolve_model(model)
     design_items = tuple(sorted((k, float(v)) for k, v in design.items()))
     designed = apply_design(base, dict(design_items), parameters)
-    process_full = {**REFERENCE_PROCESS, **{k: float(v) for k, v in process.items()}}
+    process_full = {**REFERENCE_PROCESS, **{k: _process_value(k, v) for k, v in process.items()}}
     record: dict = {**dict(design_items), **process_full}
     try:
+        _check_domain(designed, process_full)  # before the cache and the modal basis
         changes = _hinge_changes(base, designed)
         key = {
             "model_sha256": base_sha,
@@ -207,16 +218,42 @@ def evaluate(
             "hinges": [[name, [repr(v) for v in values]] for name, values in changes],
             "process": {k: repr(v) for k, v in process_full.items()},
         }
-        outputs = evaluate_cache.load(key, METRICS + FREQUENCIES)
+        outputs = evaluate_cache.load(key, METRICS + FREQUENCIES, physical)
         if outputs is None:
             outputs = _physics(designed, process_full, (base_sha, changes))
             evaluate_cache.store(key, outputs)
         message = outputs.pop("message")
         record.update(outputs, status="ok", message=message)
+    except OutsideDomainError:
+        raise  # not a failure: the cut is outside what the surface model describes
     except Exception as exc:  # any physics failure becomes a recorded error
         record.update(dict.fromkeys(METRICS + FREQUENCIES, math.nan))
         record.update(status="error", message=_one_line(f"{type(exc).__name__}: {exc}"))
     return EvaluationRecord(record)
+
+
+#: Outputs the physics always gives as a finite number (the others may be NaN: a band not
+#: resolved, a source switched off, fewer modes than asked).
+ALWAYS_FINITE = (
+    "pv_nm",
+    "pv_aperture_nm",
+    "pv_tilt_removed_nm",
+    "pv_measured_nm",
+    "rms_measured_nm",
+    "rms_nm",
+    "force_peak_n",
+)
+
+
+def physical(name: str, value: float) -> bool:
+    """Whether ``value`` is a possible value of output ``name``: never infinite; finite where
+    :data:`ALWAYS_FINITE`; a frequency [Hz] > 0; a PV, RMS or force >= 0 (a cache record
+    outside these is recomputed)."""
+    if math.isnan(value):
+        return name not in ALWAYS_FINITE
+    if not math.isfinite(value):
+        return False
+    return value > 0.0 if name in FREQUENCIES else value >= 0.0
 
 
 def _process_mapping(process) -> dict:
@@ -228,6 +265,25 @@ def _process_mapping(process) -> dict:
             f"evaluate: process must be a ufmt.Process or a mapping, not {type(process).__name__}"
         )
     return dict(process)
+
+
+def _check_domain(model: Model, process: Mapping[str, float]) -> None:
+    """Raise OutsideDomainError for a case outside the surface model's validity domain at the
+    default grid and aperture (:func:`ufmt.machining.validity.check_case`)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ProcessRangeWarning)  # recorded by the physics run
+        case = Process(**process)
+    check_case(case, machine_of(model), DEFAULT_SPACING, DEFAULT_APERTURE_MARGIN)
+
+
+def _process_value(name: str, value) -> float:
+    """A process value as a float; anything but a real number (None, a string, a bool)
+    raises ProcessError."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise ProcessError(
+            f"evaluate: process {name!r}: {value!r} is not a number ({type(value).__name__})"
+        )
+    return float(value)
 
 
 def _number(value) -> float:

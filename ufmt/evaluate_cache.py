@@ -4,9 +4,19 @@ A record is stored as ``<dir>/<k[:2]>/<k>.json`` where ``k`` is the SHA-256 of i
 canonical JSON of what determines the result: the hinge values the design sets, the process,
 the model's content hash and the physics code's hash). The file holds the key itself and the
 outputs (numbers, non-finite ones as the strings "nan", "inf", "-inf"; the message as a string).
-Reading it parses JSON and checks the shape; nothing in it is executed, so a planted or
-tampered file can at worst give a wrong number for its own key, never run code. A file whose
-key, fields or types do not match is ignored (recomputed and overwritten).
+Reading it parses strict JSON and checks the shape and, through the caller's ``accept``, that
+every value lies in its physical range (:func:`ufmt.evaluate.physical`: frequencies > 0,
+PV, RMS and force >= 0, finite where the physics always gives a number); nothing in it is
+executed, so a planted or tampered file can at worst give a wrong but physically possible
+number for its own key, never run code. A file whose key, fields, types or ranges do not
+match is ignored (recomputed and overwritten). Record files and two-character subdirectories
+that are symbolic links are refused (the cache is then not used: one warning).
+
+No HMAC: the directory is used only when it belongs to the user and no one else can write it
+(below), so a record "written by someone else" can only come from the user's own processes;
+a key file for an HMAC would sit in the same home directory, readable by exactly those
+processes, and would add no protection against them while adding a secret to manage. The
+range checks bound what a tampered record can do.
 
 The directory is ``$UFMT_CACHE_DIR`` if set (the empty string switches the cache off), else
 ``$XDG_CACHE_HOME/ufmt`` or ``~/.cache/ufmt``. A directory that cannot be created or written,
@@ -25,12 +35,16 @@ import os
 import stat
 import tempfile
 import warnings
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from pathlib import Path
+
+from ufmt import files
 
 FORMAT = 1
 _NON_FINITE = {"nan": math.nan, "inf": math.inf, "-inf": -math.inf}
+_MAX_RECORD = 1 << 16  # bytes read of a record (a record is ~1 kB)
 _broken: set[str] = set()  # directories that failed a write in this process
+_warned: set[str] = set()  # cache warnings this process issued
 
 
 class CacheWarning(UserWarning):
@@ -82,11 +96,18 @@ def _usable(where: str) -> Path | None:
 
 def _warn(where: str, exc: BaseException) -> None:
     reason = getattr(exc, "strerror", None) or str(exc) or type(exc).__name__
-    warnings.warn(
-        f"cache directory {where} is unusable ({reason}); running without the evaluation cache",
-        CacheWarning,
-        stacklevel=3,
+    warn_once(
+        f"cache directory {where} is unusable ({reason}); running without the evaluation cache"
     )
+
+
+def warn_once(message: str) -> None:
+    """Issue the :class:`CacheWarning` ``message`` unless this process already did (a
+    worker's cache failure is reported again by the main process, once)."""
+    if message in _warned:
+        return
+    _warned.add(message)
+    warnings.warn(message, CacheWarning, stacklevel=4)
 
 
 def key_digest(key: Mapping) -> str:
@@ -103,13 +124,24 @@ def _file(root: Path, key: Mapping) -> Path:
     return root / digest[:2] / f"{digest}.json"
 
 
-def load(key: Mapping, names: tuple[str, ...]) -> dict | None:
-    """The cached outputs (``names`` as floats, plus ``message``) for ``key``, or None."""
+def load(
+    key: Mapping, names: tuple[str, ...], accept: Callable[[str, float], bool] | None = None
+) -> dict | None:
+    """The cached outputs (``names`` as floats, plus ``message``) for ``key``, or None.
+
+    None also for a record that is not strict JSON (no ``NaN``/``Infinity`` literals), has
+    other fields or types, or a value ``accept(name, value)`` refuses (the caller's physical
+    ranges): such a record is recomputed and overwritten.
+    """
     root = directory()
     if root is None:
         return None
+    path = _file(root, key)
+    if path.parent.is_symlink():
+        _refuse_link(root, path.parent)
+        return None
     try:
-        data = json.loads(_file(root, key).read_text(encoding="utf-8"))
+        data = json.loads(_read_no_follow(path), parse_constant=_not_strict)
     except (OSError, ValueError, RecursionError):
         return None
     if not isinstance(data, dict) or data.get("format") != FORMAT:
@@ -130,8 +162,27 @@ def load(key: Mapping, names: tuple[str, ...]) -> dict | None:
             outputs[name] = float(value)
         else:
             return None
+        if accept is not None and not accept(name, outputs[name]):
+            return None
     outputs["message"] = stored["message"]
     return outputs
+
+
+def _not_strict(constant: str):
+    raise ValueError(f"non-standard JSON constant {constant}")
+
+
+def _read_no_follow(path: Path) -> str:
+    """The text of ``path``, refusing a symbolic link (a planted record)."""
+    fd = os.open(path, os.O_RDONLY | os.O_NOFOLLOW | os.O_CLOEXEC)
+    with open(fd, encoding="utf-8") as fh:
+        return fh.read(_MAX_RECORD)
+
+
+def _refuse_link(root: Path, link: Path) -> None:
+    """Stop using the cache: ``link`` (a subdirectory) is a symbolic link."""
+    _broken.add(str(root))
+    _warn(str(root), OSError(f"{link.name} is a symbolic link; refusing to use it"))
 
 
 def store(key: Mapping, outputs: Mapping) -> None:
@@ -145,13 +196,11 @@ def store(key: Mapping, outputs: Mapping) -> None:
     }
     text = json.dumps({"format": FORMAT, "key": key, "outputs": values}, allow_nan=False)
     path = _file(root, key)
+    if path.parent.is_symlink():
+        _refuse_link(root, path.parent)
+        return
     try:
-        path.parent.mkdir(exist_ok=True)
-        with tempfile.NamedTemporaryFile(
-            "w", dir=path.parent, prefix=".tmp-", suffix=".json", delete=False, encoding="utf-8"
-        ) as fh:
-            fh.write(text)
-        os.replace(fh.name, path)
+        files.write_text(path, text)
     except OSError as exc:
         _broken.add(str(root))
         _warn(str(root), exc)

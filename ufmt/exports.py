@@ -26,6 +26,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ufmt import files
+
 SDF_MAGIC = "aISO-1.0"
 SDF_ZSCALE = 1e-9  # heights written in nanometres [m per unit]
 SDF_MAX_POINTS = 65535  # ISO-1.0 stores NumPoints and NumProfiles in 16 bits
@@ -42,9 +44,8 @@ def write_xyz(surface, path) -> Path:
     """Write the evenly spaced grid as ``x y z`` lines [m] (x fastest); returns the path."""
     x, y, z = even_grid(surface)
     yy, xx = np.meshgrid(y, x, indexing="ij")
-    path = Path(path)
-    np.savetxt(path, np.column_stack([xx.ravel(), yy.ravel(), z.ravel()]), fmt="%.9e")
-    return path
+    table = np.column_stack([xx.ravel(), yy.ravel(), z.ravel()])
+    return files.write_with(path, lambda b: np.savetxt(b, table, fmt="%.9e"))
 
 
 def sdf_text(surface, created: datetime.datetime | None = None) -> str:
@@ -76,16 +77,13 @@ def sdf_text(surface, created: datetime.datetime | None = None) -> str:
 
 def write_sdf(surface, path, created: datetime.datetime | None = None) -> Path:
     """Write :func:`sdf_text` to ``path``; returns the path."""
-    path = Path(path)
-    path.write_bytes(sdf_text(surface, created).encode("ascii"))
-    return path
+    return files.write_bytes(path, sdf_text(surface, created).encode("ascii"))
 
 
 def write_npz(surface, path) -> Path:
     """Write ``x_m``, ``y_m``, ``z_m`` (every row) as a compressed ``.npz``; returns the path."""
-    path = Path(path)
-    np.savez_compressed(path, x_m=surface.x, y_m=surface.y, z_m=surface.z)
-    return path
+    arrays = {"x_m": surface.x, "y_m": surface.y, "z_m": surface.z}
+    return files.write_with(path, lambda b: np.savez_compressed(b, **arrays))
 
 
 def read_sdf(path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

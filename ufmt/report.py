@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from ufmt import files
 from ufmt.machining.process import TABLE1_RANGE
 from ufmt.model.machine import MACHINE_FIELDS, OPTIONAL_FIELDS
 from ufmt.model.schema import Beam, Model, RigidBody
@@ -64,9 +65,7 @@ def write_report(results: str | Path = "results", model: Model | None = None, ou
     """
     results = Path(results)
     path = Path(output) if output is not None else results / REPORT
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(build_report(results, model), encoding="utf-8")
-    return path
+    return files.write_text(path, build_report(results, model))
 
 
 def build_report(results: str | Path = "results", model: Model | None = None) -> str:

@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from ufmt.defaults import DEFAULT_BASIS_CUTOFF_HZ, DEFAULT_SPACING
+from ufmt.machining import validity
 from ufmt.machining.basis import ModalBasis
 from ufmt.machining.cut_geometry import DEFAULT_TABLE_ROWS, cut_geometry, samples_per_rev
 from ufmt.machining.cutting import DEFAULT_COEFFICIENTS, FORCE_PARTS, ForceCoefficients
@@ -149,25 +150,35 @@ class SimulationResult:
         """Write metrics.json (strict JSON), summary.csv, time.csv (the record window), the
         surface without the feed marks as surface.xyz and surface.sdf (ISO 25178-71),
         surface.npz (x_m, y_m, z_m: every source; z_smooth_m: without the feed marks) and the
-        maps surface.png and surface_measured.png (:mod:`ufmt.exports`)."""
+        maps surface.png and surface_measured.png (:mod:`ufmt.exports`), as one set
+        (:class:`ufmt.files.FileSet`, metrics.json last): a failure keeps the earlier set."""
+        from ufmt import files
         from ufmt.exports import write_sdf, write_xyz
         from ufmt.plots import save_figure
 
-        d = Path(directory)
-        d.mkdir(parents=True, exist_ok=True)
-        names = ("metrics.json", "summary.csv", "time.csv", "surface.xyz", "surface.sdf")
-        paths = [d / name for name in names]
-        paths[0].write_text(json.dumps(self.to_dict(), indent=2, allow_nan=False) + "\n")
-        self.to_frame().to_csv(paths[1], index=False, float_format="%.8g")
-        self.to_frame("time").to_csv(paths[2], index=False, float_format="%.8g")
-        write_xyz(self.smooth_surface, paths[3])
-        write_sdf(self.smooth_surface, paths[4])
-        paths.append(d / "surface.npz")
         s = self.surface
-        np.savez_compressed(paths[-1], x_m=s.x, y_m=s.y, z_m=s.z, z_smooth_m=self.smooth_surface.z)
-        for stage, name in (("machined", "surface.png"), ("measured", "surface_measured.png")):
-            paths.append(save_figure(self.plot(stage=stage), d / name))
-        return paths
+        with files.FileSet(directory, manifest="metrics.json") as out:
+            for name, kind in (("summary.csv", "summary"), ("time.csv", "time")):
+                frame = self.to_frame(kind)
+                files.write_with(
+                    out.staged(name),
+                    lambda b, f=frame: f.to_csv(b, index=False, float_format="%.8g"),
+                )
+            write_xyz(self.smooth_surface, out.staged("surface.xyz"))
+            write_sdf(self.smooth_surface, out.staged("surface.sdf"))
+            files.write_with(
+                out.staged("surface.npz"),
+                lambda b: np.savez_compressed(
+                    b, x_m=s.x, y_m=s.y, z_m=s.z, z_smooth_m=self.smooth_surface.z
+                ),
+            )
+            for stage, name in (("machined", "surface.png"), ("measured", "surface_measured.png")):
+                save_figure(self.plot(stage=stage), out.staged(name))
+            metrics = json.dumps(self.to_dict(), indent=2, allow_nan=False) + "\n"
+            out.add("metrics.json", metrics.encode())
+        names = ("metrics.json", "summary.csv", "time.csv", "surface.xyz", "surface.sdf")
+        names += ("surface.npz", "surface.png", "surface_measured.png")
+        return [Path(directory) / name for name in names]
 
 
 def _short(value) -> str:
@@ -240,15 +251,15 @@ def simulate(
     aperture_margin : clear-aperture edge exclusion [m] (default 5 mm).
     psd2_patch : side [m] of a square patch at the plate centre, evaluated at 0.05 mm, on
         which the psd2 keys are computed (None: PSD2 is not resolved and reads NaN).
-    """
-    if isinstance(model, str | Path):
-        from ufmt.model.load import load_model
 
-        model = load_model(model)
+    Raises OutsideDomainError for a cut outside the surface model's validity domain
+    (:mod:`ufmt.machining.validity`).
+    """
+    model = _loaded(model)
     machine = _machine(model)
+    validity.check_case(process, machine, spacing, aperture_margin, psd2_patch)
     basis = _basis(model, basis, n_modes, basis_cutoff_hz)
-    if n_phi is None:  # 0 stays an error of the discretisation, not the default
-        n_phi = samples_per_rev(float(basis.omega[-1]) / (2 * np.pi), process.rpm / 60.0)
+    n_phi = _sampling(machine, basis, process, n_phi)
     residual = _residual(model, basis, machine) if static_correction else None
     options = SimulationOptions(
         zeta=zeta,
@@ -266,6 +277,27 @@ def simulate(
         basis_cutoff_hz=basis_cutoff_hz if n_modes is None else None,
     )
     return _run(basis, machine, process, residual, options)
+
+
+def _loaded(model):
+    """``model``, loaded if it is a path."""
+    if isinstance(model, str | Path):
+        from ufmt.model.load import load_model
+
+        return load_model(model)
+    return model
+
+
+def _sampling(machine: Machine, basis: ModalBasis, process: Process, n_phi: int | None) -> int:
+    """Samples per revolution: ``n_phi`` or, if None, the default for the basis' highest mode
+    (:func:`~ufmt.machining.cut_geometry.samples_per_rev`), inside the validity domain (with
+    the tool and workpiece bodies in the basis)."""
+    validity.check_bodies(machine, basis.body_shapes)
+    highest_hz = float(basis.omega[-1]) / (2 * np.pi)
+    if n_phi is None:  # 0 stays an error of the discretisation, not the default
+        n_phi = samples_per_rev(highest_hz, process.rpm / 60.0)
+    validity.check_sampling(n_phi, process, highest_hz)
+    return n_phi
 
 
 @dataclass(frozen=True, eq=False)

@@ -12,10 +12,10 @@ from ufmt.errors import StudyError, UfmtError
 
 
 def read_text(path: str | Path, error: type[UfmtError] = StudyError) -> str:
-    """The UTF-8 text of ``path`` (universal newlines); a file that cannot be read raises
-    ``error`` (one line)."""
+    """The UTF-8 text of ``path`` (universal newlines; a leading byte-order mark is not
+    content); a file that cannot be read raises ``error`` (one line)."""
     try:
-        return Path(path).read_text(encoding="utf-8")
+        return Path(path).read_text(encoding="utf-8-sig")
     except (OSError, UnicodeDecodeError) as exc:
         raise error(f"{path}: {_unreadable(exc)}") from None
 
@@ -34,7 +34,7 @@ def read_toml(path: str | Path, error: type[UfmtError] = StudyError) -> dict:
     """The table in ``path`` (read as bytes, as TOML specifies); a file that cannot be read or
     malformed TOML raises ``error`` (one line)."""
     try:
-        data = Path(path).read_bytes().decode("utf-8")
+        data = Path(path).read_bytes().decode("utf-8-sig")  # a byte-order mark is allowed
     except (OSError, UnicodeDecodeError) as exc:
         raise error(f"{path}: {_unreadable(exc)}") from None
     return parse_toml(data, str(path), error)

@@ -180,14 +180,15 @@ class Correlation:
 
     def save(self, directory) -> list[Path]:
         """Write ``correlation.csv`` (the table), ``mac.csv`` and ``mac.png``."""
-        from ufmt.plots import save_figure
+        from ufmt import files
+        from ufmt.plots import DPI
 
-        directory = Path(directory)
-        directory.mkdir(parents=True, exist_ok=True)
-        table, mac = directory / "correlation.csv", directory / "mac.csv"
-        self.table.to_csv(table, index=False, float_format="%.10g")
-        self.mac_frame().to_csv(mac, index=False, float_format="%.6g")
-        return [table, mac, save_figure(self.plot(), directory / "mac.png")]
+        table, mac = self.table, self.mac_frame()
+        with files.FileSet(directory) as written:  # the three files or none
+            table.to_csv(written.staged("correlation.csv"), index=False, float_format="%.10g")
+            mac.to_csv(written.staged("mac.csv"), index=False, float_format="%.6g")
+            written.add("mac.png", files.figure_png(self.plot(), DPI))
+        return [written.directory / n for n in ("correlation.csv", "mac.csv", "mac.png")]
 
 
 def correlate(model, test, count: int | None = None) -> Correlation:

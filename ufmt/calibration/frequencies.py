@@ -436,11 +436,3 @@ def validate(model: Model, reference: Reference, n_modes: int = PAPER_MODES) -> 
     assembled = assembled_modes(model, count=n_modes).frequencies_hz
     table = validation_table(model, reference, modes, np.asarray(assembled))
     return Validation(table, summary(table, reference, modes), modes, solution)
-
-
-def write_table(table: pd.DataFrame, path: str | Path) -> Path:
-    """Write the validation table as CSV (10 significant digits)."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    table.to_csv(path, index=False, float_format="%.10g")
-    return path

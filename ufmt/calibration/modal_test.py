@@ -113,10 +113,10 @@ class ModalTest:
 
     def save(self, path) -> Path:
         """Write the test as CSV (the layout :func:`read_modal_test` reads)."""
-        path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        self.to_frame().to_csv(path, index=False, float_format="%.10g")
-        return path
+        from ufmt import files
+
+        table = self.to_frame()
+        return files.write_with(path, lambda b: table.to_csv(b, index=False, float_format="%.10g"))
 
 
 def modal_test(modes, frequencies_hz, damping_ratio=None, sensors=(), shapes=None, source=""):

@@ -159,11 +159,16 @@ class ModelUpdate:
     def save(self, directory) -> list[Path]:
         """Write ``parameters.csv``, ``residuals.csv`` and the calibrated correlation
         (``correlation.csv``, ``mac.csv``, ``mac.png``) to ``directory``."""
+        from ufmt import files
+
         directory = Path(directory)
-        directory.mkdir(parents=True, exist_ok=True)
-        paths = [directory / "parameters.csv", directory / "residuals.csv"]
-        self.to_frame().to_csv(paths[0], index=False, float_format="%.8g")
-        self.residuals().to_csv(paths[1], index=False, float_format="%.8g")
+        tables = {"parameters.csv": self.to_frame(), "residuals.csv": self.residuals()}
+        paths = [
+            files.write_with(
+                directory / name, lambda b, t=t: t.to_csv(b, index=False, float_format="%.8g")
+            )
+            for name, t in tables.items()
+        ]
         return paths + self.after.save(directory)
 
 
@@ -244,5 +249,6 @@ def write_model(update: ModelUpdate, path, settings_path=None) -> Path:
     for p, s, d in zip(update.parameters, update.scales, update.deviation, strict=True):
         flag = "  AT BOUND" if p.name in update.at_bound else ""
         lines.append(f"#   {p.name}  s = {s:.6g}  [{p.band[0]:g}, {p.band[1]:g}]  +-{d:.2g}{flag}")
-    path.write_text("\n".join(lines) + "\n" + model_to_toml(update.model))
-    return path
+    from ufmt import files
+
+    return files.write_text(path, "\n".join(lines) + "\n" + model_to_toml(update.model))

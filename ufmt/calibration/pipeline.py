@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from ufmt import files
 from ufmt.calibration.frequencies import Validation, validate
 from ufmt.calibration.identify import Identification, identify
 from ufmt.calibration.reduced import apply_parameters
@@ -155,11 +156,10 @@ def calibrate(
         {f"s[{p.name}]": s for p, s in zip(calibration.parameters, result.scales, strict=True)}
     )
     log = pd.concat([result.log, pd.DataFrame([final])], ignore_index=True)
-    calibration.output.parent.mkdir(parents=True, exist_ok=True)
-    calibration.output.write_text(
-        provenance_header(calibration, result, errors, fit) + model_to_toml(identified)
+    files.write_text(
+        calibration.output,
+        provenance_header(calibration, result, errors, fit) + model_to_toml(identified),
     )
     if log_path is not None:
-        Path(log_path).parent.mkdir(parents=True, exist_ok=True)
-        log.to_csv(log_path, index=False, float_format="%.8g")
+        files.write_with(log_path, lambda b: log.to_csv(b, index=False, float_format="%.8g"))
     return CalibrationRun(replace(result, log=log), identified, check, calibration.output, fit)

@@ -75,6 +75,9 @@ def main(argv=None) -> int:
     if argv[:1] == ["--version"]:  # as argparse's version action, without building the parser
         print(f"ufmt {__version__}")
         raise SystemExit(0)
+    from ufmt.cli.environment import matplotlib_config_dir
+
+    matplotlib_config_dir()
     with warnings.catch_warnings():
         warnings.showwarning = _warning_line
         return _main(argv)
@@ -95,13 +98,17 @@ def _main(argv) -> int:
         # the matrices are small (order ~100): BLAS threads would only add contention
         with threadpool_limits(limits=1, user_api="blas"):
             return int(args.func(args) or 0)
-    except UfmtError as exc:
+    except UfmtError as exc:  # RunFailed: exit 1 (a study's finished rows are kept)
         print(f"ufmt {args.command}: error: {exc}", file=sys.stderr)
-        return 2
+        return getattr(exc, "exit_status", 2)
     except BrokenPipeError:
         # the reader closed stdout (e.g. `ufmt modes | head`): stop quietly, as SIGPIPE would
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 141
+    except OSError as exc:  # a file the command reads or writes (outputs: OutputError, above)
+        where = f"{exc.filename}: " if exc.filename else ""
+        print(f"ufmt {args.command}: error: {where}{exc.strerror or exc}", file=sys.stderr)
+        return 2
     except KeyboardInterrupt:
         print(f"ufmt {args.command}: interrupted (finished results are kept)", file=sys.stderr)
         return 130

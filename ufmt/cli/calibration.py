@@ -15,6 +15,7 @@ User errors raise :class:`~ufmt.errors.UfmtError`; the CLI prints one line and e
 from __future__ import annotations
 
 import argparse
+import io
 import math
 import time
 from pathlib import Path
@@ -206,11 +207,13 @@ def cmd_validate(args) -> int:
     """With ``--test``: correlate the model with the modal test (:func:`_validate_test`).
     Without: write frequencies.csv, frequencies.png, the mode plots and (for a model with a
     ``[machine]`` table) response.csv of section 4.2 / Table 4; print the summary."""
-    from ufmt.calibration.frequencies import read_reference, tag_bodies, validate, write_table
+    from ufmt import files
+    from ufmt.calibration.frequencies import read_reference, tag_bodies, validate
     from ufmt.mstmm.solve import describe
-    from ufmt.plots import save_figure
+    from ufmt.plots import DPI
     from ufmt.plots.modes import plot_frequencies, plot_mode
 
+    files.check_set_target(args.output_dir)
     model = load(args.model)
     out = Path(args.output_dir or results_dir(args.model, "validation", RESULTS))
     if args.test:
@@ -226,22 +229,26 @@ def cmd_validate(args) -> int:
             "give your machine's test with --test FILE (docs/modal-test.md)"
         )
     result = validate(model, reference, PAPER_MODES)
-    write_table(result.table, out / "frequencies.csv")
-    save_figure(plot_frequencies(result.table), out / "frequencies.png")
     lines = describe(model, result.modes.shares, top=3)
-    for n in args.modes:
-        figure = plot_mode(model, result.solution.shapes, n - 1, description=lines[n - 1])
-        save_figure(figure, out / f"mode-{n}.png")
-    _print_summary(model, result.summary)
-    plots = ", ".join(f"mode-{n}.png" for n in args.modes)
-    print(f"wrote frequencies.csv, frequencies.png, {plots} in {out}")
+    response = None
     if model.machine:
         from ufmt.calibration.response import response_table
 
         # the response's default basis (every mode below the cutoff), not the validated 30
-        table = response_table(model, packaged_path("paper_reference.toml"))
-        table.to_csv(out / "response.csv", index=False, float_format="%.6g")
-        print(table.drop(columns=["source"]).to_string(index=False))
+        response = response_table(model, packaged_path("paper_reference.toml"))
+    with files.FileSet(out) as written:  # every file of the validation or none
+        written.add("frequencies.csv", _csv(result.table, "%.10g"))
+        written.add("frequencies.png", files.figure_png(plot_frequencies(result.table), DPI))
+        for n in args.modes:
+            figure = plot_mode(model, result.solution.shapes, n - 1, description=lines[n - 1])
+            written.add(f"mode-{n}.png", files.figure_png(figure, DPI))
+        if response is not None:
+            written.add("response.csv", _csv(response, "%.6g"))
+    _print_summary(model, result.summary)
+    plots = ", ".join(f"mode-{n}.png" for n in args.modes)
+    print(f"wrote frequencies.csv, frequencies.png, {plots} in {out}")
+    if response is not None:
+        print(response.drop(columns=["source"]).to_string(index=False))
         print(f"wrote response.csv in {out}")
     return 0
 
@@ -269,6 +276,13 @@ def _validate_test(model, test: str, out: Path, as_json: bool) -> int:
     return 0
 
 
+def _csv(table, float_format: str) -> bytes:
+    """A table as CSV bytes."""
+    buffer = io.BytesIO()
+    table.to_csv(buffer, index=False, float_format=float_format)
+    return buffer.getvalue()
+
+
 def cmd_plot_mode(args) -> int:
     """Solve the first N modes by the MSTMM and draw mode N."""
     from ufmt.mstmm.solve import describe, solve_modes
@@ -283,7 +297,10 @@ def cmd_plot_mode(args) -> int:
             f"{solution.frequencies_hz.size} modes"
         )
     line = describe(model, solution.energy_shares(model), top=3)[args.mode - 1]
-    path = args.output or _plot_mode_default(args.model, model) / f"mode-{args.mode}.png"
+    name = f"mode-{args.mode}.png"
+    path = Path(args.output) if args.output else _plot_mode_default(args.model, model) / name
+    if path.is_dir():  # an existing directory: the plot goes into it
+        path = path / name
     figure = plot_mode(model, solution.shapes, args.mode - 1, args.scale, line)
     written = [save_figure(figure, path)]
     if args.gif:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -176,13 +177,28 @@ def _register_frf(subparsers) -> None:
 
 def cmd_simulate(args) -> int:
     """Run one process on a model and report the surface metrics and the PV per source."""
+    from ufmt import files
     from ufmt.cli.common import load
+    from ufmt.errors import UfmtError
     from ufmt.machining.process import Process
+    from ufmt.machining.sources import SOURCES
+    from ufmt.machining.validity import check_cut
+    from ufmt.model.machine import machine_of
     from ufmt.plots.response import plot_simulation
     from ufmt.simulate import simulate
 
+    for target in (args.plot, args.save):
+        files.check_set_target(target)
     model = load(args.model)
-    process = Process(args.rpm, args.feed, args.depth)
+    sources = [s.strip() for s in args.sources.split(",") if s.strip()]
+    if not sources:
+        raise UfmtError(f"--sources: {args.sources!r} names no source ({','.join(SOURCES)})")
+    with warnings.catch_warnings(record=True) as caught:  # outside Table 1: said if valid
+        warnings.simplefilter("always")
+        process = Process(args.rpm, args.feed, args.depth)
+    check_cut(process, machine_of(model))  # outside the validity domain: the one line
+    for warning in caught:
+        warnings.warn(warning.message, warning.category, stacklevel=1)
     options = {} if args.zeta is None else {"zeta": args.zeta}
     if args.psd2_patch is not None:
         options["psd2_patch"] = args.psd2_patch * 1e-3
@@ -193,7 +209,7 @@ def cmd_simulate(args) -> int:
         basis_cutoff_hz=args.basis_cutoff,
         n_phi=args.samples_per_rev,
         method=args.method,
-        sources=[s.strip() for s in args.sources.split(",") if s.strip()],
+        sources=sources,
         static_correction=not args.no_static,
         aperture_margin=args.aperture_margin * 1e-3,
         **options,
@@ -226,12 +242,14 @@ def cmd_frf(args) -> int:
     """An FRF of the model (:func:`ufmt.machining.frf.frf`): CSV table and magnitude/phase
     plot in the output folder (``frf.csv``/``frf.png`` for the tool-workpiece z receptance,
     ``frf-<directions>-<kind>.*`` otherwise)."""
+    from ufmt import files
     from ufmt.cli.common import load, results_dir
     from ufmt.errors import UfmtError
     from ufmt.machining.frf import frf
 
     if args.fmin >= args.fmax:
         raise UfmtError(f"--fmin {args.fmin} must be below --fmax {args.fmax}")
+    files.check_set_target(args.output_dir)
     model = load(args.model)
     output, force = (None, None) if args.at is None else (_point(t) for t in args.at)
     options = {} if args.zeta is None else {"zeta": args.zeta}

@@ -24,9 +24,12 @@ def register(subparsers) -> None:
 
 def cmd_report(args) -> int:
     """Write the report from the files in ``--results`` (nothing is recomputed)."""
+    from ufmt.errors import UfmtError
     from ufmt.report import write_report
 
     results = args.results or results_dir(args.model, "", Path("results"))
+    if not Path(results).is_dir():
+        raise UfmtError(f"--results: {results} is not a directory of results")
     path = write_report(results, load(args.model), args.output)
     print(f"wrote {path} ({path.stat().st_size / 1e6:.1f} MB)")
     return 0

@@ -5,7 +5,8 @@ Arguments of ``ufmt run`` (built by :func:`add_run_parser`):
 ``study``
     Path of the study file (``studies/*.toml``).
 ``--jobs N``
-    Worker processes (default: every core).
+    Worker processes (default: every core; more than the cores available: one warning and
+    one per core).
 ``--backend {loky,dask}``
     joblib backend: ``loky`` (local processes, default) or ``dask`` (dask.distributed).
 ``--scheduler ADDRESS``
@@ -21,7 +22,9 @@ Arguments of ``ufmt run`` (built by :func:`add_run_parser`):
 ``--no-plots``
     Skip the PNG plots.
 
-Exit status: 0 every point succeeded; 1 the study finished but some points failed (one summary
+Exit status: 0 every point succeeded or lies outside the surface model's validity domain
+(status invalid, one note line on stderr); 1 the study finished but some points failed, or
+it stopped on a full disk or a lost permission (finished rows kept) (one summary
 line on stderr; the messages are in points.csv); 2 wrong input, found before any point runs
 (study file, model file, a design or process value, ``--results``, ``--scheduler``, another run
 writing the same results); 130 interrupted (Ctrl-C, SIGTERM; rerun to resume).
@@ -108,6 +111,13 @@ def run_study_cli(args: argparse.Namespace) -> int:
         print(
             f"{run['points_total']} points ({run['points_new']} new, {run['points_reused']}"
             f" reused, {run['points_failed']} failed) in {run['wall_s']} s -> {out_dir}"
+        )
+    if run.get("points_invalid"):
+        print(
+            f"ufmt run: {run['points_invalid']} of {run['points_total']} points lie outside the"
+            f" surface model's validity domain (status invalid; the limit is in"
+            f" {out_dir / 'points.csv'}); left out of the results",
+            file=sys.stderr,
         )
     if run["points_failed"]:
         print(

@@ -193,14 +193,17 @@ class FrfResult:
         return plot_frf_result(self, ax=ax)
 
     def save(self, directory) -> list[Path]:
-        """Write ``<name>.csv`` (:meth:`to_frame`) and ``<name>.png`` to ``directory``."""
-        from ufmt.plots import save_figure
+        """Write ``<name>.csv`` (:meth:`to_frame`) and ``<name>.png`` to ``directory``, as one
+        set (:class:`ufmt.files.FileSet`: both or neither)."""
+        from ufmt import files
+        from ufmt.plots import DPI
 
-        directory = Path(directory)
-        directory.mkdir(parents=True, exist_ok=True)
-        csv = directory / f"{self.name}.csv"
-        self.to_frame().to_csv(csv, index=False, float_format="%.8g")
-        return [csv, save_figure(self.plot(), directory / f"{self.name}.png")]
+        table = self.to_frame()
+        with files.FileSet(directory) as written:
+            table.to_csv(written.staged(f"{self.name}.csv"), index=False, float_format="%.8g")
+            csv = written.directory / f"{self.name}.csv"
+            png = written.add(f"{self.name}.png", files.figure_png(self.plot(), DPI))
+        return [csv, png]
 
 
 def frf(

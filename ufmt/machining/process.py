@@ -42,6 +42,8 @@ class Process:
         for name, (low, high, unit) in TABLE1_RANGE.items():
             raw = getattr(self, name)
             try:
+                if isinstance(raw, bool | str | bytes):  # float() would take True and "300"
+                    raise TypeError
                 value = float(raw)
             except (TypeError, ValueError):
                 raise ProcessError(f"process: field {name!r}: {raw!r} is not a number") from None

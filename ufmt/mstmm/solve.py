@@ -138,13 +138,15 @@ class ModalSolution:
         ``directory``; returns the paths."""
         from pathlib import Path
 
+        from ufmt import files
         from ufmt.plots import save_figure
 
         model = None if model is None else as_model(model)
         directory = Path(directory)
-        directory.mkdir(parents=True, exist_ok=True)
-        csv = directory / "modes.csv"
-        self.to_frame(model).to_csv(csv, index=False, float_format="%.10g")
+        table = self.to_frame(model)
+        csv = files.write_with(
+            directory / "modes.csv", lambda b: table.to_csv(b, index=False, float_format="%.10g")
+        )
         return [csv, save_figure(self.plot(model=model), directory / "modes.png")]
 
 

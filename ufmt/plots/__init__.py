@@ -12,6 +12,8 @@ from pathlib import Path
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
+from ufmt import files
+
 DPI = 120
 
 
@@ -34,8 +36,6 @@ def new_figure(figsize=(6.4, 4.8)) -> Figure:
 
 
 def save_figure(fig: Figure, path, dpi: int = DPI) -> Path:
-    """Write ``fig`` to ``path`` (PNG; parent folders created); returns the path."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=dpi)
-    return path
+    """Write ``fig`` to ``path`` (PNG, atomically: :mod:`ufmt.files`; parent folders created);
+    returns the path."""
+    return files.write_bytes(path, files.figure_png(fig, dpi))

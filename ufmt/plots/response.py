@@ -15,8 +15,9 @@ from pathlib import Path
 import numpy as np
 from matplotlib.figure import Figure
 
+from ufmt import files
 from ufmt.defaults import REFERENCE_RPM
-from ufmt.plots import new_axes, new_figure, save_figure
+from ufmt.plots import DPI, new_axes, new_figure
 from ufmt.plots.psd import plot_psd
 from ufmt.plots.surface import plot_pv_by_source, plot_surface_map
 
@@ -159,6 +160,8 @@ def _process_label(process) -> str:
 
 
 def plot_simulation(result, directory) -> list[Path]:
-    """Write :func:`simulation_figures` to ``directory`` as PNGs; returns the paths."""
-    d = Path(directory)
-    return [save_figure(fig, d / f"{name}.png") for name, fig in simulation_figures(result).items()]
+    """Write :func:`simulation_figures` to ``directory`` as PNGs, as one set
+    (:class:`ufmt.files.FileSet`); returns the paths."""
+    figures = simulation_figures(result)
+    with files.FileSet(directory) as out:
+        return [out.add(f"{name}.png", files.figure_png(fig, DPI)) for name, fig in figures.items()]

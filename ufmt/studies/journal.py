@@ -7,7 +7,10 @@ file, function and physics code, checked by a fingerprint in ``meta.json``) read
 evaluates only the missing points and ends with the same table; with anything changed it starts
 afresh. A point whose function fails is a row with ``status = "error"`` and the message; a
 rerun tries failed points again (a failure may have been transient; a deterministic one gives
-the same row).
+the same row). A point outside the surface model's validity domain
+(:mod:`ufmt.machining.validity`) is a row with ``status = "invalid"`` and the limit it breaks;
+it is deterministic, so it is reused, and the kinds leave it out of optima and fits like a
+failed point (its outputs are empty).
 """
 
 from __future__ import annotations
@@ -15,6 +18,8 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+import os
+import tomllib
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
@@ -23,6 +28,7 @@ import numpy as np
 import pandas as pd
 from tqdm import tqdm
 
+from ufmt import evaluate_cache
 from ufmt.design import PROCESS_PARAMETERS
 from ufmt.errors import StudyError
 from ufmt.evaluate import model_file, resolve_model
@@ -112,7 +118,9 @@ class Evaluator:
             for position, (_, (_, inputs)) in enumerate(todo)
         )
         try:
-            for position, record, seconds in self._parallel(tasks):
+            for position, record, seconds, notes in self._parallel(tasks):
+                for note in notes:  # a worker's cache failure, reported once
+                    evaluate_cache.warn_once(note)
                 key, (row, _) = todo[position]
                 outputs_ = {k: v for k, v in record.items() if k not in row}
                 full = {**row, **outputs_}
@@ -164,22 +172,51 @@ def _number(value) -> float:
 def fingerprint(study: Study) -> dict[str, str]:
     """Hashes that decide whether earlier rows of this study can be reused.
 
-    They cover what changes results and nothing else: the parsed study file (not its comments
-    or layout), the model's content (not its path or comments), the study function (its name,
-    or the syntax tree of a ``file.py`` function) and the physics code's syntax trees. The
-    same study in another clone or directory has the same fingerprint.
+    They cover what changes results and nothing else: the parsed study file (not its comments,
+    layout or ``description``: :data:`NOT_RESULTS`), the model's content (not its path or
+    comments), the study function (its name, or the syntax tree of a ``file.py`` function)
+    and the physics code's syntax trees. The same study in another clone or directory has the
+    same fingerprint.
     """
     module, _, attribute = study.function.rpartition(":")
     function = f"{source_sha256(module)}:{attribute}" if module.endswith(".py") else study.function
     _, model_sha = resolve_model(model_file(study.model))
     parts = {
-        "study_sha256": study.content_sha256,
+        "study_sha256": results_sha256(study),
         "function_sha256": hashlib.sha256(function.encode()).hexdigest(),
         "model_sha256": model_sha,
         "code_sha256": code_sha256(),
     }
     parts["fingerprint"] = hashlib.sha256(json.dumps(parts, sort_keys=True).encode()).hexdigest()
     return parts
+
+
+#: Study-file fields that do not change any result (editing them keeps the rows).
+NOT_RESULTS = ("description",)
+
+
+def results_sha256(study: Study) -> str:
+    """SHA-256 of the study file's parsed content without :data:`NOT_RESULTS` (comments and
+    layout never count)."""
+    data = {k: v for k, v in tomllib.loads(study.text).items() if k not in NOT_RESULTS}
+    text = json.dumps(data, sort_keys=True, separators=(",", ":"), default=str)
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def set_aside(out_dir: Path, previous: Mapping, others: Sequence[str]) -> Path | None:
+    """Move the rows of an earlier run that cannot be reused to ``points.<fingerprint>.csv``
+    (never deleted) and remove the files derived from them (``others``: tables, meta.json,
+    plots); returns where the rows went (None: there were none)."""
+    points = out_dir / outputs.POINTS
+    kept = None
+    if points.is_file():
+        tag = str(previous.get("fingerprint") or "previous")[:16]
+        kept = out_dir / f"points.{tag}.csv"
+        os.replace(points, kept)
+    for name in others:
+        if isinstance(name, str) and Path(name).name == name:  # never outside out_dir
+            (out_dir / name).unlink(missing_ok=True)
+    return kept
 
 
 def check_same_study(study: Study, out_dir: Path, previous: Mapping, identity, fresh) -> None:
@@ -230,7 +267,9 @@ def start_meta(study: Study, identity: Mapping[str, str]) -> dict:
 
 def run_summary(execution, table: pd.DataFrame, evaluator: Evaluator, wall: float) -> dict:
     """The ``run`` entry of a finished run's ``meta.json``: workers, points, times [s]."""
-    ok = int((table.get("status", pd.Series(dtype=str)) == "ok").sum())
+    status = table.get("status", pd.Series(dtype=str))
+    ok = int((status == "ok").sum())
+    invalid = int((status == "invalid").sum())
     return {
         "jobs": execution.n_jobs,
         "backend": execution.backend,
@@ -239,7 +278,8 @@ def run_summary(execution, table: pd.DataFrame, evaluator: Evaluator, wall: floa
         "points_total": len(table),
         "points_new": evaluator.points_new,
         "points_reused": evaluator.points_reused,
-        "points_failed": len(table) - ok,
+        "points_failed": len(table) - ok - invalid,
+        "points_invalid": invalid,
         "evaluation_s": round(evaluator.evaluation_s, 3),
         "points_per_s": round(evaluator.points_new / wall, 3) if wall > 0 else None,
     }

@@ -13,11 +13,19 @@ from collections.abc import Mapping
 from pathlib import Path
 
 from ufmt.errors import StudyError
-from ufmt.studies.fields import COMMON_FIELDS, check_values, read_common, study_baseline
+from ufmt.studies.fields import (
+    COMMON_FIELDS,
+    MAX_POINTS,
+    check_values,
+    read_common,
+    study_baseline,
+)
 from ufmt.studies.kinds import KINDS
 from ufmt.studies.spec import Study
 from ufmt.tables import Where
 from ufmt.tomlfile import parse_toml, read_text
+
+MAX_STUDY_BYTES = 4 << 20  # [bytes] a study file (meta.json holds its text once)
 
 
 def load_study(path: str | Path) -> Study:
@@ -29,6 +37,15 @@ def load_study(path: str | Path) -> Study:
         One line naming the file and the field.
     """
     path = Path(path)
+    try:
+        size = path.stat().st_size
+    except OSError:
+        size = 0  # read_text gives the one-line reason
+    if size > MAX_STUDY_BYTES:
+        Where(str(path), error=StudyError).fail_table(
+            f"{size:,} bytes; a study file holds at most {MAX_STUDY_BYTES:,} (its points are"
+            " described by axes, grids and bounds, not listed at length)"
+        )
     return parse_study(read_text(path, StudyError), path)
 
 
@@ -37,7 +54,10 @@ def parse_study(text: str, path: str | Path = "study.toml") -> Study:
     path = Path(path)
     where = Where(str(path), error=StudyError)
     data = parse_toml(text, str(path), StudyError)
-    content_sha = _content_sha256(data)
+    try:
+        content_sha = _content_sha256(data)
+    except RecursionError:  # a deep dotted key: tomllib nests it without recursing
+        where.fail_table("malformed TOML: tables nested too deeply")
     names = tuple(KINDS)
     if "kind" not in data:
         where.missing("kind", f"one of {', '.join(names)}")
@@ -49,6 +69,12 @@ def parse_study(text: str, path: str | Path = "study.toml") -> Study:
     parts = study_kind.parse(where, data, parameters)
     baseline = study_baseline(Study(**study, **parts), parameters)
     parsed = Study(**study, **parts, baseline=baseline)
+    planned = study_kind.planned_points(parsed)  # a count: no point list is made yet
+    if planned > MAX_POINTS:
+        where.fail_table(
+            f"{planned:,} points in all (every axis, grid and value list, or the optimiser's"
+            f" budget) is more than the allowed {MAX_POINTS:,}"
+        )
     check_values(where, parsed, parameters, baseline)
     return parsed
 

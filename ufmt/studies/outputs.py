@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import csv
 import datetime
+import io
 import json
 import math
 import os
@@ -36,6 +37,7 @@ from pathlib import Path
 
 import pandas as pd
 
+from ufmt import files
 from ufmt.jsonout import dumps_strict
 
 POINTS = "points.csv"
@@ -59,7 +61,7 @@ PACKAGES = (
 
 #: Columns of points.csv that hold text; every other column must parse as a float.
 TEXT_COLUMNS = ("group", "status", "message")
-STATUSES = ("ok", "error")
+STATUSES = ("ok", "error", "invalid")  # invalid: outside the surface model's domain
 _INTEGER = re.compile(r"[+-]?[0-9]+")
 
 
@@ -68,16 +70,16 @@ class PointLog:
 
     The file is created atomically (header written to a temporary file, then renamed) and
     appended to. On reading, every row is validated: a row with the wrong number of fields,
-    bytes that are not UTF-8, a number that does not parse, or a status other than "ok" or
-    "error" (a partial or corrupt line) is dropped, so its point is computed again; the file is
-    then rewritten with the valid rows. The header grows if a record brings new fields (the
-    file is then rewritten once).
+    bytes that are not UTF-8, a number that does not parse, or a status other than "ok",
+    "error" or "invalid" (a partial or corrupt line) is dropped, so its point is computed
+    again; the file is then rewritten with the valid rows. The header grows if a record
+    brings new fields (the file is then rewritten once).
     """
 
     def __init__(self, path: Path, columns: Iterable[str]):
         self.path = Path(path)
         self.columns = list(columns)
-        self._file = None
+        self._fd: int | None = None
         self.dropped = 0  # rows dropped as invalid by the last read
 
     def read(self) -> list[dict]:
@@ -102,19 +104,20 @@ class PointLog:
         return rows
 
     def append(self, row: Mapping) -> None:
-        """Write one row and flush it to the operating system."""
+        """Write one row to the operating system in one ``write`` (:func:`ufmt.files.append`)."""
         new = [k for k in row if k not in self.columns]
         self.columns += new
-        if self._file is None or new:
+        if self._fd is None or new:
             self._open()
-        csv.writer(self._file).writerow([_cell(row.get(c)) for c in self.columns])
-        self._file.flush()
+        line = io.StringIO(newline="")
+        csv.writer(line).writerow([_cell(row.get(c)) for c in self.columns])
+        files.append(self._fd, line.getvalue().encode("utf-8"), self.path)
 
     def close(self) -> None:
         """Close the file (appending reopens it)."""
-        if self._file is not None:
-            self._file.close()
-            self._file = None
+        if self._fd is not None:
+            os.close(self._fd)
+            self._fd = None
 
     def _open(self) -> None:
         """Open for appending; rewrite the file first if its header differs from ``columns``."""
@@ -126,7 +129,7 @@ class PointLog:
                 write_table(read_table(self.path).reindex(columns=self.columns), self.path)
         else:
             write_table(pd.DataFrame(columns=self.columns), self.path)
-        self._file = self.path.open("a", newline="", encoding="utf-8")
+        self._fd = files.open_append(self.path)
 
 
 def _parse_line(line: bytes) -> list[str] | None:
@@ -186,11 +189,8 @@ def read_table(path: Path) -> pd.DataFrame:
 
 
 def write_table(table: pd.DataFrame, path: Path) -> None:
-    """Write ``table`` atomically (temporary file, then rename), floats at full precision."""
-    path = Path(path)
-    tmp = _temporary(path)
-    table.to_csv(tmp, index=False)
-    os.replace(tmp, path)
+    """Write ``table`` atomically (:mod:`ufmt.files`), floats at full precision."""
+    files.write_with(path, lambda buffer: table.to_csv(buffer, index=False))
 
 
 def write_json(data: Mapping, path: Path) -> None:
@@ -198,16 +198,8 @@ def write_json(data: Mapping, path: Path) -> None:
     _write_text(dumps_strict(data, indent=2) + "\n", path)
 
 
-def _temporary(path: Path) -> Path:
-    """A temporary name next to ``path``, unique to this process (two runs never share it)."""
-    return path.with_name(f".{path.name}.{os.getpid()}.tmp")
-
-
 def _write_text(text: str, path: Path) -> None:
-    path = Path(path)
-    tmp = _temporary(path)
-    tmp.write_text(text, encoding="utf-8")
-    os.replace(tmp, path)
+    files.write_text(path, text)
 
 
 #: meta.json entries that describe the run (when, where, with what, how fast), not its results

@@ -16,6 +16,7 @@ stays free of the study kinds and their plots.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import hashlib
 import importlib
@@ -35,6 +36,7 @@ from threadpoolctl import threadpool_limits
 
 from ufmt.errors import StudyError
 from ufmt.evaluate_cache import CacheWarning
+from ufmt.machining.validity import OutsideDomainError
 from ufmt.model.schema import DesignParameter
 
 BACKENDS = ("loky", "dask")
@@ -101,8 +103,9 @@ def evaluate_point(
     process: Mapping[str, float],
     model: str | None,
     parameters: Mapping[str, DesignParameter] | None = None,
-) -> tuple[int, dict, float]:
-    """Run the study function on one point in a worker: (position, record, seconds).
+) -> tuple[int, dict, float, list[str]]:
+    """Run the study function on one point in a worker: (position, record, seconds, cache
+    warnings) (the main process reports each cache warning once).
 
     ``parameters`` (the study file's own ``[design]`` declarations) is passed to the function
     as a keyword only when the study declares any. Never raises: an exception of the function
@@ -114,18 +117,27 @@ def evaluate_point(
         _tasks_done += 1
     start = time.perf_counter()
     extra = {"parameters": dict(parameters)} if parameters else {}
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", CacheWarning)
+        record = _record(ref, design, process, model, extra)
+    notes = [str(w.message) for w in caught if issubclass(w.category, CacheWarning)]
+    return position, record, time.perf_counter() - start, notes
+
+
+def _record(ref: str, design, process, model, extra) -> dict:
+    """The study function's record of one point; an exception becomes status "error"."""
     try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", CacheWarning)  # the main process reported it
-            record = resolve_function(ref)(dict(design), dict(process), model, **extra)
+        record = resolve_function(ref)(dict(design), dict(process), model, **extra)
         if not isinstance(record, Mapping):
             raise TypeError(f"returned {type(record).__name__}, not a dict")
         record = dict(record)
         record.setdefault("status", "ok")
         record.setdefault("message", "")
+    except OutsideDomainError as exc:  # outside the surface model's validity domain
+        record = {"status": "invalid", "message": str(exc)}
     except Exception as exc:  # a failing point is recorded, not fatal
         record = {"status": "error", "message": f"{type(exc).__name__}: {exc}"}
-    return position, record, time.perf_counter() - start
+    return record
 
 
 # ---------------------------------------------------------------------------------------------
@@ -157,6 +169,20 @@ class Execution:
     def n_jobs(self) -> int:
         """Number of workers (default: every core joblib sees)."""
         return self.jobs or joblib.cpu_count()
+
+
+def within_cores(execution: Execution) -> Execution:
+    """``execution`` with its local workers capped at the cores available (joblib's count:
+    CPU affinity and cgroup quota included); a larger ``jobs`` gives one warning. A remote
+    dask scheduler's cluster is not capped."""
+    cores = joblib.cpu_count()
+    if execution.jobs is None or execution.jobs <= cores or execution.scheduler is not None:
+        return execution
+    warnings.warn(
+        f"--jobs {execution.jobs}: only {cores} cores are available; using {cores} workers",
+        stacklevel=3,
+    )
+    return dataclasses.replace(execution, jobs=cores)
 
 
 @contextmanager

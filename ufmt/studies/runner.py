@@ -13,6 +13,7 @@ from pathlib import Path
 import pandas as pd
 
 from ufmt import evaluate_cache
+from ufmt.errors import OutputError, RunFailed, StudyError
 from ufmt.machining.process import ProcessRangeWarning
 from ufmt.plots import save_figure
 from ufmt.studies import outputs
@@ -21,12 +22,19 @@ from ufmt.studies.journal import (
     check_same_study,
     fingerprint,
     run_summary,
+    set_aside,
     start_meta,
 )
 from ufmt.studies.kinds import KINDS, RESULT_TABLES
 from ufmt.studies.load import load_study
 from ufmt.studies.locking import locked, sigterm_interrupts
-from ufmt.studies.parallel import Execution, parallel_pool, resolve_function, stop_local_workers
+from ufmt.studies.parallel import (
+    Execution,
+    parallel_pool,
+    resolve_function,
+    stop_local_workers,
+    within_cores,
+)
 from ufmt.studies.spec import Study, StudyKind
 
 DEFAULT_EXECUTION = Execution()  # loky workers on this machine, one per core
@@ -74,12 +82,34 @@ def run_study(
     """
     if not isinstance(study, Study):
         study = load_study(study)
+    execution = within_cores(execution)
     resolve_function(study.function)
     evaluate_cache.directory()  # an unusable cache: one warning here, not one per worker
     identity = fingerprint(study)
     out_dir = default_results(study) / study.name if results is None else Path(results) / study.name
     with locked(out_dir), sigterm_interrupts():
-        return _run_locked(study, execution, out_dir, identity, progress, fresh, plots)
+        try:
+            return _run_locked(study, execution, out_dir, identity, progress, fresh, plots)
+        except OSError as exc:  # a full disk, a permission lost mid-run
+            raise _failed(study, out_dir, exc) from None
+
+
+def _failed(study: Study, out_dir: Path, exc: OSError) -> RunFailed:
+    """The one-line error of a run stopped by ``exc``; meta.json records "failed" with the
+    reason where it still can be written."""
+    where = getattr(exc, "filename", None)
+    reason = str(exc) if isinstance(exc, OutputError) else f"{where}: {exc.strerror or exc}"
+    meta = outputs.read_meta(out_dir)
+    if meta:
+        meta.update(status="failed", reason=reason, stopped=outputs.now())
+        try:
+            outputs.write_json(meta, out_dir / outputs.META)
+        except OSError:
+            pass  # the disk is still full: the reason is in the error line
+    rows = out_dir / outputs.POINTS
+    return RunFailed(
+        f"{study.name}: stopped: {reason}; the finished rows are kept in {rows}; rerun to resume"
+    )
 
 
 def default_results(study: Study) -> Path:
@@ -95,15 +125,17 @@ def _run_locked(study, execution, out_dir, identity, progress, fresh, plots) -> 
     previous = outputs.read_meta(out_dir)
     check_same_study(study, out_dir, previous, identity, fresh)
     reuse = not fresh and previous.get("fingerprint") == identity["fingerprint"]
-    if not reuse:
-        for name in (outputs.POINTS, *RESULT_TABLES, outputs.META, *previous.get("plots", [])):
-            (out_dir / name).unlink(missing_ok=True)
+    if not reuse:  # the earlier rows are set aside as points.<fingerprint>.csv, never deleted
+        set_aside(out_dir, previous, (*RESULT_TABLES, outputs.META, *previous.get("plots", [])))
     meta = start_meta(study, identity)
     for message in meta["warnings"]:  # process values outside Table 1, as simulate warns
         warnings.warn(message, ProcessRangeWarning, stacklevel=2)
     if reuse and previous.get("plots"):
         meta["plots"] = previous["plots"]  # kept on disk; listed until replaced
-    outputs.write_json(meta, out_dir / outputs.META)
+    try:
+        outputs.write_json(meta, out_dir / outputs.META)
+    except OSError as exc:  # nothing has run yet: a plain input error
+        raise StudyError(f"--results: {exc}") from None
     start = time.perf_counter()
     evaluator, headline, table = _evaluate(study, kind, execution, out_dir, progress, meta)
     outputs.write_table(table, out_dir / outputs.POINTS)
@@ -111,12 +143,12 @@ def _run_locked(study, execution, out_dir, identity, progress, fresh, plots) -> 
     meta.update(status="complete", headline=headline, run=run)
     meta = outputs.settled_meta(meta, previous)
     outputs.write_json(meta, out_dir / outputs.META)
-    if plots and run["points_failed"] < run["points_total"]:
+    if plots and run["points_failed"] + run["points_invalid"] < run["points_total"]:
         figures = kind.figures(out_dir)
         meta["plots"] = [save_figure(fig, out_dir / name).name for name, fig in figures.items()]
         outputs.write_json(meta, out_dir / outputs.META)
     elif plots:
-        warnings.warn(f"{study.name}: no plots: every point failed (see points.csv)", stacklevel=2)
+        warnings.warn(f"{study.name}: no plots: no point succeeded (see points.csv)", stacklevel=2)
     outputs.write_index(out_dir.parent)
     return out_dir
 
@@ -138,9 +170,10 @@ def _evaluate(
                 table = evaluator.table()
             finally:
                 evaluator.close()
-    except BaseException:
-        meta.update(status="interrupted", stopped=outputs.now())
-        outputs.write_json(meta, out_dir / outputs.META)
+    except BaseException as exc:
         stop_local_workers(execution)
+        if not isinstance(exc, OSError):  # a failure is recorded by run_study
+            meta.update(status="interrupted", stopped=outputs.now())
+            outputs.write_json(meta, out_dir / outputs.META)
         raise
     return evaluator, headline, table
