@@ -4,7 +4,7 @@ STAMP   := .venv/.installed
 JOBS    ?= 2
 
 .PHONY: test test-all bench lint format calibrate sweep-stiffness sweep-process \
-        optimise-process optimise-design sensitivity validate report clean-venv
+        optimise-process optimise-design sensitivity uncertainty validate report clean-venv
 
 $(STAMP): pyproject.toml
 	python3 -m venv .venv
@@ -52,6 +52,9 @@ optimise-design: $(STAMP)
 
 sensitivity: $(STAMP)
 	$(PY) -m ufmt.cli run studies/sensitivity.toml --jobs $(JOBS)
+
+uncertainty: $(STAMP)
+	$(PY) -m ufmt.cli run studies/uncertainty.toml --jobs $(JOBS)
 
 clean-venv:
 	rm -rf .venv

@@ -7,7 +7,7 @@ and one entry here.
 
 from __future__ import annotations
 
-from ufmt.studies import optimise_design, optimise_process, sensitivity, sweep
+from ufmt.studies import optimise_design, optimise_process, sensitivity, sweep, uncertainty
 
 KINDS = {
     kind.name: kind
@@ -17,6 +17,7 @@ KINDS = {
         optimise_process.OPTIMISE_PROCESS,
         optimise_design.OPTIMISE_DESIGN,
         sensitivity.SENSITIVITY,
+        uncertainty.UNCERTAINTY,
     )
 }
 #: Every table a kind writes besides points.csv (a fresh run removes stale ones of any kind).
