@@ -9,6 +9,7 @@ inputs are the process parameters mapped linearly onto the unit interval (or [-p
 
 from __future__ import annotations
 
+import json
 import math
 import os
 import signal
@@ -22,8 +23,13 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from ufmt.cli import main
 from ufmt.errors import StudyError
+from ufmt.machining.process import Process
+from ufmt.model.load import load_model
+from ufmt.simulate import simulate
 from ufmt.studies.bands import documented_bands
+from ufmt.studies.intervals import headline_intervals, input_bands, sample_designs
 from ufmt.studies.load import parse_study
 from ufmt.studies.outputs import read_meta, read_table
 from ufmt.studies.parallel import Execution
@@ -257,3 +263,61 @@ def test_killed_run_resumes_to_the_same_tables(tmp_path):
         pd.testing.assert_frame_equal(read_table(out / table), read_table(reference / table))
     resumed, fresh = read_table(out / "points.csv"), read_table(reference / "points.csv")
     pd.testing.assert_frame_equal(resumed, fresh)
+
+
+# ---------------------------------------------------------------------------------------------
+# intervals on the headline numbers (ufmt simulate --uncertainty N)
+
+
+def test_latin_hypercube_interval_covers_ninety_percent_of_a_log_uniform_band():
+    """Oracle: force_scale is log-uniform on its band, F(x) = ln(x / lo) / ln(hi / lo); the
+    5-95 % interval of the samples covers 90 % of it (a Latin hypercube: within 1 / n)."""
+    bands = input_bands(["machine.force_scale"])
+    band = bands["machine.force_scale"]
+    x = sample_designs(bands, 1000, seed=5)["machine.force_scale"].to_numpy()
+    row = summarise(x, (0.05, 0.95))
+
+    def cdf(v):
+        return np.log(v / band.low) / np.log(band.high / band.low)
+
+    assert abs(cdf(row["q95"]) - cdf(row["q05"]) - 0.90) < 2e-3
+
+
+def test_headline_interval_of_a_linear_source_is_its_amplitude_interval_scaled():
+    """Oracle: the PV of the straightness alone is linear in its amplitude, so the interval of
+    PV is the interval of the sampled amplitudes times PV per metre of the point value."""
+    model = load_model()
+    process = Process(300.0, 15.0, 4.0)
+    options = {"sources": ["straightness"]}
+    point = simulate(model, process, **options)
+    per_metre = point.metrics["pv_nm"] / model.machine.straightness_m
+    intervals = headline_intervals(model, process, 6, ["machine.straightness_m"], **options)
+    amplitude = intervals.samples["machine.straightness_m"].to_numpy()
+    got = intervals.to_dict()["metrics"]["pv_nm"]
+    expected = per_metre * np.quantile(amplitude, [0.05, 0.95])
+    np.testing.assert_allclose([got["q05"], got["q95"]], expected, rtol=1e-9)
+
+
+def test_simulate_uncertainty_json_keeps_every_key_and_adds_intervals(capsys):
+    argv = ["simulate", "--json", "--uncertainty-inputs", "machine.error_motion_m"]
+    assert main(argv) == 0
+    plain = json.loads(capsys.readouterr().out)
+    assert main([*argv, "--uncertainty", "3"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert {k: v for k, v in out.items() if k != "uncertainty"} == plain
+    metrics = out["uncertainty"]["metrics"]
+    assert out["uncertainty"]["inputs"] == ["machine.error_motion_m"]
+    assert metrics["pv_measured_nm"]["q05"] <= metrics["pv_measured_nm"]["q95"]
+    assert metrics["psd1_rms_nm"]["q05"] is None  # not resolved on the 52.4 mm plate: null
+
+
+def test_simulate_uncertainty_rejects_an_unknown_band_in_one_line():
+    res = subprocess.run(
+        [sys.executable, "-m", "ufmt.cli", "simulate", "--uncertainty", "2"]
+        + ["--uncertainty-inputs", "machine.nothing*"],
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+    )
+    assert res.returncode == 2 and len(res.stderr.strip().splitlines()) == 1
+    assert "matches no documented band" in res.stderr and "Traceback" not in res.stderr
