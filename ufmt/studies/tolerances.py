@@ -1,0 +1,435 @@
+"""Study kind ``optimise-tolerances``: the cheapest tolerances and stiffnesses that keep a
+surface metric inside its specification (the error budget solved backwards).
+
+Fields::
+
+    metric = "psd1_rms_nm"           # the specified metric (a record output)
+    limit = 5.0                      # the specification: metric <= limit
+    budget = "auto"                  # how the sources combine: rss | linear | auto (the better fit)
+    levels = 6                       # specification levels of the trade-off curve
+    corrections = 3                  # model-checked corrections of the level per optimum
+    seed = 1
+
+    [[variable]]                     # one per designed quantity (at least one)
+    parameter = "machine.straightness_m"
+    kind = "tolerance"               # tolerance (an error amplitude) | stiffness
+    range = [5e-9, 2e-7]             # the tightest and the loosest tolerance (stiffness: the
+                                     #   stiffest and the softest), either order [SI]; default:
+                                     #   the documented band (if its low end is > 0)
+    cost = [1.0, 1.0]                # a, b of cost = a + b t_max / t (relative units)
+    reason = "..."                   # the cost model's source or the assumption and its reason
+
+The cost of a tolerance t rises as it tightens, ``a + b t_max / t`` with t_max the loosest
+tolerance of its range (a: the part that does not depend on it; b: the cost of the loosest
+grade, doubled for each halving: the usual inverse law of tolerance cost, stated as an
+assumption with its reason in the study file). A stiffness k enters through its compliance
+t = 1 / k, so its cost is ``a + b k / k_min``: proportional to the stiffness (the bearing
+area and supply flow), as in the optimise-design kind.
+
+Method (the structure the error budget offers): the geometric sources are linear in their
+amplitudes and a compliance scales its deflection, so the metric is nearly separable,
+``y = r + sum_j c_j tau_j`` (worst-case stacking, PV-like) or
+``y^2 = r^2 + sum_j c_j^2 tau_j^2`` (independent contributions, RMS-like), with
+``tau_j = t_j / t_max,j`` in (0, 1]. The coefficients are fitted by non-negative least squares
+to ``2 k + 2`` evaluations of the true model (all tight, all loose, each variable loose alone,
+k Latin-hypercube points); ``budget.csv`` reports both fits' largest relative residual, the
+measure of how separable the budget is. The allocation is then a convex, separable program
+(sum of ``b_j / tau_j`` subject to the one budget constraint), which the optimiser exploits:
+each tolerance has a closed form given the budget's multiplier, and one scalar root finding
+(scipy) gives the global optimum of the fitted budget, with no search over the k-dimensional
+box. Every optimum is evaluated with the true model; where it misses the limit the level
+given to the budget is scaled by limit / evaluated and the program solved again (up to
+``corrections`` times). Every reported metric value is an evaluation of the model, never of
+the fitted budget.
+
+Tables: ``budget.csv`` (per variable: range, fitted contribution at the loosest tolerance,
+cost model and reason; the fits' residuals), ``allocation.csv`` (every model-checked
+allocation at the study's limit), ``tradeoff.csv`` (the cheapest allocation at each
+specification level, evaluated). Figure: cost against the specification level.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from matplotlib.figure import Figure
+
+from ufmt.design import METRICS, PROCESS_PARAMETERS, unknown_design_parameter
+from ufmt.errors import StudyError
+from ufmt.plots.uncertainty import plot_tradeoff
+from ufmt.studies import outputs
+from ufmt.studies.bands import documented_bands
+from ufmt.studies.outputs import short
+from ufmt.studies.spec import Bound, StudyKind, check_keys, read_count, read_real
+from ufmt.studies.uncertainty import unit_sample
+
+BUDGETS = ("auto", "rss", "linear")
+KINDS_ = ("tolerance", "stiffness")
+BUDGET = "budget.csv"
+ALLOCATION = "allocation.csv"
+TRADEOFF = "tradeoff.csv"
+_VARIABLE_FIELDS = ("parameter", "kind", "range", "cost", "reason")
+MEETS_RTOL = 1e-9  # an evaluated metric this close above the limit meets it
+
+
+# ---------------------------------------------------------------------------------------------
+# the study file
+
+
+def parse(where, data: Mapping, base: Mapping[str, float]) -> dict:
+    """The variables (as bounds) and the specification."""
+    tables = data.get("variable", [])
+    if (
+        not isinstance(tables, list)
+        or not tables
+        or not all(isinstance(t, Mapping) for t in tables)
+    ):
+        where.fail("variable", "expected at least one [[variable]] table")
+    bands = documented_bands()
+    bounds, variables = [], []
+    for i, table in enumerate(tables):
+        bound, variable = _variable(where, i, table, bands)
+        if bound.parameter in base:
+            where.fail(f"base.{bound.parameter}", "is a designed variable; remove it")
+        if bound.parameter in [b.parameter for b in bounds]:
+            where.fail("variable", f"{bound.parameter!r} appears more than once")
+        bounds.append(bound)
+        variables.append(variable)
+    metric = data.get("metric", "pv_measured_nm")
+    if metric not in METRICS:
+        where.fail("metric", f"unknown metric {metric!r} (metrics: {', '.join(METRICS)})")
+    if "limit" not in data:
+        where.fail("limit", "missing: the specification metric <= limit")
+    limit = read_real(where, "limit", data["limit"])
+    if limit <= 0:
+        where.fail("limit", f"{limit!r} must be > 0")
+    budget = data.get("budget", "auto")
+    if budget not in BUDGETS:
+        where.fail("budget", f"unknown budget {budget!r} ({', '.join(BUDGETS)})")
+    options = {
+        "variables": variables,
+        "metric": metric,
+        "limit": limit,
+        "budget": budget,
+        "levels": read_count(where, "levels", data.get("levels", 6), 2, 100),
+        "corrections": read_count(where, "corrections", data.get("corrections", 3), 0, 20),
+        "seed": read_count(where, "seed", data.get("seed", 1), 0),
+    }
+    return {"bounds": tuple(bounds), "options": options}
+
+
+def _variable(where, i: int, table: Mapping, bands) -> tuple[Bound, dict]:
+    """One ``[[variable]]``: its bound (tight end first) and its cost model."""
+    label = f"variable[{i}]"
+    check_keys(where, f"{label}.", table, _VARIABLE_FIELDS)
+    name = table.get("parameter")
+    if not isinstance(name, str) or not name:
+        where.fail(f"{label}.parameter", f"expected a parameter name, got {name!r}")
+    if name in PROCESS_PARAMETERS:
+        where.fail(f"{label}.parameter", f"{name!r} is a process parameter, not a tolerance")
+    problem = unknown_design_parameter(name, where.model, where.declared)
+    if problem:
+        where.fail(f"{label}.parameter", problem)
+    kind = table.get("kind", "tolerance")
+    if kind not in KINDS_:
+        where.fail(f"{label}.kind", f"unknown kind {kind!r} (tolerance or stiffness)")
+    if "range" in table:
+        raw = table["range"]
+        if not isinstance(raw, list) or len(raw) != 2:
+            where.fail(f"{label}.range", f"expected [low, high], got {raw!r}")
+        low, high = sorted(read_real(where, f"{label}.range", v) for v in raw)
+    elif name in bands:
+        low, high = bands[name].low, bands[name].high
+    else:
+        where.fail(f"{label}.range", "has no documented band: give range")
+    if not 0 < low < high:
+        where.fail(f"{label}.range", f"[{low!r}, {high!r}] must satisfy 0 < low < high")
+    cost = table.get("cost")
+    if not isinstance(cost, list) or len(cost) != 2:
+        where.fail(f"{label}.cost", f"expected [a, b] of a + b t_max / t, got {cost!r}")
+    a, b = (read_real(where, f"{label}.cost", v, minimum=0.0) for v in cost)
+    if b <= 0:
+        where.fail(f"{label}.cost", f"b = {b!r} must be > 0 (a cost that rises as t tightens)")
+    reason = table.get("reason")
+    if not isinstance(reason, str) or not reason.strip():
+        where.fail(f"{label}.reason", "missing: state the cost model's source or assumption")
+    variable = {"parameter": name, "kind": kind, "a": a, "b": b, "reason": reason}
+    return Bound(name, low, high, log=True), variable
+
+
+# ---------------------------------------------------------------------------------------------
+# tolerances <-> parameter values
+
+
+def loosest(bound: Bound, kind: str) -> tuple[float, float]:
+    """(t_max, tau_min): the loosest tolerance [SI] and the tightest as a fraction of it (a
+    stiffness: compliance 1 / k)."""
+    if kind == "stiffness":
+        return 1.0 / bound.low, bound.low / bound.high
+    return bound.high, bound.low / bound.high
+
+
+def values_of(tau: np.ndarray, bounds, variables) -> np.ndarray:
+    """Parameter values [SI] of normalised tolerances ``tau`` (..., k)."""
+    t_max = np.array([loosest(b, v["kind"])[0] for b, v in zip(bounds, variables, strict=True)])
+    t = np.asarray(tau, dtype=float) * t_max
+    stiff = np.array([v["kind"] == "stiffness" for v in variables])
+    return np.where(stiff, 1.0 / t, t)
+
+
+def cost_of(tau: np.ndarray, variables) -> np.ndarray:
+    """Cost sum_j a_j + b_j / tau_j of normalised tolerances ``tau`` (..., k)."""
+    a = np.array([v["a"] for v in variables])
+    b = np.array([v["b"] for v in variables])
+    return np.sum(a + b / np.asarray(tau, dtype=float), axis=-1)
+
+
+# ---------------------------------------------------------------------------------------------
+# the separable budget
+
+
+def design_of_experiments(tau_min: np.ndarray, seed: int) -> np.ndarray:
+    """2 k + 2 normalised tolerance vectors: all tight, all loose, each loose alone, and k
+    Latin-hypercube points (log-uniform between tight and loose)."""
+    k = len(tau_min)
+    oat = np.where(np.eye(k, dtype=bool), 1.0, tau_min)
+    u = unit_sample("lhs", k, k, seed)
+    lhs = tau_min ** (1.0 - u)  # log-uniform in [tau_min, 1]
+    return np.vstack([tau_min, np.ones(k), oat, lhs])
+
+
+def fit_budget(tau: np.ndarray, y: np.ndarray, form: str) -> tuple[float, np.ndarray, float]:
+    """(r, c, largest relative residual) of the separable budget of ``form`` (rss | linear)
+    fitted to metric ``y`` at ``tau`` by non-negative least squares."""
+    from scipy.optimize import nnls
+
+    power = 2 if form == "rss" else 1
+    design = np.hstack([np.ones((len(tau), 1)), tau**power])
+    coefficients, _ = nnls(design, y**power)
+    r, c = coefficients[0] ** (1 / power), coefficients[1:] ** (1 / power)
+    return float(r), c, float(np.max(np.abs(predict(tau, r, c, form) - y) / y))
+
+
+def predict(tau: np.ndarray, r: float, c: np.ndarray, form: str) -> np.ndarray:
+    """The budget's metric at normalised tolerances ``tau`` (..., k)."""
+    if form == "rss":
+        return np.sqrt(r**2 + np.sum((c * tau) ** 2, axis=-1))
+    return r + np.sum(c * tau, axis=-1)
+
+
+def allocate(
+    r: float, c: np.ndarray, form: str, level: float, tau_min: np.ndarray, variables
+) -> np.ndarray | None:
+    """The cheapest normalised tolerances meeting ``predict <= level``, or None where even the
+    tightest do not.
+
+    The program (minimise sum b_j / tau_j subject to the budget, tau_min <= tau <= 1) is
+    convex and separable: for a multiplier lambda each tau_j minimises its own
+    ``b_j / tau_j + lambda g_j(tau_j)`` in closed form (linear: ``sqrt(b_j / (lambda c_j))``,
+    rss: ``cbrt(b_j / (2 lambda c_j^2))``, clipped to its range), and the budget spent falls
+    monotonically with lambda, so the KKT point is one root in log lambda
+    (:func:`scipy.optimize.brentq`): the global optimum of the fitted budget.
+    """
+    from scipy.optimize import brentq
+
+    b = np.array([v["b"] for v in variables], dtype=float)
+    if form == "rss":
+        room = level**2 - r**2
+
+        def spend(tau):
+            return float(np.sum((c * tau) ** 2))
+
+        def best(lam, cj, bj):
+            return np.cbrt(bj / (2.0 * lam * cj**2))
+    else:
+        room = level - r
+
+        def spend(tau):
+            return float(c @ tau)
+
+        def best(lam, cj, bj):
+            return np.sqrt(bj / (lam * cj))
+
+    if room <= 0 or spend(tau_min) > room:
+        return None
+    loose = np.ones_like(tau_min)
+    if spend(loose) <= room:
+        return loose
+    active = c > 0
+
+    def tau_of(log_lam: float) -> np.ndarray:
+        tau = loose.copy()
+        tau[active] = best(math.exp(log_lam), c[active], b[active])
+        return np.clip(tau, tau_min, 1.0)
+
+    low, high = -1.0, 1.0
+    while spend(tau_of(low)) <= room:  # the loosest allocation spends more than the room
+        low *= 2.0
+    while spend(tau_of(high)) > room:
+        high *= 2.0
+    root = brentq(lambda x: spend(tau_of(x)) - room, low, high, xtol=1e-13, rtol=1e-15)
+    tau = tau_of(root)
+    return tau if spend(tau) <= room * (1 + 1e-12) else tau_of(high)
+
+
+# ---------------------------------------------------------------------------------------------
+# the run
+
+
+class _Budget:
+    """The fitted budget of one run and the true model behind it."""
+
+    def __init__(self, study, evaluator):
+        options = study.options
+        self.bounds, self.variables = study.bounds, options["variables"]
+        self.names = [b.parameter for b in self.bounds]
+        self.metric, self.limit = options["metric"], options["limit"]
+        self.evaluator = evaluator
+        self.tau_min = np.array(
+            [loosest(b, v["kind"])[1] for b, v in zip(self.bounds, self.variables, strict=True)]
+        )
+        self.doe = design_of_experiments(self.tau_min, options["seed"])
+        self.y = self.evaluate("budget", self.doe)
+        if not np.all(np.isfinite(self.y)) or np.any(self.y <= 0):
+            raise StudyError(
+                f"{study.name}: {self.metric} is not resolved (or not > 0) at"
+                f" {int(np.count_nonzero(~(self.y > 0)))} of {len(self.y)} budget points (see"
+                " points.csv); e.g. PSD1 needs a plate of three periods of 33 mm: choose another"
+                " metric or a larger plate (machine.workpiece_size[i] in [base])"
+            )
+        self.fits = {form: fit_budget(self.doe, self.y, form) for form in ("rss", "linear")}
+        form = options["budget"]
+        self.form = min(self.fits, key=lambda f: self.fits[f][2]) if form == "auto" else form
+        self.r, self.c, _ = self.fits[self.form]
+
+    def evaluate(self, group: str, tau: np.ndarray) -> np.ndarray:
+        """The true metric at normalised tolerances ``tau`` (n, k)."""
+        values = values_of(np.atleast_2d(tau), self.bounds, self.variables)
+        points = [dict(zip(self.names, map(float, row), strict=True)) for row in values]
+        return self.evaluator.values(group, points, output=self.metric)
+
+    def cheapest(self, group: str, level: float, corrections: int) -> list[dict]:
+        """Model-checked allocations for ``level``: the first, then each corrected one."""
+        rows, target = [], level
+        for step in range(corrections + 1):
+            tau = allocate(self.r, self.c, self.form, target, self.tau_min, self.variables)
+            if tau is None:
+                rows.append(
+                    {"level": level, "step": step, "budget_level": target, "feasible": False}
+                )
+                break
+            (y,) = self.evaluate(group, tau[None, :])
+            row = {"level": level, "step": step, "budget_level": target, "feasible": True}
+            row.update(
+                cost=float(cost_of(tau, self.variables)),
+                predicted=float(predict(tau, self.r, self.c, self.form)),
+            )
+            row.update(evaluated=float(y), meets=bool(y <= level * (1 + MEETS_RTOL)))
+            values = values_of(tau, self.bounds, self.variables)
+            row.update(zip(self.names, map(float, values), strict=True))
+            rows.append(row)
+            if row["meets"] or not np.isfinite(y):
+                break
+            target *= level / y
+        return rows
+
+    def table(self) -> pd.DataFrame:
+        """``budget.csv``: per variable, then one row per fit."""
+        rows = []
+        for j, (bound, v) in enumerate(zip(self.bounds, self.variables, strict=True)):
+            t_max, tau_min = loosest(bound, v["kind"])
+            rows.append(
+                {
+                    "parameter": bound.parameter,
+                    "kind": v["kind"],
+                    "tight": bound.high if v["kind"] == "stiffness" else bound.low,
+                    "loose": bound.low if v["kind"] == "stiffness" else bound.high,
+                    "contribution_loose": float(self.c[j]),
+                    "contribution_tight": float(self.c[j] * tau_min),
+                    "cost_a": v["a"],
+                    "cost_b": v["b"],
+                    "reason": v["reason"],
+                }
+            )
+        for form, (r, _, residual) in self.fits.items():
+            used = " (used)" if form == self.form else ""
+            rows.append(
+                {
+                    "parameter": f"fit:{form}{used}",
+                    "contribution_loose": r,
+                    "max_rel_residual": residual,
+                }
+            )
+        return pd.DataFrame(rows)
+
+
+def analyse(study, evaluator, baseline: Mapping, out_dir: Path) -> str:
+    """Fit the budget, allocate at the limit and along the trade-off; write the tables."""
+    options = study.options
+    budget = _Budget(study, evaluator)
+    outputs.write_table(budget.table(), out_dir / BUDGET)
+    allocation = pd.DataFrame(budget.cheapest("optimum", budget.limit, options["corrections"]))
+    outputs.write_table(allocation, out_dir / ALLOCATION)
+    tight, loose = float(budget.y[0]), float(budget.y[1])
+    levels = np.geomspace(1.05 * tight, loose, options["levels"]) if loose > 1.05 * tight else []
+    rows = []
+    for level in levels:
+        checked = budget.cheapest("tradeoff", float(level), options["corrections"])
+        rows.append(checked[-1])
+    outputs.write_table(pd.DataFrame(rows), out_dir / TRADEOFF)
+    return headline(budget, allocation, options)
+
+
+def headline(budget: _Budget, allocation: pd.DataFrame, options: Mapping) -> str:
+    """The cheapest allocation at the limit (or why there is none) and the budget's fit."""
+    metric, limit = options["metric"], options["limit"]
+    fit = f"{budget.form} budget, largest fit residual {budget.fits[budget.form][2]:.1%}"
+    final = allocation.iloc[-1]
+    if not final.get("feasible", False):
+        return (
+            f"{metric} <= {short(limit)}: not reachable inside the ranges (all tightest:"
+            f" {short(budget.y[0])}; {fit})."
+        )
+    values = ", ".join(f"{n} = {short(final[n])}" for n in budget.names)
+    verdict = "meets it" if final["meets"] else "misses it after the corrections"
+    return (
+        f"Cheapest allocation for {metric} <= {short(limit)}: {values}; cost {short(final['cost'])}"
+        f" (all tightest {short(cost_of(budget.tau_min, budget.variables))}); the model gives"
+        f" {short(final['evaluated'])} ({verdict}; {fit})."
+    )
+
+
+def planned_points(study) -> int:
+    """Budget points, then per allocation (the limit and each level) its corrections."""
+    k, options = len(study.bounds), study.options
+    return 2 * k + 2 + (1 + options["levels"]) * (options["corrections"] + 1)
+
+
+def figures(out_dir: Path) -> dict[str, Figure]:
+    """Cost against the specification level."""
+    tradeoff = outputs.read_table(out_dir / TRADEOFF)
+    meta = outputs.read_meta(out_dir)
+    options = meta.get("options", {})
+    if not len(tradeoff) or "cost" not in tradeoff:
+        return {}
+    feasible = tradeoff[tradeoff["feasible"].astype(bool)]
+    return {
+        "tolerance-tradeoff.png": plot_tradeoff(
+            feasible, options.get("limit", math.nan), options.get("metric", "")
+        )
+    }
+
+
+OPTIMISE_TOLERANCES = StudyKind(
+    name="optimise-tolerances",
+    fields=("variable", "metric", "limit", "budget", "levels", "corrections", "seed"),
+    tables=(BUDGET, ALLOCATION, TRADEOFF),
+    parse=parse,
+    planned_points=planned_points,
+    analyse=analyse,
+    figures=figures,
+)
