@@ -162,3 +162,33 @@ def test_jobs_and_dask_give_identical_tables(tmp_path):
     for table in ("points.csv", "budget.csv", "allocation.csv", "tradeoff.csv"):
         for other in (two, dask):
             pd.testing.assert_frame_equal(read_table(one / table), read_table(other / table))
+
+
+def forced_budget(design, process, model=None):
+    """linear_budget with its fixed part proportional to the force factor (r = R fs / 3)."""
+    force = design.get("machine.force_scale", 3.0)
+    return {"pv_measured_nm": R * force / 3.0 + float(C @ _tau(design))}
+
+
+def test_interval_at_the_optimum_samples_the_uncertain_bands(tmp_path):
+    """Oracle: y = R fs / 3 + (allocated part), so at the optimum the interval is the force
+    factor's sample interval mapped by that line, and P(meet) = P(fs <= 3) = 1."""
+    extra = 'uncertain = ["machine.force_scale"]\nuncertain_samples = 16\n'
+    out = run(tmp_path, "interval", study_text("forced_budget", 60.0, extra))
+    final = read_table(out / "allocation.csv").iloc[-1]
+    interval = read_table(out / "interval.csv").iloc[0]
+    points = read_table(out / "points.csv")
+    fs = points[points["group"] == "interval"]["machine.force_scale"].to_numpy()
+    allocated = final["evaluated"] - R  # the calibrated force factor is 3
+    expected = allocated + R * np.quantile(fs, [0.05, 0.95]) / 3.0
+    np.testing.assert_allclose([interval["q05"], interval["q95"]], expected, rtol=1e-12)
+    assert interval["samples"] == 16 and interval["p_meet"] == 1.0
+    assert "P(meet) 1" in read_meta(out)["headline"]
+
+
+def test_uncertain_input_may_not_be_a_designed_variable(tmp_path):
+    path = tmp_path / "bad.toml"
+    text = study_text("linear_budget", 50.0, 'uncertain = ["machine.straightness_m"]\n')
+    path.write_text(text, encoding="utf-8")
+    with pytest.raises(StudyError, match="'uncertain'.*designed variable"):
+        parse_study(text, path)

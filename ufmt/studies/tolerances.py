@@ -9,6 +9,9 @@ Fields::
     levels = 6                       # specification levels of the trade-off curve
     corrections = 3                  # model-checked corrections of the level per optimum
     seed = 1
+    uncertain = ["machine.force_scale"]  # optional: documented bands (shell patterns) sampled
+                                     #   at the optimum for its interval (a Latin hypercube)
+    uncertain_samples = 32
 
     [[variable]]                     # one per designed quantity (at least one)
     parameter = "machine.straightness_m"
@@ -42,10 +45,18 @@ given to the budget is scaled by limit / evaluated and the program solved again 
 ``corrections`` times). Every reported metric value is an evaluation of the model, never of
 the fitted budget.
 
+How sure the answer is: with ``uncertain``, the optimum at the limit is evaluated again at a
+Latin hypercube of those documented bands (:func:`ufmt.studies.intervals.sample_designs`;
+an input fixed in ``[base]``, e.g. at the worst case of its band for the design, is sampled
+over its band here), giving the metric's 5-95 % interval and the probability of meeting the
+limit at the allocated tolerances.
+
 Tables: ``budget.csv`` (per variable: range, fitted contribution at the loosest tolerance,
 cost model and reason; the fits' residuals), ``allocation.csv`` (every model-checked
 allocation at the study's limit), ``tradeoff.csv`` (the cheapest allocation at each
-specification level, evaluated). Figure: cost against the specification level.
+specification level, evaluated), ``interval.csv`` (with ``uncertain``: the metric's
+quantiles at the optimum and P(meet) with its 95 % interval). Figure: cost against the
+specification level.
 """
 
 from __future__ import annotations
@@ -62,16 +73,18 @@ from ufmt.design import METRICS, PROCESS_PARAMETERS, unknown_design_parameter
 from ufmt.errors import StudyError
 from ufmt.plots.uncertainty import plot_tradeoff
 from ufmt.studies import outputs
-from ufmt.studies.bands import documented_bands
+from ufmt.studies.bands import documented_bands, matching
+from ufmt.studies.intervals import sample_designs
 from ufmt.studies.outputs import short
 from ufmt.studies.spec import Bound, StudyKind, check_keys, read_count, read_real
-from ufmt.studies.uncertainty import unit_sample
+from ufmt.studies.uncertainty import summarise, unit_sample
 
 BUDGETS = ("auto", "rss", "linear")
 KINDS_ = ("tolerance", "stiffness")
 BUDGET = "budget.csv"
 ALLOCATION = "allocation.csv"
 TRADEOFF = "tradeoff.csv"
+INTERVAL = "interval.csv"
 _VARIABLE_FIELDS = ("parameter", "kind", "range", "cost", "reason")
 MEETS_RTOL = 1e-9  # an evaluated metric this close above the limit meets it
 
@@ -110,8 +123,13 @@ def parse(where, data: Mapping, base: Mapping[str, float]) -> dict:
     budget = data.get("budget", "auto")
     if budget not in BUDGETS:
         where.fail("budget", f"unknown budget {budget!r} ({', '.join(BUDGETS)})")
+    uncertain = _uncertain(where, data, bands, [b.parameter for b in bounds])
     options = {
         "variables": variables,
+        "uncertain": [b.parameter for b in uncertain],
+        "uncertain_samples": read_count(
+            where, "uncertain_samples", data.get("uncertain_samples", 32), 2, 10_000
+        ),
         "metric": metric,
         "limit": limit,
         "budget": budget,
@@ -119,7 +137,24 @@ def parse(where, data: Mapping, base: Mapping[str, float]) -> dict:
         "corrections": read_count(where, "corrections", data.get("corrections", 3), 0, 20),
         "seed": read_count(where, "seed", data.get("seed", 1), 0),
     }
-    return {"bounds": tuple(bounds), "options": options}
+    return {"bounds": (*bounds, *uncertain), "options": options}
+
+
+def _uncertain(where, data: Mapping, bands, designed) -> list[Bound]:
+    """The documented bands of ``uncertain`` (patterns), as bounds after the variables."""
+    patterns = data.get("uncertain", [])
+    if not isinstance(patterns, list) or not all(isinstance(p, str) for p in patterns):
+        where.fail("uncertain", f"expected an array of parameter patterns, got {patterns!r}")
+    names = []
+    for pattern in patterns:
+        found = matching(pattern, bands)
+        if not found:
+            where.fail("uncertain", f"{pattern!r} matches no documented band")
+        names += [n for n in found if n not in names]
+    for name in names:
+        if name in designed:
+            where.fail("uncertain", f"{name!r} is a designed variable, not an uncertain input")
+    return [Bound(n, bands[n].low, bands[n].high, bands[n].log) for n in names]
 
 
 def _variable(where, i: int, table: Mapping, bands) -> tuple[Bound, dict]:
@@ -285,7 +320,8 @@ class _Budget:
 
     def __init__(self, study, evaluator):
         options = study.options
-        self.bounds, self.variables = study.bounds, options["variables"]
+        self.variables = options["variables"]
+        self.bounds = study.bounds[: len(self.variables)]
         self.names = [b.parameter for b in self.bounds]
         self.metric, self.limit = options["metric"], options["limit"]
         self.evaluator = evaluator
@@ -381,11 +417,31 @@ def analyse(study, evaluator, baseline: Mapping, out_dir: Path) -> str:
         checked = budget.cheapest("tradeoff", float(level), options["corrections"])
         rows.append(checked[-1])
     outputs.write_table(pd.DataFrame(rows), out_dir / TRADEOFF)
-    return headline(budget, allocation, options)
+    interval = _interval(study, budget, allocation.iloc[-1])
+    if interval is not None:
+        outputs.write_table(interval, out_dir / INTERVAL)
+    return headline(budget, allocation, options, interval)
 
 
-def headline(budget: _Budget, allocation: pd.DataFrame, options: Mapping) -> str:
-    """The cheapest allocation at the limit (or why there is none) and the budget's fit."""
+def _interval(study, budget: _Budget, final) -> pd.DataFrame | None:
+    """The metric at the optimum over a Latin hypercube of the uncertain bands (None without
+    them or without an optimum)."""
+    options = study.options
+    uncertain = study.bounds[len(budget.variables) :]
+    if not uncertain or not final.get("feasible", False):
+        return None
+    bands = {b.parameter: b for b in uncertain}
+    samples = sample_designs(bands, options["uncertain_samples"], options["seed"])
+    design = {n: float(final[n]) for n in budget.names}
+    points = [{**design, **row} for row in samples.to_dict("records")]
+    y = budget.evaluator.values("interval", points, output=budget.metric)
+    row = summarise(y, (0.05, 0.5, 0.95), budget.limit)
+    return pd.DataFrame([{"metric": budget.metric, "inputs": " ".join(bands), **row}])
+
+
+def headline(budget: _Budget, allocation: pd.DataFrame, options: Mapping, interval) -> str:
+    """The cheapest allocation at the limit (or why there is none), the budget's fit and the
+    interval at the optimum."""
     metric, limit = options["metric"], options["limit"]
     fit = f"{budget.form} budget, largest fit residual {budget.fits[budget.form][2]:.1%}"
     final = allocation.iloc[-1]
@@ -396,17 +452,27 @@ def headline(budget: _Budget, allocation: pd.DataFrame, options: Mapping) -> str
         )
     values = ", ".join(f"{n} = {short(final[n])}" for n in budget.names)
     verdict = "meets it" if final["meets"] else "misses it after the corrections"
-    return (
+    text = (
         f"Cheapest allocation for {metric} <= {short(limit)}: {values}; cost {short(final['cost'])}"
         f" (all tightest {short(cost_of(budget.tau_min, budget.variables))}); the model gives"
-        f" {short(final['evaluated'])} ({verdict}; {fit})."
+        f" {short(final['evaluated'])} ({verdict}; {fit})"
+    )
+    if interval is None:
+        return text + "."
+    r = interval.iloc[0]
+    return (
+        f"{text}; over {r['samples']} samples of {r['inputs']}: 5-95 % {short(r['q05'])}-"
+        f"{short(r['q95'])}, P(meet) {short(r['p_meet'])} [{short(r['p_meet_low'])},"
+        f" {short(r['p_meet_high'])}]."
     )
 
 
 def planned_points(study) -> int:
     """Budget points, then per allocation (the limit and each level) its corrections."""
-    k, options = len(study.bounds), study.options
-    return 2 * k + 2 + (1 + options["levels"]) * (options["corrections"] + 1)
+    options = study.options
+    k = len(options["variables"])
+    interval = options["uncertain_samples"] if options["uncertain"] else 0
+    return 2 * k + 2 + (1 + options["levels"]) * (options["corrections"] + 1) + interval
 
 
 def figures(out_dir: Path) -> dict[str, Figure]:
@@ -426,8 +492,18 @@ def figures(out_dir: Path) -> dict[str, Figure]:
 
 OPTIMISE_TOLERANCES = StudyKind(
     name="optimise-tolerances",
-    fields=("variable", "metric", "limit", "budget", "levels", "corrections", "seed"),
-    tables=(BUDGET, ALLOCATION, TRADEOFF),
+    fields=(
+        "variable",
+        "metric",
+        "limit",
+        "budget",
+        "levels",
+        "corrections",
+        "seed",
+        "uncertain",
+        "uncertain_samples",
+    ),
+    tables=(BUDGET, ALLOCATION, TRADEOFF, INTERVAL),
     parse=parse,
     planned_points=planned_points,
     analyse=analyse,
