@@ -113,10 +113,17 @@ def plot_tradeoff(tradeoff: pd.DataFrame, limit: float, metric: str, ax=None) ->
     ok = tradeoff["meets"].astype(bool)
     ax.plot(tradeoff["level"], tradeoff["cost"], color="C0", lw=1)
     ax.plot(tradeoff["level"][ok], tradeoff["cost"][ok], "o", color="C0", label="meets (model)")
-    ax.plot(
-        tradeoff["level"][~ok], tradeoff["cost"][~ok], "o", mfc="none", color="C3", label="missed"
-    )
+    if (~ok).any():
+        ax.plot(
+            tradeoff["level"][~ok],
+            tradeoff["cost"][~ok],
+            "o",
+            mfc="none",
+            color="C3",
+            label="missed",
+        )
     ax.axvline(limit, color="0.4", ls="--", label="specification")
+    ax.set_xscale("log")
     ax.set_xlabel(f"specification: {parameter_label(metric)} <=", fontsize="small")
     ax.set_ylabel("cost [relative units]", fontsize="small")
     ax.grid(True, alpha=0.3)
