@@ -26,7 +26,7 @@ import pytest
 from ufmt.cli import main
 from ufmt.errors import StudyError
 from ufmt.machining.process import Process
-from ufmt.model.load import load_model
+from ufmt.model.load import load_model, packaged_path
 from ufmt.simulate import simulate
 from ufmt.studies.bands import documented_bands
 from ufmt.studies.intervals import headline_intervals, input_bands, sample_designs
@@ -328,3 +328,28 @@ def test_simulate_uncertainty_rejects_an_unknown_band_in_one_line():
     )
     assert res.returncode == 2 and len(res.stderr.strip().splitlines()) == 1
     assert "matches no documented band" in res.stderr and "Traceback" not in res.stderr
+
+
+def test_a_band_added_to_the_calibration_file_is_an_input_at_once(tmp_path):
+    """The bands are read, not restated: a [[response.parameter]] added to a copy of the
+    calibration file (here the nose radius, a loader key without a documented band) appears
+    with its band and scale; a stiffness factor's band is the prior's value times the factor."""
+    packaged = packaged_path("calibration.toml")
+    text = packaged.read_text(encoding="utf-8")
+    for key, file in (("prior", "ufmt-prior.toml"), ("reference", "paper_reference.toml")):
+        assert f'{key} = "{file}"' in text  # relative to the file: made absolute for the copy
+        text = text.replace(f'{key} = "{file}"', f'{key} = "{packaged.parent / file}"')
+    text += (
+        '\n[[response.parameter]]\nkey = "nose_radius"\nfit = false\nband = [1e-3, 8e-3]\n'
+        'start = 5e-3\nscale = "log"\nunit = "m"\nreason = "test"\n'
+    )
+    path = tmp_path / "calibration.toml"
+    path.write_text(text, encoding="utf-8")
+    bands = documented_bands(path)
+    assert "machine.nose_radius" not in documented_bands()
+    band = bands["machine.nose_radius"]
+    assert (band.low, band.high, band.log, band.unit) == (1e-3, 8e-3, True, "m")
+    prior = load_model(packaged.parent / "ufmt-prior.toml")
+    axial = bands["hinge.h31.stiffness[2]"]
+    k = prior.hinge("h31").stiffness[2]
+    assert (axial.low, axial.high) == pytest.approx((0.5 * k, 2.0 * k), rel=1e-12)
