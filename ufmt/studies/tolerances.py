@@ -416,7 +416,9 @@ def analyse(study, evaluator, baseline: Mapping, out_dir: Path) -> str:
     for level in levels:
         checked = budget.cheapest("tradeoff", float(level), options["corrections"])
         rows.append(checked[-1])
-    outputs.write_table(pd.DataFrame(rows), out_dir / TRADEOFF)
+    columns = ["level", "step", "budget_level", "feasible", "cost", "predicted", "evaluated"]
+    columns += ["meets", *budget.names]
+    outputs.write_table(pd.DataFrame(rows, columns=columns), out_dir / TRADEOFF)
     interval = _interval(study, budget, allocation.iloc[-1])
     if interval is not None:
         outputs.write_table(interval, out_dir / INTERVAL)
