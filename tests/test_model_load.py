@@ -526,7 +526,7 @@ def test_file_not_found(tmp_path):
     path = tmp_path / "missing.toml"
     with pytest.raises(ModelError, match=rf"^{re.escape(str(path))}: file not found$"):
         load_model(path)
-    with pytest.raises(ModelError, match=r": is a directory, not a model file$"):
+    with pytest.raises(ModelError, match=r": is a directory, not a file$"):
         load_model(tmp_path)
 
 

@@ -63,6 +63,36 @@ def test_mode_plot_legend_names_undeformed_and_tool_tip(bridge, tmp_path):
     assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
+def test_mode_colour_is_the_displacement_magnitude_and_bodies_are_keyed(bridge):
+    from mpl_toolkits.mplot3d.art3d import Line3DCollection
+
+    model, solution = bridge
+    fig = plot_mode(model, solution.shapes, 0)
+    ax = fig.axes[0]
+    (deformed,) = [c for c in ax.collections if isinstance(c, Line3DCollection)]
+    shares = np.asarray(deformed.get_array())
+    # every edge's colour is its mean |displacement| over the largest: in [0, 1], and the
+    # edge of the most moving corners near 1 (the largest is reached at a corner or station)
+    assert shares.min() >= 0 and 0.9 <= shares.max() <= 1.0
+    assert len(fig.axes) == 2 and "displacement" in fig.axes[1].get_ylabel()  # colour bar
+    labels = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert "workpiece (top centre)" in labels
+    numbers = {t.get_text() for t in ax.texts}
+    key = fig.texts[-1].get_text().splitlines()
+    assert {line.split(":")[0] for line in key} == numbers  # each number keyed to a name
+
+
+def test_mode_animation_is_a_gif_of_the_requested_frames(bridge, tmp_path):
+    from PIL import Image
+
+    from ufmt.plots.modes import animate_mode
+
+    model, solution = bridge
+    path = animate_mode(model, solution.shapes, 0, tmp_path / "mode.gif", frames=4)
+    with Image.open(path) as image:
+        assert image.format == "GIF" and image.n_frames == 4  # phases 1, 0, -1, 0
+
+
 def test_small_grounded_body_is_in_view(bridge):
     # the bridge stands on ground but is the machine itself: it must not be cut off
     model, solution = bridge
@@ -143,10 +173,73 @@ def test_pareto_log_axis_reads_plain_numbers_and_points_carry_their_recipe():
     texts = _tick_texts(fig)
     assert "100" in texts and "200" in texts
     assert not any("10^" in t or "times" in t or "×" in t for t in texts)
-    notes = [t.get_text() for t in fig.axes[0].texts]
-    assert "300 rpm, 16 mm/min, 2 µm" in notes
+    # front points are numbered on the axes; their recipes are listed in the legend
+    assert [t.get_text() for t in fig.axes[0].texts] == ["1", "2", "3"]
     legend = [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
+    assert any("1: 300 rpm, 16 mm/min, 2 µm" in t for t in legend)  # shortest time first
     assert not any("min-pv" in t for t in legend) and any("minimum PV" in t for t in legend)
+    assert "Table 1" not in fig.axes[0].get_title()  # no bounds given: no claim about them
+    table1 = [
+        {"parameter": "rpm", "range": [200.0, 400.0]},
+        {"parameter": "feed_mm_min", "range": [4.0, 16.0]},
+        {"parameter": "depth_um", "range": [2.0, 8.0]},
+    ]
+    titled = plot_pareto(points, front, optima, bounds=table1).axes[0].get_title()
+    assert "(Table 1 ranges)" in titled
+    narrower = [{**table1[0], "range": [250.0, 400.0]}, *table1[1:]]
+    assert "Table 1" not in plot_pareto(points, front, optima, bounds=narrower).axes[0].get_title()
+
+
+def test_narrow_log_range_labels_every_digit():
+    import pandas as pd
+
+    from ufmt.plots.studies import plot_convergence
+
+    convergence = pd.DataFrame(
+        {
+            "stage": "min-pv",
+            "phase": "global",
+            "evaluation": [1, 2, 3],
+            "best_objective_nm": [150.0, 90.0, 74.0],
+        }
+    )
+    texts = _tick_texts(plot_convergence(convergence))
+    assert {"70", "80", "90", "100"} <= set(texts)  # the 74 nm optimum is read between them
+    annotations = [t.get_text() for t in plot_convergence(convergence).axes[0].texts]
+    assert "74" in annotations
+
+
+def test_sweep_lines_show_the_interferometer_pv_and_leave_out_zero_sources():
+    import pandas as pd
+
+    from ufmt.plots.studies import plot_pv_lines
+
+    x = np.array([1.0, 2.0, 4.0])
+    points = pd.DataFrame(
+        {
+            "group": "k",
+            "k": x,
+            "pv_nm": [150.0, 140.0, 137.0],
+            "pv_measured_nm": [60.0, 55.0, 52.0],
+            "pv_dynamic_nm": [12.0, 9.0, 8.0],
+            "pv_spindle_tilt_nm": 0.0,
+            "pv_straightness_nm": 70.9,
+            "status": "ok",
+        }
+    )
+    groups = [{"name": "k", "axes": [{"parameter": "k", "log": True}]}]
+    fig = plot_pv_lines(points, groups, {"k": 2.0})
+    labels = [t.get_text() for t in fig.legends[0].get_texts()]
+    assert len(fig.legends) == 1 and all(a.get_legend() is None for a in fig.axes)
+    assert any(t.startswith("interferometer PV") for t in labels)
+    assert any(t.startswith("whole-plate PV") for t in labels)
+    assert not any("spindle tilt" in t for t in labels)  # zero: left out
+    assert any("straightness alone: 70.9 nm at every point" in t for t in labels)
+    vibration = next(
+        a for a in fig.axes for line in a.get_lines() if line.get_label().startswith("cutting")
+    )
+    low, high = vibration.get_ylim()
+    assert low > 0 and high < 20  # its own axis: the 12 -> 8 nm change fills it
 
 
 def test_design_tradeoff_cost_is_the_optimisers_cost():
@@ -177,24 +270,6 @@ def test_points_outside_table1_are_shaded_on_the_sweep():
 
 # ---------------------------------------------------------------------------------------------
 # response figures on hand-made data
-
-
-def test_surface_map_marks_the_pv_extremes():
-    from types import SimpleNamespace
-
-    from ufmt.plots.response import plot_surface
-
-    x, y = np.linspace(-0.1, 0.1, 21), np.linspace(-0.2, 0.2, 41)
-    z = np.zeros((y.size, x.size))
-    z[30, 4], z[7, 15] = 5e-9, -3e-9  # highest at (x[4], y[30]), lowest at (x[15], y[7])
-    fig = plot_surface(SimpleNamespace(x=x, y=y, z=z))
-    marks = {
-        line.get_label().split(" point")[0]: (line.get_xdata()[0], line.get_ydata()[0])
-        for line in fig.axes[0].get_lines()
-    }
-    np.testing.assert_allclose(marks["highest"], (x[4] * 1e3, y[30] * 1e3))
-    np.testing.assert_allclose(marks["lowest"], (x[15] * 1e3, y[7] * 1e3))
-    assert "PV 8.00 nm" in fig.axes[0].get_title()
 
 
 def test_time_plots_shade_exactly_when_the_tool_cuts():

@@ -82,3 +82,86 @@ def test_report_lists_what_is_missing(tmp_path):
     assert main(["report", str(EXAMPLE), "--results", str(tmp_path / "none")]) == 0
     page = (tmp_path / "none" / "report.html").read_text(encoding="utf-8")
     assert "missing:" in page and "data:image/png" not in page
+
+
+def test_machine_table_gives_every_value_its_unit_band_and_how_it_was_set():
+    from ufmt.calibration.settings import load_calibration
+    from ufmt.model.load import packaged_path
+    from ufmt.model.machine import MACHINE_FIELDS, OPTIONAL_FIELDS
+    from ufmt.report import _calibration_of, design_table, machine_table
+
+    model = load_model()  # the calibrated model: its calibration file says what was fitted
+    calibration = _calibration_of(model)
+    assert calibration is not None
+    table = machine_table(model, calibration).set_index("field")
+    assert list(table.index) == [*MACHINE_FIELDS, *OPTIONAL_FIELDS]
+    assert (table["unit"] != "").all() and not table["value"].str.contains("None").any()
+    fits = {
+        p.key: p for p in load_calibration(packaged_path("calibration.toml"))[0].response.parameters
+    }
+    for key, fit in fits.items():
+        assert table.loc[key, "set by"].startswith("fitted" if fit.fit else "held")
+    straightness = model.machine.straightness_m
+    at_edge = straightness in fits["straightness_m"].band
+    assert ("AT A BAND EDGE" in table.loc["straightness_m", "set by"]) == at_edge
+    design = design_table(model, calibration)
+    assert len(design) == len(model.design) and design["set by"].str.startswith("identified").all()
+    # a user's model: nothing claims to be fitted
+    user = load_model(EXAMPLE)
+    assert _calibration_of(user) is None
+    if user.machine is not None:
+        assert (
+            not machine_table(user)
+            .astype(str)
+            .apply(lambda c: c.str.contains("fitted"))
+            .any()
+            .any()
+        )
+
+
+def _chromium() -> str | None:
+    import shutil
+
+    return next((p for p in map(shutil.which, ("chromium", "chromium-browser")) if p), None)
+
+
+def test_report_fits_a_1400_px_window_without_horizontal_scroll(tmp_path):
+    """Rendered in headless Chromium at 1400 px, the page of the repository's results (or of
+    a hand-made folder where they are absent) is no wider than the window."""
+    import subprocess
+
+    import pytest
+
+    browser = _chromium()
+    if browser is None:
+        pytest.skip("chromium is not installed (apt-get install chromium); the layout is unchecked")
+    results = Path(__file__).resolve().parents[1] / "results"
+    if not (results / "validation").is_dir():
+        results = tmp_path / "results"
+        _results(results)
+    page = tmp_path / "report.html"
+    main(["report", "--results", str(results), "--output", str(page)])
+    probe = (
+        "<script>window.addEventListener('load', () => { const e = document.documentElement;"
+        " document.body.setAttribute('data-overflow', String(e.scrollWidth - e.clientWidth));"
+        " });</script></body>"
+    )
+    page.write_text(page.read_text(encoding="utf-8").replace("</body>", probe), encoding="utf-8")
+    done = subprocess.run(
+        [
+            browser,
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--window-size=1400,1000",
+            "--virtual-time-budget=5000",
+            "--dump-dom",
+            page.as_uri(),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    overflow = re.search(r'data-overflow="(-?\d+)"', done.stdout)
+    assert overflow is not None, done.stderr[-2000:]
+    assert int(overflow.group(1)) <= 0

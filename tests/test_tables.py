@@ -91,6 +91,9 @@ def test_counts_minimums_intervals_and_duplicates():
     assert message(lambda: MACHINE.integer("n", 9, 1, 5)).endswith(
         "field 'n': 9 is outside the allowed range [1, 5]"
     )
+    assert message(lambda: MACHINE.integer("n", 36339061537, 1, 100_000)).endswith(
+        "field 'n': 36339061537 is outside the allowed range [1, 100000]"  # digits, not 3.6e10
+    )
     assert message(lambda: MACHINE.integer("starts", 0, 1)).endswith(
         "field 'starts': 0 is too small (allowed: >= 1)"
     )
@@ -120,3 +123,30 @@ def test_counts_minimums_intervals_and_duplicates():
     assert message(lambda: MACHINE.boolean("fit", "no")).endswith(
         "field 'fit': expected true or false, got string 'no'"
     )
+
+
+def test_unreadable_files_read_alike_in_every_loader(tmp_path):
+    """Oracle: the wording of ufmt.tomlfile's docstring, the same from the model, study and
+    settings loaders (only the exception class differs)."""
+    from ufmt.model.load import load_model
+    from ufmt.studies.load import load_study
+    from ufmt.tomlfile import read_toml
+
+    latin = tmp_path / "latin.toml"
+    latin.write_bytes(b'name = "caf\xe9"\n')
+    malformed = tmp_path / "bad.toml"
+    malformed.write_text("name = \n", encoding="utf-8")
+    cases = {
+        tmp_path / "none.toml": "file not found",
+        tmp_path: "is a directory, not a file",
+        latin: "not UTF-8 text (byte 11)",
+    }
+    loaders = ((load_model, ModelError), (load_study, StudyError), (read_toml, StudyError))
+    for load, error in loaders:
+        for path, problem in cases.items():
+            with pytest.raises(error) as info:
+                load(path)
+            assert str(info.value) == f"{path}: {problem}"
+        with pytest.raises(error) as info:
+            load(malformed)
+        assert str(info.value).startswith(f"{malformed}: malformed TOML: ")

@@ -128,24 +128,31 @@ def test_unresolved_metric_stops_with_one_line(tmp_path):
 
 
 @pytest.mark.parametrize(
-    ("old", "new", "field", "phrase"),
+    ("old", "new", "where", "phrase"),
     [
-        ('reason = "test"', 'reason = ""', "reason", "cost model"),
-        ("cost = [1.0, 2.0]", "cost = [1.0, 0.0]", "cost", "must be > 0"),
-        ("limit = 50.0", "", "limit", "missing"),
-        ('kind = "stiffness"', 'kind = "stifness"', "kind", "unknown kind"),
-        ("range = [1e-09, 1e-07]", "range = [0.0, 1e-07]", "range", "0 < low < high"),
-        ('parameter = "machine.error_motion_m"', 'parameter = "rpm"', "parameter", "process"),
+        ('reason = "test"', 'reason = ""', "field 'reason'", "empty"),
+        ('reason = "test"\n', "", "field 'reason'", "missing"),
+        ("cost = [1.0, 2.0]", "cost = [1.0, 0.0]", "field 'cost'", "must be > 0"),
+        ("limit = 50.0", "", "field 'limit'", "missing"),
+        ('kind = "stiffness"', 'kind = "stifness"', "field 'kind'", "did you mean 'stiffness'"),
+        ("range = [1e-09, 1e-07]", "range = [0.0, 1e-07]", "field 'range[0]'", "not positive"),
+        (
+            'parameter = "machine.error_motion_m"',
+            'parameter = "rpm"',
+            "field 'parameter'",
+            "process",
+        ),
+        ('metric = "pv_measured_nm"', 'metric = "pv_nn"', "field 'metric'", "unknown metric"),
     ],
 )
-def test_study_file_mistakes_are_one_line(tmp_path, old, new, field, phrase):
+def test_study_file_mistakes_are_one_line(tmp_path, old, new, where, phrase):
     text = study_text("linear_budget", 50.0)
     assert old in text
     path = tmp_path / "bad.toml"
     path.write_text(text.replace(old, new, 1), encoding="utf-8")
     with pytest.raises(StudyError, match=phrase) as info:
         parse_study(path.read_text(), path)
-    assert field in str(info.value) and "\n" not in str(info.value)
+    assert where in str(info.value) and "\n" not in str(info.value)
 
 
 TOLERANCE_TABLES = ("points.csv", "budget.csv", "allocation.csv", "tradeoff.csv")
@@ -199,5 +206,15 @@ def test_uncertain_input_may_not_be_a_designed_variable(tmp_path):
     path = tmp_path / "bad.toml"
     text = study_text("linear_budget", 50.0, 'uncertain = ["machine.straightness_m"]\n')
     path.write_text(text, encoding="utf-8")
-    with pytest.raises(StudyError, match="'uncertain'.*designed variable"):
+    with pytest.raises(StudyError, match="'uncertain\\[0\\]'.*designed variable"):
         parse_study(text, path)
+
+
+def test_rerun_that_computes_nothing_rewrites_nothing(tmp_path):
+    """Oracle: the first run's own bytes (every table, meta.json, figure, the index)."""
+    text = study_text("rss_budget", 60.0)
+    first_dir = run(tmp_path, "clean", text)
+    root = first_dir.parent
+    first = {p: p.read_bytes() for p in sorted(root.rglob("*")) if p.is_file()}
+    run(tmp_path, "clean", text)
+    assert {p: p.read_bytes() for p in sorted(root.rglob("*")) if p.is_file()} == first

@@ -199,22 +199,44 @@ def test_documented_bands_reach_the_study_function(tmp_path):
 
 
 @pytest.mark.parametrize(
-    ("body", "field", "phrase"),
+    ("body", "where", "phrase"),
     [
-        ('[[input]]\nparameter = "machine.zzz*"\n', "input[0].parameter", "matches no documented"),
-        ('[[input]]\nparameter = "rpm"\n', "input[rpm].range", "no documented band"),
-        (_inputs(["rpm"]) + 'distribution = "cauchy"\n', "input", "unknown distribution"),
-        ("samples = 12\n" + _inputs(["rpm"]), "samples", "power of two"),
-        ('metrics = ["pv_nn"]\n' + _inputs(["rpm"]), "metrics", "unknown metric"),
-        ("[specification]\npv_nm = -1.0\n" + _inputs(["rpm"]), "specification.pv_nm", "> 0"),
-        ("[base]\nrpm = 300.0\n" + _inputs(["rpm"]), "base.rpm", "uncertain input"),
+        (
+            '[[input]]\nparameter = "machine.zzz*"\n',
+            "input[0]: field 'parameter'",
+            "matches no documented band",
+        ),
+        (
+            '[[input]]\nparameter = "rpm"\n',
+            "input 'rpm': field 'range'",
+            "missing \\(no documented band",
+        ),
+        (
+            _inputs(["rpm"]) + 'distribution = "cauchy"\n',
+            "input[0]: field 'distribution'",
+            "unknown distribution 'cauchy'",
+        ),
+        ("samples = 12\n" + _inputs(["rpm"]), "field 'samples'", "power of two"),
+        ('metrics = ["pv_nn"]\n' + _inputs(["rpm"]), "field 'metrics[0]'", "unknown metric"),
+        (
+            "[specification]\npv_nm = -1.0\n" + _inputs(["rpm"]),
+            "specification: field 'pv_nm'",
+            "not positive",
+        ),
+        ("quantiles = [0.05, 1.0]\n" + _inputs(["rpm"]), "field 'quantiles[1]'", "outside"),
+        ("[base]\nrpm = 300.0\n" + _inputs(["rpm"]), "base: field 'rpm'", "uncertain input"),
+        (
+            _inputs(["rpm"]).replace("range = [100.0, 500.0]", "range = [500.0, 100.0]"),
+            "input 'rpm': field 'range'",
+            "reversed bounds",
+        ),
     ],
 )
-def test_study_file_mistakes_are_one_line(tmp_path, body, field, phrase):
+def test_study_file_mistakes_are_one_line(tmp_path, body, where, phrase):
     path = write_study(tmp_path, "bad", body, "sum_study")
     with pytest.raises(StudyError, match=phrase) as info:
         parse_study(path.read_text(), path)
-    assert f"field '{field}" in str(info.value) and "\n" not in str(info.value)
+    assert f"bad.toml: {where}:" in str(info.value) and "\n" not in str(info.value)
 
 
 TINY = 'samples = 8\nmetrics = ["pv_measured_nm", "zre_peak_nm"]\n' + _inputs()
@@ -353,3 +375,13 @@ def test_a_band_added_to_the_calibration_file_is_an_input_at_once(tmp_path):
     axial = bands["hinge.h31.stiffness[2]"]
     k = prior.hinge("h31").stiffness[2]
     assert (axial.low, axial.high) == pytest.approx((0.5 * k, 2.0 * k), rel=1e-12)
+
+
+def test_rerun_that_computes_nothing_rewrites_nothing(tmp_path):
+    """Oracle: the first run's own bytes (every table, meta.json, figure, the index)."""
+    study = write_study(tmp_path, "clean", TINY, "sum_study")
+    results = tmp_path / "results"
+    run(study, results)
+    first = {p: p.read_bytes() for p in sorted(results.rglob("*")) if p.is_file()}
+    run(study, results)
+    assert {p: p.read_bytes() for p in sorted(results.rglob("*")) if p.is_file()} == first

@@ -28,6 +28,7 @@ PHYSICS = (
     "errors.py",  # the error types and messages a failed evaluation records
     "defaults.py",  # the reference process, the default basis and grid
     "tables.py",  # the table checker whose messages a failed evaluation records
+    "tomlfile.py",  # the file reader whose messages a failed evaluation records
     "model",  # loading and validating model files, [machine] and [design] tables
     "kinematics.py",  # rigid-point kinematics of both solvers
     "assembled",  # the mass-stiffness model that counts and brackets the MSTMM roots

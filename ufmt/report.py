@@ -15,10 +15,11 @@ import html
 import json
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
 from ufmt.machining.process import TABLE1_RANGE
-from ufmt.model.machine import MACHINE_FIELDS
+from ufmt.model.machine import MACHINE_FIELDS, OPTIONAL_FIELDS
 from ufmt.model.schema import Beam, Model, RigidBody
 
 REPORT = "report.html"
@@ -26,12 +27,18 @@ VALIDATION = "validation"
 REFERENCE_CUT = "reference-process"
 FRF = "frf"
 MAX_TABLE_ROWS = 40  # longer tables are shown in full behind a <details> toggle
+COLUMN_CHARS = 40  # a column's width follows its longest cell up to this many characters
 
 _STYLE = """
 body { font-family: sans-serif; max-width: 1100px; margin: 2em auto; color: #222; }
 h1 { border-bottom: 2px solid #444; } h2 { border-bottom: 1px solid #aaa; margin-top: 2em; }
-table { border-collapse: collapse; font-size: 0.8em; margin: 0.5em 0; }
-th, td { border: 1px solid #ccc; padding: 2px 6px; text-align: right; }
+table { border-collapse: collapse; font-size: 0.8em; margin: 0.5em 0; width: 100%;
+        table-layout: fixed; }
+th, td { border: 1px solid #ccc; padding: 2px 6px; text-align: right; vertical-align: top;
+         overflow-wrap: anywhere; word-break: break-word; }
+td.text, th.text { text-align: left; }
+pre { white-space: pre-wrap; overflow-wrap: anywhere; }
+figure { margin: 0.5em 0; }
 th { background: #eee; }
 img { max-width: 100%; border: 1px solid #ddd; margin: 0.3em 0; }
 .finding { background: #eef5ff; padding: 0.5em 1em; border-left: 4px solid #36c; }
@@ -136,12 +143,146 @@ def _model_section(model: Model) -> str:
         _table(pd.DataFrame(rows)),
         _details("hinges", _table(hinges)),
     ]
-    if model.machine is not None:
-        table = model.machine.table  # as written in the file
-        fields = [k for k in (*MACHINE_FIELDS, "force_scale") if k in table]
-        machine = pd.DataFrame({"field": fields, "value": [str(table[k]) for k in fields]})
-        parts.append("<p>Machine (<code>[machine]</code>, SI units):</p>" + _table(machine))
+    parts.append(_parameter_tables(model))
     return "\n".join(parts)
+
+
+#: Units of the required ``[machine]`` keys (the optional ones carry theirs in OPTIONAL_FIELDS).
+MACHINE_UNITS = {
+    "tool_body": "-",
+    "workpiece_body": "-",
+    "spindle_axis_xy": "m",
+    "cutting_plane_z": "m",
+    "tool_radius": "m",
+    "workpiece_size": "m",
+    "workpiece_center_xy": "m",
+    "rotation": "-",
+}
+
+
+def _parameter_tables(model: Model) -> str:
+    """Every ``[machine]`` and ``[design]`` value with its unit, its band and whether the
+    calibration fitted it (for the model ``ufmt calibrate`` wrote; "as written" otherwise)."""
+    calibration = _calibration_of(model)
+    parts = []
+    if model.machine is not None:
+        parts.append(
+            "<h3>Machine (<code>[machine]</code>)</h3><p>Every value the cut uses, with its "
+            "physical band (docs/ufmt-model.md gives the source of each) and how it was set."
+            "</p>" + _table(machine_table(model, calibration))
+        )
+    if model.design:
+        parts.append(
+            "<h3>Design parameters (<code>[design]</code>)</h3>"
+            + _table(design_table(model, calibration))
+        )
+    return "\n".join(parts)
+
+
+def _calibration_of(model: Model):
+    """The packaged calibration when ``model`` is the model it writes, else None."""
+    from ufmt.calibration.settings import load_calibration
+    from ufmt.model.load import packaged_path
+
+    try:
+        calibration, _, _ = load_calibration(packaged_path("calibration.toml"))
+    except (OSError, ValueError):  # StudyError and ModelError are ValueErrors
+        return None
+    same = Path(model.source).resolve() == Path(calibration.output).resolve()
+    return calibration if same else None
+
+
+def machine_table(model: Model, calibration=None) -> pd.DataFrame:
+    """One row per ``[machine]`` key: value, unit, band, how it was set."""
+    machine = model.machine
+    written = machine.table
+    fits = (
+        {p.key: p for p in calibration.response.parameters}
+        if calibration and calibration.response
+        else {}
+    )
+    rows = []
+    for key in MACHINE_FIELDS:
+        value = getattr(machine, key)
+        how = _how_set(key, value, fits.get(key), "the machine's geometry (as written)")
+        unit = MACHINE_UNITS[key]
+        rows.append({"field": key, "value": _value(value), "unit": unit, "band": "", "set by": how})
+    for key, (default, low, high, unit) in OPTIONAL_FIELDS.items():
+        value = getattr(machine, key)
+        written_how = (
+            "as written in the model file" if key in written else f"default ({_value(default)})"
+        )
+        how = _how_set(key, value, fits.get(key), written_how)
+        rows.append(
+            {
+                "field": key,
+                "value": _value(value),
+                "unit": unit,
+                "band": _band((low, high)),
+                "set by": how,
+            }
+        )
+    return pd.DataFrame(rows)
+
+
+def _how_set(key: str, value, fit, otherwise: str) -> str:
+    """How a ``[machine]`` value was set: fitted (in its fit band, an edge flagged), held by
+    the calibration (its reason), or ``otherwise``."""
+    if fit is None:
+        return otherwise
+    if not fit.fit:
+        return f"held: {fit.reason}"
+    low, high = fit.band
+    edge = (
+        " (AT A BAND EDGE)"
+        if np.any(np.asarray(value) <= low) or np.any(np.asarray(value) >= high)
+        else ""
+    )
+    return f"fitted to the paper (section 4.2, Table 4) in {_band(fit.band)}{edge}"
+
+
+def design_table(model: Model, calibration=None) -> pd.DataFrame:
+    """One row per ``[design]`` parameter: hinge, value, unit, how its hinge was set."""
+    from ufmt.design import design_value
+
+    parameters = calibration.parameters if calibration is not None else ()
+    rows = []
+    for name, d in model.design.items():
+        unit = "N/m" if d.field == "stiffness" else "N m/rad"
+        found = [
+            p
+            for p in parameters
+            if d.hinge in p.hinges and p.field == d.field and set(p.components) & set(d.components)
+        ]
+        how = (
+            "identified against Table 3: "
+            + "; ".join(f"{p.name} in {_band(p.band)} x the prior" for p in found)
+            if found
+            else "as written in the model file"
+        )
+        rows.append(
+            {
+                "parameter": name,
+                "hinge": d.hinge,
+                "components": " ".join("xyz"[c] for c in d.components),
+                "value": _value(design_value(model, name)),
+                "unit": unit,
+                "set by": how,
+            }
+        )
+    return pd.DataFrame(rows)
+
+
+def _value(value) -> str:
+    if isinstance(value, (tuple, list, np.ndarray)):
+        return ", ".join(_value(v) for v in value)
+    if isinstance(value, float):
+        return f"{value:.6g}"
+    return str(value)
+
+
+def _band(band) -> str:
+    return f"[{band[0]:.3g}, {band[1]:.3g}]"
 
 
 def _validation_section(folder: Path) -> str:
@@ -153,8 +294,13 @@ def _validation_section(folder: Path) -> str:
         "(<code>response.csv</code>).</p>"
     ]
     parts += [_figure(folder / "frequencies.png")]
-    for name in ("frequencies.csv", "response.csv", "identification-log.csv"):
-        parts.append(f"<h3>{name}</h3>" + _csv(folder / name))
+    titles = {
+        "frequencies.csv": "Natural frequencies against Table 3 (frequencies.csv)",
+        "response.csv": "Residuals of the cutting response against the paper (response.csv)",
+        "identification-log.csv": "Identification log (identification-log.csv)",
+    }
+    for name, title in titles.items():
+        parts.append(f"<h3>{title}</h3>" + _csv(folder / name))
     modes = sorted(folder.glob("mode-*.png"), key=lambda p: int(p.stem.split("-")[1]))
     if modes:
         parts.append("<h3>Mode shapes</h3>" + "".join(_figure(p) for p in modes))
@@ -169,10 +315,33 @@ def _reference_section(results: Path) -> str:
     ]
     pngs = sorted(cut.glob("*.png")) if cut.is_dir() else []
     parts += [_figure(p) for p in pngs] or [_missing(f"{cut}/")]
+    parts.append(_error_budget(cut))
     parts.append("<h3>Tool-workpiece receptance (ufmt frf)</h3>")
     frf = sorted((results / FRF).glob("*.png")) if (results / FRF).is_dir() else []
     parts += [_figure(p) for p in frf] or [_missing(f"{results / FRF}/ (run ufmt frf)")]
     return "\n".join(parts)
+
+
+def _error_budget(cut: Path) -> str:
+    """The reference cut's PV of each error source alone and in total (metrics.json of
+    ``ufmt simulate --save``), or a note that it was not saved."""
+    metrics = cut / "metrics.json"
+    if not metrics.is_file():
+        return "<h3>Error budget per source</h3>" + _missing(
+            f"{metrics} (ufmt simulate --method time --save {cut})"
+        )
+    data = json.loads(metrics.read_text(encoding="utf-8"))
+    rows = [
+        {"source": name, "PV alone [nm]": "switched off" if v is None else f"{v:.4g}"}
+        for name, v in data.get("pv_by_source_nm", {}).items()
+    ]
+    for key, label in (
+        ("pv_nm", "every source, whole plate"),
+        ("pv_measured_nm", "every source, as the interferometer measures it"),
+    ):
+        if data.get(key) is not None:
+            rows.append({"source": label, "PV alone [nm]": f"{data[key]:.4g}"})
+    return "<h3>Error budget per source</h3>" + _table(pd.DataFrame(rows))
 
 
 def _study_section(folder: Path, meta: dict) -> str:
@@ -272,7 +441,25 @@ def _csv(path: Path) -> str:
 
 
 def _table(table: pd.DataFrame) -> str:
-    return table.to_html(index=False, na_rep="", float_format=lambda v: f"{v:.6g}", border=0)
+    """The table as HTML in the page's fixed layout: each column's share of the width follows
+    its longest cell (capped at COLUMN_CHARS characters), so long text wraps in wide columns
+    and numbers keep narrow ones."""
+    text = table.to_html(index=False, na_rep="", float_format=lambda v: f"{v:.6g}", border=0)
+    lengths = [
+        min(
+            COLUMN_CHARS,
+            max([len(str(c)) // 2, *(len(_shown(v)) for v in table[c])], default=4),
+        )
+        + 2
+        for c in table.columns
+    ]
+    total = sum(lengths) or 1
+    cols = "".join(f'<col style="width:{100 * n / total:.1f}%">' for n in lengths)
+    return text.replace(">\n  <thead>", f"><colgroup>{cols}</colgroup>\n  <thead>", 1)
+
+
+def _shown(value) -> str:
+    return f"{value:.6g}" if isinstance(value, float) else str(value)
 
 
 def _details(summary: str, content: str) -> str:

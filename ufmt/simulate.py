@@ -121,34 +121,52 @@ class SimulationResult:
         }
         return out
 
-    def to_frame(self):
-        """One tidy row: the process, the metrics and ``pv_<source>_nm`` per source."""
+    def to_frame(self, kind: str = "summary"):
+        """A tidy pandas table: ``kind="summary"`` one row (the process, the metrics and
+        ``pv_<source>_nm`` per source); ``kind="time"`` the record window's time histories,
+        one row per sample (:func:`ufmt.exports.time_frame`)."""
         import pandas as pd
 
+        if kind == "time":
+            from ufmt.exports import time_frame  # loaded only to export, never to compute
+
+            return time_frame(self.response)
+        if kind != "summary":
+            raise ValueError(f"kind must be 'summary' or 'time', got {kind!r}")
         row = {k: v for k, v in self.to_dict().items() if k not in ("pv_by_source_nm", "sources")}
         for name, value in self.pv_by_source_nm.items():
             row[f"pv_{name}_nm"] = np.nan if value is None else value
         return pd.DataFrame([{k: np.nan if v is None else v for k, v in row.items()}])
 
-    def plot(self, ax=None):
-        """The machined surface map (with PV per source); returns the matplotlib Figure."""
+    def plot(self, ax=None, stage: str = "machined"):
+        """The surface map (:func:`ufmt.plots.surface.plot_surface_map`: ``stage`` "machined"
+        or "measured" by the interferometer); returns the matplotlib Figure."""
         from ufmt.plots.surface import plot_surface_map
 
-        return plot_surface_map(self, ax=ax)
+        return plot_surface_map(self, stage=stage, ax=ax)
 
     def save(self, directory) -> list[Path]:
-        """Write metrics.json (strict JSON), summary.csv, surface.npz and surface.png."""
+        """Write metrics.json (strict JSON), summary.csv, time.csv (the record window), the
+        surface without the feed marks as surface.xyz and surface.sdf (ISO 25178-71),
+        surface.npz (x_m, y_m, z_m: every source; z_smooth_m: without the feed marks) and the
+        maps surface.png and surface_measured.png (:mod:`ufmt.exports`)."""
+        from ufmt.exports import write_sdf, write_xyz
+        from ufmt.plots import save_figure
+
         d = Path(directory)
         d.mkdir(parents=True, exist_ok=True)
-        paths = [d / "metrics.json", d / "summary.csv", d / "surface.npz", d / "surface.png"]
+        names = ("metrics.json", "summary.csv", "time.csv", "surface.xyz", "surface.sdf")
+        paths = [d / name for name in names]
         paths[0].write_text(json.dumps(self.to_dict(), indent=2, allow_nan=False) + "\n")
         self.to_frame().to_csv(paths[1], index=False, float_format="%.8g")
-        np.savez_compressed(paths[2], x_m=self.surface.x, y_m=self.surface.y, z_m=self.surface.z)
-        fig = self.plot()
-        fig.savefig(paths[3], dpi=120)
-        import matplotlib.pyplot as plt
-
-        plt.close(fig)
+        self.to_frame("time").to_csv(paths[2], index=False, float_format="%.8g")
+        write_xyz(self.smooth_surface, paths[3])
+        write_sdf(self.smooth_surface, paths[4])
+        paths.append(d / "surface.npz")
+        s = self.surface
+        np.savez_compressed(paths[-1], x_m=s.x, y_m=s.y, z_m=s.z, z_smooth_m=self.smooth_surface.z)
+        for stage, name in (("machined", "surface.png"), ("measured", "surface_measured.png")):
+            paths.append(save_figure(self.plot(stage=stage), d / name))
         return paths
 
 

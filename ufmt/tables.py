@@ -14,6 +14,7 @@ raise::
     size = where.numbers("workpiece_size", table["workpiece_size"], 2, sign="positive")
     sense = where.choice("rotation", table["rotation"], ("cw", "ccw"), "rotation")
     where.fail("tool_radius", "must exceed ...")         # a check of the caller's own
+    n = where.integer("n", table.get("n", 9), 1, 100_000)  # an integer in [1, 100000]
     axis = Where("study.toml", error=StudyError).sub("axis[2]")   # study.toml: axis[2]: ...
 
 Messages are ``<file>: <table>: field '<field>': <problem>`` (``<file>: field ...`` without a
@@ -39,13 +40,22 @@ empty array        ``empty (at least one hinge name is required)``
 empty string       ``empty (allowed: a non-empty string)``
 =================  ==========================================================================
 
-Converting another file's checker (``ufmt/studies/spec.py``, ``ufmt/calibration/tables.py``):
-make one :class:`Where` per file with that module's exception (``Where(path,
-error=StudyError)``, and ``.sub(label)`` per table), replace each local helper by the method of
-the same meaning (``_check_keys`` -> :meth:`Where.keys`, ``_real`` -> :meth:`Where.number`
-and :meth:`Where.within`, ``_hint`` -> :meth:`Where.choice` or :func:`did_you_mean`,
-``fail`` -> :meth:`Where.fail`), and send any check of its own through :meth:`Where.fail`
-so that the prefix stays the same. Base layer: imports only :mod:`ufmt.errors`.
+Every input file reads its tables with it: model files (:mod:`ufmt.model.load` and its
+helpers, ``[machine]`` in :mod:`ufmt.model.machine`), study files (:mod:`ufmt.studies.fields`)
+and calibration files (:mod:`ufmt.calibration.settings`, the reference tags in
+:mod:`ufmt.calibration.frequencies`). A check of a caller's own goes through :meth:`Where.fail`
+so that the prefix stays the same. A study kind reads its own fields with the file's
+:class:`Where` and the readers of :mod:`ufmt.studies.fields`::
+
+    def parse(where: Where, data: Mapping, parameters: Parameters) -> dict:
+        bounds = read_bounds(where, data, parameters, required=True)   # [[bound]] tables
+        samples = where.integer("samples", data.get("samples", 16), 2, MAX_POINTS)
+        method = where.choice("method", data.get("method", "morris"), METHODS, "method")
+        if method == "sobol" and samples & (samples - 1):
+            where.fail("samples", f"{samples} is not a power of two (Sobol sampling)")
+        return {"bounds": bounds, "options": {"samples": samples, "method": method}}
+
+Base layer: imports only :mod:`ufmt.errors`.
 """
 
 from __future__ import annotations
@@ -295,7 +305,9 @@ def did_you_mean(word, choices) -> str:
 
 
 def short_number(value: float) -> str:
-    """Short text of a number that still reads back as the same value."""
+    """Short text of a number that still reads back as the same value (an integer's digits)."""
+    if isinstance(value, numbers.Integral) and not isinstance(value, bool | np.bool_):
+        return str(int(value))
     value = float(value)
     short = f"{value:.6g}"
     return short if float(short) == value else repr(value)

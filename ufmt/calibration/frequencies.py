@@ -46,12 +46,14 @@ from ufmt.machining.cutting import tool_tip
 from ufmt.model.machine import machine_of
 from ufmt.model.schema import Beam, Model, RigidBody
 from ufmt.mstmm.solve import DIRECTIONS, ModalSolution, describe, energy_shares, solve_modes
+from ufmt.tables import Where
 from ufmt.tomlfile import read_toml
 
 CLASSES = ("x/ry", "y/rx", "z", "rz")
 CLASS_OF_MOTION = {"x": 0, "ry": 0, "y": 1, "rx": 1, "z": 2, "rz": 3}
 CLASS_DIRECTIONS = ((0, 4), (1, 3), (2,), (5,))  # direction indices (x y z rx ry rz) per class
 PHASES = ("same", "opposite")
+FREQUENCY_COLUMNS = ("modal_test_hz", "mstmm_hz", "fem_hz")  # Table 3's columns [Hz]
 STATUSES = ("ok", "phase", "bodies", "class")
 PRESENCE = 0.1  # a named body moves if its amplitude is >= this share of the largest body's
 PHASE_SIGNIFICANT = 0.3  # a tagged component decides the phase if >= this share of the body's
@@ -109,47 +111,47 @@ class Reference:
 
 
 def read_reference(path: str | Path) -> Reference:
-    """Read ``paper_reference.toml``; errors name the file, the mode and the field."""
-    where = str(path)
+    """Read ``paper_reference.toml``; errors name the file, the mode and the field
+    (:class:`ufmt.tables.Where`)."""
+    source = str(path)
     data = read_toml(path)
+    top = Where(source, error=StudyError)
     modes: dict[int, ReferenceMode] = {}
-    for i, row in enumerate(data.get("mode", [])):
-        number = row.get("number")
-        label = f"{where}: mode[{i}]"
-        if not isinstance(number, int) or number < 1:
-            raise StudyError(f"{label}: field 'number': {number!r} is not a mode number >= 1")
+    for i, row in enumerate(top.tables("mode", data.get("mode", []))):
+        where = top.sub(f"mode[{i}]")
+        where.required(row, ("number",))
+        number = where.integer("number", row["number"], 1)
         if number in modes:
-            raise StudyError(f"{label}: field 'number': mode {number} appears twice")
-        values = {}
-        for key in ("modal_test_hz", "mstmm_hz", "fem_hz"):
-            v = row.get(key)
-            if v is not None and not (isinstance(v, int | float) and math.isfinite(v) and v > 0):
-                raise StudyError(f"{label}: field '{key}': {v!r} must be a frequency > 0 [Hz]")
-            values[key] = None if v is None else float(v)
+            where.fail("number", f"{number} appears more than once")
+        values = {
+            key: None
+            if row.get(key) is None
+            else where.number(key, row[key], sign="positive", unit="[Hz]")
+            for key in FREQUENCY_COLUMNS
+        }
         modes[number] = ReferenceMode(
-            number, **values, description=str(row.get("description", "")), tag=_tag(label, row)
+            number, **values, description=str(row.get("description", "")), tag=_tag(where, row)
         )
     tip = data.get("tool_tip_z_modes", {}).get("modes", [])
-    return Reference(dict(sorted(modes.items())), tuple(int(n) for n in tip), where)
+    return Reference(dict(sorted(modes.items())), tuple(int(n) for n in tip), source)
 
 
-def _tag(label: str, row: dict) -> Tag | None:
-    raw = row.get("tag")
-    if raw is None:
+def _tag(mode: Where, row: dict) -> Tag | None:
+    """The ``tag`` of one ``[[mode]]`` table (None without one)."""
+    if row.get("tag") is None:
         return None
-    bodies = raw.get("bodies")
-    if not isinstance(bodies, list) or not bodies or not all(isinstance(b, str) for b in bodies):
-        raise StudyError(f"{label}: field 'tag.bodies': {bodies!r} must list body names")
-    motion = raw.get("motion")
-    if motion not in CLASS_OF_MOTION:
-        raise StudyError(
-            f"{label}: field 'tag.motion': {motion!r} is not one of {', '.join(DIRECTIONS)}"
-        )
+    raw = mode.mapping("tag", row["tag"], "tag = {bodies, motion, phase}")
+    where = mode.sub("tag")
+    where.required(raw, ("bodies", "motion"))
+    bodies = where.items("bodies", raw["bodies"], "body name", required=True)
+    for j, body in enumerate(bodies):
+        where.string(f"bodies[{j}]", body)
+    motion = where.choice("motion", raw["motion"], DIRECTIONS, "motion")
     phase = raw.get("phase")
-    if phase is not None and (phase not in PHASES or len(bodies) != 2):
-        raise StudyError(
-            f"{label}: field 'tag.phase': {phase!r} must be 'same' or 'opposite' with two bodies"
-        )
+    if phase is not None:
+        where.choice("phase", phase, PHASES, "phase")
+        if len(bodies) != 2:
+            where.fail("phase", f"{phase!r} needs two bodies, got {len(bodies)}")
     return Tag(tuple(bodies), motion, phase)
 
 

@@ -72,6 +72,9 @@ def register(subparsers) -> None:
         help=f"PNG (default {RESULTS}/mode-N.png, or results/<model file name>/mode-N.png)",
     )
     p.add_argument("--scale", type=positive(float), help="displacement factor (default: automatic)")
+    p.add_argument(
+        "--gif", action="store_true", help="also write the mode animated over one period (GIF)"
+    )
     p.set_defaults(func=cmd_plot_mode)
 
 
@@ -181,7 +184,7 @@ def cmd_plot_mode(args) -> int:
     """Solve the first N modes by the MSTMM and draw mode N."""
     from ufmt.mstmm.solve import describe, solve_modes
     from ufmt.plots import save_figure
-    from ufmt.plots.modes import plot_mode
+    from ufmt.plots.modes import animate_mode, plot_mode
 
     model = load(args.model)
     solution = solve_modes(model, count=args.mode, method="mstmm", shapes=True)
@@ -193,8 +196,20 @@ def cmd_plot_mode(args) -> int:
     line = describe(model, solution.energy_shares(model), top=3)[args.mode - 1]
     path = args.output or _plot_mode_default(args.model, model) / f"mode-{args.mode}.png"
     figure = plot_mode(model, solution.shapes, args.mode - 1, args.scale, line)
-    written = save_figure(figure, path)
-    print(f"mode {args.mode}: {solution.frequencies_hz[-1]:.3f} Hz ({line}); wrote {written}")
+    written = [save_figure(figure, path)]
+    if args.gif:
+        written.append(
+            animate_mode(
+                model,
+                solution.shapes,
+                args.mode - 1,
+                Path(path).with_suffix(".gif"),
+                args.scale,
+                line,
+            )
+        )
+    names = " and ".join(str(p) for p in written)
+    print(f"mode {args.mode}: {solution.frequencies_hz[-1]:.3f} Hz ({line}); wrote {names}")
     return 0
 
 

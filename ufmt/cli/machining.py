@@ -132,8 +132,16 @@ def _register_simulate(subparsers) -> None:
         f"({','.join(DEFAULT_INPUTS)})",
     )
     p.add_argument("--json", action="store_true", help="one strict JSON object on stdout")
-    p.add_argument("--plot", metavar="DIR", help="write Figs. 6, 7, 13, 14 as PNGs to DIR")
-    p.add_argument("--save", metavar="DIR", help="write metrics.json, summary.csv, surface")
+    p.add_argument(
+        "--plot",
+        metavar="DIR",
+        help="write Figs. 6, 7, 13, 14, the surface maps, the PSDs and the PV per source as PNGs",
+    )
+    p.add_argument(
+        "--save",
+        metavar="DIR",
+        help="write metrics.json, summary.csv, time.csv, the surface (.xyz, .sdf, .npz), maps",
+    )
     p.set_defaults(func=cmd_simulate)
 
 

@@ -33,7 +33,8 @@ def cmd_modes(args) -> int:
     print(f"{model.name}: {sol.frequencies_hz.size} modes ({sol.method}", end="")
     print(f", U_all order {sol.order})" if sol.order else ")")
     if sol.rigid_body_modes:
-        print(f"  + {sol.rigid_body_modes} zero-frequency (rigid-body) modes")
+        count = sol.rigid_body_modes
+        print(f"  + {count} zero-frequency (rigid-body) mode{'' if count == 1 else 's'}")
     print(f"{'mode':>5} {'f [Hz]':>14}  dominant body and direction (kinetic energy)")
     for i, f in enumerate(sol.frequencies_hz):
         desc = lines[i] if lines else ""

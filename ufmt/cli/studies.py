@@ -77,10 +77,11 @@ def run_study_cli(args: argparse.Namespace) -> int:
     StudyError
         A bad study file or argument (the caller prints its one-line message).
     """
-    from ufmt.studies.outputs import read_meta
+    from ufmt.studies.outputs import now, read_meta
     from ufmt.studies.parallel import Execution
     from ufmt.studies.runner import run_study
 
+    began = now()
     out_dir = run_study(
         args.study,
         Execution(jobs=args.jobs, backend=args.backend, scheduler=args.scheduler),
@@ -92,10 +93,16 @@ def run_study_cli(args: argparse.Namespace) -> int:
     meta = read_meta(out_dir)
     run = meta["run"]
     print(f"{meta['study']}: {meta['headline']}")
-    print(
-        f"{run['points_total']} points ({run['points_new']} new, {run['points_reused']} reused,"
-        f" {run['points_failed']} failed) in {run['wall_s']} s -> {out_dir}"
-    )
+    if meta.get("started", began) < began:  # nothing computed: meta.json is the earlier run's
+        print(
+            f"{run['points_total']} points, every one reused from the run of {meta['started']};"
+            f" nothing recomputed, every file as it was -> {out_dir}"
+        )
+    else:
+        print(
+            f"{run['points_total']} points ({run['points_new']} new, {run['points_reused']}"
+            f" reused, {run['points_failed']} failed) in {run['wall_s']} s -> {out_dir}"
+        )
     if run["points_failed"]:
         print(
             f"ufmt run: {run['points_failed']} of {run['points_total']} points failed"

@@ -14,7 +14,6 @@ model back so that loading the text gives the same model.
 from __future__ import annotations
 
 import functools
-import tomllib
 from collections.abc import Mapping
 from importlib import resources
 from pathlib import Path
@@ -27,7 +26,8 @@ from ufmt.model.hinges import check_connected, check_numbers, parse_hinges
 from ufmt.model.machine import check_machine_bodies, read_machine
 from ufmt.model.rules import TOP_FIELDS
 from ufmt.model.schema import Model
-from ufmt.tables import Where, one_line, type_name
+from ufmt.tables import Where, type_name
+from ufmt.tomlfile import parse_toml, read_text
 
 
 @functools.cache
@@ -47,29 +47,12 @@ def load_model(source: str | Path | None = None) -> Model:
     """
     if source is None:
         source = packaged_path()
-    where = str(source)
-    try:
-        text = Path(source).read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise ModelError(f"{where}: file not found") from None
-    except IsADirectoryError:
-        raise ModelError(f"{where}: is a directory, not a model file") from None
-    except UnicodeDecodeError as exc:
-        raise ModelError(f"{where}: not UTF-8 text (byte {exc.start})") from None
-    except OSError as exc:
-        raise ModelError(f"{where}: cannot read: {exc.strerror}") from None
-    return load_model_text(text, source=where)
+    return load_model_text(read_text(source, ModelError), source=str(source))
 
 
 def load_model_text(text: str, source: str = "<string>") -> Model:
     """Parse and validate TOML ``text``; ``source`` names it in messages and in ``Model.source``."""
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise ModelError(f"{source}: malformed TOML: {one_line(str(exc))}") from None
-    except RecursionError:
-        raise ModelError(f"{source}: malformed TOML: values nested too deeply") from None
-    return model_from_dict(data, source)
+    return model_from_dict(parse_toml(text, source, ModelError), source)
 
 
 def model_from_dict(data: Mapping[str, Any], source: str = "<dict>") -> Model:

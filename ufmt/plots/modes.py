@@ -3,18 +3,24 @@
 Plots read solved shapes and written tables; they never solve. Rigid bodies are drawn as their
 inertia-equivalent boxes (the box with the body's mass and principal moments, axes along x, y,
 z), beams as lines from their start to their end, virtual bodies and hinge points as dots; the
-undeformed machine in grey, the mode (scaled) in colour, the tool tip (when the model has a
-``[machine]`` table) as a star. Functions take an optional ``ax`` and return the Figure.
+undeformed machine in grey dashes, the mode (scaled) in solid lines coloured by the
+displacement magnitude, the tool tip and the workpiece (when the model has a ``[machine]``
+table) as a star and a square; :func:`animate_mode` writes a mode as an animated GIF.
+Functions take an optional ``ax`` and return the Figure.
 """
 
 from __future__ import annotations
 
 from itertools import product
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from matplotlib.cm import ScalarMappable
+from matplotlib.colors import Normalize
 from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
+from mpl_toolkits.mplot3d.art3d import Line3DCollection
 
 from ufmt.machining.cutting import tool_tip
 from ufmt.model.schema import GROUND, Beam, Model, RigidBody
@@ -25,6 +31,11 @@ ERROR_BAND_PERCENT = 3.0  # the validation target band (|error| <= 3 %), drawn o
 GROUND_CUT_RATIO = 3.0  # a grounded body more than this times the rest's size is kept whole
 TICKS_PER_AXIS = 4
 MIN_AXIS_SHARE = 0.4  # each axis of the view spans at least this share of the largest
+MODE_CMAP = "plasma"  # colour of the displacement magnitude
+MAGNITUDE_LABEL = "|displacement| [share of the mode's largest]"
+ANIMATION_FRAMES = 16  # frames of one period of the animated mode
+ANIMATION_FPS = 12
+ANIMATION_DPI = 72
 
 
 def equivalent_box(body: RigidBody) -> np.ndarray:
@@ -142,6 +153,26 @@ def _tool_tip(model: Model, shapes, index: int):
     return tip, _rigid_points(tip[None, :], body.center_of_mass, shapes.rigid[body.name][index])[0]
 
 
+def _workpiece_point(model: Model, shapes, index: int):
+    """(position [m], displacement [m]) of the workpiece's top centre, or None (as
+    :func:`_tool_tip`)."""
+    machine = model.machine
+    if machine is None or machine.workpiece_body not in shapes.rigid:
+        return None
+    point = np.array([*machine.workpiece_center_xy, machine.cutting_plane_z], dtype=float)
+    body = model.body(machine.workpiece_body)
+    motion = shapes.rigid[body.name][index]
+    return point, _rigid_points(point[None, :], body.center_of_mass, motion)[0]
+
+
+def _largest(boxes, beams, dots) -> float:
+    """The largest displacement [m per m/sqrt(kg)] of every drawn point."""
+    return max(
+        [float(np.max(np.linalg.norm(d, axis=1))) for _, _, d in boxes + beams]
+        + [float(np.linalg.norm(d)) for _, _, d in dots]
+    )
+
+
 def plot_mode(
     model: Model,
     shapes,
@@ -149,8 +180,16 @@ def plot_mode(
     scale: float | None = None,
     description: str = "",
     ax=None,
+    colorbar: bool = True,
+    phase: float = 1.0,
 ) -> Figure:
     """Draw mode ``index`` (0-based) of MSTMM ``shapes`` in 3-D.
+
+    The undeformed machine in thin grey dashes; the deformed one in solid lines coloured by
+    the displacement magnitude (share of the mode's largest, colour bar); bodies numbered at
+    their deformed centre, the numbers keyed to the names beside the axes (no name sits on the
+    drawing); the tool tip (star) and the workpiece's top centre (square) where the model has
+    a ``[machine]`` table.
 
     Parameters
     ----------
@@ -161,6 +200,8 @@ def plot_mode(
         largest drawn displacement is DISPLAY_SHARE of the machine's largest extent.
     description : second title line (e.g. the dominant bodies and directions).
     ax : a 3-D axes to draw in (default: a new figure).
+    colorbar : add the colour bar of the displacement magnitude.
+    phase : factor in [-1, 1] on the drawn displacements (the animation's cos(2 pi t / T)).
 
     Returns
     -------
@@ -168,41 +209,88 @@ def plot_mode(
     """
     view = _view_box(model)
     boxes, beams, dots = _geometry(model, shapes, index, view)
-    tip = _tool_tip(model, shapes, index)
     extent = float(np.max(view[1] - view[0])) / (1.0 + 2.0 * VIEW_MARGIN)
-    largest = max(
-        [float(np.max(np.linalg.norm(d, axis=1))) for _, _, d in boxes + beams]
-        + [float(np.linalg.norm(d)) for _, _, d in dots]
-    )
+    largest = _largest(boxes, beams, dots)
     if scale is None:
         scale = DISPLAY_SHARE * extent / largest if largest > 0 else 1.0
-    fig, ax = new_axes(ax, (9, 7.5), projection="3d")
-    grey = {"color": "0.7", "label": "undeformed"}
-    for n, (body, corners, moved) in enumerate(boxes):
-        colour = PALETTE[n % len(PALETTE)]
-        for i, j in _EDGES:
-            ax.plot(*corners[[i, j]].T, lw=0.7, **grey)
-            grey.pop("label", None)
-            ax.plot(*(corners + scale * moved)[[i, j]].T, color=colour, lw=1.3)
-        label = f"{body.number} {body.name}" if body.number is not None else body.name
-        ax.text(*(corners.mean(axis=0) + scale * moved.mean(axis=0)), label, fontsize=7)
-    for body, line, disp in beams:
-        ax.plot(*line.T, lw=2.0, gid=f"beam:{body.name}:undeformed", **grey)
-        grey.pop("label", None)
-        ax.plot(*(line + scale * disp).T, color="k", lw=2.5, gid=f"beam:{body.name}:mode")
-    if beams:
-        ax.plot([], [], color="k", lw=2.5, label="beams, mode shape")
-    for _, point, disp in dots:
-        ax.scatter(*(point + scale * disp), color="k", s=12)
+    fig, ax = new_axes(ax, (10, 7.5), projection="3d")
+    norm = Normalize(0.0, 1.0)
+    keys = _draw_bodies(ax, boxes, beams, dots, scale * phase, largest or 1.0, norm)
     hinge_points = np.array(
         [h.at for h in model.hinges if np.all((h.at >= view[0]) & (h.at <= view[1]))]
     )
-    ax.scatter(*hinge_points.T, color="r", s=6, alpha=0.6, label="hinge points (undeformed)")
-    if tip is not None:
-        ax.scatter(*(tip[0] + scale * tip[1]), marker="*", s=140, color="m", label="tool tip")
+    ax.scatter(*hinge_points.T, color="0.35", s=5, alpha=0.6, label="hinge points (undeformed)")
+    for point, marker, name, colour in (
+        (_tool_tip(model, shapes, index), "*", "tool tip", "m"),
+        (_workpiece_point(model, shapes, index), "s", "workpiece (top centre)", "c"),
+    ):
+        if point is not None:
+            ax.scatter(
+                *(point[0] + scale * phase * point[1]),
+                marker=marker,
+                s=150 if marker == "*" else 70,
+                color=colour,
+                edgecolors="k",
+                depthshade=False,
+                label=name,
+                zorder=10,
+            )
     f = shapes.frequencies_hz[index]
     title = f"Mode {index + 1}: {f:.2f} Hz (MSTMM), displacements x {scale:.3g}"
     ax.set_title(title + (f"\n{description}" if description else ""), fontsize=10)
+    _set_view(ax, view)
+    legend = ax.legend(loc="upper left", fontsize=7, bbox_to_anchor=(0.0, 1.0))
+    legend.set_zorder(20)
+    if colorbar:
+        mappable = ScalarMappable(norm=norm, cmap=MODE_CMAP)
+        fig.colorbar(mappable, ax=ax, shrink=0.6, pad=0.02, label=MAGNITUDE_LABEL)
+    fig.text(0.99, 0.02, "\n".join(keys), fontsize=7, ha="right", va="bottom")
+    return fig
+
+
+def _draw_bodies(ax, boxes, beams, dots, scale, largest, norm) -> list[str]:
+    """Undeformed (grey dashes) and deformed (coloured by |displacement|) bodies; returns the
+    "number: name" key of the numbered bodies."""
+    cmap = _cmap()
+    undeformed = {"color": "0.6", "lw": 0.6, "ls": (0, (3, 2))}
+    segments, magnitudes, keys = [], [], []
+    for k, (body, corners, moved) in enumerate(boxes):
+        size = np.linalg.norm(moved, axis=1) / largest
+        for i, j in _EDGES:
+            ax.plot(*corners[[i, j]].T, **undeformed)
+            segments.append((corners + scale * moved)[[i, j]])
+            magnitudes.append(0.5 * (size[i] + size[j]))
+        number = str(body.number if body.number is not None else k + 1)
+        centre = corners.mean(axis=0) + scale * moved.mean(axis=0)
+        ax.text(
+            *centre,
+            number,
+            fontsize=7,
+            ha="center",
+            va="center",
+            zorder=15,
+            bbox={"boxstyle": "round,pad=0.15", "fc": "w", "ec": "0.5", "alpha": 0.85},
+        )
+        keys.append(f"{number}: {body.name}")
+    for body, line, disp in beams:
+        ax.plot(*line.T, gid=f"beam:{body.name}:undeformed", **{**undeformed, "lw": 1.2})
+        moved = line + scale * disp
+        ax.plot(*moved.T, color="k", lw=3.2, gid=f"beam:{body.name}:mode")  # outline
+        size = np.linalg.norm(disp, axis=1) / largest
+        for i in range(len(line) - 1):
+            segments.append(moved[i : i + 2])
+            magnitudes.append(0.5 * (size[i] + size[i + 1]))
+    for _, point, disp in dots:
+        ax.scatter(*(point + scale * disp), color=cmap(norm(np.linalg.norm(disp) / largest)), s=12)
+    collection = Line3DCollection(segments, cmap=cmap, norm=norm, linewidths=1.8)
+    collection.set_array(np.asarray(magnitudes))
+    ax.add_collection3d(collection)
+    ax.plot([], [], label="undeformed", **undeformed)
+    ax.plot([], [], color=cmap(0.8), lw=1.8, label="mode shape (colour: |displacement|)")
+    return keys
+
+
+def _set_view(ax, view) -> None:
     for name, (lo, hi) in zip("xyz", zip(*view, strict=True), strict=True):
         getattr(ax, f"set_{name}label")(f"{name} [m]")
         getattr(ax, f"set_{name}lim")(lo, hi)
@@ -210,8 +298,49 @@ def plot_mode(
     ax.tick_params(labelsize=7)
     ax.set_box_aspect(view[1] - view[0], zoom=0.9)
     ax.view_init(elev=18, azim=-55)
-    ax.legend(loc="upper left", fontsize=7)
-    return fig
+
+
+def _cmap():
+    from matplotlib import colormaps
+
+    return colormaps[MODE_CMAP]
+
+
+def animate_mode(
+    model: Model,
+    shapes,
+    index: int,
+    path,
+    scale: float | None = None,
+    description: str = "",
+    frames: int = ANIMATION_FRAMES,
+    fps: int = ANIMATION_FPS,
+):
+    """Write mode ``index`` as an animated GIF to ``path``: the deformed machine swinging
+    through one period (displacements x ``scale`` cos(2 pi k / frames)), with matplotlib's
+    PillowWriter. Returns the path."""
+    from matplotlib.animation import FuncAnimation, PillowWriter
+
+    if scale is None:
+        view = _view_box(model)
+        largest = _largest(*_geometry(model, shapes, index, view))
+        extent = float(np.max(view[1] - view[0])) / (1.0 + 2.0 * VIEW_MARGIN)
+        scale = DISPLAY_SHARE * extent / largest if largest > 0 else 1.0
+    fig = plot_mode(model, shapes, index, scale, description)
+    ax = fig.axes[0]
+
+    def draw(k):
+        ax.cla()
+        for text in fig.texts:
+            text.remove()
+        phase = np.cos(2.0 * np.pi * k / frames)
+        plot_mode(model, shapes, index, scale, description, ax=ax, colorbar=False, phase=phase)
+
+    animation = FuncAnimation(fig, draw, frames=frames)
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    animation.save(path, writer=PillowWriter(fps=fps), dpi=ANIMATION_DPI)
+    return path
 
 
 def plot_frequencies(table: pd.DataFrame, ax=None) -> Figure:

@@ -1,4 +1,5 @@
-"""Simulation plots: tool-tip motion (paper Figs. 6, 7), z_re (Fig. 13), surface (Fig. 14), FRF.
+"""Simulation plots: tool-tip motion (paper Figs. 6, 7), z_re (Fig. 13), FRF; the surface (Fig. 14)
+is :mod:`ufmt.plots.surface`.
 
 Plotting reads results and never recomputes them. Each function takes the data and an optional
 ``ax`` (a sequence of axes for the multi-panel tool-tip figure) and returns the Figure;
@@ -16,10 +17,11 @@ from matplotlib.figure import Figure
 
 from ufmt.defaults import REFERENCE_RPM
 from ufmt.plots import new_axes, new_figure, save_figure
-from ufmt.plots.surface import plot_pv_by_source
+from ufmt.plots.psd import plot_psd
+from ufmt.plots.surface import plot_pv_by_source, plot_surface_map
 
 _AXES = ("x", "y", "z")
-CUT_SHADE = {"color": "tab:orange", "alpha": 0.12, "lw": 0}
+CUT_SHADE = {"color": "tab:orange", "alpha": 0.35, "lw": 1.2}  # edges keep 1 px cuts visible
 SPINDLE_HARMONICS = 10  # harmonics of the spindle frequency marked on the FRF
 
 
@@ -86,36 +88,6 @@ def plot_zre(response, ax=None) -> Figure:
     return fig
 
 
-def plot_surface(surface, pv_nm: float | None = None, ax=None) -> Figure:
-    """Machined surface height [nm] over the workpiece [mm] (Fig. 14), highest and lowest
-    points (the two ends of the PV) marked."""
-    fig, ax = new_axes(ax, (6.5, 5.5))
-    z = surface.z * 1e9
-    x, y = surface.x * 1e3, surface.y * 1e3
-    mesh = ax.pcolormesh(x, y, z, shading="auto", cmap="viridis")
-    fig.colorbar(mesh, ax=ax, label="height [nm]")
-    for pick, marker, name in ((np.nanargmax, "^", "highest"), (np.nanargmin, "v", "lowest")):
-        i, j = np.unravel_index(pick(z), z.shape)
-        ax.plot(
-            x[j],
-            y[i],
-            marker,
-            ms=10,
-            mfc="w",
-            mec="r",
-            mew=1.5,
-            clip_on=False,
-            label=f"{name} point ({z[i, j]:.1f} nm at x {x[j]:.0f}, y {y[i]:.0f} mm)",
-        )
-    ax.set_aspect("equal")
-    ax.set_xlabel("x [mm]")
-    ax.set_ylabel("y [mm] (opposite to the feed)")
-    ax.legend(fontsize="small", loc="upper center", bbox_to_anchor=(0.5, -0.12), ncols=1)
-    pv = float(np.nanmax(z) - np.nanmin(z)) if pv_nm is None else pv_nm
-    ax.set_title(f"Simulated machined surface, PV {pv:.2f} nm", pad=12)
-    return fig
-
-
 def plot_frf(
     freq_hz,
     receptance,
@@ -166,21 +138,24 @@ def plot_frf(
 
 def simulation_figures(result) -> dict[str, Figure]:
     """The figures of a :class:`ufmt.simulate.SimulationResult` by file stem: Figs. 6, 7, 13,
-    14 and the PV of each error source alone next to the total."""
+    14 (the surface as machined and as the interferometer measures it, the maps of
+    ``SimulationResult.plot``), the surface PSDs and the PV of each error source alone next to
+    the total."""
     r = result.response
     figures = {
         "tool_tip_displacement": plot_tool_tip(r, "displacement"),
         "tool_tip_acceleration": plot_tool_tip(r, "acceleration"),
         "z_re": plot_zre(r),
-        "surface": plot_surface(result.surface, result.metrics["pv_nm"]),
+        "surface": plot_surface_map(result, "machined"),
+        "surface_measured": plot_surface_map(result, "measured"),
+        "psd": plot_psd(result),
         "pv_by_source": plot_pv_by_source([result], [_process_label(result.process)]),
     }
-    figures["pv_by_source"].axes[0].set_title("Surface PV of each error source alone and in total")
     return figures
 
 
 def _process_label(process) -> str:
-    return f"{process.rpm:g} rpm, {process.feed_mm_min:g} mm/min, {process.depth_um:g} um"
+    return f"{process.rpm:g} rpm, {process.feed_mm_min:g} mm/min, {process.depth_um:g} µm"
 
 
 def plot_simulation(result, directory) -> list[Path]:

@@ -3,7 +3,10 @@
 * sweeps: PV against each swept parameter (log axis for stiffnesses, the calibrated value
   marked, the region outside the paper's Table 1 shaded for process parameters), as the
   paper's Fig. 15 (bearing stiffness) and Fig. 16 (rpm, feed, depth); PV maps over 2-D grids
-  with the lowest point and the calibrated design / base recipe marked;
+  with the lowest point and the calibrated design / base recipe marked. The PV drawn is the
+  interferometer's (``pv_measured_nm``, what a shop reads and Table 4 reports) where the
+  table has it, the whole-plate PV (``pv_nm``) beside it: with the straightness at its band
+  edge the whole-plate PV is dominated by a wedge the interferometer removes as tilt;
 * optimisers: convergence (best objective against evaluations, per stage); for cutting
   recipes the Pareto front of PV against cutting time with the PV target, each front point
   labelled with its recipe; for designs the trade-off of PV against stiffness cost;
@@ -19,6 +22,7 @@ import numpy as np
 import pandas as pd
 from matplotlib.colors import LogNorm
 from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
 from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
 
 from ufmt.design import SOURCE_METRICS
@@ -26,9 +30,16 @@ from ufmt.machining.process import TABLE1_RANGE
 from ufmt.plots import new_axes, new_figure
 
 PANEL = (4.2, 3.2)  # inches per panel
+DENSE_TICK_SPAN = 30.0  # log axes spanning less than this ratio label every 1-9 x 10^k
 MAX_LABELLED_CELLS = 64  # PV maps print each cell's value up to this many cells
 MAX_RECIPE_LABELS = 10  # Pareto points labelled with their recipe (evenly picked)
 OUTSIDE_TABLE1 = {"color": "0.85", "hatch": "//", "alpha": 0.5, "lw": 0}
+CONSTANT_SHARE = 1e-3  # a source whose PV moves less than this share is drawn as constant
+METRIC_SHORT = {"pv_measured_nm": "interferometer PV", "pv_nm": "whole-plate PV"}
+METRIC_LABELS = {
+    "pv_measured_nm": "interferometer PV (clear aperture, piston and tilt removed)",
+    "pv_nm": "whole-plate PV (every point of the cut, right axis)",
+}
 OPTIMUM_LABELS = {
     "min-pv": "minimum PV",
     "fastest-under-target": "fastest recipe under the PV target",
@@ -62,9 +73,17 @@ def _ok(points: pd.DataFrame) -> pd.DataFrame:
     return points[points["status"] == "ok"] if "status" in points else points
 
 
-def _plain_log(axis) -> None:
-    """Log axis with plain numbers at 1, 2, 5 x 10^k ("200", not "2x10^2")."""
-    axis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
+def _plain_log(axis, values=None) -> None:
+    """Log axis with plain numbers ("200", not "2x10^2") at 1, 2, 5 x 10^k, or at every
+    1-9 x 10^k where ``values`` span less than :data:`DENSE_TICK_SPAN` (so that a narrow
+    range, e.g. 70-200 nm, has its numbers read)."""
+    subs = (1.0, 2.0, 5.0)
+    if values is not None:
+        v = np.asarray(values, dtype=float)
+        v = v[np.isfinite(v) & (v > 0)]
+        if v.size and v.max() / v.min() < DENSE_TICK_SPAN:
+            subs = tuple(float(k) for k in range(1, 10))
+    axis.set_major_locator(LogLocator(subs=subs))
     axis.set_major_formatter(FuncFormatter(lambda v, _: _plain(v)))
     axis.set_minor_formatter(NullFormatter())
 
@@ -119,59 +138,147 @@ def sweep_figures(points: pd.DataFrame, meta: dict) -> dict[str, Figure]:
 
 
 def plot_pv_lines(points: pd.DataFrame, groups: list[dict], baseline: dict, ax=None) -> Figure:
-    """One panel per swept parameter: PV, PV with tilt removed and the PV of each error source
-    alone (thin lines, where the table has ``pv_<source>_nm`` columns) [nm] against it.
+    """Two panels per swept parameter. Above: the interferometer's PV (``pv_measured_nm``:
+    clear aperture, piston and tilt removed; what a shop reads) with the whole-plate PV
+    (``pv_nm``) on its own right-hand axis. Below: the PV of each error source alone that
+    changes over the sweep (the cutting-force vibration first); sources that are zero, or
+    constant over every axis, are named in the legend instead of drawn. One legend for all.
 
-    ax : one axes per group; default a new figure with up to three panels a row.
+    ax : two axes per group (above, below); default a new figure, up to three groups a row.
     """
     n = len(groups)
     cols = min(n, 3)
     rows = -(-n // cols)
     if ax is None:
-        fig = new_figure((PANEL[0] * cols, PANEL[1] * rows))
-        panels = [fig.add_subplot(rows, cols, i + 1) for i in range(n)]
+        fig = new_figure((PANEL[0] * cols, 1.55 * PANEL[1] * rows + 0.9))
+        grid = fig.add_gridspec(2 * rows, cols, height_ratios=[3, 2] * rows)
+        panels = [
+            (
+                fig.add_subplot(grid[2 * (i // cols), i % cols]),
+                fig.add_subplot(grid[2 * (i // cols) + 1, i % cols]),
+            )
+            for i in range(n)
+        ]
     else:
-        panels = list(ax)
-        fig = panels[0].figure
+        panels = [tuple(ax[2 * i : 2 * i + 2]) for i in range(n)]
+        fig = panels[0][0].figure
     ok = _ok(points)
-    for ax, group in zip(panels, groups, strict=True):
-        axis = group["axes"][0]
-        name = axis["parameter"]
-        data = ok[ok["group"] == group["name"]].sort_values(name)
-        ax.plot(data[name], data["pv_nm"], "o-", label="PV")
-        if "pv_tilt_removed_nm" in data:
-            ax.plot(data[name], data["pv_tilt_removed_nm"], "s--", ms=3, label="PV, tilt removed")
-        for column in SOURCE_METRICS:  # PV of one error source alone
-            if column in data and data[column].notna().any():
-                source = column.removeprefix("pv_").removesuffix("_nm").replace("_", " ")
-                ax.plot(data[name], data[column], lw=0.9, alpha=0.8, label=f"{source} alone")
-        if axis["log"]:
-            ax.set_xscale("log")
-        reference = baseline.get(name)
-        if reference is not None and np.isfinite(reference):
-            ax.axvline(reference, color="0.5", lw=0.8, ls=":", label="calibrated / base")
-        _shade_outside_table1(ax, name, data[name])
-        ax.set_xlabel(parameter_label(name))
-        ax.set_ylabel("surface PV [nm]")
-        ax.grid(True, which="both", alpha=0.3)
-        ax.legend(fontsize="x-small")
+    sources, constant = _varying_sources(ok)
+    for (top, bottom), group in zip(panels, groups, strict=True):
+        _pv_panels(top, bottom, ok, group, baseline, sources)
+    handles, labels = _unique_legend(fig)
+    for column, value in constant.items():
+        handles.append(Line2D([], [], ls="none"))
+        labels.append(f"{_source(column)} alone: {value:.3g} nm at every point (not drawn)")
+    fig.legend(handles, labels, loc="outside lower center", ncols=3, fontsize="small")
     fig.suptitle("Surface PV against each swept parameter (others at the base design)")
     return fig
 
 
+def _source(column: str) -> str:
+    """Legend name of a ``pv_<source>_nm`` column."""
+    if column == "pv_dynamic_nm":
+        return "cutting-force vibration"
+    return column.removeprefix("pv_").removesuffix("_nm").replace("_", " ")
+
+
+def _varying_sources(ok: pd.DataFrame) -> tuple[list[str], dict[str, float]]:
+    """The ``pv_<source>_nm`` columns that change over the table (vibration first) and the
+    non-zero constant ones with their value; zero or empty ones are left out."""
+    varying, constant = [], {}
+    for column in SOURCE_METRICS:
+        if column not in ok or not ok[column].notna().any():
+            continue
+        values = ok[column].to_numpy(float)
+        spread = np.nanmax(values) - np.nanmin(values)
+        if spread > CONSTANT_SHARE * max(np.nanmax(np.abs(values)), 1e-12):
+            varying.append(column)
+        elif np.nanmax(np.abs(values)) > 0:
+            constant[column] = float(np.nanmean(values))
+    varying.sort(key=lambda c: c != "pv_dynamic_nm")
+    return varying, constant
+
+
+def _pv_panels(top, bottom, ok, group, baseline, sources) -> None:
+    """One parameter's two panels (see :func:`plot_pv_lines`)."""
+    axis = group["axes"][0]
+    name = axis["parameter"]
+    data = ok[ok["group"] == group["name"]].sort_values(name)
+    x = data[name]
+    main = _main_metric(data)
+    measured = main == "pv_measured_nm"
+    top.plot(x, data[main], "o-", color="C0", label=METRIC_LABELS[main])
+    if measured:
+        whole = top.twinx()
+        whole.plot(x, data["pv_nm"], "s--", ms=3, color="0.45", label=METRIC_LABELS["pv_nm"])
+        whole.set_ylabel("whole-plate PV [nm]", color="0.45", fontsize="small")
+        whole.tick_params(axis="y", colors="0.45", labelsize="small")
+    others = [c for c in sources if c != "pv_dynamic_nm"]
+    if "pv_dynamic_nm" in sources:
+        bottom.plot(
+            x,
+            data["pv_dynamic_nm"],
+            "o-",
+            ms=2.5,
+            color="C3",
+            lw=1.6,
+            label=f"{_source('pv_dynamic_nm')} alone",
+        )
+        bottom.set_ylabel("vibration alone [nm]", color="C3", fontsize="small")
+    if others:  # on their own axis, so that the vibration's change stays visible
+        right = bottom.twinx()
+        for k, column in enumerate(others):
+            right.plot(
+                x,
+                data[column],
+                "^:",
+                ms=2.5,
+                lw=1.0,
+                color=f"C{4 + k}",
+                label=f"{_source(column)} alone (right axis, lower panel)",
+            )
+        right.set_ylabel("other sources alone [nm]", fontsize="small", color="C4")
+        right.tick_params(axis="y", labelsize="small")
+        right.margins(y=0.15)
+    top.set_ylabel(f"{'interferometer' if measured else 'surface'} PV [nm]", color="C0")
+    bottom.set_xlabel(parameter_label(name))
+    for a in (top, bottom):
+        if axis["log"]:
+            a.set_xscale("log")
+        reference = baseline.get(name)
+        if reference is not None and np.isfinite(reference):
+            a.axvline(reference, color="0.5", lw=0.8, ls=":", label="calibrated / base")
+        _shade_outside_table1(a, name, x)
+        a.grid(True, which="both", alpha=0.3)
+        a.margins(y=0.15)
+    top.tick_params(labelbottom=False)
+    top.sharex(bottom)
+
+
+def _unique_legend(fig) -> tuple[list, list[str]]:
+    """Every labelled artist of the figure's axes, each label once."""
+    seen = {}
+    for a in fig.axes:
+        for handle, label in zip(*a.get_legend_handles_labels(), strict=True):
+            seen.setdefault(label, handle)
+    return list(seen.values()), list(seen)
+
+
 def plot_pv_map(points: pd.DataFrame, group: dict, baseline: dict | None = None, ax=None) -> Figure:
     """PV [nm] over a 2-D grid (log axes for log-spaced parameters), the lowest point and the
-    calibrated design / base recipe marked."""
+    calibrated design / base recipe marked: the interferometer's PV where the table has it
+    (the whole-plate PV's range in the title), else the whole-plate PV."""
     x_axis, y_axis = group["axes"]
     x_name, y_name = x_axis["parameter"], y_axis["parameter"]
     data = points[points["group"] == group["name"]]
-    table = data.pivot_table(index=y_name, columns=x_name, values="pv_nm", aggfunc="first")
+    metric = _main_metric(data)
+    table = data.pivot_table(index=y_name, columns=x_name, values=metric, aggfunc="first")
     fig, ax = new_axes(ax, (1.5 * PANEL[0], 1.35 * PANEL[1]))
     pv = table.to_numpy(float)
     norm = LogNorm() if np.nanmin(pv) > 0 and np.nanmax(pv) > 10 * np.nanmin(pv) else None
     x, y = table.columns.to_numpy(float), table.index.to_numpy(float)
     mesh = ax.pcolormesh(_edges(x, x_axis["log"]), _edges(y, y_axis["log"]), pv, norm=norm)
-    fig.colorbar(mesh, ax=ax, label="surface PV [nm]")
+    fig.colorbar(mesh, ax=ax, label=f"{METRIC_SHORT[metric]} [nm]")
     if pv.size <= MAX_LABELLED_CELLS:
         for (i, j), value in np.ndenumerate(pv):
             colour = "w" if mesh.norm(value) < 0.5 else "k"  # viridis is dark at the low end
@@ -186,7 +293,7 @@ def plot_pv_map(points: pd.DataFrame, group: dict, baseline: dict | None = None,
             )
     ok = _ok(data)
     if not ok.empty:
-        best = ok.iloc[int(np.argmin(ok["pv_nm"].to_numpy(float)))]
+        best = ok.iloc[int(np.argmin(ok[metric].to_numpy(float)))]
         ax.plot(
             best[x_name], best[y_name], "o", ms=22, mfc="none", mec="r", mew=1.5, label="lowest PV"
         )
@@ -209,8 +316,18 @@ def plot_pv_map(points: pd.DataFrame, group: dict, baseline: dict | None = None,
         markerscale=0.5,
     )
     short = [parameter_label(n).split(" [")[0] for n in (y_name, x_name)]
-    ax.set_title(f"Surface PV [nm]: {short[0]} against {short[1]}", fontsize="medium")
+    title = f"{METRIC_SHORT[metric]} [nm]: {short[0]} against {short[1]}"
+    if metric != "pv_nm" and not ok.empty:
+        title += f"\n(whole-plate PV {ok['pv_nm'].min():.0f}-{ok['pv_nm'].max():.0f} nm)"
+    ax.set_title(title, fontsize="medium")
     return fig
+
+
+def _main_metric(data: pd.DataFrame) -> str:
+    """The PV a study figure shows: the interferometer's where the table has it."""
+    if "pv_measured_nm" in data and data["pv_measured_nm"].notna().any():
+        return "pv_measured_nm"
+    return "pv_nm"
 
 
 def _edges(centres: np.ndarray, log: bool) -> np.ndarray:
@@ -237,11 +354,20 @@ def plot_convergence(convergence: pd.DataFrame, ax=None) -> Figure:
     ax.set_xlabel("evaluations")
     if (convergence["best_objective_nm"] > 0).all():
         ax.set_yscale("log")
-        _plain_log(ax.yaxis)
+        _plain_log(ax.yaxis, convergence["best_objective_nm"])
+    for _, data in convergence.groupby("stage", sort=False):
+        best = data["best_objective_nm"].min()
+        ax.annotate(
+            f"{best:.3g}",
+            (data["evaluation"].max(), best),
+            xytext=(3, 0),
+            textcoords="offset points",
+            va="center",
+            fontsize="x-small",
+        )
     ax.set_ylabel("best objective so far [nm]")
     ax.grid(True, which="both", alpha=0.3)
-    stages = convergence["stage"].nunique()
-    ax.legend(fontsize="x-small", ncol=1 + stages // 6)
+    ax.legend(fontsize="x-small", loc="upper left", bbox_to_anchor=(1.02, 1.0))
     ax.set_title("Optimiser convergence (dots: convex trust-region steps)", fontsize="medium")
     return fig
 
@@ -250,49 +376,99 @@ def _recipe(row) -> str:
     return f"{row.rpm:.0f} rpm, {row.feed_mm_min:.3g} mm/min, {row.depth_um:.2g} µm"
 
 
-def plot_pareto(points: pd.DataFrame, front: pd.DataFrame, optima: pd.DataFrame, ax=None) -> Figure:
-    """Every evaluated recipe, the non-dominated front (points labelled with their recipe) and
-    the optima: PV against cutting time."""
-    fig, ax = new_axes(ax, (2.0 * PANEL[0], 1.6 * PANEL[1]))
+def plot_pareto(
+    points: pd.DataFrame,
+    front: pd.DataFrame,
+    optima: pd.DataFrame,
+    ax=None,
+    bounds: list[dict] | None = None,
+) -> Figure:
+    """Every evaluated recipe, the non-dominated front and the optima: PV (the optimiser's
+    objective, the whole-plate PV) against cutting time, with the interferometer's PV of the
+    front's recipes beside it. Front points are numbered and their recipes listed beside the
+    axes (no label sits on a marker). ``bounds`` (meta.json's): the title says "Table 1
+    ranges" only when they are the paper's Table 1 ranges."""
+    fig, ax = new_axes(ax, (2.4 * PANEL[0], 1.6 * PANEL[1]))
     ok = _ok(points)
     travel = optima["travel_mm"].iloc[0]
     ax.scatter(travel / ok["feed_mm_min"], ok["pv_nm"], s=4, c="0.75", label="evaluated recipes")
     front = front.sort_values("cutting_time_min")
     ax.step(
-        front["cutting_time_min"], front["pv_nm"], "o-", where="post", ms=3, label="Pareto front"
+        front["cutting_time_min"],
+        front["pv_nm"],
+        "o-",
+        where="post",
+        ms=3,
+        label="Pareto front (whole-plate PV)",
     )
-    gap = np.ptp(front["cutting_time_min"].to_numpy(float)) / MAX_RECIPE_LABELS
-    last = -np.inf
-    for row in front.itertuples():
-        if row.cutting_time_min - last < gap:
-            continue
-        last = row.cutting_time_min
-        ax.annotate(
-            _recipe(row),
-            (row.cutting_time_min, row.pv_nm),
-            xytext=(4, 4),
-            textcoords="offset points",
-            fontsize=6,
-            rotation=20,
+    shown = [front["pv_nm"]]
+    if "pv_measured_nm" in front and front["pv_measured_nm"].notna().any():
+        ax.plot(
+            front["cutting_time_min"],
+            front["pv_measured_nm"],
+            "o",
+            mfc="none",
+            ms=5,
+            color="C2",
+            label="interferometer PV of the front's recipes",
         )
+        shown.append(front["pv_measured_nm"])
+    recipes = _number_front(ax, front)
     for row in optima.itertuples():
         ax.plot(
             row.cutting_time_min,
             row.pv_nm,
             "*",
             ms=13,
-            label=f"{_label(row.optimum)}: {_recipe(row)}",
+            label=f"{_label(row.optimum)}: PV {row.pv_nm:.3g} nm, {_recipe(row)}",
         )
+        shown.append(pd.Series([row.pv_nm]))
     target = optima["target_pv_nm"].iloc[0]
     ax.axhline(target, color="r", lw=0.8, ls="--", label=f"PV target {target:g} nm")
     ax.set_yscale("log")
-    _plain_log(ax.yaxis)
+    _plain_log(ax.yaxis, pd.concat([*shown, pd.Series([target])]))
     ax.set_xlabel("cutting time of one pass [min]")
-    ax.set_ylabel("surface PV [nm]")
+    ax.set_ylabel("PV [nm] (front: whole-plate PV, the objective)")
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize="x-small", loc="upper right")
-    ax.set_title("Cutting recipes: surface PV against cutting time (Table 1 ranges)")
+    handles, labels = ax.get_legend_handles_labels()
+    handles.append(Line2D([], [], ls="none"))
+    labels.append("front recipes:\n" + "\n".join(recipes))
+    ax.legend(handles, labels, fontsize="x-small", loc="upper left", bbox_to_anchor=(1.02, 1.0))
+    ranges = " (Table 1 ranges)" if _table1_bounds(bounds) else ""
+    ax.set_title(f"Cutting recipes: surface PV against cutting time{ranges}")
     return fig
+
+
+def _number_front(ax, front: pd.DataFrame) -> list[str]:
+    """Number up to MAX_RECIPE_LABELS front points, evenly over the cutting time, above their
+    markers; returns the "k: recipe" lines."""
+    gap = np.ptp(front["cutting_time_min"].to_numpy(float)) / MAX_RECIPE_LABELS
+    last, lines = -np.inf, []
+    for row in front.itertuples():
+        if row.cutting_time_min - last < gap:
+            continue
+        last = row.cutting_time_min
+        k = len(lines) + 1
+        ax.annotate(
+            str(k),
+            (row.cutting_time_min, row.pv_nm),
+            xytext=(0, 6),
+            textcoords="offset points",
+            ha="center",
+            fontsize=7,
+            color="C0",
+        )
+        lines.append(f"{k}: {_recipe(row)}, {row.cutting_time_min:.3g} min, PV {row.pv_nm:.3g} nm")
+    return lines
+
+
+def _table1_bounds(bounds: list[dict] | None) -> bool:
+    """True if ``bounds`` are exactly the paper's Table 1 ranges of rpm, feed and depth."""
+    if not bounds:
+        return False
+    ranges = {b["parameter"]: tuple(map(float, b["range"])) for b in bounds}
+    table1 = {name: (low, high) for name, (low, high, _) in TABLE1_RANGE.items()}
+    return ranges == table1
 
 
 def design_cost(points: pd.DataFrame, meta: dict) -> np.ndarray:
@@ -323,7 +499,7 @@ def plot_design_tradeoff(points: pd.DataFrame, optima: pd.DataFrame, meta: dict,
         ax.plot(row.cost_nm, row.pv_nm, "*", ms=13, label=label)
     ax.set_ylim(0.9 * pv.min(), 1.05 * pv.max())
     ax.set_xlabel("stiffness cost [nm] (weights x stiffness / calibrated)")
-    ax.set_ylabel("surface PV [nm]")
+    ax.set_ylabel("whole-plate PV [nm] (the objective)")
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize="x-small")
     ax.set_title("Bearing design: surface PV against stiffness cost", fontsize="medium")

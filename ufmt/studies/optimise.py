@@ -36,7 +36,7 @@ import numpy as np
 import pandas as pd
 
 from ufmt.errors import StudyError
-from ufmt.studies.spec import StudyContext, check_keys, read_count, read_real
+from ufmt.tables import Where
 
 FAILED = 1e12  # objective of a failed point during global search
 TRUST_RADIUS = 0.1  # initial trust box half-width in unit coordinates
@@ -302,18 +302,17 @@ def pareto_mask(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 # shared by the optimiser study kinds
 
 
-def read_optimiser(where: StudyContext, table) -> dict[str, Any]:
-    """The ``[optimiser]`` table with its defaults filled."""
-    if not isinstance(table, Mapping):
-        where.fail("optimiser", "expected a table")
-    check_keys(where, "optimiser.", table, tuple(OPTIMISER_DEFAULTS))
+def read_optimiser(where: Where, data: Mapping) -> dict[str, Any]:
+    """The ``[optimiser]`` table of ``data`` (at ``where``) with its defaults filled."""
+    table = where.mapping("optimiser", data.get("optimiser", {}), "[optimiser]")
+    at = where.sub("optimiser")
+    at.keys(table, tuple(OPTIMISER_DEFAULTS))
     options = dict(OPTIMISER_DEFAULTS)
     for key in ("seed", "refine_steps"):
-        options[key] = read_count(where, f"optimiser.{key}", table.get(key, options[key]), 0)
+        options[key] = at.integer(key, table.get(key, options[key]), 0)
     for key in ("popsize", "maxiter"):
-        options[key] = read_count(where, f"optimiser.{key}", table.get(key, options[key]), 1)
-    tol = read_real(where, "optimiser.tol", table.get("tol", options["tol"]), minimum=0.0)
-    options["tol"] = tol
+        options[key] = at.integer(key, table.get(key, options[key]), 1)
+    options["tol"] = at.number("tol", table.get("tol", options["tol"]), sign="nonnegative")
     return options
 
 

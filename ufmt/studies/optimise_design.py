@@ -25,6 +25,7 @@ from ufmt.design import PROCESS_PARAMETERS
 from ufmt.errors import StudyError
 from ufmt.plots.studies import plot_convergence, plot_design_tradeoff
 from ufmt.studies import outputs
+from ufmt.studies.fields import Parameters, read_bounds
 from ufmt.studies.optimise import (
     CONVERGENCE,
     OPTIMA,
@@ -37,29 +38,28 @@ from ufmt.studies.optimise import (
     start_point,
 )
 from ufmt.studies.outputs import short
-from ufmt.studies.spec import StudyKind, name_hint, read_bounds, read_real
+from ufmt.studies.spec import StudyKind
+from ufmt.tables import Where
 
 
-def parse(where, data: Mapping, base: Mapping[str, float]) -> dict:
+def parse(where: Where, data: Mapping, parameters: Parameters) -> dict:
     """The searched design bounds and the cost weights."""
-    bounds = read_bounds(where, data.get("bound", []), required=True)
+    bounds = read_bounds(where, data, parameters, required=True)
     for b in bounds:
         if b.parameter in PROCESS_PARAMETERS:
-            where.fail(f"bound.{b.parameter}", "optimise-design searches design parameters only")
-        if b.parameter in base:
-            where.fail(f"base.{b.parameter}", "is searched by optimise-design; remove it")
-    cost = data.get("cost", {})
-    if not isinstance(cost, Mapping):
-        where.fail("cost", "expected a table of parameter = weight [nm per calibrated multiple]")
-    searched = [b.parameter for b in bounds]
-    weights = {}
-    for key, value in cost.items():
-        if key not in searched:
-            where.fail(
-                f"cost.{key}", f"not a searched parameter ({name_hint(key, searched, 'bounds')})"
+            where.sub(f"bound {b.parameter!r}").fail(
+                "parameter", "optimise-design searches design parameters only"
             )
-        weights[key] = read_real(where, f"cost.{key}", value, minimum=0.0)
-    options = {"cost": weights, "optimiser": read_optimiser(where, data.get("optimiser", {}))}
+        if b.parameter in parameters.base:
+            where.sub("base").fail(b.parameter, "is searched by optimise-design; remove it")
+    cost = where.mapping("cost", data.get("cost", {}), "[cost]")
+    at = where.sub("cost")
+    at.keys(cost, [b.parameter for b in bounds])
+    weights = {
+        key: at.number(key, value, sign="nonnegative", unit="[nm per calibrated multiple]")
+        for key, value in cost.items()
+    }
+    options = {"cost": weights, "optimiser": read_optimiser(where, data)}
     return {"bounds": bounds, "options": options}
 
 
@@ -78,9 +78,10 @@ def analyse(study, evaluator, baseline: Mapping, out_dir: Path) -> str:
         n for n, r, w in zip(space.names, reference, weights, strict=True) if w and not r > 0
     ]
     if unknown:
-        raise StudyError(
-            f"{study.path}: field 'cost.{unknown[0]}': the calibrated value is not a finite"
-            " number > 0 (released or rigid), so a cost per calibrated multiple is undefined"
+        Where(str(study.path), "cost", error=StudyError).fail(
+            unknown[0],
+            "the calibrated value is not a finite number > 0 (released or rigid), so a cost"
+            " per calibrated multiple is undefined",
         )
     safe_reference = np.where(weights > 0, reference, 1.0)
 

@@ -39,6 +39,7 @@ from ufmt.model.load import load_model
 from ufmt.model.machine import machine_of
 from ufmt.plots.studies import plot_convergence, plot_pareto
 from ufmt.studies import outputs
+from ufmt.studies.fields import Parameters, read_bounds
 from ufmt.studies.optimise import (
     CONVERGENCE,
     OPTIMA,
@@ -52,39 +53,45 @@ from ufmt.studies.optimise import (
     start_point,
 )
 from ufmt.studies.outputs import short
-from ufmt.studies.spec import Bound, StudyKind, read_bounds, read_count, read_positive
+from ufmt.studies.spec import Bound, StudyKind
+from ufmt.tables import Where
 
 BISECTION_STEPS = 4  # feed bisection steps for the fastest recipe
 TABLE1_BOUNDS = {name: (low, high) for name, (low, high, _) in TABLE1_RANGE.items()}
 PARETO = "pareto.csv"  # the non-dominated recipes in (cutting time, PV)
 
 
-def parse(where, data: Mapping, base: Mapping[str, float]) -> dict:
+def parse(where: Where, data: Mapping, parameters: Parameters) -> dict:
     """The searched bounds (Table 1's where not given) and the kind's options."""
-    given = read_bounds(where, data.get("bound", []), required=False)
+    given = read_bounds(where, data, parameters, required=False)
     for b in given:
         if b.parameter not in PROCESS_PARAMETERS:
-            where.fail(
-                f"bound.{b.parameter}",
+            where.sub(f"bound {b.parameter!r}").fail(
+                "parameter",
                 f"optimise-process searches process parameters only ({', '.join(TABLE1_BOUNDS)})",
             )
     by_name = {b.parameter: b for b in given}
     bounds = tuple(by_name.get(p, Bound(p, *TABLE1_BOUNDS[p])) for p in TABLE1_BOUNDS)
     for b in bounds:
-        if b.parameter in base:
-            where.fail(f"base.{b.parameter}", "is searched by optimise-process; remove it")
+        if b.parameter in parameters.base:
+            where.sub("base").fail(b.parameter, "is searched by optimise-process; remove it")
     options = {
-        "target_pv_nm": read_positive(where, "target_pv_nm", data.get("target_pv_nm", 100.0)),
-        "workpiece_length_mm": read_positive(
-            where, "workpiece_length_mm", data.get("workpiece_length_mm")
+        "target_pv_nm": where.number(
+            "target_pv_nm", data.get("target_pv_nm", 100.0), sign="positive"
         ),
-        "tool_radius_mm": read_positive(where, "tool_radius_mm", data.get("tool_radius_mm")),
-        "pareto_levels": read_count(where, "pareto_levels", data.get("pareto_levels", 7), 2),
-        "optimiser": read_optimiser(where, data.get("optimiser", {})),
+        "workpiece_length_mm": _optional_positive(where, data, "workpiece_length_mm"),
+        "tool_radius_mm": _optional_positive(where, data, "tool_radius_mm"),
+        "pareto_levels": where.integer("pareto_levels", data.get("pareto_levels", 7), 2),
+        "optimiser": read_optimiser(where, data),
     }
     if (options["workpiece_length_mm"] is None) != (options["tool_radius_mm"] is None):
         where.fail("tool_radius_mm", "give both workpiece_length_mm and tool_radius_mm, or neither")
     return {"bounds": bounds, "options": options}
+
+
+def _optional_positive(where: Where, data: Mapping, field: str) -> float | None:
+    """``data[field]`` as a finite number > 0, or None if not given."""
+    return where.number(field, data[field], sign="positive") if field in data else None
 
 
 def planned_points(study) -> int:
@@ -198,7 +205,10 @@ def figures(out_dir: Path) -> dict[str, Figure]:
     return {
         "convergence.png": plot_convergence(outputs.read_table(out_dir / CONVERGENCE)),
         "pareto.png": plot_pareto(
-            points, outputs.read_table(out_dir / PARETO), outputs.read_table(out_dir / OPTIMA)
+            points,
+            outputs.read_table(out_dir / PARETO),
+            outputs.read_table(out_dir / OPTIMA),
+            bounds=outputs.read_meta(out_dir).get("bounds"),
         ),
     }
 

@@ -13,6 +13,11 @@ Layout of ``results/<study>/``:
   SHA-256, package versions, git revision, run timings and the headline finding.
 
 ``results/README.md`` is regenerated after every run from the ``meta.json`` files.
+
+A rerun that computes no new point rewrites nothing: its ``meta.json`` keeps the circumstances
+of the run that computed the points (:func:`settled_meta`), so every file it writes again
+(points.csv, the tables, the plots, the index) has the same bytes and a clean clone stays
+clean.
 """
 
 from __future__ import annotations
@@ -203,6 +208,26 @@ def _write_text(text: str, path: Path) -> None:
     tmp = _temporary(path)
     tmp.write_text(text, encoding="utf-8")
     os.replace(tmp, path)
+
+
+#: meta.json entries that describe the run (when, where, with what, how fast), not its results
+RUN_ENTRIES = ("started", "run", "git", "versions")
+
+
+def settled_meta(meta: Mapping, previous: Mapping) -> dict:
+    """The ``meta.json`` of a finished run: ``meta``, except that a run which computed no new
+    point (``run.points_new == 0``) of a study whose ``previous`` run completed with the same
+    fingerprint keeps that run's :data:`RUN_ENTRIES` (its timings, revision and versions are
+    those of the points on disk; a wall time of a reuse would say 0 points/s)."""
+    reused = meta.get("run", {}).get("points_new") == 0
+    same = previous.get("status") == "complete" and previous.get("fingerprint") == meta.get(
+        "fingerprint"
+    )
+    if not (reused and same):
+        return dict(meta)
+    merged = {**meta, **{k: previous[k] for k in RUN_ENTRIES if k in previous}}
+    order = [*(k for k in previous if k in merged), *(k for k in merged if k not in previous)]
+    return {k: merged[k] for k in order}  # the previous file's key order: the same bytes
 
 
 def read_meta(out_dir: Path) -> dict:

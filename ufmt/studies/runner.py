@@ -99,6 +99,7 @@ def _run_locked(study, execution, out_dir, identity, progress, fresh, plots) -> 
     outputs.write_table(table, out_dir / outputs.POINTS)
     run = run_summary(execution, table, evaluator, time.perf_counter() - start)
     meta.update(status="complete", headline=headline, run=run)
+    meta = outputs.settled_meta(meta, previous)
     outputs.write_json(meta, out_dir / outputs.META)
     if plots and run["points_failed"] < run["points_total"]:
         figures = kind.figures(out_dir)

@@ -31,30 +31,31 @@ from matplotlib.figure import Figure
 from ufmt.errors import StudyError
 from ufmt.plots.studies import plot_sensitivity
 from ufmt.studies import outputs
+from ufmt.studies.fields import MAX_POINTS, Parameters, read_bounds
 from ufmt.studies.optimise import Space
 from ufmt.studies.outputs import short
-from ufmt.studies.spec import MAX_POINTS, StudyKind, read_bounds, read_count
+from ufmt.studies.spec import StudyKind
+from ufmt.tables import Where
 
 INDICES = "indices.csv"  # one row per factor, most influential first
+METHODS = ("morris", "sobol")
 
 
-def parse(where, data: Mapping, base: Mapping[str, float]) -> dict:
+def parse(where: Where, data: Mapping, parameters: Parameters) -> dict:
     """The sampled bounds and the method's options."""
-    bounds = read_bounds(where, data.get("bound", []), required=True)
+    bounds = read_bounds(where, data, parameters, required=True)
     if len(bounds) < 2:
         where.fail("bound", "sensitivity needs at least two [[bound]] parameters")
     for b in bounds:
-        if b.parameter in base:
-            where.fail(f"base.{b.parameter}", "is sampled by the sensitivity study; remove it")
-    method = data.get("method", "morris")
-    if method not in ("morris", "sobol"):
-        where.fail("method", f"unknown method {method!r} (morris or sobol)")
+        if b.parameter in parameters.base:
+            where.sub("base").fail(b.parameter, "is sampled by the sensitivity study; remove it")
     options = {
-        "method": method,
-        "samples": read_count(where, "samples", data.get("samples", 16), 2, MAX_POINTS),
-        "levels": read_count(where, "levels", data.get("levels", 4), 2),
-        "seed": read_count(where, "seed", data.get("seed", 1), 0),
+        "method": where.choice("method", data.get("method", "morris"), METHODS, "method"),
+        "samples": where.integer("samples", data.get("samples", 16), 2, MAX_POINTS),
+        "levels": where.integer("levels", data.get("levels", 4), 2),
+        "seed": where.integer("seed", data.get("seed", 1), 0),
     }
+    method = options["method"]
     if method == "sobol" and options["samples"] & (options["samples"] - 1):
         where.fail("samples", f"{options['samples']} is not a power of two (Sobol sampling)")
     return {"bounds": bounds, "options": options}

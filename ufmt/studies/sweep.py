@@ -20,24 +20,26 @@ from matplotlib.figure import Figure
 
 from ufmt.plots.studies import sweep_figures
 from ufmt.studies import outputs
+from ufmt.studies.fields import Parameters, read_axes, read_grids
 from ufmt.studies.outputs import short
-from ufmt.studies.spec import Group, StudyKind, check_unique, read_axes, read_grids
+from ufmt.studies.spec import Group, StudyKind
+from ufmt.tables import Where
 
 
-def parse_sweep(where, data: Mapping, base: Mapping[str, float]) -> dict:
+def parse_sweep(where: Where, data: Mapping, parameters: Parameters) -> dict:
     """The axes (one group each) and grids of a sweep."""
-    axes = read_axes(where, "axis", data.get("axis", []), required=False)
+    axes = read_axes(where, data, parameters, required=False)
     groups = [Group(a.parameter, (a,)) for a in axes]
-    groups += read_grids(where, data.get("grid", []))
+    groups += read_grids(where, data, parameters)
     if not groups:
         where.fail("axis", "a sweep needs at least one [[axis]] or [[grid]]")
-    check_unique(where, "axis", [g.name for g in groups])
+    where.unique("axis", [g.name for g in groups])
     return {"groups": tuple(groups)}
 
 
-def parse_grid(where, data: Mapping, base: Mapping[str, float]) -> dict:
+def parse_grid(where: Where, data: Mapping, parameters: Parameters) -> dict:
     """The axes of a grid, crossed into one group."""
-    axes = read_axes(where, "axis", data.get("axis", []), required=True)
+    axes = read_axes(where, data, parameters, required=True)
     return {"groups": (Group("grid", tuple(axes)),)}
 
 
@@ -91,6 +93,9 @@ def sweep_headline(table: pd.DataFrame, study) -> str:
                     f"; its cutting-force vibration part {short(dyn[np.argmin(x)])} ->"
                     f" {short(dyn[np.argmax(x)])} nm"
                 )
+            if lo == hi:  # one value: nothing rises or falls
+                parts.append(f"PV {short(pv.min())} nm at {name} = {short(lo)} (one point)")
+                continue
             parts.append(
                 f"PV {trend(x, pv)} as {name} rises from {short(lo)} to {short(hi)}"
                 f" (PV {short(pv[np.argmin(x)])} -> {short(pv[np.argmax(x)])} nm,"

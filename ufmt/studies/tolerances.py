@@ -69,15 +69,17 @@ import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
 
-from ufmt.design import METRICS, PROCESS_PARAMETERS, unknown_design_parameter
+from ufmt.design import METRICS, PROCESS_PARAMETERS
 from ufmt.errors import StudyError
 from ufmt.plots.uncertainty import plot_tradeoff
 from ufmt.studies import outputs
 from ufmt.studies.bands import documented_bands, matching
+from ufmt.studies.fields import Parameters
 from ufmt.studies.intervals import sample_designs
 from ufmt.studies.outputs import short
-from ufmt.studies.spec import Bound, StudyKind, check_keys, read_count, read_real
+from ufmt.studies.spec import Bound, StudyKind
 from ufmt.studies.uncertainty import summarise, unit_sample
+from ufmt.tables import Where
 
 BUDGETS = ("auto", "rss", "linear")
 KINDS_ = ("tolerance", "stiffness")
@@ -93,105 +95,79 @@ MEETS_RTOL = 1e-9  # an evaluated metric this close above the limit meets it
 # the study file
 
 
-def parse(where, data: Mapping, base: Mapping[str, float]) -> dict:
-    """The variables (as bounds) and the specification."""
-    tables = data.get("variable", [])
-    if (
-        not isinstance(tables, list)
-        or not tables
-        or not all(isinstance(t, Mapping) for t in tables)
-    ):
-        where.fail("variable", "expected at least one [[variable]] table")
+def parse(where: Where, data: Mapping, parameters: Parameters) -> dict:
+    """The variables (as bounds, then the uncertain inputs) and the specification."""
+    tables = where.tables("variable", data.get("variable", []), required=True)
     bands = documented_bands()
     bounds, variables = [], []
     for i, table in enumerate(tables):
-        bound, variable = _variable(where, i, table, bands)
-        if bound.parameter in base:
-            where.fail(f"base.{bound.parameter}", "is a designed variable; remove it")
-        if bound.parameter in [b.parameter for b in bounds]:
-            where.fail("variable", f"{bound.parameter!r} appears more than once")
+        bound, variable = _variable(where, i, table, bands, parameters)
+        if bound.parameter in parameters.base:
+            where.sub("base").fail(bound.parameter, "is a designed variable; remove it")
         bounds.append(bound)
         variables.append(variable)
-    metric = data.get("metric", "pv_measured_nm")
-    if metric not in METRICS:
-        where.fail("metric", f"unknown metric {metric!r} (metrics: {', '.join(METRICS)})")
+    where.unique("variable", [b.parameter for b in bounds])
     if "limit" not in data:
-        where.fail("limit", "missing: the specification metric <= limit")
-    limit = read_real(where, "limit", data["limit"])
-    if limit <= 0:
-        where.fail("limit", f"{limit!r} must be > 0")
-    budget = data.get("budget", "auto")
-    if budget not in BUDGETS:
-        where.fail("budget", f"unknown budget {budget!r} ({', '.join(BUDGETS)})")
-    uncertain = _uncertain(where, data, bands, [b.parameter for b in bounds])
+        where.missing("limit", "the specification: metric <= limit")
+    uncertain = _uncertain(where, data, bands, [b.parameter for b in bounds], parameters)
     options = {
         "variables": variables,
         "uncertain": [b.parameter for b in uncertain],
-        "uncertain_samples": read_count(
-            where, "uncertain_samples", data.get("uncertain_samples", 32), 2, 10_000
+        "uncertain_samples": where.integer(
+            "uncertain_samples", data.get("uncertain_samples", 32), 2, 10_000
         ),
-        "metric": metric,
-        "limit": limit,
-        "budget": budget,
-        "levels": read_count(where, "levels", data.get("levels", 6), 2, 100),
-        "corrections": read_count(where, "corrections", data.get("corrections", 3), 0, 20),
-        "seed": read_count(where, "seed", data.get("seed", 1), 0),
+        "metric": where.choice("metric", data.get("metric", "pv_measured_nm"), METRICS, "metric"),
+        "limit": where.number("limit", data["limit"], sign="positive"),
+        "budget": where.choice("budget", data.get("budget", "auto"), BUDGETS, "budget"),
+        "levels": where.integer("levels", data.get("levels", 6), 2, 100),
+        "corrections": where.integer("corrections", data.get("corrections", 3), 0, 20),
+        "seed": where.integer("seed", data.get("seed", 1), 0),
     }
     return {"bounds": (*bounds, *uncertain), "options": options}
 
 
-def _uncertain(where, data: Mapping, bands, designed) -> list[Bound]:
+def _uncertain(where: Where, data: Mapping, bands, designed, parameters) -> list[Bound]:
     """The documented bands of ``uncertain`` (patterns), as bounds after the variables."""
-    patterns = data.get("uncertain", [])
-    if not isinstance(patterns, list) or not all(isinstance(p, str) for p in patterns):
-        where.fail("uncertain", f"expected an array of parameter patterns, got {patterns!r}")
+    patterns = where.items("uncertain", data.get("uncertain", []), "parameter pattern")
     names = []
-    for pattern in patterns:
+    for i, pattern in enumerate(patterns):
+        pattern = where.string(f"uncertain[{i}]", pattern)
         found = matching(pattern, bands)
         if not found:
-            where.fail("uncertain", f"{pattern!r} matches no documented band")
+            where.fail(f"uncertain[{i}]", f"{pattern!r} matches no documented band")
+        for name in found:
+            parameters.check(where, f"uncertain[{i}]", name)
+            if name in designed:
+                where.fail(f"uncertain[{i}]", f"{name!r} is a designed variable, not uncertain")
         names += [n for n in found if n not in names]
-    for name in names:
-        if name in designed:
-            where.fail("uncertain", f"{name!r} is a designed variable, not an uncertain input")
     return [Bound(n, bands[n].low, bands[n].high, bands[n].log) for n in names]
 
 
-def _variable(where, i: int, table: Mapping, bands) -> tuple[Bound, dict]:
-    """One ``[[variable]]``: its bound (tight end first) and its cost model."""
-    label = f"variable[{i}]"
-    check_keys(where, f"{label}.", table, _VARIABLE_FIELDS)
-    name = table.get("parameter")
-    if not isinstance(name, str) or not name:
-        where.fail(f"{label}.parameter", f"expected a parameter name, got {name!r}")
+def _variable(where: Where, i: int, table: Mapping, bands, parameters) -> tuple[Bound, dict]:
+    """One ``[[variable]]``: its bound and its cost model."""
+    at = where.sub(f"variable[{i}]")
+    at.keys(table, _VARIABLE_FIELDS, required=("parameter",))
+    name = parameters.check(at, "parameter", table["parameter"])
     if name in PROCESS_PARAMETERS:
-        where.fail(f"{label}.parameter", f"{name!r} is a process parameter, not a tolerance")
-    problem = unknown_design_parameter(name, where.model, where.declared)
-    if problem:
-        where.fail(f"{label}.parameter", problem)
-    kind = table.get("kind", "tolerance")
-    if kind not in KINDS_:
-        where.fail(f"{label}.kind", f"unknown kind {kind!r} (tolerance or stiffness)")
+        at.fail("parameter", f"{name!r} is a process parameter, not a tolerance")
+    at = where.sub(f"variable {name!r}")
+    kind = at.choice("kind", table.get("kind", "tolerance"), KINDS_, "kind")
     if "range" in table:
-        raw = table["range"]
-        if not isinstance(raw, list) or len(raw) != 2:
-            where.fail(f"{label}.range", f"expected [low, high], got {raw!r}")
-        low, high = sorted(read_real(where, f"{label}.range", v) for v in raw)
-    elif name in bands:
+        low, high = sorted(at.numbers("range", table["range"], 2, sign="positive"))
+        if low == high:
+            at.fail("range", f"empty range [{low:g}, {high:g}] (allowed: two different ends)")
+    elif name in bands and bands[name].low > 0:
         low, high = bands[name].low, bands[name].high
     else:
-        where.fail(f"{label}.range", "has no documented band: give range")
-    if not 0 < low < high:
-        where.fail(f"{label}.range", f"[{low!r}, {high!r}] must satisfy 0 < low < high")
-    cost = table.get("cost")
-    if not isinstance(cost, list) or len(cost) != 2:
-        where.fail(f"{label}.cost", f"expected [a, b] of a + b t_max / t, got {cost!r}")
-    a, b = (read_real(where, f"{label}.cost", v, minimum=0.0) for v in cost)
+        at.missing("range", "no documented band > 0 for this parameter")
+    if "cost" not in table:
+        at.missing("cost", "[a, b] of a + b t_max / t")
+    a, b = at.numbers("cost", table["cost"], 2, sign="nonnegative")
     if b <= 0:
-        where.fail(f"{label}.cost", f"b = {b!r} must be > 0 (a cost that rises as t tightens)")
-    reason = table.get("reason")
-    if not isinstance(reason, str) or not reason.strip():
-        where.fail(f"{label}.reason", "missing: state the cost model's source or assumption")
+        at.fail("cost", f"b = {b:g} must be > 0 (a cost that rises as t tightens)")
+    if "reason" not in table:
+        at.missing("reason", "state the cost model's source or assumption")
+    reason = at.string("reason", table["reason"])
     variable = {"parameter": name, "kind": kind, "a": a, "b": b, "reason": reason}
     return Bound(name, low, high, log=True), variable
 

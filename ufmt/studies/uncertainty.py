@@ -51,21 +51,15 @@ import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
 
-from ufmt.design import METRICS, PROCESS_PARAMETERS, unknown_design_parameter
+from ufmt.design import METRICS
 from ufmt.plots.uncertainty import plot_convergence, plot_distributions, plot_sobol
 from ufmt.studies import outputs
 from ufmt.studies.bands import documented_bands, matching
+from ufmt.studies.fields import MAX_POINTS, Parameters
 from ufmt.studies.optimise import Space
 from ufmt.studies.outputs import short
-from ufmt.studies.spec import (
-    MAX_POINTS,
-    Bound,
-    StudyKind,
-    check_keys,
-    read_bounds,
-    read_count,
-    read_real,
-)
+from ufmt.studies.spec import Bound, StudyKind
+from ufmt.tables import Where
 
 DISTRIBUTIONS = ("uniform", "loguniform", "normal", "triangular")
 METHODS = ("saltelli", "lhs")
@@ -91,120 +85,115 @@ _INPUT_FIELDS = ("parameter", "distribution", "range", "scale")
 # the study file
 
 
-def parse(where, data: Mapping, base: Mapping[str, float]) -> dict:
+def parse(where: Where, data: Mapping, parameters: Parameters) -> dict:
     """The inputs (as bounds, with their distributions) and the options."""
-    bounds, inputs = _inputs(where, data.get("input", []))
+    bounds, inputs = _inputs(where, data, parameters)
     for b in bounds:
-        if b.parameter in base:
-            where.fail(f"base.{b.parameter}", "is an uncertain input of this study; remove it")
-    method = data.get("method", "saltelli")
-    if method not in METHODS:
-        where.fail("method", f"unknown method {method!r} ({' or '.join(METHODS)})")
-    samples = read_count(where, "samples", data.get("samples", 64), 2, MAX_POINTS)
+        if b.parameter in parameters.base:
+            where.sub("base").fail(b.parameter, "is an uncertain input of this study; remove it")
+    method = where.choice("method", data.get("method", "saltelli"), METHODS, "method")
+    samples = where.integer("samples", data.get("samples", 64), 2, MAX_POINTS)
     if method == "saltelli" and samples & (samples - 1):
         where.fail("samples", f"{samples} is not a power of two (Saltelli sampling)")
-    metrics = _names(where, "metrics", data.get("metrics", list(DEFAULT_METRICS)), METRICS)
-    quantiles = data.get("quantiles", list(DEFAULT_QUANTILES))
-    if not isinstance(quantiles, list) or not quantiles:
-        where.fail(
-            "quantiles", f"expected a non-empty array of numbers in (0, 1), got {quantiles!r}"
-        )
-    quantiles = [read_real(where, "quantiles", q) for q in quantiles]
-    if any(not 0.0 < q < 1.0 for q in quantiles):
-        where.fail("quantiles", f"{quantiles!r}: every quantile must lie in (0, 1)")
     options = {
         "inputs": inputs,
         "method": method,
         "samples": samples,
-        "seed": read_count(where, "seed", data.get("seed", 1), 0),
-        "metrics": metrics,
-        "quantiles": sorted(set(quantiles)),
+        "seed": where.integer("seed", data.get("seed", 1), 0),
+        "metrics": _metrics(where, data.get("metrics", list(DEFAULT_METRICS))),
+        "quantiles": _quantiles(where, data.get("quantiles", list(DEFAULT_QUANTILES))),
         "specification": _specification(where, data.get("specification", {})),
     }
     return {"bounds": bounds, "options": options}
 
 
-def _inputs(where, tables) -> tuple[tuple[Bound, ...], list[dict]]:
+def _inputs(
+    where: Where, data: Mapping, parameters: Parameters
+) -> tuple[tuple[Bound, ...], list[dict]]:
     """The ``[[input]]`` tables: bounds (documented band or the file's) and distributions."""
-    if (
-        not isinstance(tables, list)
-        or not tables
-        or not all(isinstance(t, Mapping) for t in tables)
-    ):
-        where.fail("input", "expected at least one [[input]] table")
+    tables = where.tables("input", data.get("input", []), required=True)
     bands = documented_bands()
     found: dict[str, tuple[Bound, dict, bool]] = {}  # name -> (bound, input, from a pattern)
     for i, table in enumerate(tables):
-        check_keys(where, f"input[{i}].", table, _INPUT_FIELDS)
-        pattern = table.get("parameter")
-        if not isinstance(pattern, str) or not pattern:
-            where.fail(f"input[{i}].parameter", f"expected a parameter name, got {pattern!r}")
+        at = where.sub(f"input[{i}]")
+        at.keys(table, _INPUT_FIELDS, required=("parameter",))
+        pattern = at.string("parameter", table["parameter"])
         distribution = table.get("distribution", "uniform")
-        if distribution not in DISTRIBUTIONS:
-            where.fail(
-                f"input[{i}].distribution",
-                f"unknown distribution {distribution!r} ({', '.join(DISTRIBUTIONS)})",
-            )
+        distribution = at.choice("distribution", distribution, DISTRIBUTIONS, "distribution")
         is_pattern = any(c in pattern for c in "*?[") and pattern not in bands
         names = matching(pattern, bands) if is_pattern else [pattern]
         if not names:
-            where.fail(f"input[{i}].parameter", f"{pattern!r} matches no documented band")
+            at.fail("parameter", f"{pattern!r} matches no documented band")
         for name in names:
+            parameters.check(at, "parameter", name)
             if name in found and not found[name][2]:
                 where.fail("input", f"{name!r} appears more than once")
-            bound = _bound(where, f"input[{name}]", name, table, bands, distribution)
-            reason = bands[name].reason if name in bands and "range" not in table else "study file"
+            bound = _bound(where.sub(f"input {name!r}"), name, table, bands, distribution)
+            if bound.relative:
+                _check_scalable(where.sub(f"input {name!r}"), parameters, name)
+            reason = "study file" if bound.relative or "range" in table else bands[name].reason
             entry = {"parameter": name, "distribution": distribution, "band": reason}
             found[name] = (bound, entry, is_pattern)
     return tuple(b for b, _, _ in found.values()), [e for _, e, _ in found.values()]
 
 
-def _bound(where, label: str, name: str, table: Mapping, bands, distribution: str) -> Bound:
-    """The sampled interval of ``name``: the file's range/scale, else its documented band."""
+def _bound(at: Where, name: str, table: Mapping, bands, distribution: str) -> Bound:
+    """The sampled interval of ``name``: the file's range or scale, else its documented
+    band."""
     log = distribution == "loguniform"
-    if "range" in table or "scale" in table:
-        given = {k: table[k] for k in ("range", "scale") if k in table}
-        spacing = {"spacing": "log"} if log else {}
-        (bound,) = read_bounds(where, [{"parameter": name, **given, **spacing}], required=True)
-        return bound
-    problem = (
-        None
-        if name in PROCESS_PARAMETERS
-        else unknown_design_parameter(name, where.model, where.declared)
-    )
-    if problem:
-        where.fail(f"{label}.parameter", problem)
+    rules = {"sign": "positive", "allowed": "> 0 for a log-uniform input"} if log else {}
+    given = [key for key in ("range", "scale") if key in table]
+    if len(given) > 1:
+        at.fail_table("give at most one of range, scale")
+    if given == ["range"]:
+        return Bound(name, *at.interval("range", table["range"], **rules), log)
+    if given == ["scale"]:
+        low, high = at.interval("scale", table["scale"], sign="positive")
+        return Bound(name, low, high, log, relative=True)
     if name not in bands:
-        where.fail(f"{label}.range", "has no documented band: give range or scale")
+        at.missing("range", "no documented band: give range or scale")
     band = bands[name]
     if log and band.low <= 0:
-        where.fail(f"{label}.distribution", f"loguniform needs a band > 0, not {band.low!r}")
+        at.fail("distribution", f"loguniform needs a band > 0, not [{band.low:g}, {band.high:g}]")
     return Bound(name, band.low, band.high, log)
 
 
-def _names(where, field: str, value, allowed: Sequence[str]) -> list[str]:
-    """A non-empty array of distinct names out of ``allowed``."""
-    if not isinstance(value, list) or not value or not all(isinstance(v, str) for v in value):
-        where.fail(field, f"expected a non-empty array of names, got {value!r}")
-    for v in value:
-        if v not in allowed:
-            where.fail(field, f"unknown metric {v!r} (metrics: {', '.join(allowed)})")
-    if len(set(value)) != len(value):
-        where.fail(field, "a metric appears more than once")
-    return list(value)
+def _metrics(where: Where, value) -> list[str]:
+    """A non-empty array of distinct record outputs."""
+    items = where.items("metrics", value, "metric name", required=True)
+    names = [where.choice(f"metrics[{i}]", m, METRICS, "metric") for i, m in enumerate(items)]
+    return where.unique("metrics", names)
 
 
-def _specification(where, table) -> dict[str, float]:
-    """``[specification]``: metric -> upper limit."""
-    if not isinstance(table, Mapping):
-        where.fail("specification", "expected a table of metric = upper limit")
-    check_keys(where, "specification.", table, METRICS)
-    limits = {}
-    for metric, value in table.items():
-        limits[metric] = read_real(where, f"specification.{metric}", value)
-        if limits[metric] <= 0:
-            where.fail(f"specification.{metric}", f"{value!r} must be > 0")
-    return limits
+def _quantiles(where: Where, value) -> list[float]:
+    """A non-empty array of probabilities in (0, 1), sorted, without repeats."""
+    items = where.items("quantiles", value, "quantile", required=True)
+    quantiles = []
+    for i, q in enumerate(items):
+        q = where.number(f"quantiles[{i}]", q, allowed="a probability in (0, 1)")
+        if not 0.0 < q < 1.0:
+            where.fail(f"quantiles[{i}]", f"{q:g} is outside (0, 1)")
+        quantiles.append(q)
+    return sorted(set(quantiles))
+
+
+def _specification(where: Where, table) -> dict[str, float]:
+    """``[specification]``: metric -> upper limit (> 0)."""
+    table = where.mapping("specification", table, "[specification]")
+    at = where.sub("specification")
+    at.keys(table, METRICS)
+    return {metric: at.number(metric, value, sign="positive") for metric, value in table.items()}
+
+
+def _check_scalable(at: Where, parameters: Parameters, name: str) -> None:
+    """A scale multiplies the calibrated value: refuse a released, rigid or absurd one."""
+    value = parameters.baseline(name)
+    if not (math.isfinite(value) and value > 0):
+        at.fail(
+            "scale",
+            f"the calibrated value of {name} is {value!r}: a scale of it is meaningless;"
+            " give range",
+        )
 
 
 # ---------------------------------------------------------------------------------------------

@@ -1,0 +1,99 @@
+"""PSD figure of a simulation: the 1-D PSDs along and across the feed, on log-log axes, with
+the PSD1 and PSD2 bands shaded and each band's RMS printed against the specification it is
+judged by.
+
+The PSDs are those of :func:`ufmt.machining.psd.surface_psd` (form removed, Hann window, the
+mean over the line profiles) of the surface without the feed marks; the band RMS values are
+the simulation's own metrics (``psd1_rms_along_nm``, ...), "not resolved" where the plate is
+too short for the band (:func:`ufmt.machining.psd.band_resolved`).
+
+Specification (:data:`KDP_SPEC_RMS_NM`): the mid-spatial-frequency limits quoted for the
+frequency-conversion KDP crystals of large laser facilities in the fly-cutting literature,
+PSD1 (2.5-33 mm) RMS <= 1.8 nm and PSD2 (0.12-2.5 mm) RMS <= 1.1 nm, following the NIF
+practice of specifying optics by band RMS of 1-D PSDs (J. K. Lawson et al., "Specification of
+optical components using the power spectral density function", Proc. SPIE 2536, 38 (1995)).
+They are a reading aid, not an input of any computation; a user judging against another
+specification passes ``spec``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from matplotlib.figure import Figure
+
+from ufmt.machining.psd import BANDS, DIRECTIONS, N_MIN_PERIODS, surface_psd
+from ufmt.plots import new_axes
+
+#: Band RMS limits [nm] a KDP surface is judged by (module docstring).
+KDP_SPEC_RMS_NM = {"psd1": 1.8, "psd2": 1.1}
+BAND_COLOURS = {"psd1": "tab:blue", "psd2": "tab:orange"}
+DIRECTION_STYLE = {
+    "along": {"color": "k", "ls": "-", "label": "along the feed (y)"},
+    "across": {"color": "tab:red", "ls": "--", "label": "across the feed (x)"},
+}
+
+
+def band_verdict(value_nm: float, spec_nm: float, n: int, spacing: float, band) -> str:
+    """One reading of a band RMS against its limit, "1.23 nm (limit 1.8 nm: passes)", or why
+    the profile of ``n`` points ``spacing`` [m] apart does not resolve ``band`` [m]."""
+    if value_nm is None or not math.isfinite(value_nm):
+        lam_min, lam_max = band
+        if 2 * spacing > lam_min * (1 + 1e-9):
+            return (
+                f"not resolved (a {spacing * 1e3:.2g} mm grid resolves wavelengths"
+                f" >= {2 * spacing * 1e3:.2g} mm, not {lam_min * 1e3:g} mm)"
+            )
+        length = (n - 1) * spacing * 1e3
+        return f"not resolved (profile {length:.0f} mm < {N_MIN_PERIODS} x {lam_max * 1e3:g} mm)"
+    verdict = "passes" if value_nm <= spec_nm else "fails"
+    return f"{value_nm:.2f} nm (limit {spec_nm:g} nm: {verdict})"
+
+
+def plot_psd(result, ax=None, spec: dict[str, float] | None = None) -> Figure:
+    """The 1-D PSDs [nm^2 mm] of a :class:`ufmt.simulate.SimulationResult`'s surface along
+    and across the feed against spatial frequency [1/mm], PSD1/PSD2 shaded, band RMS against
+    ``spec`` (default :data:`KDP_SPEC_RMS_NM`) printed below. Draws into ``ax`` if given."""
+    spec = spec or KDP_SPEC_RMS_NM
+    fig, ax = new_axes(ax, (7.2, 5.6))
+    surface = result.smooth_surface
+    for direction in DIRECTIONS:
+        f, psd = surface_psd(surface, direction)
+        keep = (f > 0) & (psd > 0)
+        ax.loglog(f[keep] * 1e-3, psd[keep] * 1e18 * 1e3, lw=1.2, **DIRECTION_STYLE[direction])
+    for name, (lam_min, lam_max) in BANDS.items():
+        ax.axvspan(
+            1e-3 / lam_max,
+            1e-3 / lam_min,
+            color=BAND_COLOURS[name],
+            alpha=0.12,
+            lw=0,
+            label=f"{name.upper()}: {lam_min * 1e3:g}-{lam_max * 1e3:g} mm",
+        )
+    ax.set_xlabel("spatial frequency [1/mm]")
+    ax.set_ylabel("PSD [nm$^2$ mm]")
+    top = ax.secondary_xaxis("top", functions=(_inverse, _inverse))
+    top.set_xlabel("wavelength [mm]")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=8, loc="lower left")
+    m = result.metrics
+    hx, hy = surface.spacing
+    profile = {"along": (int(surface.core_rows.sum()), hy), "across": (surface.x.size, hx)}
+    lines = [
+        f"{name.upper()} RMS {direction:<6}: "
+        + band_verdict(m.get(f"{name}_rms_{direction}_nm"), limit, *profile[direction], BANDS[name])
+        for name, limit in spec.items()
+        for direction in DIRECTIONS
+    ]
+    limits = ", ".join(f"{name.upper()} RMS <= {limit:g} nm" for name, limit in spec.items())
+    lines.append(f"limits: {limits} (KDP specification, ufmt.plots.psd)")
+    fig.suptitle("Surface PSD without the feed marks (form removed, Hann window)", fontsize=10)
+    fig.text(0.01, 0.0, "\n".join(lines), fontsize=8, va="bottom", family="monospace")
+    fig.get_layout_engine().set(rect=(0, 0.16, 1, 0.84))
+    return fig
+
+
+def _inverse(value):
+    with np.errstate(divide="ignore"):
+        return 1.0 / np.asarray(value, dtype=float)
