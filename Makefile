@@ -4,7 +4,8 @@ STAMP   := .venv/.installed
 JOBS    ?= 2
 
 .PHONY: test test-all bench lint format calibrate sweep-stiffness sweep-process \
-        optimise-process optimise-design sensitivity validate report clean-venv
+        optimise-process optimise-design sensitivity uncertainty \
+        optimise-tolerances validate report clean-venv
 
 $(STAMP): pyproject.toml
 	python3 -m venv .venv
@@ -52,6 +53,12 @@ optimise-design: $(STAMP)
 
 sensitivity: $(STAMP)
 	$(PY) -m ufmt.cli run studies/sensitivity.toml --jobs $(JOBS)
+
+uncertainty: $(STAMP)
+	$(PY) -m ufmt.cli run studies/uncertainty.toml --jobs $(JOBS)
+
+optimise-tolerances: $(STAMP)
+	$(PY) -m ufmt.cli run studies/optimise-tolerances.toml --jobs $(JOBS)
 
 clean-venv:
 	rm -rf .venv

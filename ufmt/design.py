@@ -20,6 +20,12 @@ one component (i = 0, 1, 2 for x, y, z) of any hinge. Every value is checked wit
 loader's rules (:func:`ufmt.model.load.check_hinge_values`: >= 0, inf = rigid, within
 ``LIMITS``).
 
+A model with a ``[machine]`` table also takes ``machine.<key>``, any optional number of that
+table (``machine.force_scale``, ``machine.straightness_m``, ...; the list and the bands are
+:data:`ufmt.model.machine.OPTIONAL_FIELDS`, so a key added there is a parameter at once), and
+``machine.workpiece_size[i]`` (i = 0, 1: the plate's x and y side [m]). A value is checked by
+the ``[machine]`` reader (its band, the plate inside the tool circle).
+
 Process parameters: ``rpm`` [rev/min], ``feed_mm_min`` [mm/min], ``depth_um`` [um]; a missing
 one takes the paper's reference case (300 rpm, 15 mm/min, 4 um; Table 4).
 """
@@ -28,13 +34,15 @@ from __future__ import annotations
 
 import re
 from collections.abc import Mapping
+from dataclasses import replace
 
 import numpy as np
 
 from ufmt.defaults import REFERENCE_PROCESS
-from ufmt.errors import StudyError, closest_name
+from ufmt.errors import ModelError, StudyError, closest_name
 from ufmt.machining.sources import SOURCES
 from ufmt.model.hinges import check_hinge_values
+from ufmt.model.machine import OPTIONAL_FIELDS, read_machine
 from ufmt.model.schema import DesignParameter, Model
 
 PROCESS_PARAMETERS = tuple(REFERENCE_PROCESS)
@@ -53,12 +61,39 @@ METRICS = (
     "psd2_rms_nm",
     "force_peak_n",
     *SOURCE_METRICS,
+    "waviness_rms_nm",
+    "zre_peak_nm",
+    "tip_acc_measured_mm_s2",
 )
 FREQUENCIES = tuple(f"f{i}_hz" for i in range(1, N_FREQUENCIES + 1))
 
 _HINGE_PARAMETER = re.compile(
     r"hinge\.(?P<hinge>[^.\[\]]+)\.(?P<field>stiffness|rotational_stiffness)\[(?P<index>[012])\]"
 )
+MACHINE_PREFIX = "machine."
+#: ``[machine]`` pairs whose components are parameters ``machine.<key>[i]``.
+MACHINE_PAIRS = ("workpiece_size",)
+_MACHINE_PARAMETER = re.compile(r"machine\.(?P<key>[a-z_]+)(\[(?P<index>[01])\])?")
+
+
+def machine_target(name: str) -> tuple[str, int | None] | None:
+    """([machine] key, pair index or None) that parameter ``name`` sets, or None if ``name``
+    is not a ``machine.`` parameter."""
+    match = _MACHINE_PARAMETER.fullmatch(name)
+    if match is None:
+        return None
+    key, index = match["key"], match["index"]
+    if index is None and key in OPTIONAL_FIELDS:
+        return key, None
+    if index is not None and key in MACHINE_PAIRS:
+        return key, int(index)
+    return None
+
+
+def machine_parameters() -> tuple[str, ...]:
+    """Every ``machine.`` parameter name (optional numbers, then pair components)."""
+    pairs = tuple(f"{MACHINE_PREFIX}{k}[{i}]" for k in MACHINE_PAIRS for i in (0, 1))
+    return (*(f"{MACHINE_PREFIX}{k}" for k in OPTIONAL_FIELDS), *pairs)
 
 
 def design_parameters(
@@ -70,8 +105,10 @@ def design_parameters(
 
 
 def parameter_names(model: Model, extra: Mapping[str, DesignParameter] | None = None) -> tuple:
-    """Every named parameter (design then process); hinge overrides follow their pattern."""
-    return (*design_parameters(model, extra), *PROCESS_PARAMETERS)
+    """Every named parameter (design, machine, then process); hinge overrides follow their
+    pattern."""
+    machine = machine_parameters() if model.machine is not None else ()
+    return (*design_parameters(model, extra), *machine, *PROCESS_PARAMETERS)
 
 
 def design_target(
@@ -98,6 +135,8 @@ def unknown_design_parameter(
 ) -> str | None:
     """Why ``name`` is not a design parameter of ``model`` (with a did-you-mean), or None."""
     parameters = design_parameters(model, extra)
+    if name.startswith(MACHINE_PREFIX) and name not in parameters:
+        return _unknown_machine_parameter(name, model)
     try:
         hinge, _, _ = design_target(name, parameters)
     except KeyError:
@@ -113,6 +152,37 @@ def unknown_design_parameter(
         hint = f"did you mean {close!r}?" if close else f"hinges: {', '.join(hinges)}"
         return f"parameter {name!r}: model {model.source} has no hinge {hinge!r} ({hint})"
     return None
+
+
+def _unknown_machine_parameter(name: str, model: Model) -> str | None:
+    """Why ``name`` (``machine.``...) is not a parameter of ``model``, or None."""
+    if model.machine is None:
+        return f"parameter {name!r}: model {model.source} has no [machine] table"
+    if machine_target(name) is None:
+        choices = machine_parameters()
+        close = closest_name(name, choices, cutoff=0.5)
+        hint = f"did you mean {close!r}?" if close else f"machine parameters: {', '.join(choices)}"
+        return f"unknown parameter {name!r} ({hint})"
+    return None
+
+
+def _apply_machine(model: Model, design: Mapping[str, float]) -> Model:
+    """A copy of ``model`` with the ``machine.`` values of ``design`` set (checked by the
+    ``[machine]`` reader: bands, plate inside the tool circle)."""
+    table = dict(model.machine.table)
+    for name, value in design.items():
+        key, index = machine_target(name)
+        if index is None:
+            table[key] = float(value)
+        else:
+            pair = list(table.get(key, getattr(model.machine, key)))
+            pair[index] = float(value)
+            table[key] = pair
+    try:
+        machine = read_machine(table, model.source)
+    except ModelError as exc:
+        raise ModelError(f"design parameters {', '.join(design)}: {exc}") from None
+    return replace(model, machine=machine)
 
 
 def apply_design(
@@ -138,10 +208,14 @@ def apply_design(
     """
     declared = design_parameters(model, parameters)
     changes: dict[str, dict[str, np.ndarray]] = {}
+    machine = {}
     for name, value in design.items():
         problem = unknown_design_parameter(name, model, parameters)
         if problem:
             raise StudyError(problem)
+        if name.startswith(MACHINE_PREFIX) and name not in declared:
+            machine[name] = value
+            continue
         hinge, field, components = design_target(name, declared)
         fields_ = changes.setdefault(hinge, {})
         current = fields_.setdefault(field, np.array(getattr(model.hinge(hinge), field)))
@@ -153,12 +227,18 @@ def apply_design(
         check_hinge_values(model, hinge, field, current, f"design parameter {name} = {value!r}")
     for hinge, fields_ in changes.items():
         model = model.with_hinge(hinge, **fields_)
-    return model
+    return _apply_machine(model, machine) if machine else model
 
 
 def design_value(
     model: Model, name: str, parameters: Mapping[str, DesignParameter] | None = None
 ) -> float:
-    """The value of design parameter ``name`` in ``model``: the mean of its components [SI]."""
+    """The value of design parameter ``name`` in ``model``: the mean of its components [SI]
+    (a ``machine.`` parameter: the ``[machine]`` value)."""
+    target = machine_target(name) if name not in design_parameters(model, parameters) else None
+    if target is not None:
+        key, index = target
+        value = getattr(model.machine, key)
+        return float(value if index is None else value[index])
     hinge, field, components = design_target(name, design_parameters(model, parameters))
     return float(np.mean(getattr(model.hinge(hinge), field)[list(components)]))

@@ -163,8 +163,8 @@ def evaluate(
     Parameters
     ----------
     design
-        Design parameters (:mod:`ufmt.design`) -> value [N/m or N m/rad]; missing ones keep the
-        model's calibrated values.
+        Design parameters (:mod:`ufmt.design`: stiffnesses, ``machine.<key>``) -> value [SI];
+        missing ones keep the model's calibrated values.
     process
         A :class:`ufmt.Process` or a mapping of ``rpm`` [rev/min], ``feed_mm_min`` [mm/min],
         ``depth_um`` [um]; missing ones take the reference case (300 rpm, 15 mm/min, 4 um).
@@ -182,8 +182,10 @@ def evaluate(
         :mod:`ufmt.machining.instruments`), ``rms_nm``, ``psd1_rms_nm``, ``psd2_rms_nm`` [nm]
         (surface of paper eq. 4.1; NaN where a band is not resolved), ``force_peak_n`` [N],
         ``pv_<source>_nm`` [nm] for each error source of :mod:`ufmt.machining.sources` alone,
-        ``f1_hz`` .. ``f6_hz`` (first natural frequencies [Hz]), ``status`` ("ok" or "error") and
-        ``message`` (warnings or the error, one line; empty if none). On error the metrics are NaN.
+        ``waviness_rms_nm`` [nm], ``zre_peak_nm`` [nm] (z_re average peak) and
+        ``tip_acc_measured_mm_s2`` [mm/s^2] (as the accelerometer reports it), ``f1_hz`` ..
+        ``f6_hz`` (first natural frequencies [Hz]), ``status`` ("ok" or "error") and ``message``
+        (warnings or the error, one line; empty if none). On error the metrics are NaN.
 
     Raises
     ------
@@ -216,6 +218,7 @@ def evaluate(
             "model_sha256": base_sha,
             "code_sha256": code_sha256(),
             "hinges": [[name, [repr(v) for v in values]] for name, values in changes],
+            "machine": _machine_changes(base, designed),
             "process": {k: repr(v) for k, v in process_full.items()},
         }
         outputs = evaluate_cache.load(key, METRICS + FREQUENCIES, physical)
@@ -323,6 +326,15 @@ def _hinge_changes(base: Model, model: Model) -> tuple:
         for new, old in zip(model.hinges, base.hinges, strict=True)
         if tuple(new.stiffness6) != tuple(old.stiffness6)
     )
+
+
+def _machine_changes(base: Model, model: Model) -> dict[str, str]:
+    """The ``[machine]`` values ``model`` changed from ``base`` (repr of each), a design's
+    identity beside its hinges (the modal basis does not depend on them)."""
+    if model.machine is base.machine:
+        return {}
+    old, new = base.machine.table, model.machine.table
+    return {k: repr(v) for k, v in new.items() if old.get(k) != v}
 
 
 _BASES = Recent(BASIS_CACHE)  # (model_sha, hinge changes) -> ModalBasis

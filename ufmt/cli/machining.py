@@ -72,6 +72,7 @@ def _register_simulate(subparsers) -> None:
     from ufmt.machining.recurrence import DEFAULT_ZETA
     from ufmt.machining.sources import SOURCES
     from ufmt.machining.surface import DEFAULT_APERTURE_MARGIN, DEFAULT_PSD2_PATCH
+    from ufmt.studies.intervals import DEFAULT_INPUTS
 
     p = subparsers.add_parser("simulate", help="cutting response, machined surface and PV")
     p.add_argument("model", nargs="?", help="model TOML (default: packaged UFMT)")
@@ -116,6 +117,21 @@ def _register_simulate(subparsers) -> None:
         f"(e.g. {DEFAULT_PSD2_PATCH * 1e3:g}; default: PSD2 unresolved, null)",
     )
     p.add_argument("--no-static", action="store_true", help="modal sum without static correction")
+    p.add_argument(
+        "--uncertainty",
+        type=positive(int, at_most=10**4),
+        default=None,
+        metavar="N",
+        help="also simulate N Latin-hypercube samples of the documented bands and print each "
+        "metric's 5-95 %% interval beside its value (JSON: key 'uncertainty')",
+    )
+    p.add_argument(
+        "--uncertainty-inputs",
+        default=",".join(DEFAULT_INPUTS),
+        metavar="PATTERNS",
+        help="documented bands sampled, comma-separated shell patterns "
+        f"({','.join(DEFAULT_INPUTS)})",
+    )
     p.add_argument("--json", action="store_true", help="one strict JSON object on stdout")
     p.add_argument(
         "--plot",
@@ -202,9 +218,7 @@ def cmd_simulate(args) -> int:
     options = {} if args.zeta is None else {"zeta": args.zeta}
     if args.psd2_patch is not None:
         options["psd2_patch"] = args.psd2_patch * 1e-3
-    result = simulate(
-        model,
-        process,
+    options.update(
         n_modes=args.modes,
         basis_cutoff_hz=args.basis_cutoff,
         n_phi=args.samples_per_rev,
@@ -212,13 +226,16 @@ def cmd_simulate(args) -> int:
         sources=sources,
         static_correction=not args.no_static,
         aperture_margin=args.aperture_margin * 1e-3,
-        **options,
     )
+    result = simulate(model, process, **options)
     if args.plot:
         plot_simulation(result, args.plot)
     if args.save:
         result.save(args.save)
     summary = {"model": model.name, **result.to_dict()}
+    intervals = _intervals(args, model, process, options)
+    if intervals is not None:
+        summary["uncertainty"] = intervals
     if args.json:
         print(dumps_strict(summary))
         return 0
@@ -227,8 +244,17 @@ def cmd_simulate(args) -> int:
         f"{result.n_modes} modes to {result.basis_cutoff_hz:.0f} Hz, "
         f"{result.samples_per_rev} samples/rev)"
     )
+    if intervals is not None:
+        print(
+            f"  5-95 % intervals over {intervals['samples']} samples of the documented bands of"
+            f" {', '.join(intervals['inputs'])}"
+        )
     for key, value in result.metrics.items():
-        print(f"  {key:<22} {value:12.4f}")
+        band = (intervals or {}).get("metrics", {}).get(key)
+        beside = f"   [{band['q05']:.4g}, {band['q95']:.4g}]" if band else ""
+        if band and not np.isfinite(band["q05"]):
+            beside = "   [not resolved in any sample]"
+        print(f"  {key:<22} {value:12.4f}{beside}")
     print("  PV of each source alone [nm]:")
     for key, value in result.pv_by_source_nm.items():
         print(f"    {key:<20} " + ("off" if value is None else f"{value:12.4f}"))
@@ -236,6 +262,16 @@ def cmd_simulate(args) -> int:
         if where:
             print(f"{flag} in {where}")
     return 0
+
+
+def _intervals(args, model, process, options) -> dict | None:
+    """The 5-95 % intervals of ``--uncertainty N`` (None without it)."""
+    if args.uncertainty is None:
+        return None
+    from ufmt.studies.intervals import headline_intervals
+
+    patterns = [p.strip() for p in args.uncertainty_inputs.split(",") if p.strip()]
+    return headline_intervals(model, process, args.uncertainty, patterns, **options).to_dict()
 
 
 def cmd_frf(args) -> int:

@@ -7,7 +7,14 @@ and one entry here.
 
 from __future__ import annotations
 
-from ufmt.studies import optimise_design, optimise_process, sensitivity, sweep
+from ufmt.studies import (
+    optimise_design,
+    optimise_process,
+    sensitivity,
+    sweep,
+    tolerances,
+    uncertainty,
+)
 
 KINDS = {
     kind.name: kind
@@ -17,6 +24,8 @@ KINDS = {
         optimise_process.OPTIMISE_PROCESS,
         optimise_design.OPTIMISE_DESIGN,
         sensitivity.SENSITIVITY,
+        uncertainty.UNCERTAINTY,
+        tolerances.OPTIMISE_TOLERANCES,
     )
 }
 #: Every table a kind writes besides points.csv (a fresh run removes stale ones of any kind).

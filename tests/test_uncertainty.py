@@ -1,0 +1,387 @@
+"""The uncertainty study kind: Sobol indices against closed forms (Ishigami, a linear model),
+interval coverage on a model whose distribution is known, null metrics, study-file mistakes,
+and the runner's guarantees (resume after kill -9, the same tables with 1 or 2 workers and on
+dask).
+
+The study functions below are cheap closed forms with the study function's signature; their
+inputs are the process parameters mapped linearly onto the unit interval (or [-pi, pi]).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from ufmt.cli import main
+from ufmt.errors import StudyError
+from ufmt.machining.process import Process
+from ufmt.model.load import load_model, packaged_path
+from ufmt.simulate import simulate
+from ufmt.studies.bands import documented_bands
+from ufmt.studies.intervals import headline_intervals, input_bands, sample_designs
+from ufmt.studies.load import parse_study
+from ufmt.studies.outputs import read_meta, read_table
+from ufmt.studies.parallel import Execution
+from ufmt.studies.runner import run_study
+from ufmt.studies.uncertainty import (
+    distribute,
+    independent_rows,
+    sobol_indices,
+    summarise,
+    unit_sample,
+)
+
+HERE = Path(__file__).resolve()
+REPO = HERE.parents[1]
+RANGES = {"rpm": (100.0, 500.0), "feed_mm_min": (5.0, 25.0), "depth_um": (1.0, 7.0)}
+ISHIGAMI_A, ISHIGAMI_B = 7.0, 0.1
+
+
+def _unit(process) -> list[float]:
+    return [(process[k] - lo) / (hi - lo) for k, (lo, hi) in RANGES.items()]
+
+
+def ishigami(x1, x2, x3, a=ISHIGAMI_A, b=ISHIGAMI_B):
+    """Ishigami & Homma (1990), inputs uniform on [-pi, pi]."""
+    return np.sin(x1) + a * np.sin(x2) ** 2 + b * x3**4 * np.sin(x1)
+
+
+def ishigami_indices(a=ISHIGAMI_A, b=ISHIGAMI_B):
+    """Analytic (S1, ST) of the Ishigami function (Sobol' & Levitan 1999)."""
+    v1 = 0.5 * (1 + b * math.pi**4 / 5) ** 2
+    v2 = a**2 / 8
+    v13 = b**2 * math.pi**8 * (1 / 18 - 1 / 50)
+    v = v1 + v2 + v13
+    return np.array([v1, v2, 0.0]) / v, np.array([v1 + v13, v2, v13]) / v
+
+
+def ishigami_study(design, process, model=None):
+    """Ishigami of the process mapped onto [-pi, pi]^3, as pv_measured_nm."""
+    x = [-math.pi + 2 * math.pi * u for u in _unit(process)]
+    return {"pv_measured_nm": float(ishigami(*x)), "psd1_rms_nm": math.nan}
+
+
+def sum_study(design, process, model=None):
+    """Y = u1 + u2 (u_i the first two process inputs on [0, 1]): triangular on [0, 2]; and
+    2 u1 + u2 as zre_peak_nm (S1 = ST = 4/5, 1/5)."""
+    u1, u2, _ = _unit(process)
+    return {"pv_measured_nm": u1 + u2, "zre_peak_nm": 2 * u1 + u2, "psd1_rms_nm": math.nan}
+
+
+def slow_sum_study(design, process, model=None):
+    """sum_study after 50 ms (slow enough to be killed mid-way)."""
+    time.sleep(0.05)
+    return sum_study(design, process, model)
+
+
+def machine_study(design, process, model=None):
+    """A linear function of two [machine] inputs [nm]: the documented bands reach it."""
+    return {
+        "pv_measured_nm": 1e9 * design["machine.straightness_m"]
+        + 10 * design["machine.force_scale"]
+    }
+
+
+def _inputs(names=("rpm", "feed_mm_min", "depth_um")) -> str:
+    return "".join(
+        f'[[input]]\nparameter = "{n}"\nrange = [{RANGES[n][0]}, {RANGES[n][1]}]\n' for n in names
+    )
+
+
+def write_study(tmp_path: Path, name: str, body: str, function: str) -> Path:
+    path = tmp_path / f"{name}.toml"
+    text = f'kind = "uncertainty"\nfunction = "{HERE}:{function}"\n' + textwrap.dedent(body)
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+def run(path, results, jobs=1, **kwargs):
+    return run_study(path, Execution(jobs=jobs, **kwargs), results=results, progress=False)
+
+
+# ---------------------------------------------------------------------------------------------
+# estimators against closed forms
+
+
+def test_sobol_indices_of_the_ishigami_function_converge_to_the_analytic_values():
+    """Oracle: the Ishigami function's analytic indices; the error shrinks with N (property:
+    Saltelli's estimator converges) and is inside 0.03 at N = 4096."""
+    s1, st = ishigami_indices()
+    errors = []
+    for n in (256, 4096):
+        u = unit_sample("saltelli", 3, n, seed=2)
+        y = ishigami(*(-math.pi + 2 * math.pi * u.T))
+        table = sobol_indices(["x1", "x2", "x3"], y, seed=2)
+        errors.append(max(np.abs(table["S1"] - s1).max(), np.abs(table["ST"] - st).max()))
+    assert errors[1] < errors[0]
+    assert errors[1] < 0.03, errors
+
+
+def test_interval_coverage_on_a_triangular_distribution():
+    """Oracle: u1 + u2 of two uniforms is triangular on [0, 2], F(y) = y^2 / 2 below 1; the
+    estimated 5-95 % interval covers 90 % of it, P(Y <= 1) = 1/2 lies in its interval."""
+    for method, n in (("saltelli", 512), ("lhs", 1024)):
+        u = unit_sample(method, 2, n, seed=4)
+        y = u[independent_rows(method, len(u), 2)].sum(axis=1)
+        row = summarise(y, (0.05, 0.95), limit=1.0)
+
+        def cdf(v):
+            return np.where(v <= 1, v**2 / 2, 1 - (2 - v) ** 2 / 2)
+
+        coverage = cdf(row["q95"]) - cdf(row["q05"])
+        assert abs(coverage - 0.90) < 0.01, (method, coverage)
+        assert row["p_meet_low"] <= 0.5 <= row["p_meet_high"]
+
+
+def test_distributions_map_the_unit_interval_onto_their_laws():
+    """Oracles: the truncated normal is symmetric (median at the band's middle) and stays in
+    the band; the triangular law with mode c has F(c) = c."""
+    u = np.linspace(0.001, 0.999, 999)[:, None].repeat(2, axis=1)
+    out = distribute(u, ["normal", "triangular"], [0.5, 0.3])
+    assert out[499, 0] == pytest.approx(0.5, abs=1e-9)  # median of the symmetric normal
+    assert out[299, 1] == pytest.approx(0.3, abs=2e-3)  # F(mode) = mode for triangular(0, 1, c)
+    assert out[:, 0].min() >= 0.0 and out[:, 0].max() <= 1.0
+
+
+# ---------------------------------------------------------------------------------------------
+# the study kind through the runner
+
+
+def test_uncertainty_study_gives_linear_sobol_indices_and_the_distribution(tmp_path):
+    """Oracle: for Y = 2 u1 + u2 (uniform u) S1 = ST = 4/5 and 1/5, the third input 0."""
+    body = 'samples = 256\nmetrics = ["pv_measured_nm", "zre_peak_nm", "psd1_rms_nm"]\n'
+    body += "[specification]\npv_measured_nm = 1.0\n" + _inputs()
+    out = run(write_study(tmp_path, "lin", body, "sum_study"), tmp_path / "r")
+    sobol = read_table(out / "sobol.csv")
+    zre = sobol[sobol["metric"] == "zre_peak_nm"].set_index("parameter")
+    np.testing.assert_allclose(zre["S1"], [0.8, 0.2, 0.0], atol=0.02)
+    np.testing.assert_allclose(zre["ST"], [0.8, 0.2, 0.0], atol=0.02)
+    dist = read_table(out / "distribution.csv").set_index("metric")
+    assert dist.loc["pv_measured_nm", "resolved"] == 512  # A and B of N = 256
+    assert dist.loc["pv_measured_nm", "q50"] == pytest.approx(1.0, abs=0.01)
+    assert (
+        dist.loc["pv_measured_nm", "p_meet_low"] <= 0.5 <= dist.loc["pv_measured_nm", "p_meet_high"]
+    )
+    # PSD1 not resolved: a row that says so, no indices, no failure
+    assert dist.loc["psd1_rms_nm", "resolved"] == 0
+    assert "psd1_rms_nm" not in set(sobol["metric"])
+    meta = read_meta(out)
+    assert "psd1_rms_nm not resolved" in meta["headline"]
+    assert {"uncertainty-distributions.png", "uncertainty-sobol.png"} <= set(meta["plots"])
+    conv = read_table(out / "convergence.csv")
+    assert sorted(set(conv["samples"])) == [8, 16, 32, 64, 128, 256]
+
+
+def test_documented_bands_reach_the_study_function(tmp_path):
+    """The machine.* pattern takes the bands of calibration.toml (read, not restated)."""
+    bands = documented_bands()
+    body = 'method = "lhs"\nsamples = 64\nmetrics = ["pv_measured_nm"]\n'
+    body += '[[input]]\nparameter = "machine.straightness_m"\n'
+    body += '[[input]]\nparameter = "machine.force_scale"\ndistribution = "loguniform"\n'
+    out = run(write_study(tmp_path, "mach", body, "machine_study"), tmp_path / "r")
+    samples = read_table(out / "samples.csv")
+    for name in ("machine.straightness_m", "machine.force_scale"):
+        assert bands[name].low <= samples[name].min() < samples[name].max() <= bands[name].high
+    # Latin hypercube: exactly one sample per stratum of each input's (log) band
+    fs = np.log(samples["machine.force_scale"] / 0.3) / np.log(10.0)
+    assert sorted(np.floor(fs * 64).astype(int)) == list(range(64))
+
+
+@pytest.mark.parametrize(
+    ("body", "where", "phrase"),
+    [
+        (
+            '[[input]]\nparameter = "machine.zzz*"\n',
+            "input[0]: field 'parameter'",
+            "matches no documented band",
+        ),
+        (
+            '[[input]]\nparameter = "rpm"\n',
+            "input 'rpm': field 'range'",
+            "missing \\(no documented band",
+        ),
+        (
+            _inputs(["rpm"]) + 'distribution = "cauchy"\n',
+            "input[0]: field 'distribution'",
+            "unknown distribution 'cauchy'",
+        ),
+        ("samples = 12\n" + _inputs(["rpm"]), "field 'samples'", "power of two"),
+        ('metrics = ["pv_nn"]\n' + _inputs(["rpm"]), "field 'metrics[0]'", "unknown metric"),
+        (
+            "[specification]\npv_nm = -1.0\n" + _inputs(["rpm"]),
+            "specification: field 'pv_nm'",
+            "not positive",
+        ),
+        ("quantiles = [0.05, 1.0]\n" + _inputs(["rpm"]), "field 'quantiles[1]'", "outside"),
+        ("[base]\nrpm = 300.0\n" + _inputs(["rpm"]), "base: field 'rpm'", "uncertain input"),
+        (
+            _inputs(["rpm"]).replace("range = [100.0, 500.0]", "range = [500.0, 100.0]"),
+            "input 'rpm': field 'range'",
+            "reversed bounds",
+        ),
+    ],
+)
+def test_study_file_mistakes_are_one_line(tmp_path, body, where, phrase):
+    path = write_study(tmp_path, "bad", body, "sum_study")
+    with pytest.raises(StudyError, match=phrase) as info:
+        parse_study(path.read_text(), path)
+    assert f"bad.toml: {where}:" in str(info.value) and "\n" not in str(info.value)
+
+
+TINY = 'samples = 8\nmetrics = ["pv_measured_nm", "zre_peak_nm"]\n' + _inputs()
+TABLES = ("points.csv", "distribution.csv", "sobol.csv", "convergence.csv", "samples.csv")
+
+
+def test_one_and_two_workers_give_identical_tables(tmp_path):
+    study = write_study(tmp_path, "tiny", TINY, "sum_study")
+    one = run(study, tmp_path / "one", jobs=1)
+    two = run(study, tmp_path / "two", jobs=2)
+    for table in TABLES:
+        assert (one / table).read_bytes() == (two / table).read_bytes(), table
+
+
+@pytest.mark.slow
+def test_dask_gives_identical_tables(tmp_path):
+    from dask.distributed import LocalCluster
+
+    study = write_study(tmp_path, "tiny", TINY, "sum_study")
+    one = run(study, tmp_path / "one", jobs=1)
+    with LocalCluster(
+        n_workers=1, threads_per_worker=2, processes=False, dashboard_address=None
+    ) as cluster:
+        dask = run(study, tmp_path / "dask", backend="dask", scheduler=cluster.scheduler_address)
+    for table in TABLES:
+        assert (one / table).read_bytes() == (dask / table).read_bytes(), table
+
+
+def test_killed_run_resumes_to_the_same_tables(tmp_path):
+    body = 'samples = 16\nmetrics = ["pv_measured_nm"]\n' + _inputs()  # 80 points
+    study = write_study(tmp_path, "killed", body, "slow_sum_study")
+    (tmp_path / "ref").mkdir()
+    reference = run(write_study(tmp_path / "ref", "killed", body, "sum_study"), tmp_path / "ref")
+    results = tmp_path / "results"
+    log = results / "killed" / "points.csv"
+    command = [sys.executable, "-m", "ufmt.cli", "run", str(study), "--jobs", "2"]
+    command += ["--results", str(results), "--no-progress"]
+    proc = subprocess.Popen(command, cwd=REPO, start_new_session=True, stderr=subprocess.DEVNULL)
+    try:
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline and proc.poll() is None:
+            if log.exists() and log.read_bytes().count(b"\n") > 10:
+                break
+            time.sleep(0.01)
+    finally:
+        os.killpg(proc.pid, signal.SIGKILL)  # the run and its workers, mid-study
+        proc.wait()
+    saved = log.read_bytes().count(b"\n") - 1
+    assert 10 <= saved < 80, "the run was not killed mid-study"
+    out = run(study, results, jobs=2)
+    assert read_meta(out)["run"]["points_reused"] >= saved
+    for table in TABLES[1:]:
+        pd.testing.assert_frame_equal(read_table(out / table), read_table(reference / table))
+    resumed, fresh = read_table(out / "points.csv"), read_table(reference / "points.csv")
+    pd.testing.assert_frame_equal(resumed, fresh)
+
+
+# ---------------------------------------------------------------------------------------------
+# intervals on the headline numbers (ufmt simulate --uncertainty N)
+
+
+def test_latin_hypercube_interval_covers_ninety_percent_of_a_log_uniform_band():
+    """Oracle: force_scale is log-uniform on its band, F(x) = ln(x / lo) / ln(hi / lo); the
+    5-95 % interval of the samples covers 90 % of it (a Latin hypercube: within 1 / n)."""
+    bands = input_bands(["machine.force_scale"])
+    band = bands["machine.force_scale"]
+    x = sample_designs(bands, 1000, seed=5)["machine.force_scale"].to_numpy()
+    row = summarise(x, (0.05, 0.95))
+
+    def cdf(v):
+        return np.log(v / band.low) / np.log(band.high / band.low)
+
+    assert abs(cdf(row["q95"]) - cdf(row["q05"]) - 0.90) < 2e-3
+
+
+def test_headline_interval_of_a_linear_source_is_its_amplitude_interval_scaled():
+    """Oracle: the PV of the straightness alone is linear in its amplitude, so the interval of
+    PV is the interval of the sampled amplitudes times PV per metre of the point value."""
+    model = load_model()
+    process = Process(300.0, 15.0, 4.0)
+    options = {"sources": ["straightness"]}
+    point = simulate(model, process, **options)
+    per_metre = point.metrics["pv_nm"] / model.machine.straightness_m
+    intervals = headline_intervals(model, process, 6, ["machine.straightness_m"], **options)
+    amplitude = intervals.samples["machine.straightness_m"].to_numpy()
+    got = intervals.to_dict()["metrics"]["pv_nm"]
+    expected = per_metre * np.quantile(amplitude, [0.05, 0.95])
+    np.testing.assert_allclose([got["q05"], got["q95"]], expected, rtol=1e-9)
+
+
+def test_simulate_uncertainty_json_keeps_every_key_and_adds_intervals(capsys):
+    argv = ["simulate", "--json", "--uncertainty-inputs", "machine.error_motion_m"]
+    assert main(argv) == 0
+    plain = json.loads(capsys.readouterr().out)
+    assert main([*argv, "--uncertainty", "3"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert {k: v for k, v in out.items() if k != "uncertainty"} == plain
+    metrics = out["uncertainty"]["metrics"]
+    assert out["uncertainty"]["inputs"] == ["machine.error_motion_m"]
+    assert metrics["pv_measured_nm"]["q05"] <= metrics["pv_measured_nm"]["q95"]
+    assert metrics["psd1_rms_nm"]["q05"] is None  # not resolved on the 52.4 mm plate: null
+
+
+def test_simulate_uncertainty_rejects_an_unknown_band_in_one_line():
+    res = subprocess.run(
+        [sys.executable, "-m", "ufmt.cli", "simulate", "--uncertainty", "2"]
+        + ["--uncertainty-inputs", "machine.nothing*"],
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+    )
+    assert res.returncode == 2 and len(res.stderr.strip().splitlines()) == 1
+    assert "matches no documented band" in res.stderr and "Traceback" not in res.stderr
+
+
+def test_a_band_added_to_the_calibration_file_is_an_input_at_once(tmp_path):
+    """The bands are read, not restated: a [[response.parameter]] added to a copy of the
+    calibration file (here the nose radius, a loader key without a documented band) appears
+    with its band and scale; a stiffness factor's band is the prior's value times the factor."""
+    packaged = packaged_path("calibration.toml")
+    text = packaged.read_text(encoding="utf-8")
+    for key, file in (("prior", "ufmt-prior.toml"), ("reference", "paper_reference.toml")):
+        assert f'{key} = "{file}"' in text  # relative to the file: made absolute for the copy
+        text = text.replace(f'{key} = "{file}"', f'{key} = "{packaged.parent / file}"')
+    text += (
+        '\n[[response.parameter]]\nkey = "nose_radius"\nfit = false\nband = [1e-3, 8e-3]\n'
+        'start = 5e-3\nscale = "log"\nunit = "m"\nreason = "test"\n'
+    )
+    path = tmp_path / "calibration.toml"
+    path.write_text(text, encoding="utf-8")
+    bands = documented_bands(path)
+    assert "machine.nose_radius" not in documented_bands()
+    band = bands["machine.nose_radius"]
+    assert (band.low, band.high, band.log, band.unit) == (1e-3, 8e-3, True, "m")
+    prior = load_model(packaged.parent / "ufmt-prior.toml")
+    axial = bands["hinge.h31.stiffness[2]"]
+    k = prior.hinge("h31").stiffness[2]
+    assert (axial.low, axial.high) == pytest.approx((0.5 * k, 2.0 * k), rel=1e-12)
+
+
+def test_rerun_that_computes_nothing_rewrites_nothing(tmp_path):
+    """Oracle: the first run's own bytes (every table, meta.json, figure, the index)."""
+    study = write_study(tmp_path, "clean", TINY, "sum_study")
+    results = tmp_path / "results"
+    run(study, results)
+    first = {p: p.read_bytes() for p in sorted(results.rglob("*")) if p.is_file()}
+    run(study, results)
+    assert {p: p.read_bytes() for p in sorted(results.rglob("*")) if p.is_file()} == first

@@ -1,0 +1,81 @@
+"""The documented bands of the model's uncertain inputs, read from where they are documented
+(never restated here), so that a band added there is an input of the uncertainty and
+tolerance studies at once.
+
+Two sources, both in the packaged calibration file (``ufmt/data/calibration.toml``, reasons
+in docs/ufmt-model.md):
+
+* ``[[response.parameter]]``: the physically uncertain ``[machine]`` numbers (force
+  coefficient, spindle tilt, error motion and its phase, straightness and its wavelength, and
+  any key added there that the model loader knows) with their band and search scale, as
+  parameters ``machine.<key>``;
+* ``[[parameter]]``: the identified stiffness factors s (``k = s k_prior``,
+  ``band[0] <= s <= band[1]``) of one hinge and one component (the bearings' radial, axial
+  and angular stiffnesses, the slide's pads, the foundation), as parameters
+  ``hinge.<name>.<field>[i]`` over the absolute band ``band * k_prior`` [N/m or N m/rad],
+  log scale. Factors tied over several hinges or components are not one model parameter and
+  are left out.
+
+Keys of the model loader without a documented band (its :data:`OPTIONAL_FIELDS` ranges say
+only what a file may hold) and damping are not listed: give them a ``range`` in the study file.
+"""
+
+from __future__ import annotations
+
+import fnmatch
+from dataclasses import dataclass
+from pathlib import Path
+
+from ufmt.calibration.settings import load_calibration
+from ufmt.design import MACHINE_PREFIX
+from ufmt.model.load import packaged_path
+from ufmt.model.machine import OPTIONAL_FIELDS
+
+CALIBRATION = "calibration.toml"  # the packaged file holding the bands
+_COMPONENTS = "xyz"
+
+
+@dataclass(frozen=True)
+class DocumentedBand:
+    """The documented band [low, high] [SI] of one parameter; ``log``: its natural scale is
+    logarithmic (stiffnesses, the force factor); ``reason``: the documented reason."""
+
+    parameter: str
+    low: float
+    high: float
+    log: bool
+    unit: str
+    reason: str
+
+
+def documented_bands(calibration: str | Path | None = None) -> dict[str, DocumentedBand]:
+    """Every documented band by parameter name (machine keys first, then hinge stiffnesses),
+    read from ``calibration`` (default: the packaged calibration file)."""
+    path = packaged_path(CALIBRATION) if calibration is None else Path(calibration)
+    settings, prior, _ = load_calibration(path)
+    bands: dict[str, DocumentedBand] = {}
+    if settings.response is not None:
+        for p in settings.response.parameters:
+            if p.key in OPTIONAL_FIELDS and p.band[1] > p.band[0]:
+                name = f"{MACHINE_PREFIX}{p.key}"
+                unit = OPTIONAL_FIELDS[p.key][3]
+                bands[name] = DocumentedBand(name, *p.band, p.scale == "log", unit, p.reason)
+    for p in settings.parameters:
+        if len(p.hinges) != 1 or len(p.components) != 1 or p.band[1] <= p.band[0]:
+            continue
+        hinge, component = p.hinges[0], p.components[0]
+        prior_value = float(getattr(prior.hinge(hinge), p.field)[component])
+        if not 0.0 < prior_value < float("inf"):
+            continue
+        name = f"hinge.{hinge}.{p.field}[{component}]"
+        unit = "N/m" if p.field == "stiffness" else "N m/rad"
+        low, high = p.band[0] * prior_value, p.band[1] * prior_value
+        reason = f"{p.reason} (factor {p.band[0]:g}-{p.band[1]:g} on the prior)"
+        bands[name] = DocumentedBand(name, low, high, True, unit, reason)
+    return bands
+
+
+def matching(pattern: str, bands: dict[str, DocumentedBand]) -> list[str]:
+    """The band names matching a shell-style ``pattern`` (``machine.*``, ``hinge.h31.*``), in
+    the bands' order."""
+    return [name for name in bands if fnmatch.fnmatchcase(name, pattern)]

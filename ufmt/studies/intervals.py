@@ -1,0 +1,117 @@
+"""Intervals on the headline numbers of one cut: the cut simulated at a Latin hypercube of the
+documented bands (:mod:`ufmt.studies.bands`), each metric's quantiles beside its point value
+(``ufmt simulate --uncertainty N``).
+
+Each input is sampled on its band's natural scale (log-uniform for the bands documented on a
+log scale: stiffnesses, the force factor, the straightness wavelength; uniform otherwise),
+independently. The samples are whole simulations with the caller's options; a design whose
+stiffnesses are the model's shares the model's modal basis (no stiffness input: one basis for
+every sample).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+from ufmt.design import apply_design, machine_target
+from ufmt.errors import StudyError
+from ufmt.machining.modal import modal_basis
+from ufmt.studies.bands import documented_bands, matching
+from ufmt.studies.uncertainty import quantile_column, summarise, unit_sample
+
+DEFAULT_INPUTS = ("machine.*", "hinge.h31.*", "hinge.h25.*")  # [machine] bands, both bearings
+INTERVAL = (0.05, 0.95)
+
+
+@dataclass
+class Intervals:
+    """Quantiles of each metric over the sampled bands.
+
+    ``samples``: one row per sample (its input values, then its metrics); ``inputs``: the
+    sampled parameters; ``quantiles``: the interval's ends.
+    """
+
+    samples: pd.DataFrame
+    inputs: tuple[str, ...]
+    quantiles: tuple[float, float] = INTERVAL
+
+    def __repr__(self) -> str:
+        return f"Intervals({len(self.samples)} samples of {len(self.inputs)} inputs)"
+
+    def to_frame(self) -> pd.DataFrame:
+        """Per metric: resolved samples, mean, std and the interval's quantiles."""
+        metrics = [c for c in self.samples.columns if c not in self.inputs]
+        rows = [
+            {"metric": m, **summarise(self.samples[m].to_numpy(float), self.quantiles)}
+            for m in metrics
+        ]
+        return pd.DataFrame(rows).drop(columns=["limit", "p_meet", "p_meet_low", "p_meet_high"])
+
+    def to_dict(self) -> dict:
+        """{"samples", "inputs", "quantiles", "metrics": {metric: {"q05": .., "q95": ..}}}."""
+        table = self.to_frame().set_index("metric")
+        columns = [quantile_column(q) for q in self.quantiles]
+        metrics = {m: {c: float(table.loc[m, c]) for c in columns} for m in table.index}
+        return {
+            "samples": len(self.samples),
+            "inputs": list(self.inputs),
+            "quantiles": list(self.quantiles),
+            "metrics": metrics,
+        }
+
+
+def input_bands(patterns: Sequence[str] = DEFAULT_INPUTS) -> dict:
+    """The documented bands matching the shell ``patterns`` (in the bands' order)."""
+    bands = documented_bands()
+    names = [n for pattern in patterns for n in matching(pattern, bands)]
+    unknown = [p for p in patterns if not matching(p, bands)]
+    if unknown:
+        raise StudyError(
+            f"--uncertainty-inputs: {', '.join(map(repr, unknown))} matches no documented band"
+            f" (bands: {', '.join(bands)})"
+        )
+    return {n: bands[n] for n in dict.fromkeys(names)}
+
+
+def sample_designs(bands: Mapping, n: int, seed: int = 1) -> pd.DataFrame:
+    """A Latin hypercube of ``n`` designs over ``bands`` (log-uniform where the band is on a
+    log scale), one column per parameter [SI]."""
+    u = unit_sample("lhs", len(bands), n, seed)
+    columns = {}
+    for j, (name, band) in enumerate(bands.items()):
+        if band.log:
+            lo, hi = np.log10(band.low), np.log10(band.high)
+            columns[name] = 10.0 ** (lo + u[:, j] * (hi - lo))
+        else:
+            columns[name] = band.low + u[:, j] * (band.high - band.low)
+    return pd.DataFrame(columns)
+
+
+def headline_intervals(
+    model, process, n: int, patterns: Sequence[str] = DEFAULT_INPUTS, seed: int = 1, **options
+) -> Intervals:
+    """The cut of ``process`` on ``model`` (a loaded Model) simulated at ``n`` Latin-hypercube
+    samples of the documented bands matching ``patterns``; ``options`` go to
+    :func:`ufmt.simulate.simulate` (method, sources, basis size...)."""
+    from ufmt.simulate import simulate
+
+    bands = input_bands(patterns)
+    designs = sample_designs(bands, n, seed)
+    machine_only = all(machine_target(name) is not None for name in bands)
+    shared = {}
+    if machine_only and "basis" not in options:
+        basis_options = {"n_modes": options.get("n_modes")}
+        if "basis_cutoff_hz" in options:
+            basis_options["cutoff_hz"] = options["basis_cutoff_hz"]
+        shared["basis"] = modal_basis(model, **basis_options)
+    rows = []
+    for design in designs.to_dict("records"):
+        result = simulate(apply_design(model, design), process, **options, **shared)
+        metrics = {k: np.nan if v is None else float(v) for k, v in result.metrics.items()}
+        rows.append(metrics)
+    samples = pd.concat([designs, pd.DataFrame(rows)], axis=1)
+    return Intervals(samples, tuple(bands))
