@@ -18,8 +18,10 @@ from ufmt.kinematics import point_motion
 from ufmt.machining.cutting import tool_tip
 from ufmt.machining.frf import tool_workpiece_receptance
 from ufmt.machining.modal import modal_basis
+from ufmt.machining.slide import carriage, cut_slide_position, model_at_slide
 from ufmt.machining.static import residual_flexibility
 from ufmt.model.machine import machine_of
+from ufmt.model.schema import RigidBody
 
 ELEMENTS_PER_BEAM = 16
 #: two modes above 450 Hz that the paper's 30-mode basis misses (bridge bounce, Table 3 mode
@@ -30,7 +32,8 @@ PEAKS_HZ = (584.5, 766.2)
 
 def direct_receptance(model, machine, freq_hz, hinge_damping=True, tool_angle=0.0):
     """Oracle: z_re per unit force pair in z [m/N] at the tool tip, tool point and workpiece
-    point the same (the slide as the model places it), by a direct solve per frequency."""
+    point the same global point (the slide where ``model`` places it), by a direct solve per
+    frequency."""
     am = assemble(model, elements_per_beam=ELEMENTS_PER_BEAM)
     n = am.K.shape[0]
     basis, _ = constraint_basis(am.constraints, am.massless)
@@ -54,7 +57,7 @@ def direct_receptance(model, machine, freq_hz, hinge_damping=True, tool_angle=0.
 @pytest.fixture(scope="module")
 def packaged_frf(packaged):
     machine = machine_of(packaged)
-    basis = modal_basis(packaged)
+    basis = modal_basis(packaged, slide_y=0.0)  # the slide as the file draws it
     freq = np.concatenate(
         [np.geomspace(1.0, 3000.0, 160)] + [np.linspace(f - 3, f + 3, 25) for f in PEAKS_HZ]
     )
@@ -108,3 +111,47 @@ def test_undamped_frf_matches_the_direct_solve_to_the_residual_error(packaged_fr
     oracle = direct_receptance(model, machine, freq, hinge_damping=False)
     # the residual's error is a share of the static compliance, not of the local value
     np.testing.assert_allclose(got, oracle, rtol=1e-3, atol=1e-3 * abs(oracle[0]))
+
+
+def test_frf_at_the_point_cut_matches_the_direct_solve_of_the_moved_slide(packaged):
+    """The default basis is solved with the slide half way through the cut and the FRF takes
+    the workpiece's material point under the tip there. Oracle: the direct solve of the model
+    with its carriage moved to that slide position, tool and workpiece at the same global
+    point; it differs from the slide at Y = 0 by several per cent (so the test can fail)."""
+    machine = machine_of(packaged)
+    y_cut = cut_slide_position(machine)
+    basis = modal_basis(packaged)
+    assert basis.slide_y == y_cut
+    freq = np.array([0.5, 50.0, 100.0, 250.0, 300.0, PEAKS_HZ[1]])
+    residual = residual_flexibility(packaged, basis, machine)
+    got = tool_workpiece_receptance(basis, machine, freq, zeta=1e-9, residual=residual)
+    oracle = direct_receptance(model_at_slide(packaged, machine, y_cut), machine, freq)
+    np.testing.assert_allclose(got, oracle, rtol=5e-3, atol=0)
+    at_zero = direct_receptance(packaged, machine, freq)
+    assert np.max(np.abs(at_zero / oracle - 1)) > 0.03
+
+
+def test_the_carriage_moves_and_nothing_else(packaged):
+    """The slide carries the slider and the two upper guideways clamped to it (they reach the
+    bed only through the y-sliding side films); their centres and the hinges on them move by
+    -Y along y, every other body and hinge stays."""
+    machine = machine_of(packaged)
+    assert carriage(packaged, machine.workpiece_body) == {
+        "slider",
+        "left_upper_guideway",
+        "right_upper_guideway",
+    }
+    y = -0.3
+    moved = model_at_slide(packaged, machine, y)
+    for before, after in zip(packaged.bodies, moved.bodies, strict=True):
+        if not isinstance(before, RigidBody):
+            assert after is before
+            continue
+        shift = after.center_of_mass - before.center_of_mass
+        carried = before.name in {"slider", "left_upper_guideway", "right_upper_guideway"}
+        np.testing.assert_allclose(shift, [0.0, -y, 0.0] if carried else 0.0, atol=0)
+    riding = {"h16", "h19", "h20", "h21", "h22"}
+    for before, after in zip(packaged.hinges, moved.hinges, strict=True):
+        want = [0.0, -y, 0.0] if before.name in riding else [0.0, 0.0, 0.0]
+        np.testing.assert_allclose(after.at - before.at, want, atol=0)
+    assert model_at_slide(packaged, machine, 0.0) is packaged

@@ -22,7 +22,8 @@ def tool_workpiece_receptance(
 ) -> np.ndarray:
     """Relative z displacement per unit force pair in z at the tool tip [m/N].
 
-    A force +F z on the tool tip and -F z on the workpiece at the same point give
+    A force +F z on the tool tip and -F z on the workpiece at the same point (the material
+    point under the tip with the slide where the basis was solved, ``basis.slide_y``) give
     z_re(W) = H(W) F with H(W) = sum_s c_s^2 / (M_s (w_s^2 - W^2 + 2 i zeta_s w_s W)),
     c_s = (V_tool,s - V_work,s)_z at the tip (modal superposition, eqs. 3.9-3.11), plus the
     residual flexibility of the modes above the basis (``residual``, frequency-independent;
@@ -46,8 +47,10 @@ def tool_workpiece_receptance(
     (F,) complex receptance [m/N].
     """
     tip = tool_tip(np.array([tool_angle]), machine)
+    work = tip + np.array([0.0, basis.slide_y, 0.0])  # the material point cut, file coordinates
     c = (
-        basis.point_shapes(machine.tool_body, tip) - basis.point_shapes(machine.workpiece_body, tip)
+        basis.point_shapes(machine.tool_body, tip)
+        - basis.point_shapes(machine.workpiece_body, work)
     )[:, 0, 2]
     zeta = modal_damping(zeta, basis.n_modes)
     w = 2 * np.pi * np.asarray(freq_hz, dtype=float)[None, :]
@@ -61,6 +64,6 @@ def tool_workpiece_receptance(
         lam = modes.poles[:, None]
         h = np.sum(a / (1j * w - lam) + np.conj(a) / (1j * w - np.conj(lam)), axis=0)
     if residual is not None:
-        tool, work = residual.relative(tip[0], tip[0], [0.0, 0.0, 1.0])
+        tool, work = residual.relative(tip[0], work[0], [0.0, 0.0, 1.0])
         h = h + (tool[2] - work[2])
     return h
