@@ -193,7 +193,9 @@ def residual_flexibility(model, basis: ModalBasis, machine: Machine) -> Residual
 
     G_res = G_static - sum_s v_s v_s^T / (M_s w_s^2), v_s the bodies' rigid motions in mode s;
     G_static is solved with the slide where the basis was solved (``basis.slide_y``,
-    :mod:`ufmt.machining.slide`).
+    :mod:`ufmt.machining.slide`). The tool's own z compliance (``tool_compliance_m_per_N``,
+    a shank whose first mode lies far above the basis) is added to the tool body's z
+    translation: it moves the tip by c F_z, quasi-statically like the modes above the basis.
     """
     bodies = (machine.tool_body, machine.workpiece_body)
     static = static_flexibility(model_at_slide(model, machine, basis.slide_y), bodies)
@@ -202,6 +204,10 @@ def residual_flexibility(model, basis: ModalBasis, machine: Machine) -> Residual
     centers = np.stack([basis.body_centers[b] for b in bodies])
     res = static - modal
     res = 0.5 * (res + res.T)
+    # the tool and holder: a z spring between the tool body and the tip. A z force F_z at
+    # any tip point loads the tool body's centre with F_z in z, so the compliance c on that
+    # translation moves every tip point by c F_z in z and nothing else.
+    res[2, 2] += machine.tool_compliance_m_per_N
     for a in (res, centers, static):
         a.setflags(write=False)
     return ResidualFlexibility(matrix=res, centers=centers, static=static)
