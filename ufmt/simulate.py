@@ -335,7 +335,9 @@ def _run(
     # pass of a sum of per-source heights on one set of passes: each height is computed once
     acting = acting_sources(sources, machine)
     passes = surface_passes(machine, process.feed_per_rev_m, options.spacing, options.trailing_arc)
-    terms = {source.name: source.heights(passes, response.table, machine) for source in acting}
+    terms = {
+        source.name: source.heights(passes, response.table, machine, process) for source in acting
+    }
     total = passes.lower(terms.values())
     # the scallop's wavelength (v/f) cos(phi) <= 80 um lies below PSD2 (>= 120 um) for every
     # Table 1 process; on grids coarser than it, it would only alias into the bands
@@ -430,7 +432,7 @@ def _psd2_band_rms(
         machine, process.feed_per_rev_m, PSD2_PATCH_SPACING, options.trailing_arc, window
     )
     patch = patch_passes.lower(
-        source.heights(patch_passes, response.table, machine)
+        source.heights(patch_passes, response.table, machine, process)
         for source in acting
         if source.enters != SCALLOP
     )
