@@ -14,7 +14,7 @@ from __future__ import annotations
 import json
 import math
 from collections.abc import Iterable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import lru_cache
 from pathlib import Path
 
@@ -47,6 +47,10 @@ from ufmt.machining.surface import (
 )
 from ufmt.machining.time_path import DEFAULT_RECORD_PERIODS, time_response
 from ufmt.model.machine import Machine, machine_of
+
+#: Slide positions of the periodic tables that refine the accelerometer's peak: only their
+#: record window is read, which does not depend on the rows (:func:`_extrapolated_acceleration`).
+ACCELEROMETER_TABLE_ROWS = 8
 
 METHODS = ("periodic", "time")
 
@@ -350,6 +354,9 @@ def _run(
         metrics.update(_psd2_band_rms(response, machine, process, acting, options))
     pv_by_source = _pv_by_source(sources, passes, terms, metrics["pv_nm"])
     metrics.update(_record_metrics(response, force_scale))
+    metrics["tip_acc_measured_mm_s2"] = _extrapolated_acceleration(
+        metrics["tip_acc_measured_mm_s2"], basis, machine, process, residual, zeta, options
+    )
     metrics.update(_instrument_metrics(machine, process, band_surface, scallops, total, options))
     highest = float(basis.omega[-1]) / (2 * np.pi)
     return SimulationResult(
@@ -473,6 +480,40 @@ def _record_metrics(response: Response, force_scale: float) -> dict[str, float]:
         "force_peak_n": float(np.linalg.norm(response.force, axis=1).max()),
         "force_scale": float(force_scale),
     }
+
+
+def _measured_peak(response: Response) -> float:
+    """The accelerometer's peak [mm/s^2] of a response's record window."""
+    dt = float(response.t[1] - response.t[0])
+    return accelerometer_peak(response.tip_acc[:, 2], dt, response.periods) * 1e3
+
+
+def _extrapolated_acceleration(
+    measured: float,
+    basis: ModalBasis,
+    machine: Machine,
+    process: Process,
+    residual: ResidualFlexibility | None,
+    zeta: np.ndarray,
+    options: SimulationOptions,
+) -> float:
+    """The accelerometer's peak [mm/s^2] extrapolated to fine sampling (Richardson).
+
+    The sampled force smears the engagement step over one sample, and the acceleration
+    follows the force directly, so the peak converges at second order in the sample step
+    (measured on the packaged model: the differences fall 3.97x and 4.0x per doubling,
+    tests/test_convergence.py). a(n) + (4/3) (a_p(2n) - a_p(n)) removes that term, a_p the
+    periodic path's record at the same slide position (only the record is needed:
+    ACCELEROMETER_TABLE_ROWS slide positions); ``measured`` a(n) is the run's own value.
+    """
+    coarse = replace(options, table_rows=ACCELEROMETER_TABLE_ROWS, method="periodic")
+    fine = replace(coarse, n_phi=2 * options.n_phi)
+    a_fine = _measured_peak(_response(basis, machine, process, residual, zeta, fine))
+    if options.method == "periodic":
+        a_coarse = measured  # the record does not depend on the table's rows
+    else:
+        a_coarse = _measured_peak(_response(basis, machine, process, residual, zeta, coarse))
+    return measured + (a_fine - a_coarse) * 4.0 / 3.0
 
 
 def _mean_peak(signal: np.ndarray, periods: int) -> float:
