@@ -73,3 +73,15 @@ def test_the_measured_acceleration_converges_at_second_order():
     assert e1 / e2 > 3.0
     reported = run().metrics["tip_acc_measured_mm_s2"]
     assert abs(reported - raw[2]) < 0.1 * e1
+
+
+def test_the_default_sampling_holds_the_modes_and_the_engagement():
+    """Four samples per period of the highest mode and four per surface grid step along the
+    tip's circle, as a power of two: at 300 rpm the packaged basis (4.65 kHz) asks for 3723
+    (4096) and the 1 mm grid on the 0.3 m circle for 7540 (8192); the larger wins."""
+    from ufmt.machining.cut_geometry import samples_per_rev
+
+    assert samples_per_rev(4653.0, 5.0) == 4096
+    assert samples_per_rev(4653.0, 5.0, 0.3, 1e-3) == 8192
+    assert samples_per_rev(4653.0, 5.0, 0.3, 4e-3) == 4096
+    assert run().samples_per_rev == 8192

@@ -234,7 +234,12 @@ def simulate(
     machine = _machine(model)
     basis = _basis(model, basis, n_modes, basis_cutoff_hz)
     if n_phi is None:  # 0 stays an error of the discretisation, not the default
-        n_phi = samples_per_rev(float(basis.omega[-1]) / (2 * np.pi), process.rpm / 60.0)
+        n_phi = samples_per_rev(
+            float(basis.omega[-1]) / (2 * np.pi),
+            process.rpm / 60.0,
+            machine.tool_radius,
+            float(np.atleast_1d(spacing)[0]),
+        )
     residual = _residual(model, basis, machine) if static_correction else None
     options = SimulationOptions(
         zeta=zeta,
