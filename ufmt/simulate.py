@@ -234,12 +234,7 @@ def simulate(
     machine = _machine(model)
     basis = _basis(model, basis, n_modes, basis_cutoff_hz)
     if n_phi is None:  # 0 stays an error of the discretisation, not the default
-        n_phi = samples_per_rev(
-            float(basis.omega[-1]) / (2 * np.pi),
-            process.rpm / 60.0,
-            machine.tool_radius,
-            float(np.atleast_1d(spacing)[0]),
-        )
+        n_phi = _default_sampling(basis, machine, process, spacing)
     residual = _residual(model, basis, machine) if static_correction else None
     options = SimulationOptions(
         zeta=zeta,
@@ -287,6 +282,14 @@ def _machine(model) -> Machine:
 
 
 @lru_cache(maxsize=8)
+def _default_sampling(basis: ModalBasis, machine: Machine, process: Process, spacing) -> int:
+    """Samples per revolution of the run (:func:`~ufmt.machining.cut_geometry.samples_per_rev`):
+    from the basis' highest mode and the surface grid's step across the feed."""
+    highest_hz = float(basis.omega[-1]) / (2 * np.pi)
+    x_step = float(np.atleast_1d(spacing)[0])
+    return samples_per_rev(highest_hz, process.rpm / 60.0, machine.tool_radius, x_step)
+
+
 def _residual(model, basis: ModalBasis, machine: Machine) -> ResidualFlexibility:
     """The static correction of ``basis`` (cached per model, basis and machine)."""
     return residual_flexibility(model, basis, machine)
