@@ -98,7 +98,7 @@ def direct_damped_receptance(model, machine, freq_hz, tool_angle=0.0):
 @pytest.fixture(scope="module")
 def damped():
     model = three_bodies()
-    return model, modal_basis(model, 18), machine_of(model)
+    return model, modal_basis(model, 18, slide_y=0.0), machine_of(model)
 
 
 def test_frf_matches_the_direct_damped_solve(damped):
@@ -113,7 +113,7 @@ def test_frf_matches_the_direct_damped_solve(damped):
     np.testing.assert_allclose(got, oracle, rtol=1e-8, atol=0)
     # the dampers matter here: without them the peaks are far higher
     bare = tool_workpiece_receptance(
-        modal_basis(three_bodies(damping=0.0), 18), machine, freq, zeta=1e-12
+        modal_basis(three_bodies(damping=0.0), 18, slide_y=0.0), machine, freq, zeta=1e-12
     )
     assert np.abs(bare).max() > 2 * np.abs(got).max()
 
@@ -278,7 +278,7 @@ def test_beam_ends_and_virtual_bodies_enter_the_hinge_matrix():
     model = load_model("tests/models/good_mixed.toml")
     model = model.with_hinge("h_hub", damping=[300.0, 500.0, 0.0], rotational_damping=[1.0] * 3)
     model = model.with_hinge("h_shaft", damping=[0.0] * 3, rotational_damping=[0.0, 0.0, 7.0])
-    basis = modal_basis(model, 8)
+    basis = modal_basis(model, 8, slide_y=0.0)
     modes = assembled_modes(model, count=8, elements_per_beam=32)
     am = modes.assembled
     n = am.K.shape[0]

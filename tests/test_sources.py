@@ -17,6 +17,8 @@ GEOMETRY = {
     "error_motion_phase_deg": 40.0,
     "straightness_m": 50e-9,
     "straightness_wavelength_m": 0.15,
+    "pressure_ripple_m": 20e-9,
+    "pressure_ripple_hz": 0.02,
 }
 P = Process(300, 13.7, 4)  # feed per revolution incommensurate with the grid
 
@@ -92,6 +94,31 @@ def test_sources_that_depend_on_the_angle_only_superpose_exactly():
     np.testing.assert_allclose(twice, 2 * once, atol=1e-12 * np.abs(once).max())
 
 
+def test_pressure_ripple_alone_is_a_sine_in_the_time_of_the_pass():
+    """z = a sin(2 pi f_p t), t = (Y - Y_first_touch) / v the time of the pass at slide
+    Y = y - R cos(phi_f), to within the slope times one feed step; its wavelength along the
+    feed is v / f_p, not tied to the spindle or the slide's position."""
+    r = run(sources=("pressure_ripple",))
+    a, f_p = GEOMETRY["pressure_ripple_m"], GEOMETRY["pressure_ripple_hz"]
+    machine = read_machine({**MACHINE, **GEOMETRY})
+    v = P.feed_mm_min / 60e3
+    phi = lead_angle(r.surface)
+    slide = r.surface.y[:, None] - MACHINE["tool_radius"] * np.cos(phi)[None, :]
+    exact = a * np.sin(2 * np.pi * f_p * (slide - machine.cut_span[0]) / v)
+    step = 2 * np.pi * a * f_p / v * P.feed_per_rev_m
+    assert np.abs(r.surface.z - exact).max() <= step
+    assert r.surface.z.max() - r.surface.z.min() > 1.9 * a  # both crests lie on the plate
+    # a slower feed prints a shorter wavelength: the same ripple is not the same surface
+    slower = simulate(
+        Model("syn", (), (), machine=machine),
+        Process(300, P.feed_mm_min / 2, 4),
+        basis=synthetic_basis(n=6),
+        sources=("pressure_ripple",),
+        static_correction=False,
+    )
+    assert np.abs(slower.surface.z - r.surface.z).max() > a
+
+
 def test_total_pv_is_bounded_by_the_sum_of_the_sources():
     """Superposition of the sources before the minimum over passes: PV(total) <= sum of PVs."""
     r = run()
@@ -116,7 +143,14 @@ def test_registry_names_declared_machine_fields_in_the_output_order():
     """One record per source, in the order of every per-source output; each names only
     declared [machine] fields (with their bands), and exactly the height sources have a
     height function."""
-    assert SOURCES == ("dynamic", "feed_marks", "spindle_tilt", "error_motion", "straightness")
+    assert SOURCES == (
+        "dynamic",
+        "feed_marks",
+        "spindle_tilt",
+        "error_motion",
+        "straightness",
+        "pressure_ripple",
+    )
     assert tuple(s.name for s in REGISTRY) == SOURCES
     for source in REGISTRY:
         assert all(field in OPTIONAL_FIELDS for field in source.fields), source.name

@@ -1,5 +1,7 @@
 """Static (residual-flexibility) correction: full static compliance, both response paths."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 import scipy.linalg as sla
@@ -25,9 +27,12 @@ from ufmt.model.machine import machine_of, read_machine
 
 @pytest.fixture(scope="module")
 def unit_case(packaged_unit_force):
-    """The unit-force packaged model, its paper-size basis (30 modes) and its machine."""
+    """The unit-force packaged model, its paper-size basis (30 modes, the slide as the file
+    draws it, where the oracle below loads it) and its machine with a rigid tool (the oracle
+    has no tool spring; the tool's compliance: tests/test_tool_compliance.py)."""
     model = packaged_unit_force
-    return model, modal_basis(model, 30), machine_of(model)
+    machine = dataclasses.replace(machine_of(model), tool_compliance_m_per_N=0.0)
+    return model, modal_basis(model, 30, slide_y=0.0), machine
 
 
 def direct_receptance(model, machine, tool_angle, freq_hz, elements_per_beam=8):

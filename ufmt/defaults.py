@@ -12,7 +12,8 @@
   response to that step. Doubling the cutoff moves no surface metric by more than 0.1 % on the
   packaged model (tests/test_convergence.py). The paper's 30 remain an option (``n_modes``).
 * The default sampling: samples per spindle revolution from the basis, at least
-  ``SAMPLES_PER_MODE_PERIOD`` per period of its highest mode, as a power of two and never below
+  ``SAMPLES_PER_MODE_PERIOD`` per period of its highest mode and ``SAMPLES_PER_GRID_STEP`` per
+  surface grid step along the tool's circle (the engagement), as a power of two and never below
   512 (:func:`ufmt.machining.cut_geometry.samples_per_rev`).
 * The default surface grid: 1 mm across the feed (x), 1.25 mm along it (y); see
   :mod:`ufmt.machining.surface` for why x is finer.
@@ -33,6 +34,7 @@ REFERENCE_PROCESS = MappingProxyType(
 PAPER_MODES = 30  # Table 3 and the paper's basis (sections 2.5, 3.2)
 DEFAULT_BASIS_CUTOFF_HZ = 5000.0  # [Hz] the default basis: every mode below this
 SAMPLES_PER_MODE_PERIOD = 4  # default sampling: samples per period of the basis' highest mode
+SAMPLES_PER_GRID_STEP = 4  # and per surface grid step across the feed along the tip's circle
 MIN_SAMPLES_PER_REV = 512
 
 DEFAULT_SPACING = (1e-3, 1.25e-3)  # surface grid step (x, y) [m]

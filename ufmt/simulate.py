@@ -14,7 +14,7 @@ from __future__ import annotations
 import json
 import math
 from collections.abc import Iterable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import lru_cache
 from pathlib import Path
 
@@ -48,6 +48,10 @@ from ufmt.machining.surface import (
 )
 from ufmt.machining.time_path import DEFAULT_RECORD_PERIODS, time_response
 from ufmt.model.machine import Machine, machine_of
+
+#: Slide positions of the periodic tables that refine the accelerometer's peak: only their
+#: record window is read, which does not depend on the rows (:func:`_extrapolated_acceleration`).
+ACCELEROMETER_TABLE_ROWS = 8
 
 METHODS = ("periodic", "time")
 
@@ -259,7 +263,7 @@ def simulate(
     machine = _machine(model)
     validity.check_case(process, machine, spacing, aperture_margin, psd2_patch)
     basis = _basis(model, basis, n_modes, basis_cutoff_hz)
-    n_phi = _sampling(machine, basis, process, n_phi)
+    n_phi = _sampling(machine, basis, process, n_phi, spacing)
     residual = _residual(model, basis, machine) if static_correction else None
     options = SimulationOptions(
         zeta=zeta,
@@ -288,14 +292,18 @@ def _loaded(model):
     return model
 
 
-def _sampling(machine: Machine, basis: ModalBasis, process: Process, n_phi: int | None) -> int:
-    """Samples per revolution: ``n_phi`` or, if None, the default for the basis' highest mode
+def _sampling(
+    machine: Machine, basis: ModalBasis, process: Process, n_phi: int | None, spacing
+) -> int:
+    """Samples per revolution: ``n_phi`` or, if None, the default from the basis' highest
+    mode and the surface grid's step across the feed
     (:func:`~ufmt.machining.cut_geometry.samples_per_rev`), inside the validity domain (with
     the tool and workpiece bodies in the basis)."""
     validity.check_bodies(machine, basis.body_shapes)
     highest_hz = float(basis.omega[-1]) / (2 * np.pi)
     if n_phi is None:  # 0 stays an error of the discretisation, not the default
-        n_phi = samples_per_rev(highest_hz, process.rpm / 60.0)
+        x_step = float(np.atleast_1d(spacing)[0])
+        n_phi = samples_per_rev(highest_hz, process.rpm / 60.0, machine.tool_radius, x_step)
     validity.check_sampling(n_phi, process, highest_hz)
     return n_phi
 
@@ -327,7 +335,6 @@ def _machine(model) -> Machine:
     return machine_of(model)
 
 
-@lru_cache(maxsize=8)
 def _residual(model, basis: ModalBasis, machine: Machine) -> ResidualFlexibility:
     """The static correction of ``basis`` (cached per model, basis and machine)."""
     return residual_flexibility(model, basis, machine)
@@ -385,7 +392,9 @@ def _run(
     # pass of a sum of per-source heights on one set of passes: each height is computed once
     acting = acting_sources(sources, machine)
     passes = surface_passes(machine, process.feed_per_rev_m, options.spacing, options.trailing_arc)
-    terms = {source.name: source.heights(passes, response.table, machine) for source in acting}
+    terms = {
+        source.name: source.heights(passes, response.table, machine, process) for source in acting
+    }
     total = passes.lower(terms.values())
     # the scallop's wavelength (v/f) cos(phi) <= 80 um lies below PSD2 (>= 120 um) for every
     # Table 1 process; on grids coarser than it, it would only alias into the bands
@@ -398,6 +407,9 @@ def _run(
         metrics.update(_psd2_band_rms(response, machine, process, acting, options))
     pv_by_source = _pv_by_source(sources, passes, terms, metrics["pv_nm"])
     metrics.update(_record_metrics(response, force_scale))
+    metrics["tip_acc_measured_mm_s2"] = _extrapolated_acceleration(
+        metrics["tip_acc_measured_mm_s2"], basis, machine, process, residual, zeta, options
+    )
     metrics.update(_instrument_metrics(machine, process, band_surface, scallops, total, options))
     highest = float(basis.omega[-1]) / (2 * np.pi)
     return SimulationResult(
@@ -480,7 +492,7 @@ def _psd2_band_rms(
         machine, process.feed_per_rev_m, PSD2_PATCH_SPACING, options.trailing_arc, window
     )
     patch = patch_passes.lower(
-        source.heights(patch_passes, response.table, machine)
+        source.heights(patch_passes, response.table, machine, process)
         for source in acting
         if source.enters != SCALLOP
     )
@@ -521,6 +533,40 @@ def _record_metrics(response: Response, force_scale: float) -> dict[str, float]:
         "force_peak_n": float(np.linalg.norm(response.force, axis=1).max()),
         "force_scale": float(force_scale),
     }
+
+
+def _measured_peak(response: Response) -> float:
+    """The accelerometer's peak [mm/s^2] of a response's record window."""
+    dt = float(response.t[1] - response.t[0])
+    return accelerometer_peak(response.tip_acc[:, 2], dt, response.periods) * 1e3
+
+
+def _extrapolated_acceleration(
+    measured: float,
+    basis: ModalBasis,
+    machine: Machine,
+    process: Process,
+    residual: ResidualFlexibility | None,
+    zeta: np.ndarray,
+    options: SimulationOptions,
+) -> float:
+    """The accelerometer's peak [mm/s^2] extrapolated to fine sampling (Richardson).
+
+    The sampled force smears the engagement step over one sample, and the acceleration
+    follows the force directly, so the peak converges at second order in the sample step
+    (measured on the packaged model: the differences fall 3.97x and 4.0x per doubling,
+    tests/test_convergence.py). a(n) + (4/3) (a_p(2n) - a_p(n)) removes that term, a_p the
+    periodic path's record at the same slide position (only the record is needed:
+    ACCELEROMETER_TABLE_ROWS slide positions); ``measured`` a(n) is the run's own value.
+    """
+    coarse = replace(options, table_rows=ACCELEROMETER_TABLE_ROWS, method="periodic")
+    fine = replace(coarse, n_phi=2 * options.n_phi)
+    a_fine = _measured_peak(_response(basis, machine, process, residual, zeta, fine))
+    if options.method == "periodic":
+        a_coarse = measured  # the record does not depend on the table's rows
+    else:
+        a_coarse = _measured_peak(_response(basis, machine, process, residual, zeta, coarse))
+    return measured + (a_fine - a_coarse) * 4.0 / 3.0
 
 
 def _mean_peak(signal: np.ndarray, periods: int) -> float:

@@ -27,7 +27,7 @@ from functools import cached_property, lru_cache
 import numpy as np
 
 from ufmt.assembled import point_motion
-from ufmt.defaults import MIN_SAMPLES_PER_REV, SAMPLES_PER_MODE_PERIOD
+from ufmt.defaults import MIN_SAMPLES_PER_REV, SAMPLES_PER_GRID_STEP, SAMPLES_PER_MODE_PERIOD
 from ufmt.machining.basis import ModalBasis
 from ufmt.machining.cutting import (
     DEFAULT_COEFFICIENTS,
@@ -55,12 +55,23 @@ FORCE_HARMONICS = np.arange(-2, 3)
 OUTPUT_HARMONICS = np.arange(-1, 2)
 
 
-def samples_per_rev(highest_hz: float, spindle_hz: float) -> int:
-    """Default samples per spindle revolution [-]: at least SAMPLES_PER_MODE_PERIOD per period
-    of the basis' highest mode ``highest_hz`` [Hz] at ``spindle_hz`` [rev/s], a power of two,
-    never below MIN_SAMPLES_PER_REV (:mod:`ufmt.defaults`). The surface metrics and z_re then
-    lie within 0.5 % of four times the sampling (tests/test_convergence.py)."""
-    need = SAMPLES_PER_MODE_PERIOD * highest_hz / spindle_hz
+def samples_per_rev(
+    highest_hz: float, spindle_hz: float, tool_radius: float = 0.0, grid_step: float = math.inf
+) -> int:
+    """Default samples per spindle revolution [-], a power of two, never below
+    MIN_SAMPLES_PER_REV (:mod:`ufmt.defaults`): at least SAMPLES_PER_MODE_PERIOD per period
+    of the basis' highest mode ``highest_hz`` [Hz] at ``spindle_hz`` [rev/s], and at least
+    SAMPLES_PER_GRID_STEP per surface grid step ``grid_step`` [m] across the feed along the
+    tip's circle of radius ``tool_radius`` [m]. The second holds the engagement: the force
+    enters z_re directly through the static correction and the tool's compliance, and the
+    sampled force places its step at the plate's edges to one sample, which the whole-plate
+    PV reads (4096 samples at 300 rpm: PV 0.51 % from 4x the sampling; 8192: 0.19 %). The
+    surface metrics, z_re and the accelerometer's peak then lie within 0.5 % of four times the
+    sampling (tests/test_convergence.py)."""
+    need = max(
+        SAMPLES_PER_MODE_PERIOD * highest_hz / spindle_hz,
+        SAMPLES_PER_GRID_STEP * 2 * math.pi * tool_radius / grid_step,
+    )
     return max(MIN_SAMPLES_PER_REV, 1 << max(0, math.ceil(math.log2(max(need, 1.0)))))
 
 

@@ -33,6 +33,7 @@ from ufmt.machining.cutting import tool_tip
 from ufmt.machining.damping import damped_modes
 from ufmt.machining.modal import modal_basis
 from ufmt.machining.recurrence import DEFAULT_ZETA, modal_damping
+from ufmt.machining.slide import model_at_slide
 from ufmt.machining.static import ResidualFlexibility, static_flexibility
 from ufmt.model.load import as_model
 from ufmt.model.machine import Machine, machine_of
@@ -40,6 +41,8 @@ from ufmt.model.schema import RigidBody
 
 AXES = {"x": (1.0, 0.0, 0.0), "y": (0.0, 1.0, 0.0), "z": (0.0, 0.0, 1.0)}
 #: kind -> (factor on the receptance as a function of i W, unit of the columns)
+#: label of the tool-workpiece end (relative displacement, force pair)
+TOOL_WORKPIECE = "tool-workpiece"
 KINDS = {"receptance": "m_per_N", "mobility": "m_per_s_per_N", "accelerance": "m_per_s2_per_N"}
 
 
@@ -51,13 +54,19 @@ class End:
     terms: tuple[tuple[str, tuple[float, float, float], float], ...]
 
 
-def tool_workpiece_end(machine: Machine, tool_angle: float = 0.0) -> End:
-    """The tool tip at spindle angle ``tool_angle`` [rad] on the tool body (+1) and on the
-    workpiece body (-1): relative displacement, force pair."""
-    tip = tuple(float(v) for v in tool_tip(np.array([tool_angle]), machine)[0])
+def tool_workpiece_end(machine: Machine, tool_angle: float = 0.0, slide_y: float = 0.0) -> End:
+    """The tool tip at spindle angle ``tool_angle`` [rad] on the tool body (+1) and the
+    material point under it on the workpiece body (-1) with the slide at ``slide_y`` [m]
+    (file coordinates: tip + slide_y y_hat, :mod:`ufmt.machining.slide`): relative
+    displacement, force pair."""
+    tip = tool_tip(np.array([tool_angle]), machine)[0]
+    work = tip + np.array([0.0, slide_y, 0.0])
     return End(
-        "tool-workpiece",
-        ((machine.tool_body, tip, 1.0), (machine.workpiece_body, tip, -1.0)),
+        TOOL_WORKPIECE,
+        (
+            (machine.tool_body, tuple(float(v) for v in tip), 1.0),
+            (machine.workpiece_body, tuple(float(v) for v in work), -1.0),
+        ),
     )
 
 
@@ -88,17 +97,26 @@ def modal_receptance(basis: ModalBasis, c_out, c_in, freq_hz, zeta=DEFAULT_ZETA)
     return np.sum(a / (1j * w - lam) + np.conj(a) / (1j * w - np.conj(lam)), axis=0)
 
 
-def residual_receptance(model, basis: ModalBasis, out: End, d_out, inp: End, d_in) -> float:
+def residual_receptance(
+    model, basis: ModalBasis, out: End, d_out, inp: End, d_in, machine: Machine | None = None
+) -> float:
     """Static flexibility of the modes above the basis between the two ends [m/N]: G_static
-    of the ends' bodies minus the basis' sum of v v^T / (M w^2), projected on the points."""
+    of the ends' bodies (solved with the slide where the basis was, ``basis.slide_y``) minus
+    the basis' sum of v v^T / (M w^2), projected on the points; between two tool-workpiece
+    ends, plus the tool's own compliance along z (``tool_compliance_m_per_N``, a spring at the
+    tip that no other point feels)."""
     bodies = tuple(dict.fromkeys(b for b, _, _ in out.terms + inp.terms))
     for name in bodies:
         if not isinstance(model.body(name), RigidBody):
             raise UfmtError(f"{model.source}: FRF point on body {name!r}: a rigid body is needed")
-    g = static_flexibility(model, bodies)
+    moved = model if machine is None else model_at_slide(model, machine, basis.slide_y)
+    g = static_flexibility(moved, bodies)
     v = np.concatenate([basis.body_shapes[b] for b in bodies], axis=1)
     g = g - (v.T / (basis.modal_mass * basis.omega**2)) @ v
-    return float(_row(basis, bodies, out, d_out) @ g @ _row(basis, bodies, inp, d_in))
+    h = float(_row(basis, bodies, out, d_out) @ g @ _row(basis, bodies, inp, d_in))
+    if machine is not None and out.label == inp.label == TOOL_WORKPIECE:
+        h += machine.tool_compliance_m_per_N * float(d_out[2]) * float(d_in[2])
+    return h
 
 
 def _row(basis: ModalBasis, bodies, end: End, direction) -> np.ndarray:
@@ -123,15 +141,16 @@ def tool_workpiece_receptance(
     """Relative z displacement per unit force pair in z at the tool tip [m/N] (F,) complex.
 
     The z-z case of :func:`frf` on a given basis, with the residual of the tool and workpiece
-    bodies (``residual``: :func:`ufmt.machining.static.residual_flexibility`; None: modal
-    superposition alone). ``tool_angle``: spindle angle phi of the tip [rad] (0: along +y).
+    bodies (``residual``: :func:`ufmt.machining.static.residual_flexibility`, the tool's own
+    compliance included; None: modal superposition alone). ``tool_angle``: spindle angle phi
+    of the tip [rad] (0: along +y). The workpiece point is the material point under the tip
+    with the slide where the basis was solved (``basis.slide_y``).
     """
-    end = tool_workpiece_end(machine, tool_angle)
+    end = tool_workpiece_end(machine, tool_angle, basis.slide_y)
     c = participation(basis, end, AXES["z"])
     h = modal_receptance(basis, c, c, freq_hz, zeta)
     if residual is not None:
-        tip = end.terms[0][1]
-        tool, work = residual.relative(tip, tip, [0.0, 0.0, 1.0])
+        tool, work = residual.relative(end.terms[0][1], end.terms[1][1], [0.0, 0.0, 1.0])
         h = h + (tool[2] - work[2])
     return h
 
@@ -160,7 +179,7 @@ class FrfResult:
     def name(self) -> str:
         """``frf`` for the tool-workpiece z receptance, else ``frf-<dirs>-<kind>``."""
         default = self.direction == ("z", "z") and self.kind == "receptance"
-        tw = self.output == self.input == "tool-workpiece"
+        tw = self.output == self.input == TOOL_WORKPIECE
         return "frf" if default and tw else f"frf-{''.join(self.direction)}-{self.kind}"
 
     def __repr__(self) -> str:
@@ -244,15 +263,16 @@ def frf(
         raise UfmtError(f"FRF kind {kind!r}: one of {', '.join(KINDS)}")
     if not (0 < fmin_hz < fmax_hz and points >= 2):
         raise UfmtError(f"FRF range: need 0 < fmin {fmin_hz} < fmax {fmax_hz} and points >= 2")
-    out = _end(model, output, tool_angle)
-    inp = out if input is None else _end(model, input, tool_angle)
+    machine = machine_of(model) if model.machine is not None else None
     basis = modal_basis(model, n_modes, basis_cutoff_hz)
+    out = _end(model, output, tool_angle, basis.slide_y)
+    inp = out if input is None else _end(model, input, tool_angle, basis.slide_y)
     freq = np.geomspace(fmin_hz, fmax_hz, int(points))
     d_out, d_in = (AXES[a] for a in axes)
     c_out, c_in = participation(basis, out, d_out), participation(basis, inp, d_in)
     h = modal_receptance(basis, c_out, c_in, freq, zeta)
     if static_correction:
-        h = h + residual_receptance(model, basis, out, d_out, inp, d_in)
+        h = h + residual_receptance(model, basis, out, d_out, inp, d_in, machine)
     iw = 2j * np.pi * freq
     h = {"receptance": h, "mobility": iw * h, "accelerance": iw**2 * h}[kind]
     return FrfResult(
@@ -270,9 +290,9 @@ def _directions(direction: str) -> tuple[str, str]:
     return axes
 
 
-def _end(model, spec, tool_angle: float) -> End:
+def _end(model, spec, tool_angle: float, slide_y: float) -> End:
     if spec is None:
-        return tool_workpiece_end(machine_of(model), tool_angle)
+        return tool_workpiece_end(machine_of(model), tool_angle, slide_y)
     try:
         body, point = spec
         point = np.asarray(point, dtype=float).reshape(3)

@@ -4,10 +4,14 @@ The first ``n_modes`` natural frequencies and mass-normalised augmented eigenvec
 model become a :class:`~ufmt.machining.basis.ModalBasis`: for every rigid body its
 centre-of-mass translation and rotation per mode, unit modal masses (the shapes are
 normalised so that ⟨V^s, M V^s⟩ = 1 kg; eq. 3.11 then reads q̈ + D q̇ + ω²q = ⟨f, V^s⟩) and
-the model's hinge dampers projected on the modes (:mod:`ufmt.machining.damping`).
+the model's hinge dampers projected on the modes (:mod:`ufmt.machining.damping`). The modes are
+those of the slide where it cuts (:mod:`ufmt.machining.slide`): half way through the leading
+arc's cut unless a slide position is given.
 """
 
 from __future__ import annotations
+
+from dataclasses import replace
 
 import numpy as np
 
@@ -15,26 +19,42 @@ from ufmt.defaults import DEFAULT_BASIS_CUTOFF_HZ
 from ufmt.errors import UfmtError
 from ufmt.machining.basis import ModalBasis
 from ufmt.machining.damping import hinge_damping_matrix
+from ufmt.machining.slide import carriage, cut_slide_position, model_at_slide
 from ufmt.model.schema import Model
 from ufmt.mstmm.modes import ModeShapes
 from ufmt.mstmm.solve import solve_modes
 
 
 def modal_basis(
-    model: Model, n_modes: int | None = None, cutoff_hz: float = DEFAULT_BASIS_CUTOFF_HZ
+    model: Model,
+    n_modes: int | None = None,
+    cutoff_hz: float = DEFAULT_BASIS_CUTOFF_HZ,
+    slide_y: float | None = None,
 ) -> ModalBasis:
     """ModalBasis of ``model`` (MSTMM) [SI]: every mode below ``cutoff_hz`` [Hz] (the default
     basis, :mod:`ufmt.defaults`), or the first ``n_modes`` when given (the paper's choice);
-    its hinge damping included."""
+    its hinge damping included. ``slide_y`` [m]: the slide position the modes are solved at
+    (default: half way through the cut, :func:`~ufmt.machining.slide.cut_slide_position`;
+    0 for a model without a ``[machine]`` table); body centres stay in the file's coordinates."""
+    machine = model.machine
+    if slide_y is None:
+        slide_y = 0.0 if machine is None else cut_slide_position(machine)
+    moved = model if slide_y == 0.0 else model_at_slide(model, machine, slide_y)
     solution = (
-        solve_modes(model, count=n_modes)
+        solve_modes(moved, count=n_modes)
         if n_modes is not None
-        else solve_modes(model, fmax_hz=cutoff_hz)
+        else solve_modes(moved, fmax_hz=cutoff_hz)
     )
     shapes = solution.shapes
     if shapes is None or shapes.frequencies_hz.size == 0:
         raise UfmtError(f"{model.source}: the model has no elastic modes")
-    return basis_from_shapes(shapes, model)
+    basis = basis_from_shapes(shapes, moved)
+    if slide_y == 0.0:
+        return basis
+    carried = carriage(model, machine.workpiece_body)
+    back = np.array([0.0, slide_y, 0.0])  # the carried centres, back to the file's place
+    centers = {k: c + back if k in carried else c for k, c in basis.body_centers.items()}
+    return replace(basis, body_centers=centers, slide_y=float(slide_y))
 
 
 def basis_from_shapes(shapes: ModeShapes, model: Model | None = None) -> ModalBasis:

@@ -18,10 +18,16 @@ error_motion   once-per-revolution axial error motion of the head at the tool ra
 straightness   slide straightness in z along the feed: the workpiece rides s sin(2 pi Y / L)
                high, so the tool cuts -s sin(2 pi Y / L) relative to it (Y the slide position
                of the pass, 0 halfway).
+pressure_ripple  fluctuation of the air supply pressure of the head's bearings: the head (and
+               the tool) moves axially by a sin(2 pi f_p t), t the time of the pass since the
+               first touch of the cut; not synchronous with the spindle or the slide, it prints
+               waviness along the feed of wavelength v / f_p.
 
-Each geometric term (the last three) is a height function z(phi, Y, machine) of the spindle
-angle and the slide position of the pass, added to z_re before the minimum over passes; all are
-linear in their amplitude, and a source whose amplitude is zero on a machine is inactive there.
+Each geometric term (the last four) is a height function z(phi, Y, machine, process) of the
+spindle angle and the slide position of the pass (the process gives the feed speed, hence the
+time of the pass, t = (Y - Y_first_touch) / v), added to z_re before the minimum over passes;
+all are linear in their amplitude, and a source whose amplitude is zero on a machine is
+inactive there.
 
 :data:`REGISTRY` holds one :class:`ErrorSource` per source, in the order of :data:`SOURCES`
 (the order of every per-source output). Adding a geometric source is one registry entry and its
@@ -36,6 +42,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ufmt.errors import ModelError, closest_name
+from ufmt.machining.process import Process
 from ufmt.model.machine import Machine
 
 #: How a source enters the surface: the vibration response's z_re table, the tool nose's
@@ -53,14 +60,16 @@ class ErrorSource:
     enters the surface (:data:`VIBRATION`, :data:`SCALLOP` or :data:`HEIGHT`); amplitude: the
     ``[machine]`` field of its amplitude (the source is inactive where it is zero; None: always
     active); parameters: the other ``[machine]`` fields it reads; height: for :data:`HEIGHT`,
-    its tool height relative to the workpiece z(phi [rad], slide_y [m], machine) [m].
+    its tool height relative to the workpiece z(phi [rad], slide_y [m], machine, process) [m]
+    (``process`` a :class:`~ufmt.machining.process.Process`: the feed speed and spindle speed
+    that give the time of the pass).
     """
 
     name: str
     enters: str = HEIGHT
     amplitude: str | None = None
     parameters: tuple[str, ...] = ()
-    height: Callable[[np.ndarray, np.ndarray, Machine], np.ndarray] | None = None
+    height: Callable[[np.ndarray, np.ndarray, Machine, Process], np.ndarray] | None = None
 
     @property
     def fields(self) -> tuple[str, ...]:
@@ -71,34 +80,49 @@ class ErrorSource:
         """False where the source's amplitude is zero on ``machine`` (its term is 0)."""
         return self.amplitude is None or getattr(machine, self.amplitude) != 0.0
 
-    def heights(self, passes, table, machine: Machine) -> np.ndarray:
+    def heights(self, passes, table, machine: Machine, process: Process) -> np.ndarray:
         """Heights [m] of the source at both passes over every grid point of ``passes`` (a
         :class:`~ufmt.machining.surface.Passes`); ``table`` the response's z_re table."""
         if self.enters == VIBRATION:
             return passes.dynamic(table, machine)
         if self.enters == SCALLOP:
             return passes.feed_marks(machine.nose_radius)
-        return passes.geometric(geometric_z(machine, (self.name,)))
+        return passes.geometric(geometric_z(machine, (self.name,), process))
 
 
-def spindle_tilt_z(phi, slide_y, machine: Machine) -> np.ndarray:
+def spindle_tilt_z(phi, slide_y, machine: Machine, process: Process) -> np.ndarray:
     """Tool height from the spindle tilt, -beta R (1 - cos phi) [m] (independent of Y)."""
     phi = np.asarray(phi, dtype=float)
     return -machine.spindle_tilt_rad * machine.tool_radius * (1.0 - np.cos(phi))
 
 
-def error_motion_z(phi, slide_y, machine: Machine) -> np.ndarray:
+def error_motion_z(phi, slide_y, machine: Machine, process: Process) -> np.ndarray:
     """Tool height from the once-per-revolution axial error motion, e cos(phi - phi_0) [m]
     (independent of Y)."""
     phi = np.asarray(phi, dtype=float)
     return machine.error_motion_m * np.cos(phi - np.radians(machine.error_motion_phase_deg))
 
 
-def straightness_z(phi, slide_y, machine: Machine) -> np.ndarray:
+def straightness_z(phi, slide_y, machine: Machine, process: Process) -> np.ndarray:
     """Tool height relative to the workpiece from the slide's straightness [m] (independent
     of phi)."""
     y = np.asarray(slide_y, dtype=float)
     return -machine.straightness_m * np.sin(2 * np.pi * y / machine.straightness_wavelength_m)
+
+
+def pass_time(slide_y, machine: Machine, process: Process) -> np.ndarray:
+    """Time [s] of the pass at slide position ``slide_y`` [m] since the leading arc's first
+    touch (``Machine.cut_span``): the slide moves at the feed speed v."""
+    v = process.feed_mm_min / 60e3  # [m/s]
+    return (np.asarray(slide_y, dtype=float) - machine.cut_span[0]) / v
+
+
+def pressure_ripple_z(phi, slide_y, machine: Machine, process: Process) -> np.ndarray:
+    """Tool height from the supply-pressure ripple of the head's bearings,
+    a sin(2 pi f_p t) [m] at the time t of the pass (:func:`pass_time`; independent of phi
+    but through the pass's slide position)."""
+    t = pass_time(slide_y, machine, process)
+    return machine.pressure_ripple_m * np.sin(2 * np.pi * machine.pressure_ripple_hz * t)
 
 
 REGISTRY = (
@@ -116,6 +140,12 @@ REGISTRY = (
         amplitude="straightness_m",
         parameters=("straightness_wavelength_m",),
         height=straightness_z,
+    ),
+    ErrorSource(
+        "pressure_ripple",
+        amplitude="pressure_ripple_m",
+        parameters=("pressure_ripple_hz",),
+        height=pressure_ripple_z,
     ),
 )
 SOURCES = tuple(source.name for source in REGISTRY)
@@ -142,9 +172,9 @@ def acting_sources(sources, machine: Machine) -> tuple[ErrorSource, ...]:
     return tuple(s for s in REGISTRY if s.name in sources and s.is_active(machine))
 
 
-def geometric_z(machine: Machine, sources):
-    """z(phi, slide_y) [m] of the height sources among ``sources`` (names), or None if none
-    acts on ``machine``."""
+def geometric_z(machine: Machine, sources, process: Process):
+    """z(phi, slide_y) [m] of the height sources among ``sources`` (names) in ``process``, or
+    None if none acts on ``machine``."""
     active = [s for s in acting_sources(sources, machine) if s.enters == HEIGHT]
     if not active:
         return None
@@ -152,7 +182,7 @@ def geometric_z(machine: Machine, sources):
     def z(phi, slide_y):
         total = 0.0
         for source in active:
-            total = total + source.height(phi, slide_y, machine)
+            total = total + source.height(phi, slide_y, machine, process)
         return total
 
     return z

@@ -29,6 +29,7 @@ import scipy.linalg as sla
 from ufmt.assembled import point_motion
 from ufmt.errors import ModelError
 from ufmt.machining.basis import ModalBasis
+from ufmt.machining.slide import model_at_slide
 from ufmt.model.machine import Machine
 from ufmt.recent import Recent
 
@@ -190,15 +191,23 @@ def _mechanism_free_solve(k_red: np.ndarray, loads: np.ndarray, source: str) -> 
 def residual_flexibility(model, basis: ModalBasis, machine: Machine) -> ResidualFlexibility:
     """The static correction of ``basis`` for the tool and workpiece bodies of ``machine``.
 
-    G_res = G_static - sum_s v_s v_s^T / (M_s w_s^2), v_s the bodies' rigid motions in mode s.
+    G_res = G_static - sum_s v_s v_s^T / (M_s w_s^2), v_s the bodies' rigid motions in mode s;
+    G_static is solved with the slide where the basis was solved (``basis.slide_y``,
+    :mod:`ufmt.machining.slide`). The tool's own z compliance (``tool_compliance_m_per_N``,
+    a shank whose first mode lies far above the basis) is added to the tool body's z
+    translation: it moves the tip by c F_z, quasi-statically like the modes above the basis.
     """
     bodies = (machine.tool_body, machine.workpiece_body)
-    static = static_flexibility(model, bodies)
+    static = static_flexibility(model_at_slide(model, machine, basis.slide_y), bodies)
     v = np.concatenate([basis.body_shapes[b] for b in bodies], axis=1)  # (n, 12)
     modal = (v.T / (basis.modal_mass * basis.omega**2)) @ v
     centers = np.stack([basis.body_centers[b] for b in bodies])
     res = static - modal
     res = 0.5 * (res + res.T)
+    # the tool and holder: a z spring between the tool body and the tip. A z force F_z at
+    # any tip point loads the tool body's centre with F_z in z, so the compliance c on that
+    # translation moves every tip point by c F_z in z and nothing else.
+    res[2, 2] += machine.tool_compliance_m_per_N
     for a in (res, centers, static):
         a.setflags(write=False)
     return ResidualFlexibility(matrix=res, centers=centers, static=static)

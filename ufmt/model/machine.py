@@ -44,6 +44,13 @@ class Machine:
         once-per-revolution axial error motion of the fly-cutting head at the tool radius.
     straightness_m, straightness_wavelength_m : amplitude [m] and wavelength [m] of the slide's
         straightness error in z along the feed.
+    tool_compliance_m_per_N : z compliance of the tool and its holder between the tool body
+        and the tip [m/N] (a cantilevered shank; 0: rigid). Its own mode lies far above the
+        basis, so it acts quasi-statically, with the static correction
+        (:mod:`ufmt.machining.static`).
+    pressure_ripple_m, pressure_ripple_hz : amplitude [m] and frequency [Hz] of the axial
+        motion of the head from the fluctuation of its bearings' air supply pressure (a
+        non-synchronous source, :mod:`ufmt.machining.sources`).
     table : the ``[machine]`` table as it was read (its keys in their order, their TOML
         types), which :func:`ufmt.model.write.model_to_toml` writes back.
     Defaults and bands: :data:`OPTIONAL_FIELDS`.
@@ -66,6 +73,9 @@ class Machine:
     error_motion_phase_deg: float = 0.0
     straightness_m: float = 0.0
     straightness_wavelength_m: float = 0.1
+    tool_compliance_m_per_N: float = 0.0
+    pressure_ripple_m: float = 0.0
+    pressure_ripple_hz: float = 0.0096
     table: Mapping = dataclasses.field(default_factory=dict, compare=False, repr=False)
 
     @property
@@ -136,6 +146,9 @@ OPTIONAL_FIELDS = {
     "error_motion_phase_deg": (0.0, -360.0, 360.0, "deg"),
     "straightness_m": (0.0, 0.0, 2e-6, "m"),
     "straightness_wavelength_m": (0.1, 1e-3, 10.0, "m"),
+    "tool_compliance_m_per_N": (0.0, 0.0, 2e-7, "m/N"),
+    "pressure_ripple_m": (0.0, 0.0, 1e-7, "m"),
+    "pressure_ripple_hz": (0.0096, 1e-4, 100.0, "Hz"),
 }
 
 
