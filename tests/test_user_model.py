@@ -113,6 +113,8 @@ def test_report_of_a_users_model_goes_to_its_own_folder(tmp_path, monkeypatch):
     from ufmt.cli import main
 
     monkeypatch.chdir(tmp_path)
+    assert main(["report", str(BRIDGE)]) == 2  # nothing computed yet: no page of nothing
+    (tmp_path / "results" / "bridge").mkdir(parents=True)  # e.g. made by `ufmt frf`
     assert main(["report", str(BRIDGE)]) == 0
     assert (tmp_path / "results" / "bridge" / "report.html").exists()
     assert not (tmp_path / "results" / "report.html").exists()

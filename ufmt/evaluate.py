@@ -201,11 +201,7 @@ def evaluate(
         NaN, outside the loader's ``LIMITS``).
     """
     process = _process_mapping(process)
-    for name in process:
-        if name not in PROCESS_PARAMETERS:
-            close = closest_name(name, PROCESS_PARAMETERS)
-            hint = f"did you mean {close!r}?" if close else ", ".join(PROCESS_PARAMETERS)
-            raise StudyError(f"evaluate: unknown process parameter {name!r} ({hint})")
+    _check_process_names(process)
     base, base_sha = resolve_model(model)
     design_items = tuple(sorted((k, float(v)) for k, v in design.items()))
     designed = apply_design(base, dict(design_items), parameters)
@@ -233,6 +229,15 @@ def evaluate(
         record.update(dict.fromkeys(METRICS + FREQUENCIES, math.nan))
         record.update(status="error", message=_one_line(f"{type(exc).__name__}: {exc}"))
     return EvaluationRecord(record)
+
+
+def _check_process_names(process: Mapping) -> None:
+    """Raise StudyError for a process parameter name that is not one of PROCESS_PARAMETERS."""
+    for name in process:
+        if name not in PROCESS_PARAMETERS:
+            close = closest_name(name, PROCESS_PARAMETERS)
+            hint = f"did you mean {close!r}?" if close else ", ".join(PROCESS_PARAMETERS)
+            raise StudyError(f"evaluate: unknown process parameter {name!r} ({hint})")
 
 
 #: Outputs the physics always gives as a finite number (the others may be NaN: a band not
