@@ -60,8 +60,8 @@ def inertia(k: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         below[i, :-1] = lu.diagonal(-1)
     # a 2x2 block D(j:j+2, j:j+2) has ipiv < 0 at both j and j + 1: pairs of negative pivots
     start = pivots < 0
-    for j in range(1, n):  # the second of each pair starts no block
-        start[:, j] &= ~start[:, j - 1]
+    for j in np.flatnonzero(start[:, 1:].any(axis=0)) + 1:  # ascending, where any pivot < 0
+        start[:, j] &= ~start[:, j - 1]  # the second of each pair starts no block
     single = ~start
     single[:, 1:] &= ~start[:, :-1]
     a, c = diagonal, np.roll(diagonal, -1, axis=1)
