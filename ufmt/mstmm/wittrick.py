@@ -34,8 +34,9 @@ START_RTOL = 1e-4  # single roots det K cannot sharpen are bisected this narrowl
 SECANT_FROM = 1e-3  # single roots are bisected this narrowly (relative) before the secant
 SECANT_RTOL = 1e-9  # the secant on det K narrows brackets to this (relative): Newton on
 # det U_all then certifies the root in one step (ufmt.mstmm.roots.ACCEPT_STEP is 1e-8)
-SEED_RTOL = 1e-5  # the first points lie this far (relative) beside each linearised estimate
-SECANT_ITERATIONS = 40  # Illinois steps before a bracket falls back to bisection
+SEED_RTOLS = np.array([1e-5, 1e-3])  # the first points lie this far (relative) beside
+# each linearised estimate (most are good to 1e-6, those of modes the beams carry to ~1e-2)
+SECANT_ITERATIONS = 12  # Illinois steps at most (3 reach SECANT_RTOL from ±1e-5 mostly)
 GRID_POINTS = 48  # the first, geometric grid of the search below the upper frequency
 GRID_DECADES = 6.0  # ... spanning this many decades below it (extended while roots remain)
 MAX_BISECTIONS = 200  # levels of bisection before giving up (never reached: ~60 reach eps)
@@ -195,17 +196,17 @@ class RootCounter:
         (:meth:`ufmt.mstmm.nodal.NodalStiffness.estimates`) and half-way between them."""
         est = self.nodal.estimates() / TWO_PI
         est = est[(est > lo_hz) & (est < hi_hz)]
-        seeds = np.concatenate(
-            [est * (1 - SEED_RTOL), est * (1 + SEED_RTOL), np.sqrt(est[1:] * est[:-1])]
-        )
+        rings = np.concatenate([1 - SEED_RTOLS, 1 + SEED_RTOLS])
+        seeds = np.concatenate([np.outer(est, rings).ravel(), np.sqrt(est[1:] * est[:-1])])
         return seeds[(seeds > lo_hz) & (seeds < hi_hz)]
 
     def _sharpen(self, lo, hi):
         """Newton's start in brackets [Hz] of one root each: regula falsi (Illinois) on
         det K(ω), every point's side decided by J (the brackets it narrows stay certified),
-        to a width below SECANT_RTOL; returns (lo, hi, start), the brackets as given (the
-        root may sit within rounding of a narrowed end) or, where the secant fails,
-        bisected to START_RTOL around their centre ``start``.
+        to a width below SECANT_RTOL (bisection on J after SECANT_ITERATIONS steps); returns
+        (lo, hi, start): the brackets as given (the root may sit within rounding of a
+        narrowed end) and the last secant point, or, where the secant does not apply, the
+        brackets bisected to START_RTOL and their centres.
 
         Between two of its poles (no clamped member frequency in the bracket: J₀ constant)
         det K = det D of the LDLᵀ that counts J changes sign exactly at the root, smoothly:
@@ -242,10 +243,14 @@ class RootCounter:
             f_lo[act] = np.where(above, np.where(again, 0.5 * fa, fa), f)
             f_hi[act] = np.where(above, f, np.where(again, 0.5 * fb, fb))
             moved[act] = side
-        failed = ~ok | (hi - lo > SECANT_RTOL * hi)
-        lo, hi = np.where(failed, lo, lo_in), np.where(failed, hi, hi_in)
-        lo[failed], hi[failed] = self._narrow(lo[failed], hi[failed], START_RTOL)
-        start[failed] = np.sqrt(lo[failed] * hi[failed])
+        # a start between two roots 1e-8 apart can pass for a root after one Newton step:
+        # brackets the secant has not narrowed enough are bisected to SECANT_RTOL
+        slow = ok & (hi - lo > SECANT_RTOL * hi)
+        lo[slow], hi[slow] = self._narrow(lo[slow], hi[slow], SECANT_RTOL)
+        start[slow] = np.sqrt(lo[slow] * hi[slow])
+        lo, hi = np.where(ok, lo_in, lo), np.where(ok, hi_in, hi)
+        lo[~ok], hi[~ok] = self._narrow(lo[~ok], hi[~ok], START_RTOL)
+        start[~ok] = np.sqrt(lo[~ok] * hi[~ok])
         return lo, hi, start
 
     def refine(self, lo_hz, hi_hz, rtol: float = 1e-13) -> np.ndarray:
