@@ -200,7 +200,7 @@ class RootCounter:
         seeds = np.concatenate([np.outer(est, rings).ravel(), np.sqrt(est[1:] * est[:-1])])
         return seeds[(seeds > lo_hz) & (seeds < hi_hz)]
 
-    def _sharpen(self, lo, hi):
+    def _sharpen(self, lo, hi, retry: bool = True):
         """Newton's start in brackets [Hz] of one root each: regula falsi (Illinois) on
         det K(ω), every point's side decided by J (the brackets it narrows stay certified),
         to a width below SECANT_RTOL (bisection on J after SECANT_ITERATIONS steps); returns
@@ -211,7 +211,8 @@ class RootCounter:
         Between two of its poles (no clamped member frequency in the bracket: J₀ constant)
         det K = det D of the LDLᵀ that counts J changes sign exactly at the root, smoothly:
         superlinear where bisection gains one bit per J. A bracket where J₀ jumps, det K
-        does not change sign or J and det K disagree on a side is bisected to START_RTOL.
+        does not change sign or J and det K disagree on a side is bisected to START_RTOL and
+        (``retry``) tried once more: a clamped member frequency near a root is left out.
         """
         n, lo_in, hi_in = lo.size, lo, hi
         lo, hi = lo.copy(), hi.copy()
@@ -251,6 +252,8 @@ class RootCounter:
         lo, hi = np.where(ok, lo_in, lo), np.where(ok, hi_in, hi)
         lo[~ok], hi[~ok] = self._narrow(lo[~ok], hi[~ok], START_RTOL)
         start[~ok] = np.sqrt(lo[~ok] * hi[~ok])
+        if retry and not ok.all():  # narrower, the bracket may have left the pole behind
+            lo[~ok], hi[~ok], start[~ok] = self._sharpen(lo[~ok], hi[~ok], retry=False)
         return lo, hi, start
 
     def refine(self, lo_hz, hi_hz, rtol: float = 1e-13) -> np.ndarray:
