@@ -15,6 +15,10 @@ Zero-frequency (rigid-body and mechanism) modes lie below every ω > 0 and are s
 Bisection on J brackets every root: an interval [a, b] with J(b) - J(a) = m holds exactly m
 roots, and splitting it until each holds one (or is narrower than CLUSTER_RTOL, a repeated
 root of multiplicity m: J jumps by m there) certifies both the count and where each root is.
+Where to look first comes from the linearisation K(0) - ω²M₀ (one symmetric eigenproblem);
+each single root's bracket is then narrowed by a secant on det K (the product of the same
+LDLᵀ's pivots), J deciding every side, so that Newton on det U_all (:mod:`ufmt.mstmm.roots`)
+starts within SECANT_RTOL of the root and certifies it in one step.
 """
 
 from __future__ import annotations
@@ -162,7 +166,8 @@ class RootCounter:
         ones, if given), by bisection on J (geometric middles, all brackets at once): single
         roots to ``start_rtol`` (relative width), clusters to CLUSTER_RTOL. By default
         (``start_rtol`` None) single roots are bisected to SECANT_FROM only, then sharpened
-        by :meth:`_sharpen` (``start_hz``: Newton's start within 1e-10 of the root)."""
+        by :meth:`_sharpen` (``start_hz``: Newton's start within SECANT_RTOL of the root).
+        The first J points lie beside the linearised estimates (:meth:`_seeds`)."""
         sharpen = start_rtol is None
         start_rtol = SECANT_FROM if sharpen else start_rtol
         top = float(below_hz)
