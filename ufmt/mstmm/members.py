@@ -54,10 +54,11 @@ def _bending_functions(lam4: np.ndarray) -> np.ndarray:
     (7, n): entire functions of λ⁴, stable from λ = 0."""
     lam4 = np.asarray(lam4, dtype=float)
     small = lam4 < SERIES_BELOW
-    x4 = np.where(small, lam4, 0.0)
     out = np.zeros((7, lam4.size))
-    for coefficients in _SERIES.T[::-1]:  # Horner in λ⁴
-        out = out * x4 + coefficients[:, None]
+    if np.any(small):  # (the series costs as much as a J evaluation's LDLᵀ: only if used)
+        x4 = np.where(small, lam4, 0.0)
+        for coefficients in _SERIES.T[::-1]:  # Horner in λ⁴
+            out = out * x4 + coefficients[:, None]
     if np.any(~small):
         x = np.sqrt(np.sqrt(lam4[~small]))
         c, s, ch, sh = np.cos(x), np.sin(x), np.cosh(x), np.sinh(x)
@@ -127,11 +128,12 @@ def member_stiffness(omega: np.ndarray, beam: Beam) -> np.ndarray:
     at ω (n,) [rad/s]; symmetric, real, infinite only at its clamped-clamped frequencies."""
     omega = np.atleast_1d(np.asarray(omega, dtype=float))
     k = np.zeros((omega.size, 12, 12))
+    length = beam.length  # (a property: computed once)
     for dofs, kind, stiffness, inertia in _parts(beam):
         if kind == "rod":
-            block = rod_stiffness(omega, stiffness, inertia, beam.length)
+            block = rod_stiffness(omega, stiffness, inertia, length)
         else:
-            block = bending_stiffness(omega, stiffness, inertia, beam.length)
+            block = bending_stiffness(omega, stiffness, inertia, length)
             if dofs == BENDING_XZ:
                 block = block * (XZ_SIGN[:, None] * XZ_SIGN)
         k[:, np.array(dofs)[:, None], np.array(dofs)] = block
@@ -144,14 +146,17 @@ def clamped_count(omega: np.ndarray, beam: Beam) -> np.ndarray:
     i = ⌊λ/π⌋ and δ = 1 - cos λ cosh λ (Williams and Wittrick's closed form)."""
     omega = np.atleast_1d(np.asarray(omega, dtype=float))
     count = np.zeros(omega.size, dtype=int)
+    length = beam.length  # (a property: computed once)
     for _, kind, stiffness, inertia in _parts(beam):
         if kind == "rod":
-            kl = omega * math.sqrt(inertia / stiffness) * beam.length
+            kl = omega * math.sqrt(inertia / stiffness) * length
             count += np.floor(kl / np.pi).astype(int)
         else:
-            lam4 = inertia * omega**2 / stiffness * beam.length**4
-            i = np.floor(np.sqrt(np.sqrt(lam4)) / np.pi).astype(int)
-            sign = np.sign(_bending_functions(lam4)[0])
+            lam = np.sqrt(np.sqrt(inertia * omega**2 / stiffness * length**4))
+            i = np.floor(lam / np.pi).astype(int)
+            # δ = λ⁴/6 + ... > 0 below λ = 2 (the first zero is at 4.73): the closed form above
+            with np.errstate(over="ignore"):
+                sign = np.where(lam < 2.0, 1.0, np.sign(1.0 - np.cos(lam) * np.cosh(lam)))
             count += i - np.rint((1 - (-1.0) ** i * sign) / 2).astype(int)
     return count
 

@@ -81,6 +81,21 @@ class NodalStiffness:
             total += clamped_count(omega, beam)
         return total
 
+    def estimates(self, step_hz: float = 1.0) -> np.ndarray:
+        """Estimates [rad/s] of the natural frequencies, ascending: the eigenvalues of the
+        linearisation K(ω) ≈ K(0) - ω² M₀ (M₀ = -dK/dω² at 0 by a difference over
+        ``step_hz``: the beams' consistent mass, one element each); exact for springs and
+        rigid bodies, rougher for modes the beams carry. Empty where M₀ is not positive
+        definite. Only where to look: the count J certifies every root."""
+        omega = 2.0 * np.pi * step_hz
+        k = self.matrix([0.0, omega])
+        mass = (k[0] - k[1]) / omega**2
+        try:
+            mu = sla.eigh(k[0], 0.5 * (mass + mass.T), eigvals_only=True, check_finite=False)
+        except (np.linalg.LinAlgError, ValueError):
+            return np.zeros(0)
+        return np.sqrt(mu[mu > 0])
+
 
 class _Layout:
     """Node dofs of every body: name -> (first dof, node points (k, 3) [m])."""

@@ -311,8 +311,9 @@ def bracketed_roots(system: TransferSystem, brackets, refine, rtol: float = 1e-1
     """Every natural frequency in certified brackets (:class:`ufmt.mstmm.wittrick.Brackets`,
     bracket j holds exactly ``multiplicity[j]`` roots) [Hz], to relative precision ``rtol``.
 
-    Newton starts at each bracket's geometric centre and must converge inside it; a bracket
-    Newton cannot certify falls back to ``refine(lo_hz, hi_hz)``, bisection on the count
+    Newton starts at each bracket's ``start_hz`` (else its geometric centre) and must
+    converge inside it; a bracket Newton cannot certify falls back to
+    ``refine(lo_hz, hi_hz)``, bisection on the count
     (:meth:`ufmt.mstmm.wittrick.RootCounter.refine`, no null vector then). Parameters and
     result as :func:`natural_frequencies`.
     """
@@ -320,7 +321,7 @@ def bracketed_roots(system: TransferSystem, brackets, refine, rtol: float = 1e-1
     system.segment_for(fmax_hz)
     lo, hi = brackets.lo_hz * (1 - 1e-9), brackets.hi_hz * (1 + 1e-9)  # rounding only
     mult = np.asarray(brackets.multiplicity, dtype=int)
-    centre = np.sqrt(lo * hi)
+    centre = np.sqrt(lo * hi) if brackets.start_hz is None else brackets.start_hz
 
     def bisect(failed):
         return np.repeat(refine(brackets.lo_hz[failed], brackets.hi_hz[failed]), mult[failed])

@@ -345,7 +345,10 @@ def _search_range(counter: RootCounter, fmax_hz, count, one_more: bool) -> Brack
     if last + 1 < found.lo_hz.size:  # half-way (geometrically) to the next bracket
         top = np.sqrt(top * found.lo_hz[last + 1])
     keep = slice(0, last + 1)
-    return Brackets(found.lo_hz[keep], found.hi_hz[keep], found.multiplicity[keep], float(top))
+    start = None if found.start_hz is None else found.start_hz[keep]
+    return Brackets(
+        found.lo_hz[keep], found.hi_hz[keep], found.multiplicity[keep], float(top), start
+    )
 
 
 def _first(states: dict, count: int) -> dict:

@@ -15,6 +15,10 @@ Zero-frequency (rigid-body and mechanism) modes lie below every ω > 0 and are s
 Bisection on J brackets every root: an interval [a, b] with J(b) - J(a) = m holds exactly m
 roots, and splitting it until each holds one (or is narrower than CLUSTER_RTOL, a repeated
 root of multiplicity m: J jumps by m there) certifies both the count and where each root is.
+Where to look first comes from the linearisation K(0) - ω²M₀ (one symmetric eigenproblem);
+each single root's bracket is then narrowed by a secant on det K (the product of the same
+LDLᵀ's pivots), J deciding every side, so that Newton on det U_all (:mod:`ufmt.mstmm.roots`)
+starts within SECANT_RTOL of the root and certifies it in one step.
 """
 
 from __future__ import annotations
@@ -30,8 +34,13 @@ from ufmt.mstmm.nodal import NodalStiffness, nodal_stiffness
 
 TWO_PI = 2.0 * np.pi
 CLUSTER_RTOL = 1e-7  # an interval this narrow (relative) holding m > 1 roots: a repeated root
-START_RTOL = 1e-4  # single roots are bracketed this narrowly (relative): Newton then
-# certifies them in two steps (from 1e-3 it takes three, each dearer than 3 bisections)
+START_RTOL = 1e-4  # single roots det K cannot sharpen are bisected this narrowly (relative)
+SECANT_FROM = 1e-3  # single roots are bisected this narrowly (relative) before the secant
+SECANT_RTOL = 1e-9  # the secant on det K narrows brackets to this (relative): Newton on
+# det U_all then certifies the root in one step (ufmt.mstmm.roots.ACCEPT_STEP is 1e-8)
+SEED_RTOLS = np.array([1e-5, 1e-3])  # the first points lie this far (relative) beside
+# each linearised estimate (most are good to 1e-6, those of modes the beams carry to ~1e-2)
+SECANT_ITERATIONS = 12  # Illinois steps at most (3 reach SECANT_RTOL from ±1e-5 mostly)
 GRID_POINTS = 48  # the first, geometric grid of the search below the upper frequency
 GRID_DECADES = 6.0  # ... spanning this many decades below it (extended while roots remain)
 MAX_BISECTIONS = 200  # levels of bisection before giving up (never reached: ~60 reach eps)
@@ -41,21 +50,34 @@ def negative_eigenvalues(k: np.ndarray) -> np.ndarray:
     """s{K}: the number of negative eigenvalues of each symmetric matrix of the stack
     (n_ω, n, n), from the D of its LDLᵀ (Bunch-Kaufman) factorisation: each 1x1 block's
     sign, and each 2x2 block's from its determinant and trace."""
+    return inertia(k)[0]
+
+
+def inertia(k: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(s{K}, log|det K|) of each symmetric matrix of the stack (n_ω, n, n) from one LDLᵀ
+    (Bunch-Kaufman) factorisation each: det K = det D (det L = 1), the product of the 1x1
+    blocks and the 2x2 blocks' determinants; sign det K = (-1)^s{K}."""
     n_omega, n = k.shape[:2]
     diagonal, below, pivots = np.empty((n_omega, n)), np.zeros((n_omega, n)), np.empty((n_omega, n))
     for i, matrix in enumerate(k):  # LAPACK per matrix, the rest batched
         lu, pivots[i], _ = dsytrf(matrix.T, lower=1)  # symmetric: the transpose is Fortran order
-        diagonal[i], below[i, :-1] = np.diag(lu), np.diag(lu, -1)
+        diagonal[i] = lu.diagonal()
+        below[i, :-1] = lu.diagonal(-1)
     # a 2x2 block D(j:j+2, j:j+2) has ipiv < 0 at both j and j + 1: pairs of negative pivots
     start = pivots < 0
-    for j in range(1, n):  # the second of each pair starts no block
-        start[:, j] &= ~start[:, j - 1]
+    for j in np.flatnonzero(start[:, 1:].any(axis=0)) + 1:  # ascending, where any pivot < 0
+        start[:, j] &= ~start[:, j - 1]  # the second of each pair starts no block
     single = ~start
     single[:, 1:] &= ~start[:, :-1]
     a, c = diagonal, np.roll(diagonal, -1, axis=1)
     det = a * c - below * below
     two = np.where(det < 0, 1, np.where((det > 0) & (a + c < 0), 2, 0))
-    return np.count_nonzero(single & (diagonal < 0), axis=1) + np.sum(two * start, axis=1)
+    negative = np.count_nonzero(single & (diagonal < 0), axis=1) + np.sum(two * start, axis=1)
+    with np.errstate(divide="ignore"):
+        log_det = np.sum(np.log(np.abs(np.where(single, a, 1.0))), axis=1) + np.sum(
+            np.log(np.abs(np.where(start, det, 1.0))), axis=1
+        )
+    return negative, log_det
 
 
 @dataclass(frozen=True)
@@ -68,6 +90,7 @@ class Brackets:
     hi_hz: np.ndarray
     multiplicity: np.ndarray
     below_hz: float
+    start_hz: np.ndarray | None = None  # where Newton starts in each (None: the centre)
 
     @property
     def total(self) -> int:
@@ -81,6 +104,7 @@ class RootCounter:
     def __init__(self, model: Model):
         self.model = model
         self.nodal: NodalStiffness = nodal_stiffness(model)
+        self._seen: list = []  # (hz, values) of every evaluation, for _recall
 
     @property
     def rigid_body_modes(self) -> int:
@@ -89,9 +113,33 @@ class RootCounter:
 
     def below(self, hz) -> np.ndarray:
         """J: the number of nonzero natural frequencies below each frequency of ``hz`` [Hz]."""
-        omega = TWO_PI * np.atleast_1d(np.asarray(hz, dtype=float))
-        negative = negative_eigenvalues(self.nodal.matrix(omega))
-        return self.nodal.clamped(omega) + negative - self.nodal.zero_modes
+        return self._evaluate(hz)[0]
+
+    def _evaluate(self, hz):
+        """(J, J₀, log|det K|, sign det K) at each frequency of ``hz`` [Hz]; kept for
+        :meth:`_recall`."""
+        hz = np.atleast_1d(np.asarray(hz, dtype=float))
+        omega = TWO_PI * hz
+        negative, log_det = inertia(self.nodal.matrix(omega))
+        clamped = self.nodal.clamped(omega)
+        sign = np.where(negative % 2 == 1, -1.0, 1.0)
+        values = (clamped + negative - self.nodal.zero_modes, clamped, log_det, sign)
+        self._seen.append((hz, np.stack(values)))
+        return values
+
+    def _recall(self, hz):
+        """:meth:`_evaluate` at ``hz`` [Hz], the frequencies evaluated before not again."""
+        seen_hz = np.concatenate([h for h, _ in self._seen] or [np.zeros(0)])
+        seen = np.concatenate([v for _, v in self._seen], axis=1) if self._seen else None
+        order = np.argsort(seen_hz)
+        at = np.minimum(np.searchsorted(seen_hz[order], hz), max(seen_hz.size - 1, 0))
+        known = seen_hz[order][at] == hz if seen_hz.size else np.zeros(hz.size, dtype=bool)
+        out = np.empty((4, hz.size))
+        if known.any():
+            out[:, known] = seen[:, order[at[known]]]
+        if not known.all():
+            out[:, ~known] = np.stack(self._evaluate(hz[~known]))
+        return out[0].astype(int), out[1].astype(int), out[2], out[3]
 
     def total_modes(self) -> float:
         """Number of nonzero natural frequencies (inf with a beam: a continuum)."""
@@ -116,11 +164,16 @@ class RootCounter:
     ) -> Brackets:
         """Brackets of every natural frequency below ``below_hz`` [Hz] (only the ``first``
         ones, if given), by bisection on J (geometric middles, all brackets at once): single
-        roots to ``start_rtol`` (relative width; default START_RTOL), clusters to
-        CLUSTER_RTOL."""
-        start_rtol = START_RTOL if start_rtol is None else start_rtol
+        roots to ``start_rtol`` (relative width), clusters to CLUSTER_RTOL. By default
+        (``start_rtol`` None) single roots are bisected to SECANT_FROM only, then sharpened
+        by :meth:`_sharpen` (``start_hz``: Newton's start within SECANT_RTOL of the root).
+        The first J points lie beside the linearised estimates (:meth:`_seeds`)."""
+        sharpen = start_rtol is None
+        start_rtol = SECANT_FROM if sharpen else start_rtol
         top = float(below_hz)
         grid = top * np.geomspace(10.0**-GRID_DECADES, 1.0, GRID_POINTS)
+        if sharpen:  # first points beside the linearised estimates: most roots isolated
+            grid = np.unique(np.concatenate([grid, self._seeds(grid[0], top)]))
         counts = self.below(grid)
         while counts[0] > 0:  # roots below the grid: extend it downwards
             lower = grid[0] * np.geomspace(10.0**-GRID_DECADES, 1.0, GRID_POINTS)[:-1]
@@ -137,14 +190,88 @@ class RootCounter:
                 break
             mid = np.sqrt(lo[wide] * hi[wide])
             lo, hi, lo_c, hi_c = _split(lo, hi, lo_c, hi_c, wide, mid, self.below(mid))
-        return Brackets(lo, hi, hi_c - lo_c, top)
+        m, start = hi_c - lo_c, np.sqrt(lo * hi)
+        if sharpen and np.any(m == 1):
+            one = m == 1
+            lo[one], hi[one], start[one] = self._sharpen(lo[one], hi[one])
+        return Brackets(lo, hi, m, top, start)
+
+    def _seeds(self, lo_hz: float, hi_hz: float) -> np.ndarray:
+        """Frequencies [Hz] in (lo_hz, hi_hz) just below and above each linearised estimate
+        (:meth:`ufmt.mstmm.nodal.NodalStiffness.estimates`) and half-way between them."""
+        est = self.nodal.estimates() / TWO_PI
+        est = est[(est > lo_hz) & (est < hi_hz)]
+        rings = np.concatenate([1 - SEED_RTOLS, 1 + SEED_RTOLS])
+        seeds = np.concatenate([np.outer(est, rings).ravel(), np.sqrt(est[1:] * est[:-1])])
+        return seeds[(seeds > lo_hz) & (seeds < hi_hz)]
+
+    def _sharpen(self, lo, hi, retry: bool = True):
+        """Newton's start in brackets [Hz] of one root each: regula falsi (Illinois) on
+        det K(ω), every point's side decided by J (the brackets it narrows stay certified),
+        to a width below SECANT_RTOL (bisection on J after SECANT_ITERATIONS steps); returns
+        (lo, hi, start): the brackets as given (the root may sit within rounding of a
+        narrowed end) and the last secant point, or, where the secant does not apply, the
+        brackets bisected to START_RTOL and their centres.
+
+        Between two of its poles (no clamped member frequency in the bracket: J₀ constant)
+        det K = det D of the LDLᵀ that counts J changes sign exactly at the root, smoothly:
+        superlinear where bisection gains one bit per J. A bracket where J₀ jumps, det K
+        does not change sign or J and det K disagree on a side is bisected to START_RTOL and
+        (``retry``) tried once more: a clamped member frequency near a root is left out.
+        """
+        n, lo_in, hi_in = lo.size, lo, hi
+        lo, hi = lo.copy(), hi.copy()
+        count, clamped, log_det, sign = self._recall(np.concatenate([lo, hi]))
+        base, ref = count[:n], np.maximum(log_det[:n], log_det[n:])
+        with np.errstate(all="ignore"):
+            f_lo, f_hi = sign[:n] * np.exp(log_det[:n] - ref), sign[n:] * np.exp(log_det[n:] - ref)
+        ok = (count[n:] - base == 1) & (clamped[:n] == clamped[n:]) & (sign[:n] != sign[n:])
+        ok &= np.isfinite(f_lo) & np.isfinite(f_hi)
+        start = np.sqrt(lo * hi)
+        moved = np.zeros(n, dtype=int)  # which end moved last: -1 lo, +1 hi
+        for _ in range(SECANT_ITERATIONS):
+            act = np.flatnonzero(ok & (hi - lo > SECANT_RTOL * hi))
+            if act.size == 0:
+                break
+            a, b, fa, fb = lo[act], hi[act], f_lo[act], f_hi[act]
+            with np.errstate(all="ignore"):
+                x = b - fb * (b - a) / (fb - fa)
+            x = np.where(np.isfinite(x) & (x > a) & (x < b), x, np.sqrt(a * b))
+            c, c0, ld, sg = self._evaluate(x)
+            with np.errstate(all="ignore"):
+                f = sg * np.exp(ld - ref[act])
+            above = c > base[act]  # the root lies below x: x is the new upper end
+            ok[act] = (c0 == clamped[act]) & ((sg == np.sign(fb)) == above) & np.isfinite(f)
+            start[act] = x
+            side = np.where(above, 1, -1)
+            again = side == moved[act]  # the same end moved twice: halve the other's value
+            lo[act], hi[act] = np.where(above, a, x), np.where(above, x, b)
+            f_lo[act] = np.where(above, np.where(again, 0.5 * fa, fa), f)
+            f_hi[act] = np.where(above, f, np.where(again, 0.5 * fb, fb))
+            moved[act] = side
+        # a start between two roots 1e-8 apart can pass for a root after one Newton step:
+        # brackets the secant has not narrowed enough are bisected to SECANT_RTOL
+        slow = ok & (hi - lo > SECANT_RTOL * hi)
+        lo[slow], hi[slow] = self._narrow(lo[slow], hi[slow], SECANT_RTOL)
+        start[slow] = np.sqrt(lo[slow] * hi[slow])
+        lo, hi = np.where(ok, lo_in, lo), np.where(ok, hi_in, hi)
+        lo[~ok], hi[~ok] = self._narrow(lo[~ok], hi[~ok], START_RTOL)
+        start[~ok] = np.sqrt(lo[~ok] * hi[~ok])
+        if retry and not ok.all():  # narrower, the bracket may have left the pole behind
+            lo[~ok], hi[~ok], start[~ok] = self._sharpen(lo[~ok], hi[~ok], retry=False)
+        return lo, hi, start
 
     def refine(self, lo_hz, hi_hz, rtol: float = 1e-13) -> np.ndarray:
         """The roots [Hz] in brackets [lo, hi] of one root each, by bisection on J to
         ``rtol`` (the fallback when Newton on det U_all cannot certify one)."""
+        lo, hi = self._narrow(lo_hz, hi_hz, rtol)
+        return 0.5 * (lo + hi)
+
+    def _narrow(self, lo_hz, hi_hz, rtol: float):
+        """Brackets [Hz] of one root each, bisected on J to relative width ``rtol``."""
         lo, hi = np.array(lo_hz, dtype=float), np.array(hi_hz, dtype=float)
         if lo.size == 0:
-            return lo
+            return lo, hi
         base = self.below(lo)
         for _ in range(MAX_BISECTIONS):
             wide = hi - lo > rtol * hi
@@ -154,7 +281,7 @@ class RootCounter:
             above = self.below(mid) > base[wide]
             hi[np.flatnonzero(wide)[above]] = mid[above]
             lo[np.flatnonzero(wide)[~above]] = mid[~above]
-        return 0.5 * (lo + hi)
+        return lo, hi
 
 
 def _split(lo, hi, lo_c, hi_c, wide, mid, c):
