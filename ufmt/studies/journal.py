@@ -57,7 +57,7 @@ class Evaluator:
     once, as new).
 
     The progress bar counts requests against ``planned`` (the kind's exact count or its
-    optimiser's budget, an upper bound), which stays the bar's total: a search that converges
+    optimiser's budget, an upper bound), which stays the bar's total: a search that stops
     early ends short of it and says so, rather than moving the total during the run.
     """
 
@@ -162,7 +162,7 @@ class Evaluator:
         so (the total stays the budget)."""
         if self._bar.n < self._bar.total:
             self._bar.set_postfix_str(
-                f"converged: {self._bar.n} of at most {self._bar.total}", refresh=False
+                f"finished: {self._bar.n} of at most {self._bar.total} planned", refresh=False
             )
         self._bar.refresh()
 

@@ -11,6 +11,7 @@ against each one-at-a-time axis and a PV map per 2-D grid.
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Mapping
 from pathlib import Path
 
@@ -20,6 +21,7 @@ from matplotlib.figure import Figure
 
 from ufmt.defaults import REFERENCE_PROCESS
 from ufmt.design import PROCESS_PARAMETERS, apply_design
+from ufmt.errors import UfmtError
 from ufmt.evaluate import resolve_model
 from ufmt.plots.psd import plot_psd_extremes
 from ufmt.plots.studies import sweep_figures
@@ -89,7 +91,11 @@ def extreme_psd_figures(study, out_dir: Path) -> dict[str, Figure]:
         return {}
     ranked = values[ok.index]
     rows = {"best": ok.loc[ranked.idxmin()], "worst": ok.loc[ranked.idxmax()]}
-    results = {label: simulate_point(study, row) for label, row in rows.items()}
+    try:
+        results = {label: simulate_point(study, row) for label, row in rows.items()}
+    except UfmtError as exc:  # the points are saved; only this figure is missing
+        warnings.warn(f"{study.name}: no {EXTREMES_FIGURE}: {exc}", stacklevel=2)
+        return {}
     return {EXTREMES_FIGURE: plot_psd_extremes(results, RANKING_METRIC)}
 
 
