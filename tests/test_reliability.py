@@ -12,6 +12,7 @@ import json
 import math
 import os
 import pickle
+import re
 import signal
 import subprocess
 import sys
@@ -601,6 +602,32 @@ def test_progress_totals_are_fixed_in_advance(tmp_path):
     parsed = load_study(study)
     budget = KINDS[parsed.kind].planned_points(parsed)
     assert requested["points_new"] + requested["points_reused"] <= budget
+
+
+def test_a_first_run_reuses_nothing_and_its_bar_total_never_moves(tmp_path, capsys):
+    """Oracle: counting. A first run has no earlier rows, so every requested row is new
+    (new == total, reused == 0), though its optimiser requests some points twice; a rerun
+    computes nothing (meta.json unchanged); every total the bar prints is the kind's budget,
+    fixed before the first point."""
+    body = """
+    kind = "optimise-process"
+    [optimiser]
+    popsize = 2
+    maxiter = 2
+    refine_steps = 2
+    """
+    study = study_file(tmp_path, "opt", body, "line_pv")
+    parsed = load_study(study)
+    budget = KINDS[parsed.kind].planned_points(parsed)
+    out = run_study(study, Execution(jobs=1), results=tmp_path / "r", progress=True, plots=False)
+    first = read_meta(out)["run"]
+    assert first["points_reused"] == 0
+    assert first["points_new"] == first["points_total"] > 0
+    totals = set(re.findall(r"\d+/(\d+) \[", capsys.readouterr().err))
+    assert totals == {str(budget)}
+    before = (out / "meta.json").read_bytes()
+    _run(study, tmp_path / "r")  # computes nothing, so it keeps the first run's record
+    assert (out / "meta.json").read_bytes() == before
 
 
 # ---------------------------------------------------------------------------------------------

@@ -21,7 +21,7 @@ import pandas as pd
 from ufmt import files
 from ufmt.machining.process import TABLE1_RANGE
 from ufmt.model.machine import MACHINE_FIELDS, OPTIONAL_FIELDS
-from ufmt.model.schema import Beam, Model, RigidBody
+from ufmt.model.schema import Model
 
 REPORT = "report.html"
 VALIDATION = "validation"
@@ -116,15 +116,9 @@ def _studies(results: Path) -> list[tuple[str, Path, dict]]:
 def _model_section(model: Model) -> str:
     rows = []
     for body in model.bodies:
-        kind = (
-            "rigid"
-            if isinstance(body, RigidBody)
-            else "beam"
-            if isinstance(body, Beam)
-            else "virtual"
+        rows.append(
+            {"body": body.name, "number": body.number, "kind": body.kind, "mass_kg": body.mass}
         )
-        mass = body.mass if kind != "virtual" else 0.0
-        rows.append({"body": body.name, "number": body.number, "kind": kind, "mass_kg": mass})
     hinges = pd.DataFrame(
         [
             {

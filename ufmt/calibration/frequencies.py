@@ -44,7 +44,7 @@ from ufmt.defaults import PAPER_MODES
 from ufmt.errors import StudyError
 from ufmt.machining.cutting import tool_tip
 from ufmt.model.machine import machine_of
-from ufmt.model.schema import Beam, Model, RigidBody
+from ufmt.model.schema import Model
 from ufmt.mstmm.solve import DIRECTIONS, ModalSolution, describe, energy_shares, solve_modes
 from ufmt.tables import Where
 from ufmt.tomlfile import read_toml
@@ -58,6 +58,10 @@ STATUSES = ("ok", "phase", "bodies", "class")
 PRESENCE = 0.1  # a named body moves if its amplitude is >= this share of the largest body's
 PHASE_SIGNIFICANT = 0.3  # a tagged component decides the phase if >= this share of the body's
 TIP_ANGLE = 0.0  # spindle angle of the tool tip [rad]: pointing along +y, mid-cut
+#: body kind -> whether a mode moves the body as one frame, a motion [r_C; theta] (6,) about
+#: its centre of mass that the phase checks and the tool tip read; other kinds enter through
+#: their energy shares only. The one entry to add for a new body kind.
+MOVES_AS_ONE_FRAME = {"rigid": True, "beam": False, "virtual": False}
 
 
 # ---------------------------------------------------------------------------------------------
@@ -202,14 +206,14 @@ class ModeSet:
 
 
 def _masses(model: Model) -> np.ndarray:
-    return np.array([b.mass if isinstance(b, RigidBody | Beam) else 0.0 for b in model.bodies])
+    return np.array([b.mass for b in model.bodies])
 
 
 def _tool_tip_z(model: Model, motion: np.ndarray) -> np.ndarray:
     """z translation (n,) of the tool tip at spindle angle TIP_ANGLE, from rigid motions."""
     machine = machine_of(model)
     body = model.body(machine.tool_body)
-    if not isinstance(body, RigidBody):
+    if not MOVES_AS_ONE_FRAME[body.kind]:
         return np.zeros(motion.shape[0])
     v = motion[:, [b.name for b in model.bodies].index(body.name)]
     arm = tool_tip(TIP_ANGLE, machine) - body.center_of_mass
@@ -221,7 +225,7 @@ def modeset_from_mstmm(model: Model, shapes) -> ModeSet:
     n = shapes.frequencies_hz.size
     motion = np.zeros((n, len(model.bodies), 6))
     for i, body in enumerate(model.bodies):
-        if isinstance(body, RigidBody):
+        if MOVES_AS_ONE_FRAME[body.kind]:
             motion[:, i] = shapes.rigid[body.name]
     return ModeSet(
         np.asarray(shapes.frequencies_hz, dtype=float),
@@ -248,7 +252,7 @@ def modeset_from_dofs(
     for i, body in enumerate(model.bodies):
         dofs = assembled.body_dofs[body.name]  # (nodes, 6)
         shares[:, i] = per_dof[:, dofs].sum(axis=1)
-        if isinstance(body, RigidBody):
+        if MOVES_AS_ONE_FRAME[body.kind]:
             motion[:, i] = shapes[:, dofs[0]]
     shares = np.clip(shares, 0.0, None)
     shares /= shares.sum(axis=(1, 2), keepdims=True)

@@ -48,6 +48,11 @@ class VirtualBody:
     number: int | None = None
     kind: str = field(default="virtual", init=False)
 
+    @property
+    def mass(self) -> float:
+        """Mass [kg]: none (every body kind has a ``mass``)."""
+        return 0.0
+
 
 @dataclass(frozen=True, eq=False)
 class Beam:

@@ -11,6 +11,8 @@ Functions take an optional ``ax`` and return the Figure.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from dataclasses import dataclass
 from itertools import product
 from pathlib import Path
 
@@ -63,15 +65,6 @@ def _rigid_points(points: np.ndarray, center: np.ndarray, motion: np.ndarray) ->
     return motion[:3] + np.cross(motion[3:], points - center)
 
 
-def _body_points(body) -> np.ndarray | None:
-    """Corner points [m] of a rigid body's box or the two ends of a beam; None for a virtual."""
-    if isinstance(body, RigidBody):
-        return body.center_of_mass + _CORNERS * equivalent_box(body)
-    if isinstance(body, Beam):
-        return np.vstack([body.start, body.end])
-    return None
-
-
 def _view_box(model: Model) -> tuple[np.ndarray, np.ndarray]:
     """(low, high) corners [m] of the drawn region: the machine plus a margin.
 
@@ -115,25 +108,75 @@ def beam_polyline(beam: Beam, positions: np.ndarray, motion: np.ndarray):
 
 
 def _geometry(model: Model, shapes, index: int, view: tuple[np.ndarray, np.ndarray]):
-    """Undeformed corners/polylines/points of every body and their motion in mode ``index``."""
-    boxes, beams, dots = [], [], []
+    """Undeformed corners/polylines/points of every body and their motion in mode ``index``
+    (:data:`BODY_DRAWINGS` of each body's kind), as (boxes, beams, dots)."""
+    layers = {"boxes": [], "beams": [], "dots": []}
     for body in model.bodies:
-        if isinstance(body, RigidBody):
-            half = equivalent_box(body) / 2.0
-            low = np.maximum(body.center_of_mass - half, view[0])
-            high = np.minimum(body.center_of_mass + half, view[1])
-            if np.any(low >= high):
-                continue
-            corners = (low + high) / 2.0 + _CORNERS * (high - low)
-            moved = _rigid_points(corners, body.center_of_mass, shapes.rigid[body.name][index])
-            boxes.append((body, corners, moved))
-        elif isinstance(body, Beam):
-            pos, _, motion = shapes.beams[body.name]
-            beams.append((body, *beam_polyline(body, pos, motion[index])))
-        else:
-            point = _virtual_point(model, body.name)
-            dots.append((body, point, shapes.virtual[body.name][index, :3]))
-    return boxes, beams, dots
+        drawing = BODY_DRAWINGS[body.kind]
+        item = drawing.drawn(model, body, shapes, index, view)
+        if item is not None:
+            layers[drawing.layer].append(item)
+    return layers["boxes"], layers["beams"], layers["dots"]
+
+
+def _box_outline(body: RigidBody) -> np.ndarray:
+    """Corner points [m] of a rigid body's inertia-equivalent box."""
+    return body.center_of_mass + _CORNERS * equivalent_box(body)
+
+
+def _drawn_box(model: Model, body: RigidBody, shapes, index: int, view):
+    """(body, corners, moved corners) of the box cut to the view; None if outside it."""
+    half = equivalent_box(body) / 2.0
+    low = np.maximum(body.center_of_mass - half, view[0])
+    high = np.minimum(body.center_of_mass + half, view[1])
+    if np.any(low >= high):
+        return None
+    corners = (low + high) / 2.0 + _CORNERS * (high - low)
+    moved = _rigid_points(corners, body.center_of_mass, shapes.rigid[body.name][index])
+    return body, corners, moved
+
+
+def _beam_outline(body: Beam) -> np.ndarray:
+    """The two ends [m] of a beam."""
+    return np.vstack([body.start, body.end])
+
+
+def _drawn_beam(model: Model, body: Beam, shapes, index: int, view):
+    """(body, polyline, displacement) of a beam (:func:`beam_polyline`)."""
+    pos, _, motion = shapes.beams[body.name]
+    return (body, *beam_polyline(body, pos, motion[index]))
+
+
+def _drawn_dot(model: Model, body, shapes, index: int, view):
+    """(body, point, displacement) of a virtual body at its hinges' point."""
+    return body, _virtual_point(model, body.name), shapes.virtual[body.name][index, :3]
+
+
+@dataclass(frozen=True)
+class BodyDrawing:
+    """How the mode plots draw one body kind.
+
+    layer : "boxes", "beams" or "dots" (the style it is drawn in); outline(body) : the points
+    [m] that bound the body (sets the view), or None for a point body placed by its hinges;
+    drawn(model, body, shapes, index, view) : the layer's item in mode ``index``, or None.
+    """
+
+    layer: str
+    outline: Callable[..., np.ndarray | None]
+    drawn: Callable[..., tuple | None]
+
+
+#: body kind -> its drawing: the one entry to add for a new body kind
+BODY_DRAWINGS = {
+    "rigid": BodyDrawing("boxes", _box_outline, _drawn_box),
+    "beam": BodyDrawing("beams", _beam_outline, _drawn_beam),
+    "virtual": BodyDrawing("dots", lambda body: None, _drawn_dot),
+}
+
+
+def _body_points(body) -> np.ndarray | None:
+    """Points [m] that bound a body (:attr:`BodyDrawing.outline`); None for a point body."""
+    return BODY_DRAWINGS[body.kind].outline(body)
 
 
 def _virtual_point(model: Model, name: str) -> np.ndarray:

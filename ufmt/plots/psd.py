@@ -24,7 +24,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from ufmt.machining.psd import BANDS, DIRECTIONS, N_MIN_PERIODS, surface_psd
-from ufmt.plots import new_axes
+from ufmt.plots import new_axes, new_figure
 
 #: Band RMS limits [nm] a KDP surface is judged by (module docstring).
 KDP_SPEC_RMS_NM = {"psd1": 1.8, "psd2": 1.1}
@@ -62,6 +62,49 @@ def plot_psd(result, ax=None, spec: dict[str, float] | None = None) -> Figure:
         f, psd = surface_psd(surface, direction)
         keep = (f > 0) & (psd > 0)
         ax.loglog(f[keep] * 1e-3, psd[keep] * 1e18 * 1e3, lw=1.2, **DIRECTION_STYLE[direction])
+    _bands_and_axes(ax)
+    lines = _verdicts(result, spec)
+    lines.append(_limits(spec))
+    fig.suptitle("Surface PSD without the feed marks (form removed, Hann window)", fontsize=10)
+    fig.text(0.01, 0.0, "\n".join(lines), fontsize=8, va="bottom", family="monospace")
+    fig.get_layout_engine().set(rect=(0, 0.16, 1, 0.84))
+    return fig
+
+
+def plot_psd_extremes(
+    results: dict[str, object], metric: str = "pv_measured_nm", spec: dict[str, float] | None = None
+) -> Figure:
+    """The 1-D PSDs [nm^2 mm] of several simulations in one figure: a panel along and one
+    across the feed, one line style per result (``results``: label -> SimulationResult, e.g.
+    a sweep's best and worst design), PSD1/PSD2 shaded, each result's ``metric`` [nm] in the
+    legend and its band RMS against ``spec`` (default :data:`KDP_SPEC_RMS_NM`) below."""
+    spec = spec or KDP_SPEC_RMS_NM
+    fig = new_figure((11.0, 6.4))
+    axes = fig.subplots(1, 2, sharey=True)
+    styles = ("-", "--", ":", "-.")
+    for ax, direction in zip(axes, DIRECTIONS, strict=True):
+        for (label, result), ls in zip(results.items(), styles, strict=False):
+            f, psd = surface_psd(result.smooth_surface, direction)
+            keep = (f > 0) & (psd > 0)
+            value = result.metrics.get(metric, math.nan)
+            ax.loglog(
+                f[keep] * 1e-3, psd[keep] * 1e18 * 1e3, lw=1.2, ls=ls,
+                color=DIRECTION_STYLE[direction]["color"], label=f"{label} ({value:.1f} nm)",
+            )  # fmt: skip
+        _bands_and_axes(ax)
+        ax.set_title(DIRECTION_STYLE[direction]["label"], fontsize=9)
+    axes[1].set_ylabel("")
+    lines = [f"{label:<6} " + line for label, r in results.items() for line in _verdicts(r, spec)]
+    lines.append(_limits(spec) + f"; legend: {metric} [nm]")
+    fig.suptitle("Surface PSD without the feed marks (form removed, Hann window)", fontsize=10)
+    fig.text(0.01, 0.0, "\n".join(lines), fontsize=8, va="bottom", family="monospace")
+    share = 0.02 + 0.024 * len(lines)  # of the height, for the verdict lines below
+    fig.get_layout_engine().set(rect=(0, share, 1, 1 - share))
+    return fig
+
+
+def _bands_and_axes(ax) -> None:
+    """PSD1/PSD2 shading, axis labels (a wavelength axis on top), grid and legend."""
     for name, (lam_min, lam_max) in BANDS.items():
         ax.axvspan(
             1e-3 / lam_max,
@@ -77,21 +120,24 @@ def plot_psd(result, ax=None, spec: dict[str, float] | None = None) -> Figure:
     top.set_xlabel("wavelength [mm]")
     ax.grid(alpha=0.3, which="both")
     ax.legend(fontsize=8, loc="lower left")
-    m = result.metrics
+
+
+def _verdicts(result, spec: dict[str, float]) -> list[str]:
+    """One line per band and direction: the band RMS of ``result`` against its limit."""
+    surface, m = result.smooth_surface, result.metrics
     hx, hy = surface.spacing
     profile = {"along": (int(surface.core_rows.sum()), hy), "across": (surface.x.size, hx)}
-    lines = [
+    return [
         f"{name.upper()} RMS {direction:<6}: "
         + band_verdict(m.get(f"{name}_rms_{direction}_nm"), limit, *profile[direction], BANDS[name])
         for name, limit in spec.items()
         for direction in DIRECTIONS
     ]
+
+
+def _limits(spec: dict[str, float]) -> str:
     limits = ", ".join(f"{name.upper()} RMS <= {limit:g} nm" for name, limit in spec.items())
-    lines.append(f"limits: {limits} (KDP specification, ufmt.plots.psd)")
-    fig.suptitle("Surface PSD without the feed marks (form removed, Hann window)", fontsize=10)
-    fig.text(0.01, 0.0, "\n".join(lines), fontsize=8, va="bottom", family="monospace")
-    fig.get_layout_engine().set(rect=(0, 0.16, 1, 0.84))
-    return fig
+    return f"limits: {limits} (KDP specification, ufmt.plots.psd)"
 
 
 def _inverse(value):

@@ -52,7 +52,13 @@ class Evaluator:
 
     Call :meth:`evaluate` with (group, point) pairs; each point maps parameters to values (the
     study's base is added). Rows come back in request order. A point already in the log (same
-    group and parameter values) is reused, not recomputed.
+    group and parameter values) is reused, not recomputed; ``points_reused`` counts only rows
+    logged before this run (a point requested twice in one run is computed once and counted
+    once, as new).
+
+    The progress bar counts requests against ``planned`` (the kind's exact count or its
+    optimiser's budget, an upper bound), which stays the bar's total: a search that stops
+    early ends short of it and says so, rather than moving the total during the run.
     """
 
     def __init__(
@@ -72,6 +78,7 @@ class Evaluator:
         self._log = outputs.PointLog(out_dir / outputs.POINTS, ["group", "index", *self.parameters])
         logged = {self._key(row["group"], row): row for row in self._log.read()}  # last wins
         self._rows = {k: row for k, row in logged.items() if row.get("status") != "error"}
+        self._earlier = frozenset(self._rows)  # rows this run may reuse
         self._requested: dict[str, dict[str, int]] = {}
         self.points_new = 0
         self.points_reused = 0
@@ -91,15 +98,18 @@ class Evaluator:
             row = {p: inputs.get(p, self.baseline.get(p, math.nan)) for p in self.parameters}
             key = self._key(group, row)
             requested = self._requested.setdefault(group, {})
+            if key not in requested and key in self._earlier:
+                self.points_reused += 1
             index = requested.setdefault(key, len(requested))
             rows.append(key)
             if key in self._rows:
                 self._rows[key].update(group=group, index=index)
             elif key not in todo:
                 todo[key] = ({"group": group, "index": index, **row}, inputs)
-        self._bar.total = max(self._bar.total, self._bar.n + len(set(rows)))
+        if self._bar.n + len(set(rows)) > self._bar.total:  # only if a kind under-plans
+            self._bar.total = self._bar.n + len(set(rows))
+            self._bar.set_description_str(f"{self.study.name} (more points than planned)")
         self._bar.update(len(set(rows)) - len(todo))
-        self.points_reused += len(set(rows)) - len(todo)
         self._run(list(todo.items()))
         return [self._rows[key] for key in rows]
 
@@ -148,8 +158,12 @@ class Evaluator:
         return pd.DataFrame([self._rows[k] for k in keys], columns=self._log.columns)
 
     def complete(self) -> None:
-        """Mark the progress bar finished (an optimiser may use less than its budget)."""
-        self._bar.total = self._bar.n
+        """Mark the progress bar finished; an optimiser that used less than its budget says
+        so (the total stays the budget)."""
+        if self._bar.n < self._bar.total:
+            self._bar.set_postfix_str(
+                f"finished: {self._bar.n} of at most {self._bar.total} planned", refresh=False
+            )
         self._bar.refresh()
 
     def close(self) -> None:

@@ -145,6 +145,8 @@ def _run_locked(study, execution, out_dir, identity, progress, fresh, plots) -> 
     outputs.write_json(meta, out_dir / outputs.META)
     if plots and run["points_failed"] + run["points_invalid"] < run["points_total"]:
         figures = kind.figures(out_dir)
+        if kind.simulated_figures is not None:
+            figures.update(kind.simulated_figures(study, out_dir))
         meta["plots"] = [save_figure(fig, out_dir / name).name for name, fig in figures.items()]
         outputs.write_json(meta, out_dir / outputs.META)
     elif plots:

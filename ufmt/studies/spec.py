@@ -152,7 +152,9 @@ class StudyKind:
       :class:`ufmt.studies.journal.Evaluator`, write the kind's ``tables`` (file names in
       ``out_dir``, besides points.csv) and return the headline finding;
     * ``figures(out_dir)``: the figures of a finished run drawn from its tables, by PNG file
-      name.
+      name;
+    * ``simulated_figures(study, out_dir)`` (optional): figures that need a few simulations
+      beyond the tables (run in the outputs step, only when plots are drawn), by PNG name.
     """
 
     name: str
@@ -162,3 +164,4 @@ class StudyKind:
     planned_points: Callable[..., int]
     analyse: Callable[..., str]
     figures: Callable[..., dict]
+    simulated_figures: Callable[..., dict] | None = None

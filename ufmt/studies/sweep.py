@@ -11,6 +11,7 @@ against each one-at-a-time axis and a PV map per 2-D grid.
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Mapping
 from pathlib import Path
 
@@ -18,9 +19,15 @@ import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
 
+from ufmt.defaults import REFERENCE_PROCESS
+from ufmt.design import PROCESS_PARAMETERS, apply_design
+from ufmt.errors import UfmtError
+from ufmt.evaluate import resolve_model
+from ufmt.plots.psd import plot_psd_extremes
 from ufmt.plots.studies import sweep_figures
+from ufmt.simulate import Process, simulate
 from ufmt.studies import outputs
-from ufmt.studies.fields import Parameters, read_axes, read_grids
+from ufmt.studies.fields import DEFAULT_FUNCTION, Parameters, read_axes, read_grids
 from ufmt.studies.outputs import short
 from ufmt.studies.spec import Group, StudyKind
 from ufmt.tables import Where
@@ -57,6 +64,49 @@ def analyse(study, evaluator, baseline: Mapping[str, float], out_dir: Path) -> s
 def figures(out_dir: Path) -> dict[str, Figure]:
     """PV against each one-at-a-time axis and a PV map per 2-D grid."""
     return sweep_figures(outputs.read_table(out_dir / outputs.POINTS), outputs.read_meta(out_dir))
+
+
+#: Metric that ranks a sweep's designs for the PSD figure: the interferometer's PV [nm], the
+#: one the sweep plots draw.
+RANKING_METRIC = "pv_measured_nm"
+EXTREMES_FIGURE = "psd_best_worst.png"
+
+
+def extreme_psd_figures(study, out_dir: Path) -> dict[str, Figure]:
+    """PSDs of the sweep's best and worst points (lowest and highest :data:`RANKING_METRIC`
+    in points.csv) in one figure (:func:`ufmt.plots.psd.plot_psd_extremes`).
+
+    The surfaces are not in the tables, so the two points are simulated again here, through
+    :func:`ufmt.simulate` on the study's model with the point's design applied: two
+    simulations, part of the study's outputs step (run only when plots are drawn); the plot
+    function reads their results. Empty when the study function is not ``ufmt.evaluate``
+    (its points are not ufmt simulations) or fewer than two points succeeded.
+    """
+    if study.function != DEFAULT_FUNCTION:
+        return {}
+    table = outputs.read_table(out_dir / outputs.POINTS)
+    values = pd.to_numeric(table.get(RANKING_METRIC), errors="coerce")
+    ok = table[(table["status"] == "ok") & np.isfinite(values)]
+    if len(ok) < 2:
+        return {}
+    ranked = values[ok.index]
+    rows = {"best": ok.loc[ranked.idxmin()], "worst": ok.loc[ranked.idxmax()]}
+    try:
+        results = {label: simulate_point(study, row) for label, row in rows.items()}
+    except UfmtError as exc:  # the points are saved; only this figure is missing
+        warnings.warn(f"{study.name}: no {EXTREMES_FIGURE}: {exc}", stacklevel=2)
+        return {}
+    return {EXTREMES_FIGURE: plot_psd_extremes(results, RANKING_METRIC)}
+
+
+def simulate_point(study, row: Mapping):
+    """:func:`ufmt.simulate` of one study point (``row``: the values of the study's
+    parameters): the model with the point's design applied, cut with its process."""
+    values = {p: float(row[p]) for p in study.parameters}
+    design = {k: v for k, v in values.items() if k not in PROCESS_PARAMETERS}
+    process = {**REFERENCE_PROCESS, **{k: v for k, v in values.items() if k in PROCESS_PARAMETERS}}
+    base, _ = resolve_model(study.model)
+    return simulate(apply_design(base, design, study.design), Process(**process))
 
 
 def trend(x, y) -> str:
@@ -117,6 +167,7 @@ SWEEP = StudyKind(
     planned_points=planned_points,
     analyse=analyse,
     figures=figures,
+    simulated_figures=extreme_psd_figures,
 )
 GRID = StudyKind(
     name="grid",
@@ -126,4 +177,5 @@ GRID = StudyKind(
     planned_points=planned_points,
     analyse=analyse,
     figures=figures,
+    simulated_figures=extreme_psd_figures,
 )
