@@ -1,7 +1,8 @@
-"""Reliability under kill -9: nothing outlives the main process, nothing is left half written.
+"""Reliability under kill -9: no worker outlives the main process (the files a kill leaves
+are tested in test_files.py).
 
-Oracles: the process table (/proc: a pid that is gone, or a zombie waiting to be reaped, has
-ended) and the files on disk compared byte for byte with the set written before the kill.
+Oracle: the process table (/proc: a pid that is gone, or a zombie waiting to be reaped, has
+ended), within a bound far below the life of an orphan (its 120 s task).
 """
 
 from __future__ import annotations

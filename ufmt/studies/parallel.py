@@ -14,7 +14,9 @@ A loky worker ends when the main process dies, even by kill -9 (which runs no cl
 Linux the kernel sends it SIGTERM (``prctl(PR_SET_PDEATHSIG)``, set by the worker initializer
 :func:`exit_with_parent`); elsewhere a watchdog thread in the worker sees its parent change
 (:func:`watch_parent`). Without either, an orphaned worker would finish its point and then wait
-for loky's idle timeout (300 s).
+for loky's idle timeout (300 s). The kernel's signal follows the thread that started the
+worker: a pool first used from a thread that then ends loses its workers (the run stops as a
+lost pool, rows kept); ufmt starts its pools from the main thread.
 
 The workers import this module only (the worker function is pickled by reference), so it
 stays free of the study kinds and their plots.
