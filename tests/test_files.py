@@ -139,3 +139,101 @@ def test_a_file_set_where_a_file_is_refuses_in_one_error(tmp_path):
         with files.FileSet(tmp_path / "f"):
             pass
     assert (tmp_path / "f").read_text() == "keep"
+
+
+# ---------------------------------------------------------------------------------------------
+# a set of files under kill -9
+
+OLD_SET = {"a.csv": b"old a", "b.csv": b"old b", "m.json": b"old m"}
+NEW_SET = {"a.csv": b"new a\n", "b.csv": b"new b\n", "m.json": b"new m\n"}
+KILLED_SET = textwrap.dedent(
+    """
+    import os, shutil, signal, sys
+    from ufmt import files
+    step, calls = int(sys.argv[1]), [0]
+    def killing(step_of_the_set):
+        def step_or_kill(*args, **kwargs):
+            calls[0] += 1
+            if calls[0] == step:
+                os.kill(os.getpid(), signal.SIGKILL)
+            return step_of_the_set(*args, **kwargs)
+        return step_or_kill
+    os.rename, os.replace = killing(os.rename), killing(os.replace)
+    shutil.rmtree = killing(shutil.rmtree)
+    if hasattr(files, "exchange"):
+        files.exchange = killing(files.exchange)
+    with files.FileSet(sys.argv[2], manifest="m.json") as out:
+        for name, data in {new!r}.items():
+            out.add(name, data)
+    """
+).format(new=NEW_SET)
+
+
+def write_set(directory: Path, members: dict[str, bytes]) -> None:
+    with files.FileSet(directory, manifest="m.json") as out:
+        for name, data in members.items():
+            out.add(name, data)
+
+
+def killed_writes(directory: Path):
+    """For k = 1, 2, ...: the old set written in place, then a process writing the new set
+    killed (-9) just before its k-th rename, exchange or folder removal; yields (exit status,
+    the entries of the parent left by the kill) until a write runs to its end."""
+    env = {**os.environ, "PYTHONPATH": str(REPO)}
+    for step in range(1, 20):
+        write_set(directory, OLD_SET)  # sweeps what the previous kill left
+        args = [sys.executable, "-c", KILLED_SET, str(step), str(directory)]
+        status = subprocess.run(args, env=env, cwd=REPO, timeout=60).returncode
+        yield status, sorted(p.name for p in directory.parent.iterdir())
+        if status == 0:
+            return
+    raise AssertionError("the set never completed")
+
+
+def contents(directory: Path) -> dict[str, bytes]:
+    return {p.name: p.read_bytes() for p in directory.iterdir() if p.is_file()}
+
+
+def test_a_kill_at_any_step_of_a_set_leaves_the_old_set_or_the_new_one(tmp_path):
+    """Into a directory holding only the set: after a kill -9 at each step, the directory
+    holds the old set or the new one, byte for byte, never a mix; the killed writer's staging
+    folder is removed by the next write."""
+    a, b = tmp_path / "probe-a", tmp_path / "probe-b"
+    a.mkdir()
+    b.mkdir()
+    if not files.exchange(a, b):
+        pytest.skip("this file system cannot exchange two folders")
+    a.rmdir()
+    b.rmdir()
+    out = tmp_path / "save"
+    seen, leftovers = [], []
+    for status, entries in killed_writes(out):
+        assert status in (0, -9)
+        state = contents(out)
+        assert state in (OLD_SET, NEW_SET), f"a mixed set after a kill: {state}"
+        seen.append(state == NEW_SET)
+        leftovers += [e for e in entries if e != "save"]
+    assert seen[-1] and not seen[0] and True in seen[:-1]  # killed before and after the swap
+    assert leftovers  # kills left staging folders ...
+    write_set(out, NEW_SET)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["save"]  # ... that were swept
+
+
+def test_a_kill_into_a_shared_directory_keeps_its_other_files_and_the_manifest_last(tmp_path):
+    """Into a directory holding other files too (a folder of another command's outputs): the
+    members are renamed one by one, manifest last; after a kill at each step the other files
+    are intact and a new manifest means every member is new."""
+    out = tmp_path / "validation"
+    (out / "reference-process").mkdir(parents=True)
+    (out / "reference-process" / "keep.csv").write_bytes(b"keep")
+    mixed = False
+    for _status, _entries in killed_writes(out):
+        state = contents(out)
+        assert (out / "reference-process" / "keep.csv").read_bytes() == b"keep"
+        if state["m.json"] == NEW_SET["m.json"]:
+            assert state == NEW_SET
+        mixed |= state not in (OLD_SET, NEW_SET)
+    assert mixed  # this scheme can leave a mix, which the manifest tells apart
+    write_set(out, NEW_SET)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["validation"]
+    assert sorted(p.name for p in out.iterdir()) == sorted([*NEW_SET, "reference-process"])

@@ -13,9 +13,11 @@ import errno
 import json
 import math
 import os
+import re
 from pathlib import Path
 
 import joblib
+import numpy as np
 import pytest
 from test_files import full_disk_after, on_disk
 from test_reliability import (
@@ -301,6 +303,62 @@ def test_a_study_records_points_outside_the_domain_as_invalid_and_goes_on(tmp_pa
     run = read_meta(tmp_path / "r" / "domain")["run"]
     assert run["points_invalid"] == 2 and run["points_failed"] == 0
     assert "300" in result.stdout  # the sweep's best point is a valid one (lowest pv: 300 rpm)
+
+
+def soft_model(tmp_path: Path, factor: float = 1e-4) -> Path:
+    """The packaged model with every hinge stiffness times ``factor``: a machine whose tool
+    vibrates by micrometres under the reference cut."""
+    text = ufmt.packaged_path().read_text(encoding="utf-8")
+
+    def scaled(match):
+        values = ", ".join(repr(float(v) * factor) for v in match.group(2).split(","))
+        return f"{match.group(1)}[{values}]"
+
+    pattern = r"^((?:rotational_)?stiffness = )\[([^\]]*)\]"
+    path = tmp_path / "soft.toml"
+    path.write_text(re.sub(pattern, scaled, text, flags=re.M), encoding="utf-8")
+    return path
+
+
+@pytest.mark.filterwarnings("ignore::ufmt.machining.process.ProcessRangeWarning")
+def test_the_contact_limit_sits_where_z_re_reaches_the_depth_of_cut():
+    """Oracle: linearity. z_re is linear in the force scale, so one run at scale f1 with
+    peak p1 places the limit at f* = f1 a_p / p1: a run at 0.9 f* has the peak 0.9 a_p (the
+    linearity itself) and is inside the domain, one at 1.1 f* is refused naming both values."""
+    model, process = ufmt.load_model(), Process(300.0, 15.0, 4.0)
+    options = {"n_modes": 12, "spacing": 2e-3}
+    f1 = 1.0
+    p1 = float(np.abs(ufmt.simulate(model, process, force_scale=f1, **options).response.z_re).max())
+    limit = f1 * process.depth_m / p1
+    inside = ufmt.simulate(model, process, force_scale=0.9 * limit, **options)
+    assert np.abs(inside.response.z_re).max() == pytest.approx(0.9 * process.depth_m, rel=1e-9)
+    with pytest.raises(OutsideDomainError, match="z_re reaches 4400 nm") as info:
+        ufmt.simulate(model, process, force_scale=1.1 * limit, **options)
+    assert "depth of cut 4000 nm" in str(info.value) and "\n" not in str(info.value)
+
+
+def test_simulate_on_a_soft_machine_whose_tool_leaves_the_cut_is_exit_2(tmp_path, capsys):
+    model = soft_model(tmp_path)
+    assert main(["simulate", str(model), "--feed", "45"]) == 2
+    error = capsys.readouterr().err.strip()  # a warning (45 mm/min: outside Table 1) first
+    last = error.splitlines()[-1]
+    assert last.startswith("ufmt simulate: error: process: the relative vibration z_re reaches")
+    assert "depth of cut 4000 nm" in last and "Traceback" not in error, error
+
+
+@pytest.mark.filterwarnings("ignore::ufmt.machining.process.ProcessRangeWarning")
+def test_a_study_records_a_cut_that_loses_contact_as_invalid(tmp_path):
+    soft_model(tmp_path)
+    study = tmp_path / "contact.toml"
+    study.write_text(
+        'model = "soft.toml"\nkind = "sweep"\n[[axis]]\nparameter = "feed_mm_min"\n'
+        "values = [15.0, 45.0]\n",
+        encoding="utf-8",
+    )
+    out = run_study(study, Execution(jobs=1), results=tmp_path / "r", progress=False, plots=False)
+    table = read_table(out / "points.csv")
+    assert list(table["status"]) == ["ok", "invalid"]
+    assert "z_re reaches" in table["message"][1]
 
 
 # ---------------------------------------------------------------------------------------------

@@ -10,9 +10,12 @@ gone). The target itself is never opened: a planted symlink at its name is repla
 followed.
 
 A set of files (``simulate --save``, the plot sets) is written with :class:`FileSet`: every
-member is staged first and only then renamed into place, so a failure while staging changes
-nothing; into a directory that does not exist yet, the whole staged directory is renamed into
-place in one rename.
+member is staged first in a sibling folder and only then put in place, so a failure while
+staging changes nothing. Into a directory that does not exist yet, the staged folder is renamed
+into place; into one that holds nothing but the set's files, the two folders are exchanged in
+one step (:func:`exchange`); either way a kill -9 leaves the old set or the new one, whole.
+Where the directory holds other files too, the members are renamed one by one (module doc of
+:class:`FileSet`). A killed writer's staging folder is removed by the next set written there.
 
 An append-only log (a study's points.csv) appends each record with one ``os.write`` through
 :func:`open_append` and :func:`append`.
@@ -23,12 +26,16 @@ CLI prints it as one line naming the path).
 
 from __future__ import annotations
 
+import ctypes
 import errno
+import functools
 import glob
 import io
 import os
 import secrets
 import shutil
+import stat
+import sys
 from collections.abc import Callable
 from pathlib import Path
 
@@ -36,6 +43,9 @@ from ufmt.errors import OutputError
 
 _TMP_SUFFIX = ".tmp"
 _NOFOLLOW = getattr(os, "O_NOFOLLOW", 0)
+_AT_FDCWD = -100  # <fcntl.h>: a path relative to the working directory
+_RENAME_EXCHANGE = 2  # renameat2 flag, <linux/fs.h>
+_NO_EXCHANGE = {errno.EINVAL, errno.ENOSYS, errno.EOPNOTSUPP, errno.EXDEV}  # fall back
 
 
 def write_bytes(path: str | os.PathLike, data: bytes) -> Path:
@@ -131,7 +141,8 @@ def _temporary_name(directory: Path, name: str) -> Path:
 
 
 def _sweep(directory: Path, name: str) -> None:
-    """Remove the temporary files of ``name`` that killed writers left (their pid is gone)."""
+    """Remove the temporary files and staging folders of ``name`` that killed writers left
+    (their pid is gone)."""
     try:
         leftovers = list(directory.glob(f".{glob.escape(name)}.*.*{_TMP_SUFFIX}"))
     except OSError:
@@ -139,7 +150,10 @@ def _sweep(directory: Path, name: str) -> None:
     for leftover in leftovers:
         pid = leftover.name[len(name) + 2 :].split(".")[0]
         if pid.isdigit() and int(pid) != os.getpid() and not _alive(int(pid)):
-            _remove_quietly(leftover)
+            if leftover.is_dir() and not leftover.is_symlink():  # a FileSet's staging folder
+                shutil.rmtree(leftover, ignore_errors=True)
+            else:
+                _remove_quietly(leftover)
 
 
 def _alive(pid: int) -> bool:
@@ -188,15 +202,52 @@ def check_set_target(directory: str | os.PathLike | None) -> None:
         raise OutputError(errno.EEXIST, f"cannot write {directory}: exists and is not a directory")
 
 
-class FileSet:
-    """Files written as a set into ``directory``: :meth:`add` stages each (nothing visible
-    yet), :meth:`commit` puts them all in place; the set is lost as a whole on a failure.
+def exchange(a: str | os.PathLike, b: str | os.PathLike) -> bool:
+    """Swap the paths ``a`` and ``b`` (two existing files or folders on one file system) in one
+    step: Linux ``renameat2(RENAME_EXCHANGE)``. False, with nothing changed, where the system or
+    the file system has no such call; any other failure raises ``OSError``."""
+    renameat2 = _renameat2()
+    if renameat2 is None:
+        return False
+    if renameat2(_AT_FDCWD, os.fsencode(a), _AT_FDCWD, os.fsencode(b), _RENAME_EXCHANGE) == 0:
+        return True
+    code = ctypes.get_errno()
+    if code in _NO_EXCHANGE:
+        return False
+    raise OSError(code, os.strerror(code), os.fspath(b))
 
-    Into a directory that does not exist, the staged directory is renamed into place in one
-    rename. Into an existing one, the staged files are renamed one by one (microseconds apart;
-    ``manifest``, the file that describes the set, last), and files of the directory that are
-    not in the set are left alone. Use as a context manager: leaving it by an exception removes
-    every staged file.
+
+@functools.cache
+def _renameat2():
+    """The C library's ``renameat2`` (glibc 2.28+), or None."""
+    if not sys.platform.startswith("linux"):
+        return None
+    try:
+        function = ctypes.CDLL(None, use_errno=True).renameat2
+    except (OSError, AttributeError):
+        return None
+    function.argtypes = [ctypes.c_int, ctypes.c_char_p, ctypes.c_int, ctypes.c_char_p]
+    function.argtypes += [ctypes.c_uint]
+    function.restype = ctypes.c_int
+    return function
+
+
+class FileSet:
+    """Files written as a set into ``directory``: :meth:`add` (or a writer given
+    :meth:`staged`) stages each, nothing visible yet; leaving the ``with`` block puts them all
+    in place; the set is lost as a whole on a failure.
+
+    The members are staged in a sibling folder ``.<directory>.<pid>.<random>.tmp``. Into a
+    directory that does not exist, that folder is renamed into place. Into one that holds
+    nothing but members of this set, the two folders are exchanged in one step
+    (:func:`exchange`) and the old one is removed: a kill -9 leaves the old set or the new
+    one, whole. Into one that holds other files too (e.g. results/validation/ with
+    reference-process/ inside), or where the system cannot exchange, the members are renamed
+    one by one (microseconds apart; ``manifest``, the file that describes the set, last): a
+    kill between two renames can leave old and new members mixed, but a new manifest means
+    every member is new; the other files are left alone. The staging folder of a killed
+    writer (its pid gone) is removed by the next set written to ``directory``. Use as a
+    context manager: leaving it by an exception removes every staged file.
     """
 
     def __init__(self, directory: str | os.PathLike, manifest: str | None = None):
@@ -212,11 +263,8 @@ class FileSet:
             if path.exists() and not path.is_dir():
                 raise FileExistsError(errno.EEXIST, "exists and is not a directory")
             self._new = not path.exists()
-            parent = path.parent if self._new else path
-            parent.mkdir(parents=True, exist_ok=True)
-            token = secrets.token_hex(6)
-            self._stage = parent / f".{path.name}.{token}{_TMP_SUFFIX}"
-            self._stage.mkdir()
+            path.parent.mkdir(parents=True, exist_ok=True)
+            self._stage = _make_stage(path, self._new)
         except OSError as exc:
             raise output_error(path, exc) from None
         return self
@@ -237,7 +285,7 @@ class FileSet:
         try:
             if kind is None:
                 self._commit()
-        finally:
+        finally:  # the staged files, or after an exchange the old set
             if self._stage is not None and self._stage.exists():
                 shutil.rmtree(self._stage, ignore_errors=True)
 
@@ -247,12 +295,53 @@ class FileSet:
                 os.rename(self._stage, self.directory)
                 self._stage = None
                 _sync_directory(self.directory.parent)
-                return
-            names = [n for n in self._names if n != self.manifest]
-            names += [n for n in self._names if n == self.manifest]
-            for name in names:
-                _refuse_directory(self.directory / name)
-                os.replace(self._stage / name, self.directory / name)
-            _sync_directory(self.directory)
+            elif self._holds_only_the_set() and self._exchange():
+                _sync_directory(self.directory.parent)
+            else:
+                self._rename_members()
         except OSError as exc:
             raise output_error(self.directory, exc) from None
+
+    def _holds_only_the_set(self) -> bool:
+        """Whether the existing directory is a real folder, a sibling of the staging folder,
+        whose entries are all members of this set (so exchanging loses nothing)."""
+        target = self.directory
+        if target.is_symlink() or self._stage.parent != target.parent:
+            return False
+        return set(os.listdir(target)) <= set(self._names)
+
+    def _exchange(self) -> bool:
+        """Exchange the staging folder (given the directory's mode) with the directory."""
+        os.chmod(self._stage, stat.S_IMODE(os.stat(self.directory).st_mode))
+        return exchange(self._stage, self.directory)
+
+    def _rename_members(self) -> None:
+        names = [n for n in self._names if n != self.manifest]
+        names += [n for n in self._names if n == self.manifest]
+        for name in names:
+            _refuse_directory(self.directory / name)
+            os.replace(self._stage / name, self.directory / name)
+        _sync_directory(self.directory)
+
+
+def _make_stage(directory: Path, new: bool) -> Path:
+    """The staging folder of a set bound for ``directory``, made after sweeping the killed
+    writers' ones: a sibling of it, or inside an existing directory where a sibling is not
+    possible (the parent is read-only, or the directory is a mount point)."""
+    homes = [directory.parent]
+    if not new:
+        mount_point = os.stat(directory).st_dev != os.stat(directory.parent).st_dev
+        homes = [directory] if mount_point else [directory.parent, directory]
+        _sweep(directory, directory.name)
+    _sweep(directory.parent, directory.name)
+    for home in homes[:-1]:
+        try:
+            return _new_folder(_temporary_name(home, directory.name))
+        except OSError:
+            pass
+    return _new_folder(_temporary_name(homes[-1], directory.name))
+
+
+def _new_folder(path: Path) -> Path:
+    path.mkdir()
+    return path

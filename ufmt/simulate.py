@@ -387,6 +387,7 @@ def _run(
     sources = check_sources(options.sources)
     zeta = modal_damping(options.zeta, basis.n_modes)
     response = _response(basis, machine, process, residual, zeta, options)
+    validity.check_contact(response.z_re, process)
 
     # every surface reported (the total, the band surface, each source alone) is the lower
     # pass of a sum of per-source heights on one set of passes: each height is computed once

@@ -16,6 +16,13 @@ The limits and their physics (r_n nose radius, a_p depth of cut, s = v/f feed pe
   s^2 / (8 r_n)) would be deeper than the cut and ridges of the original surface remain
   between the passes: the machined-surface model (the lower envelope of the passes) no longer
   describes the part.
+* **Tool in contact** max |z_re| < a_p: the surface model has the tool remove material over
+  its whole engagement, driven by the force of the nominal chip. A relative vibration z_re
+  (tool minus workpiece along the depth) as large as the depth of cut would lift the tool out
+  of the cut (no chip, no force) or double the chip, neither of which the linear response
+  nor the lower envelope of the passes describes. Checked on the response's record window
+  (mid-cut, every force part and the static correction included); either sign counts. Cheap
+  (one max over the window), so it is checked after the response, before the surface.
 * **Sampling** n_phi <= MAX_SAMPLES_PER_REV: the response is sampled at n_phi points per
   revolution so that the basis' highest mode is resolved
   (:func:`ufmt.machining.cut_geometry.samples_per_rev`); a spindle so slow that this needs
@@ -79,6 +86,18 @@ def check_cut(process: Process, machine: Machine) -> None:
             f" {process.rpm:g} rpm) exceeds the width {width * 1e6:.4g} um the nose cuts at"
             f" {process.depth_um:g} um depth (scallop deeper than the cut; limit:"
             " feed/rev <= 2 sqrt(2 r_n a_p - a_p^2))"
+        )
+
+
+def check_contact(z_re: np.ndarray, process: Process) -> None:
+    """Tool in contact (module doc): the largest |z_re| [m] of the record window stays below
+    the depth of cut."""
+    peak = float(np.max(np.abs(z_re)))
+    if peak >= process.depth_m:
+        raise OutsideDomainError(
+            f"process: the relative vibration z_re reaches {peak * 1e9:.4g} nm, not less than"
+            f" the depth of cut {process.depth_m * 1e9:.4g} nm: the tool would leave the cut"
+            " (limit: max |z_re| < depth of cut)"
         )
 
 

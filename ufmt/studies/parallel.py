@@ -10,19 +10,31 @@ threadpoolctl: the model's matrices are small (order 66), so threaded BLAS only 
 (measured on the UFMT: 1.0 s per modal basis with one thread, 1.3-2.5 s with two), and the
 cores are better used by evaluating points side by side.
 
+A loky worker ends when the main process dies, even by kill -9 (which runs no clean-up): on
+Linux the kernel sends it SIGTERM (``prctl(PR_SET_PDEATHSIG)``, set by the worker initializer
+:func:`exit_with_parent`); elsewhere a watchdog thread in the worker sees its parent change
+(:func:`watch_parent`). Without either, an orphaned worker would finish its point and then wait
+for loky's idle timeout (300 s). The kernel's signal follows the thread that started the
+worker: a pool first used from a thread that then ends loses its workers (the run stops as a
+lost pool, rows kept); ufmt starts its pools from the main thread.
+
 The workers import this module only (the worker function is pickled by reference), so it
 stays free of the study kinds and their plots.
 """
 
 from __future__ import annotations
 
+import ctypes
 import dataclasses
 import functools
 import hashlib
 import importlib
 import importlib.util
+import os
 import re
+import signal
 import sys
+import threading
 import time
 import warnings
 from collections.abc import Iterator, Mapping
@@ -46,6 +58,8 @@ _SCHEDULER = re.compile(  # tcp://host:port, tls://..., ucx://..., host:port, in
 )
 BLAS_THREADS = 1  # per worker (module docstring)
 _BLAS_LIMITED_TASKS = 2  # per worker: before the first task and again once it loaded its libs
+_PR_SET_PDEATHSIG = 1  # prctl option, <linux/prctl.h>
+PARENT_POLL_S = 0.5  # [s] the watchdog's period where the kernel cannot signal a parent's death
 
 
 def pool_lost_errors() -> tuple[type[BaseException], ...]:
@@ -141,6 +155,45 @@ def _record(ref: str, design, process, model, extra) -> dict:
 
 
 # ---------------------------------------------------------------------------------------------
+# workers that die with the main process
+
+
+def exit_with_parent(parent: int) -> None:
+    """Worker initializer: end this process with SIGTERM when process ``parent`` (the main
+    process that started it) dies, by the kernel's parent-death signal on Linux, else by
+    :func:`watch_parent`. A parent already gone before the signal was armed ends it now."""
+    if not _arm_parent_death_signal():
+        watch_parent(parent)
+    if os.getppid() != parent:
+        os.kill(os.getpid(), signal.SIGTERM)
+
+
+def _arm_parent_death_signal() -> bool:
+    """``prctl(PR_SET_PDEATHSIG, SIGTERM)``; False where there is no such call."""
+    if not sys.platform.startswith("linux"):
+        return False
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        return libc.prctl(_PR_SET_PDEATHSIG, int(signal.SIGTERM), 0, 0, 0) == 0
+    except (OSError, AttributeError):
+        return False
+
+
+def watch_parent(parent: int, period: float = PARENT_POLL_S) -> threading.Thread:
+    """A daemon thread sending SIGTERM to this process once its parent is no longer
+    ``parent`` (an orphan is adopted by another process), checked every ``period`` [s]."""
+
+    def watch() -> None:
+        while os.getppid() == parent:
+            time.sleep(period)
+        os.kill(os.getpid(), signal.SIGTERM)
+
+    thread = threading.Thread(target=watch, name="ufmt-parent-watchdog", daemon=True)
+    thread.start()
+    return thread
+
+
+# ---------------------------------------------------------------------------------------------
 # parallel pools
 
 
@@ -190,7 +243,14 @@ def parallel_pool(execution: Execution) -> Iterator[joblib.Parallel]:
     """A reusable joblib Parallel returning results as they finish (unordered)."""
     if execution.backend == "loky":
         n = execution.n_jobs
-        with joblib.parallel_config(backend="loky", n_jobs=n, inner_max_num_threads=BLAS_THREADS):
+        config = joblib.parallel_config(
+            backend="loky",
+            n_jobs=n,
+            inner_max_num_threads=BLAS_THREADS,
+            initializer=exit_with_parent,
+            initargs=(os.getpid(),),
+        )
+        with config:
             with joblib.Parallel(return_as="generator_unordered") as parallel:
                 yield parallel
         return
