@@ -73,7 +73,7 @@ _HINGE_PARAMETER = re.compile(
 MACHINE_PREFIX = "machine."
 #: ``[machine]`` pairs whose components are parameters ``machine.<key>[i]``.
 MACHINE_PAIRS = ("workpiece_size",)
-_MACHINE_PARAMETER = re.compile(r"machine\.(?P<key>[a-z_]+)(\[(?P<index>[01])\])?")
+_MACHINE_PARAMETER = re.compile(r"machine\.(?P<key>[A-Za-z_]+)(\[(?P<index>[01])\])?")
 
 
 def machine_target(name: str) -> tuple[str, int | None] | None:
