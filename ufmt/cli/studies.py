@@ -86,13 +86,16 @@ def run_study_cli(args: argparse.Namespace) -> int:
     StudyError
         A bad study file or argument (the caller prints its one-line message).
     """
-    from ufmt.studies.outputs import now, read_meta
+    from ufmt.studies.load import load_study
+    from ufmt.studies.outputs import read_meta
     from ufmt.studies.parallel import Execution
-    from ufmt.studies.runner import run_study
+    from ufmt.studies.runner import default_results, run_study
 
-    began = now()
+    study = load_study(args.study)
+    root = default_results(study) if args.results is None else Path(args.results)
+    before = read_meta(root / study.name)  # a rerun that computes nothing leaves it as it was
     out_dir = run_study(
-        args.study,
+        study,
         Execution(jobs=args.jobs, backend=args.backend, scheduler=args.scheduler),
         results=args.results,
         progress=not args.no_progress,
@@ -102,7 +105,7 @@ def run_study_cli(args: argparse.Namespace) -> int:
     meta = read_meta(out_dir)
     run = meta["run"]
     print(f"{meta['study']}: {meta['headline']}")
-    if meta.get("started", began) < began:  # nothing computed: meta.json is the earlier run's
+    if before and meta == before:  # nothing computed: meta.json is the earlier run's
         print(
             f"{run['points_total']} points, every one reused from the run of {meta['started']};"
             f" nothing recomputed, every file as it was -> {out_dir}"
