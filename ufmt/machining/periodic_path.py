@@ -287,47 +287,51 @@ def _pole_recurrence(modes: DampedModes, n_phi: int, spindle_hz: float) -> Perio
 
 
 @lru_cache(maxsize=8)
-def _cut_run(active: bytes):
-    """The circular run of the ``active`` samples (N bools as bytes): its first sample, its
-    samples in order (A,), the distinct lags (L,) between them mod N and each pair's (A, A)."""
+def _cut_run(active: bytes) -> tuple[int, np.ndarray]:
+    """The circular run of the ``active`` samples (N bools as bytes, not all): its first
+    sample and its samples in order (A,) (read-only)."""
     active = np.frombuffer(active, dtype=bool)
-    n = active.size
     first = int(np.flatnonzero(active & ~np.roll(active, 1))[0])
-    a = int(np.count_nonzero(active))
-    lags, pairs = np.unique(
-        np.mod(np.subtract.outer(np.arange(a), np.arange(a)), n), return_inverse=True
-    )
-    pairs = pairs.reshape(a, a)
-    run = (first + np.arange(a)) % n
-    for arr in (run, lags, pairs):  # cached: shared by every later call
-        arr.setflags(write=False)
-    return first, run, lags, pairs
+    run = (first + np.arange(np.count_nonzero(active))) % active.size
+    run.setflags(write=False)  # cached: shared by every later call
+    return first, run
 
 
 def periodic_state(recurrence: PeriodicRecurrence, force: np.ndarray, active: np.ndarray):
     """Periodic steady state (q, q') (n, N) [m, m/s per unit modal force] of the recurrence
-    under the modal force (n, N), zero outside the circular run of ``active`` (N,) samples.
-
-    Within the run: its sum with the periodic impulse response; after it, the free decay E^l
-    of the state after the run's last sample.
-    """
+    under the modal force (n, N), zero outside the circular run of ``active`` (N,) samples
+    (:func:`periodic_coordinates`)."""
     x = periodic_coordinates(recurrence, force, active)
     return 2 * x.real, 2 * (recurrence.lam[:, None] * x).real
 
 
 def periodic_coordinates(recurrence: PeriodicRecurrence, force: np.ndarray, active: np.ndarray):
     """Complex state z (n, N) of the periodic steady state of the recurrence under the input
-    (n, N) (real or complex), zero outside the circular run of ``active`` (N,) samples (see
-    :func:`periodic_state`)."""
-    first, run, lags, pairs = _cut_run(active.tobytes())
+    (n, N) (real or complex), zero outside the circular run of ``active`` (N,) samples; only
+    the run's A samples of ``force`` are read.
+
+    Over the run, the state from rest w (:meth:`PeriodicRecurrence.from_rest`) plus the free
+    decay E^(k + 1) z_b of the periodic state z_b at the sample before the run; after the run,
+    the free decay E^l of the state after its last sample, w_A + E^(A + 1) z_b. Periodicity
+    closes it: z_b = E^(N - 1 - A) w_A / (1 - E^N), w_A = E w_(A - 1) + b1 f_(A - 1). O(n A):
+    equal to the sum of the force with the periodic impulse response
+    (:meth:`PeriodicRecurrence.impulse`).
+    """
+    first, run = _cut_run(active.tobytes())
     n, a = active.size, run.size
+    e, powers = recurrence.e, recurrence.powers
     f = force[:, run]
-    inside = np.einsum("sjm,sm->sj", recurrence.impulse(lags)[:, pairs], f)
-    after = recurrence.e * inside[:, -1] + recurrence.b1 * f[:, -1]  # no force there
-    x = np.empty(force.shape, complex)  # from the run's first sample on
-    x[:, :a] = inside
-    np.multiply(recurrence.powers[:, : n - a], after[:, None], out=x[:, a:])
-    return np.roll(x, first, axis=1)
+    w = recurrence.from_rest(f)
+    left = e * w[:, -1] + recurrence.b1 * f[:, -1]  # w_A: no force after the run
+    before = powers[:, n - 1 - a] * left / (1.0 - recurrence.period)  # z_b
+    x = np.empty(force.shape, complex)
+    x[:, run] = w + powers[:, 1 : a + 1] * before[:, None]
+    after = left + e * powers[:, a] * before  # the state after the run's last sample
+    start = (first + a) % n  # the free decay: n - a samples from here, circularly
+    head = min(n - a, n - start)
+    np.multiply(powers[:, :head], after[:, None], out=x[:, start : start + head])
+    np.multiply(powers[:, head : n - a], after[:, None], out=x[:, : n - a - head])
+    return x
 
 
 @lru_cache(maxsize=2)  # ~4.7 MiB each (two parts, 192 rows); machine-only

@@ -153,6 +153,35 @@ class PeriodicRecurrence:
         )
         return z.reshape(-1, *lags.shape)
 
+    def from_rest(self, force: np.ndarray) -> np.ndarray:
+        """Complex state z (n, A) over A < N consecutive samples of the input ``force`` (n, A)
+        (real or complex), from rest: z_k = E z_{k-1} + b0 f_k + b1 f_{k-1}, z_{-1} = f_{-1} = 0.
+
+        The sum z_k = sum_(m <= k) E^(k - m) g_m (g_m = b0 f_m + b1 f_(m-1)) in blocks of
+        B ~ sqrt(A) samples: inside each block one product with the triangle of E^(i - j), the
+        blocks' end states by one product with the triangle of E^(B (b - b')), each carried
+        into the next block by E^(i + 1): O(n A sqrt(A)), no loop over samples, every power
+        read from ``powers`` (no growing or inverse powers).
+        """
+        n, a = force.shape
+        g = self.b0[:, None] * force
+        g[:, 1:] += self.b1[:, None] * force[:, :-1]
+        size = math.isqrt(max(a - 1, 0)) + 1  # B; B (blocks - 1) < A < N
+        blocks = -(-a // size)
+        padded = np.zeros((n, blocks * size), complex)
+        padded[:, :a] = g
+        local = np.matmul(padded.reshape(n, blocks, size), self._triangle(size, 1))
+        ends = np.matmul(local[:, None, :, -1], self._triangle(blocks, size))[:, 0, :-1]
+        local[:, 1:] += ends[:, :, None] * self.powers[:, None, 1 : size + 1]
+        return local.reshape(n, -1)[:, :a]
+
+    def _triangle(self, size: int, step: int) -> np.ndarray:
+        """(n, size, size) with E^(step (i - j)) at [i, j] for i >= j and 0 above, transposed
+        (the right factor of a product along the last axis)."""
+        lag = np.subtract.outer(np.arange(size), np.arange(size))
+        upper = np.where(lag >= 0, self.powers[:, step * np.maximum(lag, 0)], 0.0)
+        return upper.transpose(0, 2, 1)
+
 
 def periodic_recurrence(omega, zeta, dt: float, n_samples: int) -> PeriodicRecurrence:
     """:class:`PeriodicRecurrence` of modes ``omega`` [rad/s], ``zeta``, step ``dt`` [s] over
