@@ -6,6 +6,7 @@ recurrence over many periods until it is periodic."""
 import numpy as np
 import pytest
 
+from ufmt.machining.damping import DampedModes
 from ufmt.machining.periodic_path import periodic_coordinates
 from ufmt.machining.recurrence import pole_recurrence
 
@@ -89,3 +90,29 @@ def test_state_from_rest_equals_the_stepped_recurrence(a):
         stepped[:, k] = z
     fast = recurrence.from_rest(f)
     np.testing.assert_allclose(fast, stepped, rtol=1e-12, atol=1e-13 * np.abs(stepped).max())
+
+
+def test_projected_motion_of_complex_modes_equals_the_formed_coordinates():
+    """DampedModes.projected against q, q', q'' formed by state() and acceleration()."""
+    rng = np.random.default_rng(7)
+    n = 5
+    omega = 2 * np.pi * np.linspace(100.0, 900.0, n)
+    damping = np.diag(2 * 0.02 * omega) + 0.3 * omega[0] * rng.uniform(0.0, 1.0, (n, n))
+    a = np.block([[np.zeros((n, n)), np.eye(n)], [-np.diag(omega**2), -damping]])
+    lam, vectors = np.linalg.eig(a)
+    keep = np.flatnonzero(lam.imag > 0)
+    assert keep.size == n  # underdamped: conjugate pairs
+    modes = DampedModes(
+        lam[keep], np.linalg.inv(vectors)[keep, n:], vectors[:n, keep], damping, omega
+    )
+    z = rng.normal(size=(n, 40)) + 1j * rng.normal(size=(n, 40))
+    force = rng.normal(size=(n, 40))
+    on_q, on_qd, on_qdd = (rng.normal(size=(n, k)) for k in (4, 2, 3))
+    q, qd = modes.state(z)
+    qdd = modes.acceleration(force, q, qd)
+    for got, want in zip(
+        modes.projected(z, force, on_q, on_qd, on_qdd),
+        (q.T @ on_q, qd.T @ on_qd, qdd.T @ on_qdd),
+        strict=True,
+    ):
+        np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-12 * np.abs(want).max())

@@ -146,6 +146,27 @@ class DampedModes:
         """q'' = f - D q' - Omega^2 q (n, T) from the modal force (n, T), q and q'."""
         return force - self.damping @ qd - (self.omega**2)[:, None] * q
 
+    def projected(self, z, force, on_q, on_qd, on_qdd):
+        """q^T on_q, q'^T on_qd and q''^T on_qdd ((T, k) each) of complex coordinates z (m, T)
+        under the modal force (n, T), for shapes on_q, on_qd, on_qdd (n, k) [per mode]: the
+        shapes carried to the complex modes (q = 2 Re(P z), q' = 2 Re(P Lambda z), q'' by
+        :meth:`acceleration`), so q, q', q'' (n, T) are never formed: one real product of
+        (T, 2 m) by (2 m, k) in place of three complex ones of (n, m) by (m, T)."""
+        rate = self.outputs * self.poles  # P Lambda
+        weights = np.concatenate(
+            [
+                self.outputs.T @ on_q,
+                rate.T @ on_qd,
+                -(self.outputs.T @ ((self.omega**2)[:, None] * on_qdd))
+                - rate.T @ (self.damping.T @ on_qdd),
+            ],
+            axis=1,
+        )  # (m, k_q + k_qd + k_qdd): q^T X = 2 Re(z^T P^T X)
+        out = 2 * (z.real.T @ weights.real - z.imag.T @ weights.imag)
+        cuts = np.cumsum([on_q.shape[1], on_qd.shape[1]])
+        q, qd, qdd = np.split(out, cuts, axis=1)
+        return q, qd, qdd + force.T @ on_qdd
+
 
 def damped_modes(basis: ModalBasis, zeta) -> DampedModes | None:
     """:class:`DampedModes` of ``basis`` with structural ratios ``zeta``, or None when the basis

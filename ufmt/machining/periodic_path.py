@@ -42,9 +42,10 @@ from ufmt.machining.recurrence import (
 )
 from ufmt.machining.response import (
     Response,
+    body_modes,
     cubic_weights,
+    projected_motion,
     record_slide,
-    tool_and_workpiece_motion,
 )
 from ufmt.model.machine import Machine
 
@@ -218,9 +219,11 @@ def periodic_response(geo, process, zeta=DEFAULT_ZETA, force_scale: float = 1.0)
     with A the spectrum of the chip factor (:func:`_stacked_spectra`) and H_s the receptance of
     :func:`discrete_receptance`; with the workpiece arm's Y terms the kernels are a quadratic
     in Y, sum_p Y^p K_pd. The record window is one spindle period at the slide position of
-    :func:`record_slide`: the modal force there summed over the cut's angles with the periodic
-    impulse response, free decay after them (:class:`PeriodicRecurrence`, cached per spindle
-    speed and damping; the force per unit amplitude cached per geometry).
+    :func:`record_slide`: the periodic state of the recurrence under the modal force there
+    (:func:`periodic_coordinates`: the state over the cut's run, free decay after it;
+    :class:`PeriodicRecurrence` cached per spindle speed and damping, the force per unit
+    amplitude per geometry), projected on the tool's and workpiece's modes
+    (:func:`_record_motion`).
 
     ``geo``: one :class:`CutGeometry` or a sequence of them, the force parts of one force on
     the same basis, machine, n_phi and table rows: their responses are summed (each times its
@@ -234,23 +237,14 @@ def periodic_response(geo, process, zeta=DEFAULT_ZETA, force_scale: float = 1.0)
     amps = np.array([force_scale * part_amplitude(process, geo.machine, g.part) for g in parts])
     units = [_record_unit(g) for g in parts]
     fs = sum(amp * u.fs for amp, u in zip(amps, units, strict=True))
-    b = geo.basis
-    modes = damped_modes(b, zeta)
-    if modes is None:
-        q, qd = periodic_state(_recurrence(b, n, f, tuple(zeta.tolist())), fs, geo.active)
-        qdd = fs - (2 * zeta * b.omega)[:, None] * qd - (b.omega**2)[:, None] * q
-    else:
-        with serial_blas():
-            u = modes.inputs @ fs
-            z = periodic_coordinates(_pole_recurrence(modes, n, f), u, geo.active)
-            q, qd = modes.state(z)
-            qdd = modes.acceleration(fs, q, qd)
     y_rec = record_slide(geo.machine)
-    tip, acc, work = tool_and_workpiece_motion(geo, np.arange(n), np.full(n, y_rec), q, qd, qdd, f)
+    j = np.arange(n)
+    tip, acc, work = projected_motion(
+        geo, j, np.full(n, y_rec), *_record_motion(geo, zeta, f, fs), f
+    )
     for amp, u in zip(amps, units, strict=True):
         if u.static_tip is not None:
             tip, work = tip + amp * u.static_tip, work + amp * u.static_work
-    j = np.arange(n)
     return Response(
         method="periodic",
         t=(j + (y_rec - geo.machine.cut_span[0]) / process.feed_per_rev_m * n) / (f * n),
@@ -264,6 +258,27 @@ def periodic_response(geo, process, zeta=DEFAULT_ZETA, force_scale: float = 1.0)
         periods=1,
         table=PeriodicZreTable(parts, amps, f, tuple(zeta.tolist()), geo.table_y, geo.row_knots),
     )
+
+
+def _record_motion(geo: CutGeometry, zeta: np.ndarray, spindle_hz: float, fs: np.ndarray):
+    """The periodic steady state under the modal force fs (n, N) (zero outside the cut's run)
+    projected on the bodies' modes (:func:`~ufmt.machining.response.projected_motion`'s
+    moved, spin and accel)."""
+    b, n = geo.basis, geo.n_phi
+    tool, work = body_modes(geo)
+    shapes = (np.concatenate([tool, work], axis=1), tool[:, 3:], tool)  # on q, q', q''
+    modes = damped_modes(b, zeta)
+    if modes is None:
+        rec = _recurrence(b, n, spindle_hz, tuple(zeta.tolist()))
+        q, qd = periodic_state(rec, fs, geo.active)
+        qdd = fs - (2 * zeta * b.omega)[:, None] * qd - (b.omega**2)[:, None] * q
+        return q.T @ shapes[0], qd.T @ shapes[1], qdd.T @ shapes[2]
+    with serial_blas():
+        run = _cut_run(geo.active.tobytes())[1]
+        u = np.zeros((modes.poles.size, n), complex)  # the modal force acts on the run only
+        u[:, run] = modes.inputs @ fs[:, run]
+        z = periodic_coordinates(_pole_recurrence(modes, n, spindle_hz), u, geo.active)
+        return modes.projected(z, fs, *shapes)
 
 
 @lru_cache(maxsize=4)  # ~0.3 MiB each

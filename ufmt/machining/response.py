@@ -145,20 +145,38 @@ class Response:
 def tool_and_workpiece_motion(geo: CutGeometry, j, slide, q, qd, qdd, spindle_hz: float):
     """Tool-tip displacement and acceleration, workpiece displacement, from modal coordinates.
 
-    j (T,) phase indices; slide (T,) slide positions Y [m]; q, qd, qdd (n, T). The tip is a
-    material point of the spinning tool body, so its acceleration is
-    d^2/dt^2 sum_s [r_s + theta_s x (p(t) - C)] q_s(t), including the terms from the motion of
-    p. The workpiece point under the tool sits at p - C + Y y_hat from its centre of mass.
+    j (T,) phase indices; slide (T,) slide positions Y [m]; q, qd, qdd (n, T)
+    (:func:`projected_motion` of their projections on :func:`body_modes`).
+    """
+    tool, work = body_modes(geo)
+    moved = q.T @ np.concatenate([tool, work], axis=1)
+    return projected_motion(geo, j, slide, moved, qd.T @ tool[:, 3:], qdd.T @ tool, spindle_hz)
+
+
+def body_modes(geo: CutGeometry) -> tuple[np.ndarray, np.ndarray]:
+    """The tool's and the workpiece's rigid-body motion [r; theta] (n, 6) per mode at their
+    centres of mass."""
+    b, m = geo.basis, geo.machine
+    return b.body_shapes[m.tool_body], b.body_shapes[m.workpiece_body]
+
+
+def projected_motion(geo: CutGeometry, j, slide, moved, spin, accel, spindle_hz: float):
+    """Tool-tip displacement and acceleration, workpiece displacement (T, 3) from the bodies'
+    motions: moved (T, 12) the tool's and the workpiece's [r; theta] (q on
+    :func:`body_modes`), spin (T, 3) the tool's angular velocity (q' on its theta rows) and
+    accel (T, 6) its acceleration (q'' on its rows).
+
+    j (T,) phase indices; slide (T,) slide positions Y [m]. The tip is a material point of the
+    spinning tool body, so its acceleration is d^2/dt^2 sum_s [r_s + theta_s x (p(t) - C)]
+    q_s(t), including the terms from the motion of p. The workpiece point under the tool sits
+    at p - C + Y y_hat from its centre of mass.
     """
     b, m = geo.basis, geo.machine
-    tool, work = b.body_shapes[m.tool_body], b.body_shapes[m.workpiece_body]
     arm_tool = geo.tip[j] - b.body_centers[m.tool_body]
     arm_work = geo.tip[j] - b.body_centers[m.workpiece_body]
     arm_work[:, 1] += slide
-    moved = q.T @ np.concatenate([tool, work], axis=1)  # (T, 12) both bodies' motions
     om = 2 * np.pi * spindle_hz
-    accel = qdd.T @ tool  # (T, 6)
-    rot = np.stack([moved[:, 3:6], moved[:, 9:], accel[:, 3:], qd.T @ tool[:, 3:], moved[:, 3:6]])
+    rot = np.stack([moved[:, 3:6], moved[:, 9:], accel[:, 3:], spin, moved[:, 3:6]])
     arm = np.stack([arm_tool, arm_work, arm_tool, 2 * om * geo.dtip[j], om**2 * geo.ddtip[j]])
     turn = cross(rot, arm)  # (5, T, 3)
     acc = accel[:, :3] + turn[2] + turn[3] + turn[4]
