@@ -1,7 +1,8 @@
 """The periodic path's O(n A) steady state (periodic_coordinates, PeriodicRecurrence.from_rest)
 against two independent formulas: the sum of the force with the periodic impulse response
 (the O(n A^2) formula it replaced, kept here as the oracle) and plain time stepping of the
-recurrence over many periods until it is periodic."""
+recurrence over many periods until it is periodic. The record window's motion projected through
+the complex modes (DampedModes.projected) against q, q', q'' formed explicitly."""
 
 import numpy as np
 import pytest
