@@ -6,8 +6,12 @@
    static correction + the above; target <= 50 ms;
 3. of a new design, all but the modal solve (static correction, cut geometry, response and
    surfaces: a precomputed basis), and the static correction alone (:func:`residual_flexibility`);
-4. a whole-workpiece time-domain simulation at the reference process; target <= 3 s;
-5. peak memory (VmHWM, the resident-set high-water mark of its own address space) of a fresh
+4. the periodic record window's state of a new design at the reference cut and at the
+   doubled sampling of the accelerometer's Richardson step (A active samples of N, n complex
+   modes): :func:`periodic_coordinates` (O(n A)) side by side with the sum of the force with
+   the periodic impulse response it replaced (O(n A^2), the same numbers); printed, no target;
+5. a whole-workpiece time-domain simulation at the reference process; target <= 3 s;
+6. peak memory (VmHWM, the resident-set high-water mark of its own address space) of a fresh
    sweep worker that evaluates a few designs and processes; target <= 250 MiB.
 
 CPU time of this process (``time.process_time``; the machine is shared, wall time would count
@@ -26,8 +30,12 @@ from threadpoolctl import threadpool_limits
 os.environ["UFMT_CACHE_DIR"] = ""  # every evaluation computes (the cache would answer)
 
 import ufmt  # noqa: E402
+from ufmt.machining.cut_geometry import cut_geometry  # noqa: E402
+from ufmt.machining.damping import damped_modes  # noqa: E402
 from ufmt.machining.modal import modal_basis  # noqa: E402
+from ufmt.machining.periodic_path import periodic_coordinates  # noqa: E402
 from ufmt.machining.process import Process  # noqa: E402
+from ufmt.machining.recurrence import DEFAULT_ZETA, pole_recurrence  # noqa: E402
 from ufmt.machining.static import residual_flexibility  # noqa: E402
 from ufmt.model.load import load_model, packaged_path  # noqa: E402
 from ufmt.model.machine import machine_of  # noqa: E402
@@ -58,6 +66,55 @@ def median_ms(fn, repeats) -> float:
         fn(i)
         times.append(time.process_time() - t0)
     return 1e3 * statistics.median(times)
+
+
+def impulse_sum(recurrence, force, active):
+    """The baseline (the formula periodic_coordinates replaced): over the run of A active
+    samples, the force summed with the periodic impulse response as one (n, A, A) tensor
+    product; after it, the free decay."""
+    n = active.size
+    first = int(np.flatnonzero(active & ~np.roll(active, 1))[0])
+    a = int(np.count_nonzero(active))
+    run = (first + np.arange(a)) % n
+    lags, pairs = np.unique(
+        np.mod(np.subtract.outer(np.arange(a), np.arange(a)), n), return_inverse=True
+    )
+    f = force[:, run]
+    inside = np.einsum("sjm,sm->sj", recurrence.impulse(lags)[:, pairs.reshape(a, a)], f)
+    after = recurrence.e * inside[:, -1] + recurrence.b1 * f[:, -1]
+    x = np.empty(force.shape, complex)
+    x[:, :a] = inside
+    np.multiply(recurrence.powers[:, : n - a], after[:, None], out=x[:, a:])
+    return np.roll(x, first, axis=1)
+
+
+def periodic_state_ms(model, reference, repeats=5) -> list[tuple[int, int, int, float, float]]:
+    """(A, N, n, ms O(n A), ms O(n A^2)) of a new design's record window at the reference cut
+    and at twice its sampling, the two timed alternately; asserts equal results."""
+    h31 = model.hinge("h31")
+    design = model.with_hinge("h31", stiffness=h31.stiffness * 1.37)
+    basis = modal_basis(design)
+    modes = damped_modes(basis, DEFAULT_ZETA)
+    machine = machine_of(design)
+    n_phi = simulate(design, reference, basis=basis).samples_per_rev
+    rows = []
+    for n in (n_phi, 2 * n_phi):
+        geo = cut_geometry(basis, machine, n_phi=n, table_rows=8)
+        rec = pole_recurrence(modes.poles, 1 / (reference.spindle_hz * n), n)
+        rng = np.random.default_rng(n)
+        force = np.where(geo.active, rng.normal(size=(modes.poles.size, n)), 0.0)
+        fast, slow = [], []
+        for _ in range(repeats):
+            for fn, times in ((periodic_coordinates, fast), (impulse_sum, slow)):
+                t0 = time.process_time()
+                z = fn(rec, force, geo.active)
+                times.append(time.process_time() - t0)
+            scale = np.abs(z).max()
+            assert np.abs(periodic_coordinates(rec, force, geo.active) - z).max() < 1e-12 * scale
+        a = int(np.count_nonzero(geo.active))
+        ms = (1e3 * statistics.median(fast), 1e3 * statistics.median(slow))
+        rows.append((a, n, modes.poles.size, *ms))
+    return rows
 
 
 def measure() -> dict[str, float]:
@@ -102,6 +159,7 @@ def measure() -> dict[str, float]:
             "static_ms": median_ms(static, 21),
             "machining_ms": median_ms(machining, len(designs)),
         }
+        out["periodic_state"] = periodic_state_ms(model, reference)
         out["time_s"] = 1e-3 * median_ms(
             lambda i: simulate(model, reference, basis=basis, method="time"), 3
         )
@@ -118,6 +176,11 @@ def main() -> None:
     print(f"evaluate, new design (modes + all):      {m['design_ms']:8.1f} ms CPU  (target <= 50)")
     print(f"  of it all but the modal solve:         {m['machining_ms']:8.1f} ms CPU")
     print(f"  static correction of a new design:     {m['static_ms']:8.2f} ms CPU")
+    for a, n, modes, fast, slow in m["periodic_state"]:
+        print(
+            f"periodic_coordinates at A = {a} active samples of N = {n}, {modes} modes: "
+            f"{fast:.2f} ms CPU; the impulse sum O(n A^2): {slow:.1f} ms ({slow / fast:.0f}x)"
+        )
     print(f"whole workpiece, time domain:            {m['time_s']:8.2f} s  CPU  (target <= 3)")
     print(
         f"sweep worker peak memory ({WORKER_DESIGNS} designs x 2):  "

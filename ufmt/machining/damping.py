@@ -134,24 +134,13 @@ class DampedModes:
     damping: np.ndarray
     omega: np.ndarray
 
-    def state(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Modal coordinates and rates (q, q') (n, ...) of complex coordinates z (m, ...)."""
-        shape = z.shape
-        flat = z.reshape(shape[0], -1)
-        q = 2 * (self.outputs @ flat).real
-        qd = 2 * (self.outputs @ (self.poles[:, None] * flat)).real
-        return q.reshape(-1, *shape[1:]), qd.reshape(-1, *shape[1:])
-
-    def acceleration(self, force, q, qd) -> np.ndarray:
-        """q'' = f - D q' - Omega^2 q (n, T) from the modal force (n, T), q and q'."""
-        return force - self.damping @ qd - (self.omega**2)[:, None] * q
-
     def projected(self, z, force, on_q, on_qd, on_qdd):
         """q^T on_q, q'^T on_qd and q''^T on_qdd ((T, k) each) of complex coordinates z (m, T)
-        under the modal force (n, T), for shapes on_q, on_qd, on_qdd (n, k) [per mode]: the
-        shapes carried to the complex modes (q = 2 Re(P z), q' = 2 Re(P Lambda z), q'' by
-        :meth:`acceleration`), so q, q', q'' (n, T) are never formed: one real product of
-        (T, 2 m) by (2 m, k) in place of three complex ones of (n, m) by (m, T)."""
+        under the modal force (n, T), for shapes on_q, on_qd, on_qdd (n, k) [per mode].
+
+        q = 2 Re(P z), q' = 2 Re(P Lambda z) and q'' = f - D q' - Omega^2 q; the shapes are
+        carried to the complex modes, so q, q', q'' (n, T) are never formed: one real product
+        of (T, 2 m) by (2 m, k) in place of complex ones of (n, m) by (m, T)."""
         rate = self.outputs * self.poles  # P Lambda
         weights = np.concatenate(
             [

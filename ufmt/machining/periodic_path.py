@@ -42,8 +42,8 @@ from ufmt.machining.recurrence import (
 )
 from ufmt.machining.response import (
     Response,
-    body_modes,
     cubic_weights,
+    motion_shapes,
     projected_motion,
     record_slide,
 )
@@ -112,19 +112,17 @@ class PeriodicZreTable:
         plan = _column_plan(self.parts, tuple(np.ravel(phi).tolist()))
         active, samples = plan.lag_index.shape
         modes = damped_modes(geo.basis, self.zeta)
+        # kernels of c^(a) and w^(b) (a, b = 0: at Y = 0, 1: rate in Y) for each angle m and
+        # sample k: sum_s c^(a)_s[k] h_s[k - m] w^(b)_s[m] (A, 2 K, 2 P)
         if modes is None:
             z = _recurrence(geo.basis, n, self.spindle_hz, self.zeta).impulse(plan.lags)
             h = 2 * z.real.T  # q of the impulse response at the lags (L, n)
-            # kernels of c^(a) and w^(b) (a, b = 0: at Y = 0, 1: rate in Y) for each angle m
-            # and sample k: sum_s c^(a)_s[k] h_s[k - m] w^(b)_s[m]
-            ch = h[plan.lag_index][:, :, None, :] * plan.c  # (A, K, 2, n)
-            kern = np.matmul(ch.reshape(active, 2 * samples, -1), plan.w)
+            kern = _lag_products(h, plan.lag_index, plan.c, plan.w)
         else:  # complex modes: 2 Re sum_j (c^(a) P)_j[k] z_j[k - m] (L w^(b))_j[m]
             z = _pole_recurrence(modes, n, self.spindle_hz).impulse(plan.lags).T  # (L, m)
             with serial_blas():
-                ch = z[plan.lag_index][:, :, None, :] * (plan.c @ modes.outputs)  # (A, K, 2, m)
                 w = modes.inputs @ plan.w
-                kern = 2 * np.matmul(ch.reshape(active, 2 * samples, -1), w).real
+                kern = 2 * _lag_products(z, plan.lag_index, plan.c @ modes.outputs, w)
         kern = kern.reshape(active, samples, 2, len(self.parts), 2)
         powers = np.stack(  # of Y: p = a + b
             [kern[..., 0, :, 0], kern[..., 0, :, 1] + kern[..., 1, :, 0], kern[..., 1, :, 1]],
@@ -134,6 +132,26 @@ class PeriodicZreTable:
         powers *= self.amps[:, None]
         at_samples = powers.transpose(0, 2, 3, 1).reshape(-1, samples) @ plan.stencil
         return plan.patterns @ at_samples
+
+
+def _lag_products(h, lag_index, c, w, chunk_bytes: int = 2**21) -> np.ndarray:
+    """Re sum_s c[k, i, s] h[lag_index[a, k], s] w[a, s, p] (A, K I, P): the state per lag
+    h (L, n) between the output shapes c (K, I, n) and the inputs w (A, n, P), real or
+    complex. A few angles a at a time, so that their (K I, n) products stay in cache
+    (``chunk_bytes``); complex factors as one real product over [Re; Im]."""
+    active, samples = lag_index.shape
+    rows, width = samples * c.shape[1], c.shape[2]
+    split = np.iscomplexobj(h) or np.iscomplexobj(c) or np.iscomplexobj(w)
+    if split:  # Re(x w) = [Re x, Im x] [Re w; -Im w]
+        w = np.concatenate([w.real, -w.imag], axis=1)
+    out = np.empty((active, rows, w.shape[2]))
+    step = max(1, chunk_bytes // (rows * width * 16))
+    for a in range(0, active, step):
+        x = (h[lag_index[a : a + step]][:, :, None, :] * c).reshape(-1, rows, width)
+        if split:
+            x = np.concatenate([x.real, x.imag], axis=2)
+        np.matmul(x, w[a : a + step], out=out[a : a + step])
+    return out
 
 
 @dataclass(frozen=True)
@@ -222,7 +240,7 @@ def periodic_response(geo, process, zeta=DEFAULT_ZETA, force_scale: float = 1.0)
     :func:`record_slide`: the periodic state of the recurrence under the modal force there
     (:func:`periodic_coordinates`: the state over the cut's run, free decay after it;
     :class:`PeriodicRecurrence` cached per spindle speed and damping, the force per unit
-    amplitude per geometry), projected on the tool's and workpiece's modes
+    amplitude per geometry), projected on the tool's and workpiece's motion
     (:func:`_record_motion`).
 
     ``geo``: one :class:`CutGeometry` or a sequence of them, the force parts of one force on
@@ -265,8 +283,7 @@ def _record_motion(geo: CutGeometry, zeta: np.ndarray, spindle_hz: float, fs: np
     projected on the bodies' modes (:func:`~ufmt.machining.response.projected_motion`'s
     moved, spin and accel)."""
     b, n = geo.basis, geo.n_phi
-    tool, work = body_modes(geo)
-    shapes = (np.concatenate([tool, work], axis=1), tool[:, 3:], tool)  # on q, q', q''
+    shapes = motion_shapes(geo)  # on q, q', q''
     modes = damped_modes(b, zeta)
     if modes is None:
         rec = _recurrence(b, n, spindle_hz, tuple(zeta.tolist()))

@@ -145,26 +145,27 @@ class Response:
 def tool_and_workpiece_motion(geo: CutGeometry, j, slide, q, qd, qdd, spindle_hz: float):
     """Tool-tip displacement and acceleration, workpiece displacement, from modal coordinates.
 
-    j (T,) phase indices; slide (T,) slide positions Y [m]; q, qd, qdd (n, T)
-    (:func:`projected_motion` of their projections on :func:`body_modes`).
+    j (T,) phase indices; slide (T,) slide positions Y [m]; q, qd, qdd (n, T): their
+    projections on :func:`motion_shapes` to :func:`projected_motion`.
     """
-    tool, work = body_modes(geo)
-    moved = q.T @ np.concatenate([tool, work], axis=1)
-    return projected_motion(geo, j, slide, moved, qd.T @ tool[:, 3:], qdd.T @ tool, spindle_hz)
+    on_q, on_qd, on_qdd = motion_shapes(geo)
+    return projected_motion(geo, j, slide, q.T @ on_q, qd.T @ on_qd, qdd.T @ on_qdd, spindle_hz)
 
 
-def body_modes(geo: CutGeometry) -> tuple[np.ndarray, np.ndarray]:
-    """The tool's and the workpiece's rigid-body motion [r; theta] (n, 6) per mode at their
-    centres of mass."""
+def motion_shapes(geo: CutGeometry) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The modal shapes (n, k) that :func:`projected_motion` reads, on q, q' and q'': the
+    tool's and the workpiece's rigid-body motion [r; theta] at their centres of mass (n, 12),
+    the tool's rotation (n, 3) and its motion (n, 6)."""
     b, m = geo.basis, geo.machine
-    return b.body_shapes[m.tool_body], b.body_shapes[m.workpiece_body]
+    tool, work = b.body_shapes[m.tool_body], b.body_shapes[m.workpiece_body]
+    return np.concatenate([tool, work], axis=1), tool[:, 3:], tool
 
 
 def projected_motion(geo: CutGeometry, j, slide, moved, spin, accel, spindle_hz: float):
     """Tool-tip displacement and acceleration, workpiece displacement (T, 3) from the bodies'
-    motions: moved (T, 12) the tool's and the workpiece's [r; theta] (q on
-    :func:`body_modes`), spin (T, 3) the tool's angular velocity (q' on its theta rows) and
-    accel (T, 6) its acceleration (q'' on its rows).
+    motions (q, q', q'' on :func:`motion_shapes`): moved (T, 12) the tool's and the
+    workpiece's [r; theta], spin (T, 3) the tool's angular velocity and accel (T, 6) the
+    tool's acceleration.
 
     j (T,) phase indices; slide (T,) slide positions Y [m]. The tip is a material point of the
     spinning tool body, so its acceleration is d^2/dt^2 sum_s [r_s + theta_s x (p(t) - C)]

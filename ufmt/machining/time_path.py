@@ -33,7 +33,14 @@ from ufmt.machining.recurrence import (
     modal_damping,
     real_recurrence,
 )
-from ufmt.machining.response import Response, ZreTable, record_slide, tool_and_workpiece_motion
+from ufmt.machining.response import (
+    Response,
+    ZreTable,
+    motion_shapes,
+    projected_motion,
+    record_slide,
+    tool_and_workpiece_motion,
+)
 
 #: Modal state of the time path, relative to the largest modal coordinate so far, below which
 #: a force-free block after the cut is taken as zero (1e-20 of the response: far below any
@@ -268,11 +275,11 @@ def _record_motion(parts, amps, zeta, clock: _Clock, rec_q, j, y):
     modes = damped_modes(geo.basis, zeta)
     if modes is None:
         q, qd, qdd = _modal_rates(geo.basis, zeta, clock.dt, fs, rec_q)
-    else:  # the complex modes' state itself
+        tip, acc, work = tool_and_workpiece_motion(geo, j[1:], y[1:], q, qd, qdd, clock.spindle_hz)
+    else:  # the complex modes' state itself, projected without forming q, q', q''
         with serial_blas():
-            q, qd = modes.state(rec_q[:, 1:])
-            qdd = modes.acceleration(fs[:, 1:], q, qd)
-    tip, acc, work = tool_and_workpiece_motion(geo, j[1:], y[1:], q, qd, qdd, clock.spindle_hz)
+            motion = modes.projected(rec_q[:, 1:], fs[:, 1:], *motion_shapes(geo))
+        tip, acc, work = projected_motion(geo, j[1:], y[1:], *motion, clock.spindle_hz)
     for g, a in zip(parts, chips, strict=True):
         if g.static_tool is not None:
             s_tool, s_work = g.static_at(j[1:], y[1:])
