@@ -140,7 +140,7 @@ class DampedModes:
 
         q = 2 Re(P z), q' = 2 Re(P Lambda z) and q'' = f - D q' - Omega^2 q; the shapes are
         carried to the complex modes, so q, q', q'' (n, T) are never formed: one real product
-        of (T, 2 m) by (2 m, k) in place of complex ones of (n, m) by (m, T)."""
+        of (2 k, m) by (m, 2 T) in place of complex ones of (n, m) by (m, T)."""
         rate = self.outputs * self.poles  # P Lambda
         weights = np.concatenate(
             [
@@ -150,8 +150,11 @@ class DampedModes:
                 - rate.T @ (self.damping.T @ on_qdd),
             ],
             axis=1,
-        )  # (m, k_q + k_qd + k_qdd): q^T X = 2 Re(z^T P^T X)
-        out = 2 * (z.real.T @ weights.real - z.imag.T @ weights.imag)
+        )  # (m, k): q^T X = 2 Re(z^T P^T X)
+        k = weights.shape[1]
+        # one product with z's real and imaginary parts as they lie in memory (interleaved)
+        both = np.concatenate([weights.real.T, weights.imag.T]) @ z.view(float)  # (2 k, 2 T)
+        out = 2 * (both[:k, 0::2] - both[k:, 1::2]).T
         cuts = np.cumsum([on_q.shape[1], on_qd.shape[1]])
         q, qd, qdd = np.split(out, cuts, axis=1)
         return q, qd, qdd + force.T @ on_qdd
