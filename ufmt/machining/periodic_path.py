@@ -345,9 +345,9 @@ def periodic_coordinates(recurrence: PeriodicRecurrence, force: np.ndarray, acti
     Over the run, the state from rest w (:meth:`PeriodicRecurrence.from_rest`) plus the free
     decay E^(k + 1) z_b of the periodic state z_b at the sample before the run; after the run,
     the free decay E^l of the state after its last sample, w_A + E^(A + 1) z_b. Periodicity
-    closes it: z_b = E^(N - 1 - A) w_A / (1 - E^N), w_A = E w_(A - 1) + b1 f_(A - 1). O(n A):
-    equal to the sum of the force with the periodic impulse response
-    (:meth:`PeriodicRecurrence.impulse`).
+    closes it: z_b = E^(N - 1 - A) w_A / (1 - E^N), w_A = E w_(A - 1) + b1 f_(A - 1). Equal to
+    the sum of the force with the periodic impulse response (:meth:`PeriodicRecurrence.impulse`)
+    without its (n, A, A) tensor: O(n A sqrt(A)) over the run, O(n N) for the decay.
     """
     first, run = _cut_run(active.tobytes())
     n, a = active.size, run.size
