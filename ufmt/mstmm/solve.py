@@ -196,6 +196,22 @@ def solve_modes(
         return _solve_modes(model, fmax_hz, count, method, shapes)
 
 
+def solve_modes_batch(
+    models, *, count: int | None = None, fmax_hz: float | None = None, shapes: bool = True
+) -> list[ModalSolution]:
+    """:func:`solve_modes` of each design of ``models`` (loaded models or paths), in order.
+
+    Designs of one structure (:meth:`ufmt.model.schema.Model.structure_key`) share what does
+    not depend on their stiffness values: the nodal layout and constraint basis of the
+    count, the transfer graph. The BLAS thread limit is set once for the whole batch. Each
+    result is the one :func:`solve_modes` returns for that design alone (to rounding).
+    Parameters and errors as :func:`solve_modes`.
+    """
+    models = [as_model(m) for m in models]
+    with _blas_controller().limit(limits=1, user_api="blas"):
+        return [_solve_modes(m, fmax_hz, count, "mstmm", shapes) for m in models]
+
+
 @functools.cache
 def _blas_controller() -> ThreadpoolController:
     """The loaded BLAS libraries, found once: a new ``threadpool_limits`` scans every loaded

@@ -120,7 +120,9 @@ class RootCounter:
         :meth:`_recall`."""
         hz = np.atleast_1d(np.asarray(hz, dtype=float))
         omega = TWO_PI * hz
-        negative, log_det = inertia(self.nodal.matrix(omega))
+        complement, inner_negative, inner_log_det = self.nodal.condensation.complement(omega)
+        negative, log_det = inertia(complement)
+        negative, log_det = negative + inner_negative, log_det + inner_log_det
         clamped = self.nodal.clamped(omega)
         sign = np.where(negative % 2 == 1, -1.0, 1.0)
         values = (clamped + negative - self.nodal.zero_modes, clamped, log_det, sign)
