@@ -27,7 +27,7 @@ import scipy.linalg as sla
 from ufmt.errors import ModelError
 from ufmt.kinematics import point_motion
 from ufmt.model.schema import GROUND, Beam, Model, RigidBody, VirtualBody
-from ufmt.mstmm.members import clamped_count, local_to_global, member_stiffness
+from ufmt.mstmm.members import Members, local_to_global, member_stiffness
 from ufmt.recent import Recent
 
 RANK_RTOL = 1e-9  # rank of geometric (unit-row) matrices, relative to the largest value
@@ -73,13 +73,14 @@ class NodalStiffness:
         """Rows and columns of the nonzero entries of ``mass``."""
         return np.nonzero(self.mass)
 
+    @functools.cached_property
+    def members(self) -> Members:
+        """The beams' deformations stacked (:class:`ufmt.mstmm.members.Members`)."""
+        return Members([beam for beam, _, _ in self.beams])
+
     def clamped(self, omega) -> np.ndarray:
         """J₀(ω): the beams' clamped-clamped frequencies below ω [rad/s] (len(ω),)."""
-        omega = np.atleast_1d(np.asarray(omega, dtype=float))
-        total = np.zeros(omega.size, dtype=int)
-        for beam, _, _ in self.beams:
-            total += clamped_count(omega, beam)
-        return total
+        return self.members.clamped(omega)
 
     @functools.cached_property
     def condensation(self) -> Condensation:
@@ -124,7 +125,8 @@ class Condensation:
     static, mass : S_OO, M_OO (o, o).
     products : (3, r, o²) w_iᵀ w_i terms: a_i a_iᵀ, a_i b_iᵀ + b_i a_iᵀ, b_i b_iᵀ with
         a = ΦᵀS_IO, b = ΦᵀM_IO (W = a - ω² b).
-    beams : (beam, positions in O, G) per beam, as :attr:`NodalStiffness.beams`.
+    members, patterns : the beams' stiffness terms (:class:`ufmt.mstmm.members.Members`)
+        and each term's pattern GᵀE_tG on O (terms, o²): K_OO gets terms(ω) @ patterns.
     """
 
     inner: np.ndarray
@@ -133,7 +135,8 @@ class Condensation:
     static: np.ndarray
     mass: np.ndarray
     products: np.ndarray
-    beams: tuple
+    members: Members
+    patterns: np.ndarray
 
     @classmethod
     def of(cls, nodal: NodalStiffness) -> Condensation:
@@ -161,9 +164,16 @@ class Condensation:
         ).reshape(3, inner.size, outer.size**2)
         position = np.full(n, -1)
         position[outer] = np.arange(outer.size)
-        beams = tuple((beam, position[columns], g) for beam, columns, g in nodal.beams)
+        members = nodal.members
+        patterns = np.zeros((members.owner.size, outer.size, outer.size))
+        for j, (_, columns, g) in enumerate(nodal.beams):
+            at = position[columns]
+            terms = np.flatnonzero(members.owner == j)
+            patterns[terms[:, None, None], at[:, None], at] = g.T @ members.patterns[terms] @ g
         static = nodal.static[np.ix_(outer, outer)]
-        return cls(inner, outer, poles, static, nodal.mass[np.ix_(outer, outer)], products, beams)
+        mass = nodal.mass[np.ix_(outer, outer)]
+        patterns = patterns.reshape(members.owner.size, -1)
+        return cls(inner, outer, poles, static, mass, products, members, patterns)
 
     def complement(self, omega) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(C(ω) (len(ω), o, o), #{λ_i < ω²} (len(ω),), Σ log|λ_i - ω²| (len(ω),)) at ω
@@ -171,8 +181,7 @@ class Condensation:
         w2 = np.atleast_1d(np.asarray(omega, dtype=float)) ** 2
         o = self.outer.size
         k = self.static[None] - w2[:, None, None] * self.mass
-        for beam, columns, g in self.beams:
-            k[:, columns[:, None], columns] += g.T @ member_stiffness(np.sqrt(w2), beam) @ g
+        k += (self.members.terms(np.sqrt(w2)) @ self.patterns).reshape(-1, o, o)
         gap = self.poles[None, :] - w2[:, None]
         with np.errstate(divide="ignore"):
             # ω on a pole to the last bit: a mode of the inner structure the outer coordinates
