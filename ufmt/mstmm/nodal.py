@@ -172,7 +172,7 @@ class Condensation:
             patterns[terms[:, None, None], at[:, None], at] = g.T @ members.patterns[terms] @ g
         static = nodal.static[np.ix_(outer, outer)]
         mass = nodal.mass[np.ix_(outer, outer)]
-        patterns = patterns.reshape(members.owner.size, -1)
+        patterns = patterns.reshape(members.owner.size, outer.size**2)
         return cls(inner, outer, poles, static, mass, products, members, patterns)
 
     def complement(self, omega) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -181,7 +181,7 @@ class Condensation:
         w2 = np.atleast_1d(np.asarray(omega, dtype=float)) ** 2
         o = self.outer.size
         k = self.static[None] - w2[:, None, None] * self.mass
-        k += (self.members.terms(np.sqrt(w2)) @ self.patterns).reshape(-1, o, o)
+        k += (self.members.terms(np.sqrt(w2)) @ self.patterns).reshape(w2.size, o, o)
         gap = self.poles[None, :] - w2[:, None]
         with np.errstate(divide="ignore"):
             # ω on a pole to the last bit: a mode of the inner structure the outer coordinates
@@ -189,10 +189,10 @@ class Condensation:
             inverse = np.where(gap == 0.0, 0.0, 1.0 / gap)
             log_gap = np.sum(np.log(np.abs(gap)), axis=1)
         if self.inner.size:
-            k -= (inverse @ self.products[0]).reshape(-1, o, o)
+            k -= (inverse @ self.products[0]).reshape(w2.size, o, o)
             if self.products[2].any():  # mass coupling between inner and outer coordinates
-                k += (w2[:, None] * inverse @ self.products[1]).reshape(-1, o, o)
-                k -= ((w2**2)[:, None] * inverse @ self.products[2]).reshape(-1, o, o)
+                k += (w2[:, None] * inverse @ self.products[1]).reshape(w2.size, o, o)
+                k -= ((w2**2)[:, None] * inverse @ self.products[2]).reshape(w2.size, o, o)
         return k, np.count_nonzero(gap < 0, axis=1), log_gap
 
 

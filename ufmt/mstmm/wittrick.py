@@ -58,6 +58,8 @@ def inertia(k: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     (Bunch-Kaufman) factorisation each: det K = det D (det L = 1), the product of the 1x1
     blocks and the 2x2 blocks' determinants; sign det K = (-1)^s{K}."""
     n_omega, n = k.shape[:2]
+    if n == 0:  # nothing left to factor (every coordinate condensed)
+        return np.zeros(n_omega, dtype=int), np.zeros(n_omega)
     diagonal, below, pivots = np.empty((n_omega, n)), np.zeros((n_omega, n)), np.empty((n_omega, n))
     for i, matrix in enumerate(k):  # LAPACK per matrix, the rest batched
         lu, pivots[i], _ = dsytrf(matrix.T, lower=1)  # symmetric: the transpose is Fortran order
