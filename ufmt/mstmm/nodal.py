@@ -175,24 +175,49 @@ class Condensation:
         patterns = patterns.reshape(members.owner.size, outer.size**2)
         return cls(inner, outer, poles, static, mass, products, members, patterns)
 
-    def complement(self, omega) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(C(ω) (len(ω), o, o), #{λ_i < ω²} (len(ω),), Σ log|λ_i - ω²| (len(ω),)) at ω
-        [rad/s]; log|det K| = Σ log|λ_i - ω²| + log|det C| - 2 log|det Φ|."""
+
+class CondensationStack:
+    """The :class:`Condensation` of several designs of one structure (same coordinates, beams
+    and masses; their springs differ), evaluated at any (design, ω) pairs in one pass."""
+
+    def __init__(self, condensations: list[Condensation]):
+        first = condensations[0]
+        for other in condensations[1:]:
+            if not (
+                np.array_equal(other.outer, first.outer)
+                and np.array_equal(other.patterns, first.patterns)
+                and np.array_equal(other.mass, first.mass)
+            ):
+                raise ValueError("designs of different structures cannot share a count")
+        self.members, self.patterns, self.mass = first.members, first.patterns, first.mass
+        self.order = first.outer.size
+        self.static = np.array([c.static for c in condensations])
+        self.poles = np.array([c.poles for c in condensations])
+        self.products = [c.products for c in condensations]
+
+    def complement(self, omega, design) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(C(ω) (len(ω), o, o), #{λ_i < ω²} (len(ω),), Σ log|λ_i - ω²| (len(ω),)) of each
+        design ``design`` (len(ω),) at ω [rad/s]; log|det K| = Σ log|λ_i - ω²| + log|det C|
+        - 2 log|det Φ| (:class:`Condensation`)."""
         w2 = np.atleast_1d(np.asarray(omega, dtype=float)) ** 2
-        o = self.outer.size
-        k = self.static[None] - w2[:, None, None] * self.mass
-        k += (self.members.terms(np.sqrt(w2)) @ self.patterns).reshape(w2.size, o, o)
-        gap = self.poles[None, :] - w2[:, None]
+        n, o = w2.size, self.order
+        k = self.static[design] - w2[:, None, None] * self.mass
+        k += (self.members.terms(np.sqrt(w2)) @ self.patterns).reshape(n, o, o)
+        gap = self.poles[design] - w2[:, None]
         with np.errstate(divide="ignore"):
             # ω on a pole to the last bit: a mode of the inner structure the outer coordinates
             # do not feel (w_i at rounding level), a root of K itself: log|det K| = -inf
             inverse = np.where(gap == 0.0, 0.0, 1.0 / gap)
             log_gap = np.sum(np.log(np.abs(gap)), axis=1)
-        if self.inner.size:
-            k -= (inverse @ self.products[0]).reshape(w2.size, o, o)
-            if self.products[2].any():  # mass coupling between inner and outer coordinates
-                k += (w2[:, None] * inverse @ self.products[1]).reshape(w2.size, o, o)
-                k -= ((w2**2)[:, None] * inverse @ self.products[2]).reshape(w2.size, o, o)
+        if gap.shape[1]:
+            powers = np.stack([-inverse, w2[:, None] * inverse, -(w2**2)[:, None] * inverse])
+            for d in np.unique(design):
+                at = np.flatnonzero(design == d)
+                products = self.products[d]
+                used = 3 if products[2].any() else 1  # mass coupling between I and O
+                flat = products[:used].reshape(used * gap.shape[1], o * o)
+                terms = np.concatenate(powers[:used, at], axis=1) @ flat
+                k[at] += terms.reshape(at.size, o, o)
         return k, np.count_nonzero(gap < 0, axis=1), log_gap
 
 
