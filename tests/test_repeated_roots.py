@@ -153,7 +153,7 @@ def lossy_rotor(tmp_path, monkeypatch):
         return real_below(self, hz, design) + (np.atleast_1d(hz) > 1234.5)
 
     monkeypatch.setattr(RootCounter, "below", with_fake_mode)
-    monkeypatch.setattr(RootCounter, "refine", lambda self, lo, hi: np.full(len(lo), np.nan))
+    monkeypatch.setattr(RootCounter, "refine", lambda self, lo, hi, **_: np.full(len(lo), np.nan))
     return path
 
 
