@@ -116,7 +116,8 @@ class Condensation:
     inertia additivity s{K} = #{λ_i < ω²} + s{C}, and det K = det(Φ)⁻² Π(λ_i - ω²) det C:
     the count needs an LDLᵀ of C only (order 18 instead of 78 on the packaged model), and
     WᵀDW is three matrix products with per-mode outer products precomputed here, for all
-    frequencies at once. Without inner coordinates (M_II not positive definite) C = K.
+    frequencies at once. Without inner coordinates (M_II not positive definite), or where
+    those products cost more per ω than an LDLᵀ of the whole K (r o² > n³/3), C = K.
 
     Attributes
     ----------
@@ -124,7 +125,7 @@ class Condensation:
     poles : λ_i (r,) [rad²/s²], the inner structure's squared natural frequencies.
     static, mass : S_OO, M_OO (o, o).
     products : (3, r, o²) w_iᵀ w_i terms: a_i a_iᵀ, a_i b_iᵀ + b_i a_iᵀ, b_i b_iᵀ with
-        a = ΦᵀS_IO, b = ΦᵀM_IO (W = a - ω² b).
+        a = ΦᵀS_IO, b = ΦᵀM_IO (W = a - ω² b); (1, r, o²) without mass coupling (b = 0).
     members, patterns : the beams' stiffness terms (:class:`ufmt.mstmm.members.Members`)
         and each term's pattern GᵀE_tG on O (terms, o²): K_OO gets terms(ω) @ patterns.
     """
@@ -146,6 +147,17 @@ class Condensation:
         for _, columns, _ in nodal.beams:
             touched[columns] = True
         inner = np.flatnonzero(~touched & (np.diag(nodal.mass) > 0))
+        return cls._split(nodal, inner)
+
+    @classmethod
+    def of_whole(cls, nodal: NodalStiffness) -> Condensation:
+        """No condensation: every coordinate outer (C = K)."""
+        return cls._split(nodal, np.zeros(0, dtype=int))
+
+    @classmethod
+    def _split(cls, nodal: NodalStiffness, inner: np.ndarray) -> Condensation:
+        """The condensation of the ``inner`` coordinates (a positive definite M_II)."""
+        n = nodal.order
         try:
             poles, phi = sla.eigh(
                 nodal.static[np.ix_(inner, inner)], nodal.mass[np.ix_(inner, inner)]
@@ -155,13 +167,15 @@ class Condensation:
         outer = np.setdiff1d(np.arange(n), inner)
         a = phi.T @ nodal.static[np.ix_(inner, outer)]
         b = phi.T @ nodal.mass[np.ix_(inner, outer)]
-        products = np.stack(
-            [
-                a[:, :, None] * a[:, None, :],
+        if (3 if b.any() else 1) * inner.size * outer.size**2 > n**3 / 3:
+            return cls.of_whole(nodal)  # costs more per ω than the LDLᵀ of the whole K
+        products = [a[:, :, None] * a[:, None, :]]
+        if b.any():  # mass coupling between inner and outer coordinates
+            products += [
                 a[:, :, None] * b[:, None, :] + b[:, :, None] * a[:, None, :],
                 b[:, :, None] * b[:, None, :],
             ]
-        ).reshape(3, inner.size, outer.size**2)
+        products = np.array(products).reshape(len(products), inner.size, outer.size**2)
         position = np.full(n, -1)
         position[outer] = np.arange(outer.size)
         members = nodal.members
@@ -213,9 +227,8 @@ class CondensationStack:
             powers = np.stack([-inverse, w2[:, None] * inverse, -(w2**2)[:, None] * inverse])
             for d in np.unique(design):
                 at = np.flatnonzero(design == d)
-                products = self.products[d]
-                used = 3 if products[2].any() else 1  # mass coupling between I and O
-                flat = products[:used].reshape(used * gap.shape[1], o * o)
+                used = self.products[d].shape[0]  # 3 with mass coupling between I and O
+                flat = self.products[d].reshape(used * gap.shape[1], o * o)
                 terms = np.concatenate(powers[:used, at], axis=1) @ flat
                 k[at] += terms.reshape(at.size, o, o)
         return k, np.count_nonzero(gap < 0, axis=1), log_gap

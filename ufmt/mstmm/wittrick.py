@@ -192,7 +192,10 @@ class RootCounter:
         steps = np.geomspace(10.0**-GRID_DECADES, 1.0, GRID_POINTS)
         grid = [top[d] * steps for d in range(n)]
         if sharpen:  # first points beside the linearised estimates: most roots isolated
-            grid = [np.unique(np.r_[g, self._seeds(d, g[0], top[d])]) for d, g in enumerate(grid)]
+            grid = [
+                np.unique(np.r_[g, self._seeds(d, g[0], top[d], wanted[d])])
+                for d, g in enumerate(grid)
+            ]
         design = np.repeat(np.arange(n), [g.size for g in grid])
         grid = np.concatenate(grid)
         counts = self.below(grid, design)
@@ -227,12 +230,13 @@ class RootCounter:
         ]
         return found[0] if n == 1 else found
 
-    def _seeds(self, design: int, lo_hz: float, hi_hz: float) -> np.ndarray:
+    def _seeds(self, design: int, lo_hz: float, hi_hz: float, wanted: int) -> np.ndarray:
         """Frequencies [Hz] in (lo_hz, hi_hz) just below and above each linearised estimate
         (:meth:`ufmt.mstmm.nodal.NodalStiffness.estimates`) of ``design`` and half-way
-        between them."""
+        between them; only of the ``wanted`` + 1 lowest estimates (the next root bounds the
+        last wanted one)."""
         est = self.nodals[design].estimates() / TWO_PI
-        est = est[(est > lo_hz) & (est < hi_hz)]
+        est = est[(est > lo_hz) & (est < hi_hz)][: min(wanted, est.size) + 1]
         rings = np.concatenate([1 - SEED_RTOLS, 1 + SEED_RTOLS])
         seeds = np.concatenate([np.outer(est, rings).ravel(), np.sqrt(est[1:] * est[:-1])])
         return seeds[(seeds > lo_hz) & (seeds < hi_hz)]
