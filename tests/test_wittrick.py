@@ -366,7 +366,7 @@ def beam_and_tilting_block() -> dict:
     """A cantilever with a block on its tip, held rigidly along the beam only (springs
     otherwise), centre of mass off the hinge, full inertia tensor: the constraint ties a few of
     the block's coordinates to the beam's end (outer), the others stay inner and couple to
-    them by mass."""
+    them by mass; three small blocks on springs hang off it."""
     model = beam_model([{"name": "root", "between": ["ground", "b"], "at": [0, 0, 0]} | RIGID])
     inertia = [[0.02, 0.003, -0.001], [0.003, 0.03, 0.002], [-0.001, 0.002, 0.025]]
     block = {"name": "block", "kind": "rigid", "mass": 8.0}
@@ -374,6 +374,13 @@ def beam_and_tilting_block() -> dict:
     model["body"].append(block | {"inertia": inertia})
     tip = {"stiffness": [INF, 3e7, 2e7], "rotational_stiffness": [4e4, 6e4, 5e4]}
     model["hinge"].append({"name": "tip", "between": ["b", "block"], "at": [L, 0, 0]} | tip)
+    spring = {"stiffness": [2e7] * 3, "rotational_stiffness": [3e4] * 3}
+    for k in range(3):  # more inner coordinates: small blocks on springs off the tip block
+        centre = [L + 0.1 * (k + 1), 0.05, 0.0]
+        mass = {"mass": 1.0 + k, "inertia": np.diag([1e-3, 2e-3, 1.5e-3]).tolist()}
+        model["body"].append({"name": f"m{k}", "kind": "rigid", "center_of_mass": centre} | mass)
+        at = [L + 0.1 * (k + 1), 0.0, 0.0]
+        model["hinge"].append({"name": f"s{k}", "between": ["block", f"m{k}"], "at": at} | spring)
     return model
 
 
