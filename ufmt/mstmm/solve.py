@@ -201,11 +201,13 @@ def solve_modes_batch(
 ) -> list[ModalSolution]:
     """:func:`solve_modes` of each design of ``models`` (loaded models or paths), in order.
 
-    Designs of one structure (:meth:`ufmt.model.schema.Model.structure_key`) share what does
-    not depend on their stiffness values: the nodal layout and constraint basis of the
-    count, the transfer graph. The BLAS thread limit is set once for the whole batch. Each
-    result is the one :func:`solve_modes` returns for that design alone (to rounding).
-    Parameters and errors as :func:`solve_modes`.
+    Designs of one structure (:meth:`ufmt.model.schema.Model.structure_key`) are counted and
+    bracketed together: one Wittrick-Williams counter over their stack
+    (:class:`ufmt.mstmm.wittrick.RootCounter`), every J evaluation one pass for all of them;
+    each design's roots and shapes then come from its own Newton walks on det U_all. The BLAS
+    thread limit is set once for the whole batch. Each result is the one :func:`solve_modes`
+    returns for that design alone (to rounding; ``seconds``: its own share). Parameters and
+    errors as :func:`solve_modes` (a lost root of any design raises for the batch).
     """
     models = [as_model(m) for m in models]
     _check(fmax_hz, count, "mstmm")
