@@ -17,6 +17,9 @@ cost growth of both with the model's size.
   1e-4 each call: the structure caches are shared, as in a study, the stiffness is new).
 * One BLAS thread on both sides (threadpoolctl), calls interleaved in one run (medians).
 * Secondary line: the same for the first 30 modes (the former default basis).
+* Batches: the full basis of new designs per design, ``solve_modes_batch`` over batches of 8
+  and 32 designs of one structure against ``solve_modes`` one by one, interleaved (target
+  <= 25 ms per design inside a batch).
 * Growth: synthetic chains of 10-80 rigid bodies with a beam every fifth link and a spring
   closing a loop every tenth body; MSTMM and assembled (its automatic mesh, default rtol)
   time for the 20 lowest modes against size, printed as a table.
@@ -36,7 +39,7 @@ from threadpoolctl import threadpool_limits
 from ufmt.assembled import assemble, assembled_modes, reduced_matrices
 from ufmt.design import apply_design, design_value
 from ufmt.model.load import load_model, model_from_dict
-from ufmt.mstmm.solve import solve_modes
+from ufmt.mstmm.solve import solve_modes, solve_modes_batch
 
 FMAX_HZ = 5000.0
 SECONDARY_MODES = 30
@@ -49,6 +52,8 @@ CHAIN_SIZES = (10, 20, 40, 80)
 CHAIN_MODES = 20
 CHAIN_MESHES = (2, 4, 8, 16, 32)
 CHAIN_TARGET = 1e-6
+BATCH_SIZES = (8, 32)
+BATCH_TARGET_MS = 25.0
 
 
 def designs(model):
@@ -161,6 +166,28 @@ def compare(model, count: int | None, label: str, errors: dict) -> None:
         )
 
 
+def batches(model) -> None:
+    """Milliseconds per new design (full basis with shapes): one by one, and inside batches
+    of BATCH_SIZES designs; the designs are made before the clock starts."""
+    supply = designs(model)
+    times: dict = {size: [] for size in ("one by one", *BATCH_SIZES)}
+    for _ in range(ROUNDS):
+        for size in times:
+            stack = [next(supply) for _ in range(8 if size == "one by one" else size)]
+            t0 = time.perf_counter()
+            if size == "one by one":
+                [solve_modes(d, fmax_hz=FMAX_HZ) for d in stack]
+            else:
+                solve_modes_batch(stack, fmax_hz=FMAX_HZ)
+            times[size].append((time.perf_counter() - t0) / len(stack))
+    print(f"designs in batches, full basis to {FMAX_HZ:g} Hz with shapes (median of {ROUNDS}):")
+    for size, seconds in times.items():
+        label = size if isinstance(size, str) else f"batch of {size}"
+        ms = 1e3 * statistics.median(seconds)
+        target = f"(target <= {BATCH_TARGET_MS:g} ms in a batch)"
+        print(f"  {label:12s} {ms:8.1f} ms per design {target}")
+
+
 def chain_model(bodies: int) -> dict:
     """A chain of ``bodies`` rigid bodies along x on springs, a beam every fifth link
     (rigidly held by its neighbours), a spring from body i to body i + 2 every tenth body
@@ -259,6 +286,7 @@ def main() -> None:
             print(f"  {name:22s} {row}   (error x el² {rate[0]:.2g} -> {rate[-1]:.2g})")
         compare(model, None, f"full basis ({f.size} modes)", errors)
         compare(model, SECONDARY_MODES, f"secondary: first {SECONDARY_MODES} modes", errors)
+        batches(model)
         growth()
 
 

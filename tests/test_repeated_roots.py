@@ -149,11 +149,11 @@ def lossy_rotor(tmp_path, monkeypatch):
     path.write_text(to_toml(rotor_dict()))
     real_below = RootCounter.below
 
-    def with_fake_mode(self, hz):
-        return real_below(self, hz) + (np.atleast_1d(hz) > 1234.5)
+    def with_fake_mode(self, hz, design=None):
+        return real_below(self, hz, design) + (np.atleast_1d(hz) > 1234.5)
 
     monkeypatch.setattr(RootCounter, "below", with_fake_mode)
-    monkeypatch.setattr(RootCounter, "refine", lambda self, lo, hi: np.full(len(lo), np.nan))
+    monkeypatch.setattr(RootCounter, "refine", lambda self, lo, hi, **_: np.full(len(lo), np.nan))
     return path
 
 

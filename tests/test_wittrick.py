@@ -3,6 +3,7 @@
 at fine meshes (the packaged model, the bridge example), and on repeated roots."""
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -359,3 +360,102 @@ def test_newton_starts_on_the_packaged_model_are_within_1e9_of_the_roots():
     assert found.total == 68 and np.all(found.multiplicity == 1)
     roots = counter.refine(found.lo_hz, found.hi_hz)
     np.testing.assert_allclose(found.start_hz, roots, rtol=wittrick.SECANT_RTOL)
+
+
+def beam_and_tilting_block() -> dict:
+    """A cantilever with a block on its tip, held rigidly along the beam only (springs
+    otherwise), centre of mass off the hinge, full inertia tensor: the constraint ties a few of
+    the block's coordinates to the beam's end (outer), the others stay inner and couple to
+    them by mass; three small blocks on springs hang off it."""
+    model = beam_model([{"name": "root", "between": ["ground", "b"], "at": [0, 0, 0]} | RIGID])
+    inertia = [[0.02, 0.003, -0.001], [0.003, 0.03, 0.002], [-0.001, 0.002, 0.025]]
+    block = {"name": "block", "kind": "rigid", "mass": 8.0}
+    block["center_of_mass"] = [L + 0.05, 0.02, 0.03]
+    model["body"].append(block | {"inertia": inertia})
+    tip = {"stiffness": [INF, 3e7, 2e7], "rotational_stiffness": [4e4, 6e4, 5e4]}
+    model["hinge"].append({"name": "tip", "between": ["b", "block"], "at": [L, 0, 0]} | tip)
+    spring = {"stiffness": [2e7] * 3, "rotational_stiffness": [3e4] * 3}
+    for k in range(3):  # more inner coordinates: small blocks on springs off the tip block
+        centre = [L + 0.1 * (k + 1), 0.05, 0.0]
+        mass = {"mass": 1.0 + k, "inertia": np.diag([1e-3, 2e-3, 1.5e-3]).tolist()}
+        model["body"].append({"name": f"m{k}", "kind": "rigid", "center_of_mass": centre} | mass)
+        at = [L + 0.1 * (k + 1), 0.0, 0.0]
+        model["hinge"].append({"name": f"s{k}", "between": ["block", f"m{k}"], "at": at} | spring)
+    return model
+
+
+@pytest.mark.parametrize("which", ["packaged", "block", "mixed"])
+def test_condensed_count_and_determinant_equal_the_full_ldlt(which):
+    """Oracle: the LDLᵀ inertia and log|det| of the whole nodal K(ω) (order 78 on the packaged
+    model): the count condensed onto the beams' coordinates (Haynsworth) equals it at every
+    frequency, and its log|det K| differs by one constant (-2 log|det Φ|); the block model
+    exercises the inner-outer mass coupling, the mixed model a single inner coordinate."""
+    model = {
+        "packaged": load_model,
+        "block": lambda: model_from_dict(beam_and_tilting_block()),
+        "mixed": lambda: load_model(Path(__file__).parent / "models" / "good_mixed.toml"),
+    }[which]()
+    counter = RootCounter(model)
+    condensation = counter.nodal.condensation
+    assert condensation.inner.size >= 1
+    if which == "block":
+        assert condensation.products.shape[0] == 3  # mass coupled
+    hz = np.geomspace(1.0, 2e4, 400)
+    negative, log_det = inertia(counter.nodal.matrix(2 * np.pi * hz))
+    _, clamped, condensed_log_det, sign = counter._evaluate(hz)
+    np.testing.assert_array_equal(counter.below(hz), clamped + negative - counter.rigid_body_modes)
+    np.testing.assert_array_equal(sign, np.where(negative % 2 == 1, -1.0, 1.0))
+    offset = condensed_log_det - log_det
+    np.testing.assert_allclose(offset, offset[0], atol=1e-7 * np.abs(log_det).max())
+
+
+def packaged_designs(n: int):
+    """``n`` designs of the packaged model (the head's radial stiffness x 0.7 ... 1.4)."""
+    from ufmt.design import apply_design, design_value
+
+    model = load_model()
+    value = design_value(model, "head_radial_stiffness_N_m")
+    return [
+        apply_design(model, {"head_radial_stiffness_N_m": value * s})
+        for s in np.geomspace(0.7, 1.4, n)
+    ]
+
+
+def test_count_of_a_batch_equals_each_designs_own_count():
+    """Oracle: each design's own counter. One stacked counter over designs of one structure
+    gives every design the count, brackets and Newton starts its own counter gives it."""
+    designs = packaged_designs(3)
+    stacked = RootCounter(designs)
+    hz = np.geomspace(10.0, 5000.0, 60)
+    for d, model in enumerate(designs):
+        alone = RootCounter(model)
+        np.testing.assert_array_equal(stacked.below(hz, d), alone.below(hz))
+    together = stacked.brackets(3000.0)
+    for model, found in zip(designs, together, strict=True):
+        own = RootCounter(model).brackets(3000.0)
+        np.testing.assert_array_equal(found.multiplicity, own.multiplicity)
+        np.testing.assert_allclose(found.lo_hz, own.lo_hz, rtol=1e-12)
+        np.testing.assert_allclose(found.start_hz, own.start_hz, rtol=1e-9)
+
+
+def test_solve_modes_batch_equals_the_solve_of_each_design_alone():
+    """Oracle: :func:`solve_modes` of each design alone. A batch of designs of one structure
+    (and another structure mixed in) returns, in order, the same frequencies to 1e-10, the
+    same counts and shapes."""
+    from ufmt.mstmm.solve import solve_modes_batch
+    from ufmt.solvers import solve_modes_batch as public_batch
+
+    designs = packaged_designs(3)
+    rotor = model_from_dict(rotor_dict())
+    stack = [designs[0], rotor, designs[1], designs[2]]
+    for kwargs in ({"fmax_hz": 2000.0}, {"count": 20}):
+        batch = solve_modes_batch(stack, **kwargs)
+        assert public_batch(stack[:2], **kwargs)[1].frequencies_hz.size == batch[1].expected
+        for model, got in zip(stack, batch, strict=True):
+            alone = solve_modes(model, **kwargs)
+            assert got.expected == alone.expected and got.order == alone.order
+            assert got.rigid_body_modes == alone.rigid_body_modes
+            np.testing.assert_allclose(got.frequencies_hz, alone.frequencies_hz, rtol=1e-10)
+            for body, motion in alone.shapes.rigid.items():
+                scale = np.abs(motion).max()
+                np.testing.assert_allclose(got.shapes.rigid[body], motion, atol=1e-8 * scale)

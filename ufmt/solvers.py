@@ -5,6 +5,7 @@ packages import nothing from each other; this module is the one place that knows
 from __future__ import annotations
 
 import time
+from collections.abc import Sequence
 from pathlib import Path
 
 from ufmt.errors import UfmtError
@@ -12,6 +13,7 @@ from ufmt.model.load import as_model
 from ufmt.model.schema import Model
 from ufmt.mstmm.solve import DEFAULT_FMAX_HZ, ModalSolution
 from ufmt.mstmm.solve import solve_modes as mstmm_modes
+from ufmt.mstmm.solve import solve_modes_batch as mstmm_modes_batch
 
 METHODS = ("mstmm", "assembled")
 
@@ -48,3 +50,16 @@ def solve_modes(
     f = found.frequencies_hz
     seconds = time.perf_counter() - t0
     return ModalSolution(f, 0, "assembled", f.size, found.rigid_body_modes, None, seconds)
+
+
+def solve_modes_batch(
+    models: Sequence[Model | str | Path],
+    *,
+    count: int | None = None,
+    fmax_hz: float | None = None,
+    shapes: bool = True,
+) -> list[ModalSolution]:
+    """MSTMM modes of several designs (of one structure, e.g. a study's points), one result
+    per design in order, each equal to :func:`solve_modes` of that design alone: see
+    :func:`ufmt.mstmm.solve.solve_modes_batch`."""
+    return mstmm_modes_batch(models, count=count, fmax_hz=fmax_hz, shapes=shapes)

@@ -74,42 +74,82 @@ def _bending_functions(lam4: np.ndarray) -> np.ndarray:
     return out
 
 
-def bending_stiffness(omega: np.ndarray, ei: float, mass_per_length: float, length: float):
-    """Exact dynamic stiffness (n, 4, 4) of a bending member on ``[v₁, v₁', v₂, v₂']``
-    [N/m, N, N m] (ω [rad/s]; EI [N m²], ρA [kg/m], L [m]); at ω = 0 the static
-    ``EI/L³ [[12, 6L, -12, 6L], [6L, 4L², -6L, 2L²], ...]``."""
-    w2 = np.asarray(omega, dtype=float) ** 2
-    lam4 = mass_per_length * w2 / ei * length**4
-    d, a1, a3, p2, u2, t1, v3 = _bending_functions(lam4)
-    L = length
-    k11, k12, k13 = a1 / (d * L**3), p2 / (d * L**2), -t1 / (d * L**3)
-    k14, k22, k24 = u2 / (d * L**2), a3 / (d * L), v3 / (d * L)
-    k = np.stack(
-        [
-            [k11, k12, k13, k14],
-            [k12, k22, -k14, k24],
-            [k13, -k14, k11, -k12],
-            [k14, k24, -k12, k22],
-        ]
-    )
-    return ei * np.moveaxis(k, -1, 0)
-
-
-def rod_stiffness(omega: np.ndarray, stiffness: float, inertia_per_length: float, length: float):
-    """Exact dynamic stiffness (n, 2, 2) of an axial or torsional member on its two end
-    displacements: ``(k/L) κL/sin κL [[cos κL, -1], [-1, cos κL]]`` with κ² = ρA ω²/EA (or
-    ρI_p ω²/GJ) [N/m or N m/rad]."""
-    kl = np.asarray(omega, dtype=float) * math.sqrt(inertia_per_length / stiffness) * length
-    factor = stiffness / (length * np.sinc(kl / np.pi))
-    c, minus_one = np.cos(kl), -np.ones_like(kl)
-    k = np.stack([np.stack([c, minus_one], -1), np.stack([minus_one, c], -1)], -2)
-    return factor[:, None, None] * k
-
-
 # end dofs (start, end) of each deformation in the local 12-vector
 AXIAL, TORSION = [0, 6], [3, 9]
 BENDING_XY, BENDING_XZ = [1, 5, 7, 11], [2, 4, 8, 10]
 XZ_SIGN = np.array([1.0, -1.0, 1.0, -1.0])  # θy = -dw/dx
+# entries of a rod's 2x2 matrix per term (f cos κL, -f), and of a bending member's 4x4 on
+# [v₁, v₁', v₂, v₂'] per term (k11, k12, k13, k14, k22, k24), with their signs
+ROD_ENTRIES = (((0, 0, 1), (1, 1, 1)), ((0, 1, 1), (1, 0, 1)))
+BENDING_ENTRIES = (
+    ((0, 0, 1), (2, 2, 1)),
+    ((0, 1, 1), (1, 0, 1), (2, 3, -1), (3, 2, -1)),
+    ((0, 2, 1), (2, 0, 1)),
+    ((0, 3, 1), (3, 0, 1), (1, 2, -1), (2, 1, -1)),
+    ((1, 1, 1), (3, 3, 1)),
+    ((1, 3, 1), (3, 1, 1)),
+)
+
+
+class Members:
+    """The deformations of a set of beams stacked (each beam's axial and torsion rods, its two
+    bending planes), so that the exact dynamic stiffness and J₀ of all of them at all
+    frequencies are a few array operations: the stiffness is Σ_t term_t(ω) E_t with fixed
+    12x12 patterns E_t (:attr:`patterns`, of beam :attr:`owner`) and scalar terms
+    (:meth:`terms`): per rod f cos κL and -f, f = (k/L) κL/sin κL; per bending plane
+    EI·(k11, k12, k13, k14, k22, k24) of the matrix below (module docstring).
+    """
+
+    def __init__(self, beams):
+        rods, bends, patterns, owner = [], [], [], []
+        for j, beam in enumerate(beams):
+            for dofs, kind, stiffness, inertia in _parts(beam):
+                sign = XZ_SIGN if dofs == BENDING_XZ else np.ones(len(dofs))
+                (rods if kind == "rod" else bends).append((stiffness, inertia, beam.length))
+                for entries in ROD_ENTRIES if kind == "rod" else BENDING_ENTRIES:
+                    e = np.zeros((12, 12))
+                    for a, b, s in entries:
+                        e[dofs[a], dofs[b]] = s * sign[a] * sign[b]
+                    patterns.append((kind, e))
+                    owner.append(j)
+        self.rods = np.array(rods, dtype=float).reshape(-1, 3)  # (k or GJ, ρA or ρI_p, L)
+        self.bends = np.array(bends, dtype=float).reshape(-1, 3)  # (EI, ρA, L)
+        # terms are computed rods first, then bending planes: patterns in that order
+        order = [i for kind in ("rod", "bending") for i, p in enumerate(patterns) if p[0] == kind]
+        self.patterns = np.array([patterns[i][1] for i in order]).reshape(-1, 12, 12)
+        self.owner = np.array(owner, dtype=int)[order]
+
+    def terms(self, omega) -> np.ndarray:
+        """The scalar terms (len(ω), 2 rods + 6 bending planes) at ω [rad/s]."""
+        omega = np.atleast_1d(np.asarray(omega, dtype=float))[:, None]
+        k, mu, length = self.rods.T
+        kl = omega * np.sqrt(mu / k) * length
+        factor = k / (length * np.sinc(kl / np.pi))
+        rod = np.stack([factor * np.cos(kl), -factor], axis=-1).reshape(omega.size, -1)
+        ei, rho_a, length = self.bends.T
+        lam4 = rho_a * omega**2 / ei * length**4
+        d, a1, a3, p2, u2, t1, v3 = _bending_functions(lam4.ravel()).reshape(7, *lam4.shape)
+        lengths = [length**3, length**2, length**3, length**2, length, length]
+        bend = np.stack(
+            [ei * f / (d * L) for f, L in zip((a1, p2, -t1, u2, a3, v3), lengths, strict=True)],
+            axis=-1,
+        ).reshape(omega.size, -1)
+        return np.concatenate([rod, bend], axis=1)
+
+    def clamped(self, omega) -> np.ndarray:
+        """J₀: the number (len(ω),) of clamped-clamped member frequencies below ω [rad/s], all
+        members together. Rods: ⌊κL/π⌋. Bending: i - (1 - (-1)ⁱ sgn δ)/2 with i = ⌊λ/π⌋ and
+        δ = 1 - cos λ cosh λ (Williams and Wittrick's closed form)."""
+        omega = np.atleast_1d(np.asarray(omega, dtype=float))[:, None]
+        k, mu, length = self.rods.T
+        count = np.floor(omega * np.sqrt(mu / k) * length / np.pi).astype(int).sum(axis=1)
+        ei, rho_a, length = self.bends.T
+        lam = np.sqrt(np.sqrt(rho_a * omega**2 / ei * length**4))
+        i = np.floor(lam / np.pi).astype(int)
+        # δ = λ⁴/6 + ... > 0 below λ = 2 (the first zero is at 4.73): the closed form above
+        with np.errstate(over="ignore"):
+            sign = np.where(lam < 2.0, 1.0, np.sign(1.0 - np.cos(lam) * np.cosh(lam)))
+        return count + (i - np.rint((1 - (-1.0) ** i * sign) / 2).astype(int)).sum(axis=1)
 
 
 def _parts(beam: Beam):
@@ -125,40 +165,16 @@ def _parts(beam: Beam):
 
 def member_stiffness(omega: np.ndarray, beam: Beam) -> np.ndarray:
     """Exact dynamic stiffness (n, 12, 12) of the beam in its local axes (module docstring)
-    at ω (n,) [rad/s]; symmetric, real, infinite only at its clamped-clamped frequencies."""
-    omega = np.atleast_1d(np.asarray(omega, dtype=float))
-    k = np.zeros((omega.size, 12, 12))
-    length = beam.length  # (a property: computed once)
-    for dofs, kind, stiffness, inertia in _parts(beam):
-        if kind == "rod":
-            block = rod_stiffness(omega, stiffness, inertia, length)
-        else:
-            block = bending_stiffness(omega, stiffness, inertia, length)
-            if dofs == BENDING_XZ:
-                block = block * (XZ_SIGN[:, None] * XZ_SIGN)
-        k[:, np.array(dofs)[:, None], np.array(dofs)] = block
-    return k
+    at ω (n,) [rad/s]; symmetric, real, infinite only at its clamped-clamped frequencies;
+    at ω = 0 the static one (bending: ``EI/L³ [[12, 6L, -12, 6L], [6L, 4L², -6L, 2L²],
+    ...]``)."""
+    members = Members([beam])
+    return np.einsum("nt,tij->nij", members.terms(omega), members.patterns)
 
 
 def clamped_count(omega: np.ndarray, beam: Beam) -> np.ndarray:
-    """J₀: the number (n,) of the beam's natural frequencies with both ends clamped below ω
-    [rad/s]. Axial and torsion: ⌊κL/π⌋. Bending (each plane): i - (1 - (-1)ⁱ sgn δ)/2 with
-    i = ⌊λ/π⌋ and δ = 1 - cos λ cosh λ (Williams and Wittrick's closed form)."""
-    omega = np.atleast_1d(np.asarray(omega, dtype=float))
-    count = np.zeros(omega.size, dtype=int)
-    length = beam.length  # (a property: computed once)
-    for _, kind, stiffness, inertia in _parts(beam):
-        if kind == "rod":
-            kl = omega * math.sqrt(inertia / stiffness) * length
-            count += np.floor(kl / np.pi).astype(int)
-        else:
-            lam = np.sqrt(np.sqrt(inertia * omega**2 / stiffness * length**4))
-            i = np.floor(lam / np.pi).astype(int)
-            # δ = λ⁴/6 + ... > 0 below λ = 2 (the first zero is at 4.73): the closed form above
-            with np.errstate(over="ignore"):
-                sign = np.where(lam < 2.0, 1.0, np.sign(1.0 - np.cos(lam) * np.cosh(lam)))
-            count += i - np.rint((1 - (-1.0) ** i * sign) / 2).astype(int)
-    return count
+    """J₀ (n,) of one beam at ω (n,) [rad/s] (:meth:`Members.clamped`)."""
+    return Members([beam]).clamped(omega)
 
 
 def local_to_global(beam: Beam) -> np.ndarray:

@@ -103,10 +103,7 @@ class ConstantParts:
 
     def arrange(self, u: np.ndarray) -> np.ndarray:
         """U_all (n, size, size) cut to :attr:`rows` and :attr:`columns`, one gather."""
-        flat = (self.rows[:, None] * u.shape[-1] + self.columns[None, :]).ravel()
-        return np.take(u.reshape(u.shape[0], -1), flat, axis=1).reshape(
-            u.shape[0], self.rows.size, self.columns.size
-        )
+        return u[:, self.rows[:, None], self.columns]
 
     def reduce(self, a: np.ndarray) -> np.ndarray:
         """S'(ω) (n, m', m') from U_all(ω) arranged (:meth:`arrange`); ``a``'s o rows are

@@ -15,7 +15,7 @@ import functools
 import hashlib
 import pickle
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from threadpoolctl import ThreadpoolController
@@ -196,6 +196,37 @@ def solve_modes(
         return _solve_modes(model, fmax_hz, count, method, shapes)
 
 
+def solve_modes_batch(
+    models, *, count: int | None = None, fmax_hz: float | None = None, shapes: bool = True
+) -> list[ModalSolution]:
+    """:func:`solve_modes` of each design of ``models`` (loaded models or paths), in order.
+
+    Designs of one structure (:meth:`ufmt.model.schema.Model.structure_key`) are counted and
+    bracketed together: one Wittrick-Williams counter over their stack
+    (:class:`ufmt.mstmm.wittrick.RootCounter`), every J evaluation one pass for all of them;
+    each design's roots and shapes then come from its own Newton walks on det U_all. The BLAS
+    thread limit is set once for the whole batch. Each result is the one :func:`solve_modes`
+    returns for that design alone (to rounding; ``seconds``: its own share). Parameters and
+    errors as :func:`solve_modes` (a lost root of any design raises for the batch).
+    """
+    models = [as_model(m) for m in models]
+    _check(fmax_hz, count, "mstmm")
+    with _blas_controller().limit(limits=1, user_api="blas"):
+        groups: dict = {}  # designs of one structure are counted together
+        for i, m in enumerate(models):
+            groups.setdefault(m.structure_key(), []).append(i)
+        out: list = [None] * len(models)
+        for members in groups.values():
+            t0 = time.perf_counter()
+            counter = RootCounter([models[i] for i in members])
+            ranges = _search_ranges(counter, fmax_hz, count, False)
+            shared = (time.perf_counter() - t0) / len(members)  # the count's share
+            for d, (i, brackets) in enumerate(zip(members, ranges, strict=True)):
+                solution = _solution(counter, d, brackets, count, shapes)[0]
+                out[i] = replace(solution, seconds=solution.seconds + shared)
+        return out
+
+
 @functools.cache
 def _blas_controller() -> ThreadpoolController:
     """The loaded BLAS libraries, found once: a new ``threadpool_limits`` scans every loaded
@@ -286,7 +317,8 @@ def _remember(key, model, roots_hz, rigid_body_modes) -> None:
         del _LAST_ROOTS[next(iter(_LAST_ROOTS))]
 
 
-def _solve_modes(model, fmax_hz, count, method, shapes) -> ModalSolution:
+def _check(fmax_hz, count, method) -> None:
+    """UfmtError for a bad ``fmax_hz``, ``count`` or ``method`` (see :func:`solve_modes`)."""
     if fmax_hz is not None and not (np.isfinite(fmax_hz) and fmax_hz > 0):
         raise UfmtError(f"--fmax: {fmax_hz} must be a positive number of Hz")
     if method != "mstmm":
@@ -295,16 +327,35 @@ def _solve_modes(model, fmax_hz, count, method, shapes) -> ModalSolution:
         )
     if count is not None and count < 1:
         raise UfmtError(f"number of modes: {count} must be >= 1")
+
+
+def _solve_modes(model, fmax_hz, count, method, shapes) -> ModalSolution:
+    _check(fmax_hz, count, method)
     t0 = time.perf_counter()
     tracking = fmax_hz is None and count is not None and _CONTINUATION.get() is not None
     if tracking and (solution := _continued(model, count, shapes, t0)) is not None:
         return solution
     counter = RootCounter(model)
     # the next design of a continuation tracks one root more
-    brackets = _search_range(counter, fmax_hz, count, count is not None and tracking)
+    (brackets,) = _search_ranges(counter, fmax_hz, count, count is not None and tracking)
+    solution, found = _solution(counter, 0, brackets, count, shapes)
+    if tracking:
+        _remember(_CONTINUATION.get(), model, found, counter.rigid_body_modes)
+    return replace(solution, seconds=time.perf_counter() - t0)
+
+
+def _solution(counter: RootCounter, design: int, brackets: Brackets, count, shapes):
+    """(the ModalSolution of design ``design`` of ``counter`` from its brackets, every root
+    found [Hz]) (``seconds`` of this part only)."""
+    t0 = time.perf_counter()
+    model = counter.models[design]
     system = TransferSystem(model)
     keys = shape_state_keys(system) if shapes else ()
-    roots = bracketed_roots(system, brackets, counter.refine, state_keys=keys)
+
+    def refine(lo_hz, hi_hz):
+        return counter.refine(lo_hz, hi_hz, design=design)
+
+    roots = bracketed_roots(system, brackets, refine, state_keys=keys)
     if roots.missing_hz.size:
         raise RootsLostError(
             f"{model.source}: the MSTMM found {roots.frequencies_hz.size} of the "
@@ -316,33 +367,42 @@ def _solve_modes(model, fmax_hz, count, method, shapes) -> ModalSolution:
     f, z = roots.frequencies_hz[:count], roots.null_vectors[:count]
     states = None if roots.states is None else _first(roots.states, f.size)
     modes = mode_shapes(system, f, z, states) if shapes and f.size else None
-    if tracking:
-        _remember(_CONTINUATION.get(), model, roots.frequencies_hz, counter.rigid_body_modes)
-    return ModalSolution(
-        f,
-        system.order,
-        "mstmm",
-        min(roots.expected, count or roots.expected),
-        counter.rigid_body_modes,
-        modes,
-        time.perf_counter() - t0,
-    )
+    expected = min(roots.expected, count or roots.expected)
+    rigid = int(counter.zero_modes[design])
+    seconds = time.perf_counter() - t0
+    solution = ModalSolution(f, system.order, "mstmm", expected, rigid, modes, seconds)
+    return solution, roots.frequencies_hz
 
 
-def _search_range(counter: RootCounter, fmax_hz, count, one_more: bool) -> Brackets:
-    """Certified brackets of the roots to find: all below ``fmax_hz`` (default 1000 Hz),
-    or the first ``count`` (``one_more``: count + 1) and at most those below ``fmax_hz``;
-    the upper frequency lies between the last wanted root and the next one."""
+def _search_ranges(counter: RootCounter, fmax_hz, count, one_more: bool) -> list[Brackets]:
+    """Certified brackets of the roots to find, per design of ``counter``: all below
+    ``fmax_hz`` (default 1000 Hz), or the first ``count`` (``one_more``: count + 1) and at
+    most those below ``fmax_hz``; the upper frequency lies between the last wanted root and
+    the next one."""
+    n = len(counter.models)
     if count is None:
-        return counter.brackets(DEFAULT_FMAX_HZ if fmax_hz is None else float(fmax_hz))
+        found = counter.brackets(DEFAULT_FMAX_HZ if fmax_hz is None else float(fmax_hz))
+        return [found] if n == 1 else found
     wanted = count + 1 if one_more and count + 1 <= counter.total_modes() else count
-    if fmax_hz is not None and counter.below(float(fmax_hz))[0] < wanted:
-        return counter.brackets(float(fmax_hz))
-    upper = counter.upper_for(wanted, DEFAULT_FMAX_HZ if fmax_hz is None else float(fmax_hz))
-    found = counter.brackets(upper * (1 + 1e-9), first=wanted)
+    limited = np.zeros(n, dtype=bool)  # fewer than wanted below fmax_hz: all of those
+    if fmax_hz is not None:
+        limited = counter.below(np.full(n, float(fmax_hz)), np.arange(n)) < wanted
+    top = np.full(n, np.nan if fmax_hz is None else float(fmax_hz))
+    if not limited.all():
+        upper = counter.upper_for(wanted, DEFAULT_FMAX_HZ if fmax_hz is None else float(fmax_hz))
+        top[~limited] = upper[~limited] * (1 + 1e-9)
+    first = np.where(limited, np.iinfo(int).max, wanted)
+    found = counter.brackets(top, first=first)
+    found = [found] if n == 1 else found
+    return [b if limited[d] else _first_brackets(b, wanted) for d, b in enumerate(found)]
+
+
+def _first_brackets(found: Brackets, wanted: int) -> Brackets:
+    """The brackets of the first ``wanted`` roots, the upper frequency half-way
+    (geometrically) between the last of them and the next bracket."""
     last = int(np.searchsorted(np.cumsum(found.multiplicity), wanted))  # holds root `wanted`
     top = found.hi_hz[last]
-    if last + 1 < found.lo_hz.size:  # half-way (geometrically) to the next bracket
+    if last + 1 < found.lo_hz.size:
         top = np.sqrt(top * found.lo_hz[last + 1])
     keep = slice(0, last + 1)
     start = None if found.start_hz is None else found.start_hz[keep]

@@ -3,12 +3,16 @@ without a mesh: the Wittrick-Williams algorithm.
 
 The number of natural frequencies below ω is ``J(ω) = J₀(ω) + s{K(ω)}`` (Wittrick and
 Williams, 1971): J₀ the beams' clamped-clamped frequencies below ω (closed form,
-:func:`ufmt.mstmm.members.clamped_count`) and s{K} the number of negative eigenvalues of the
-nodal exact dynamic stiffness matrix (:mod:`ufmt.mstmm.nodal`). s{K} is the inertia of an
-LDLᵀ factorisation (LAPACK ``dsytrf``, Bunch-Kaufman pivoting: backward stable for
-indefinite matrices; by Sylvester's law the signs of D's 1x1 and 2x2 blocks give the inertia;
-23 µs per matrix of order 78 on the packaged model, against 165 µs for the eigenvalues
-``eigvalsh`` would compute only to read their signs; CPU time, one BLAS thread).
+:meth:`ufmt.mstmm.members.Members.clamped`) and s{K} the number of negative eigenvalues of
+the nodal exact dynamic stiffness matrix (:mod:`ufmt.mstmm.nodal`). The coordinates no beam
+touches are condensed exactly through their own modes
+(:class:`ufmt.mstmm.nodal.Condensation`: s{K} = #{λ_i < ω²} + s{C(ω)}, Haynsworth), and
+s{C} is the inertia of an LDLᵀ factorisation (LAPACK ``dsytrf``, Bunch-Kaufman pivoting:
+backward stable for indefinite matrices; by Sylvester's law the signs of D's 1x1 and 2x2
+blocks give the inertia; order 18 instead of 78 on the packaged model, ~7 µs per frequency
+against ~50 µs for the whole K; CPU time, one BLAS thread). One counter serves a stack of
+designs of one structure (a design index beside every frequency): each J evaluation,
+bisection and secant step is one pass for all of them.
 Zero-frequency (rigid-body and mechanism) modes lie below every ω > 0 and are subtracted
 (counted from geometry, :mod:`ufmt.mstmm.nodal`).
 
@@ -30,7 +34,7 @@ from scipy.linalg.lapack import dsytrf
 
 from ufmt.errors import UfmtError
 from ufmt.model.schema import Model
-from ufmt.mstmm.nodal import NodalStiffness, nodal_stiffness
+from ufmt.mstmm.nodal import CondensationStack, NodalStiffness, nodal_stiffness
 
 TWO_PI = 2.0 * np.pi
 CLUSTER_RTOL = 1e-7  # an interval this narrow (relative) holding m > 1 roots: a repeated root
@@ -58,6 +62,8 @@ def inertia(k: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     (Bunch-Kaufman) factorisation each: det K = det D (det L = 1), the product of the 1x1
     blocks and the 2x2 blocks' determinants; sign det K = (-1)^s{K}."""
     n_omega, n = k.shape[:2]
+    if n == 0:  # nothing left to factor (every coordinate condensed)
+        return np.zeros(n_omega, dtype=int), np.zeros(n_omega)
     diagonal, below, pivots = np.empty((n_omega, n)), np.zeros((n_omega, n)), np.empty((n_omega, n))
     for i, matrix in enumerate(k):  # LAPACK per matrix, the rest batched
         lu, pivots[i], _ = dsytrf(matrix.T, lower=1)  # symmetric: the transpose is Fortran order
@@ -99,46 +105,59 @@ class Brackets:
 
 
 class RootCounter:
-    """J(ω) of one model (module docstring): counts and brackets its natural frequencies."""
+    """J(ω) of one model, or of several designs of one structure at once (module docstring):
+    counts and brackets their natural frequencies. Every frequency goes with the design it
+    belongs to (``design``: index into ``models``, default 0); one J evaluation serves all
+    designs (one pass of numpy calls for the whole batch)."""
 
-    def __init__(self, model: Model):
-        self.model = model
-        self.nodal: NodalStiffness = nodal_stiffness(model)
-        self._seen: list = []  # (hz, values) of every evaluation, for _recall
+    def __init__(self, models: Model | list[Model]):
+        self.models = [models] if isinstance(models, Model) else list(models)
+        self.model = self.models[0]
+        self.nodals: list[NodalStiffness] = [nodal_stiffness(m) for m in self.models]
+        self.nodal = self.nodals[0]
+        self.stack = CondensationStack([n.condensation for n in self.nodals])
+        self.zero_modes = np.array([n.zero_modes for n in self.nodals])
+        self._seen: list = []  # (keys, values) of every evaluation, for _recall
 
     @property
     def rigid_body_modes(self) -> int:
-        """Zero-frequency (rigid-body and mechanism) modes."""
+        """Zero-frequency (rigid-body and mechanism) modes (of the first design)."""
         return self.nodal.zero_modes
 
-    def below(self, hz) -> np.ndarray:
-        """J: the number of nonzero natural frequencies below each frequency of ``hz`` [Hz]."""
-        return self._evaluate(hz)[0]
+    def below(self, hz, design=None) -> np.ndarray:
+        """J: the number of nonzero natural frequencies below each frequency of ``hz`` [Hz]
+        (of design ``design``, an index or one per frequency; default the first)."""
+        return self._evaluate(hz, design)[0]
 
-    def _evaluate(self, hz):
-        """(J, J₀, log|det K|, sign det K) at each frequency of ``hz`` [Hz]; kept for
-        :meth:`_recall`."""
+    def _evaluate(self, hz, design=None):
+        """(J, J₀, log|det K|, sign det K) at each frequency of ``hz`` [Hz] of its design;
+        kept for :meth:`_recall`."""
         hz = np.atleast_1d(np.asarray(hz, dtype=float))
+        design = _designs(design, hz.size)
         omega = TWO_PI * hz
-        negative, log_det = inertia(self.nodal.matrix(omega))
-        clamped = self.nodal.clamped(omega)
+        complement, inner_negative, inner_log_det = self.stack.complement(omega, design)
+        negative, log_det = inertia(complement)
+        negative, log_det = negative + inner_negative, log_det + inner_log_det
+        clamped = self.stack.members.clamped(omega)
         sign = np.where(negative % 2 == 1, -1.0, 1.0)
-        values = (clamped + negative - self.nodal.zero_modes, clamped, log_det, sign)
-        self._seen.append((hz, np.stack(values)))
+        values = (clamped + negative - self.zero_modes[design], clamped, log_det, sign)
+        self._seen.append((design + 1j * hz, np.stack(values)))
         return values
 
-    def _recall(self, hz):
-        """:meth:`_evaluate` at ``hz`` [Hz], the frequencies evaluated before not again."""
-        seen_hz = np.concatenate([h for h, _ in self._seen] or [np.zeros(0)])
+    def _recall(self, hz, design):
+        """:meth:`_evaluate` at ``hz`` [Hz] of ``design``, the pairs evaluated before not
+        again."""
+        keys = _designs(design, hz.size) + 1j * hz  # (design, hz) pairs, sorted as such
+        seen_keys = np.concatenate([k for k, _ in self._seen] or [np.zeros(0, complex)])
         seen = np.concatenate([v for _, v in self._seen], axis=1) if self._seen else None
-        order = np.argsort(seen_hz)
-        at = np.minimum(np.searchsorted(seen_hz[order], hz), max(seen_hz.size - 1, 0))
-        known = seen_hz[order][at] == hz if seen_hz.size else np.zeros(hz.size, dtype=bool)
+        order = np.argsort(seen_keys)
+        at = np.minimum(np.searchsorted(seen_keys[order], keys), max(seen_keys.size - 1, 0))
+        known = seen_keys[order][at] == keys if seen_keys.size else np.zeros(hz.size, bool)
         out = np.empty((4, hz.size))
         if known.any():
             out[:, known] = seen[:, order[at[known]]]
         if not known.all():
-            out[:, ~known] = np.stack(self._evaluate(hz[~known]))
+            out[:, ~known] = np.stack(self._evaluate(hz[~known], keys.real[~known].astype(int)))
         return out[0].astype(int), out[1].astype(int), out[2], out[3]
 
     def total_modes(self) -> float:
@@ -147,65 +166,86 @@ class RootCounter:
             return np.inf
         return float(np.linalg.matrix_rank(self.nodal.mass) - self.nodal.zero_modes)
 
-    def upper_for(self, count: int, start_hz: float = 1000.0) -> float:
-        """A frequency [Hz] with at least ``count`` natural frequencies below it."""
+    def upper_for(self, count: int, start_hz: float = 1000.0) -> np.ndarray:
+        """A frequency [Hz] per design with at least ``count`` natural frequencies below
+        it."""
         if count > self.total_modes():
             raise UfmtError(
                 f"number of modes: {count} asked for, but the model has only "
                 f"{int(self.total_modes())} nonzero modes; ask for fewer"
             )
-        hz = start_hz
-        while self.below(hz)[0] < count:
-            hz *= 2.0
+        hz, design = np.full(len(self.models), float(start_hz)), np.arange(len(self.models))
+        while np.any(short := self.below(hz, design) < count):
+            hz[short] *= 2.0
         return hz
 
-    def brackets(
-        self, below_hz: float, start_rtol: float | None = None, first: int | None = None
-    ) -> Brackets:
+    def brackets(self, below_hz, start_rtol: float | None = None, first=None):
         """Brackets of every natural frequency below ``below_hz`` [Hz] (only the ``first``
-        ones, if given), by bisection on J (geometric middles, all brackets at once): single
-        roots to ``start_rtol`` (relative width), clusters to CLUSTER_RTOL. By default
-        (``start_rtol`` None) single roots are bisected to SECANT_FROM only, then sharpened
-        by :meth:`_sharpen` (``start_hz``: Newton's start within SECANT_RTOL of the root).
-        The first J points lie beside the linearised estimates (:meth:`_seeds`)."""
+        ones, if given), by bisection on J (geometric middles, all brackets of all designs at
+        once): single roots to ``start_rtol`` (relative width), clusters to CLUSTER_RTOL. By
+        default (``start_rtol`` None) single roots are bisected to SECANT_FROM only, then
+        sharpened by :meth:`_sharpen` (``start_hz``: Newton's start within SECANT_RTOL of the
+        root). The first J points lie beside the linearised estimates (:meth:`_seeds`).
+        ``below_hz`` and ``first`` may be one per design; one :class:`Brackets` for a
+        counter of one design, else a list of them."""
+        n = len(self.models)
+        top = np.broadcast_to(np.asarray(below_hz, dtype=float), (n,))
+        wanted = np.broadcast_to(np.iinfo(int).max if first is None else first, (n,))
         sharpen = start_rtol is None
         start_rtol = SECANT_FROM if sharpen else start_rtol
-        top = float(below_hz)
-        grid = top * np.geomspace(10.0**-GRID_DECADES, 1.0, GRID_POINTS)
+        steps = np.geomspace(10.0**-GRID_DECADES, 1.0, GRID_POINTS)
+        grid = [top[d] * steps for d in range(n)]
         if sharpen:  # first points beside the linearised estimates: most roots isolated
-            grid = np.unique(np.concatenate([grid, self._seeds(grid[0], top)]))
-        counts = self.below(grid)
-        while counts[0] > 0:  # roots below the grid: extend it downwards
-            lower = grid[0] * np.geomspace(10.0**-GRID_DECADES, 1.0, GRID_POINTS)[:-1]
-            grid, counts = np.r_[lower, grid], np.r_[self.below(lower), counts]
-        keep = np.flatnonzero(np.diff(counts) > 0)
+            grid = [
+                np.unique(np.r_[g, self._seeds(d, g[0], top[d], wanted[d])])
+                for d, g in enumerate(grid)
+            ]
+        design = np.repeat(np.arange(n), [g.size for g in grid])
+        grid = np.concatenate(grid)
+        counts = self.below(grid, design)
+        while np.any(low := counts[np.r_[0, np.flatnonzero(np.diff(design)) + 1]] > 0):
+            # roots below the grid: extend it downwards
+            lowest = grid[np.r_[0, np.flatnonzero(np.diff(design)) + 1]][low]
+            lower = (lowest[:, None] * steps[:-1]).ravel()
+            lower_design = np.repeat(np.flatnonzero(low), steps.size - 1)
+            order = np.lexsort((np.r_[lower, grid], np.r_[lower_design, design]))
+            counts = np.r_[self.below(lower, lower_design), counts][order]
+            grid, design = np.r_[lower, grid][order], np.r_[lower_design, design][order]
+        keep = np.flatnonzero((np.diff(counts) > 0) & (np.diff(design) == 0))
         lo, hi, lo_c, hi_c = grid[keep], grid[keep + 1], counts[keep], counts[keep + 1]
+        des = design[keep]
         for _ in range(MAX_BISECTIONS):
-            if first is not None:  # intervals above the wanted roots: not refined
-                keep = lo_c < first
-                lo, hi, lo_c, hi_c = lo[keep], hi[keep], lo_c[keep], hi_c[keep]
+            keep = lo_c < wanted[des]  # intervals above the wanted roots: not refined
+            lo, hi, lo_c, hi_c, des = lo[keep], hi[keep], lo_c[keep], hi_c[keep], des[keep]
             m = hi_c - lo_c
             wide = np.where(m > 1, CLUSTER_RTOL, start_rtol) * hi < hi - lo
             if not wide.any():
                 break
             mid = np.sqrt(lo[wide] * hi[wide])
-            lo, hi, lo_c, hi_c = _split(lo, hi, lo_c, hi_c, wide, mid, self.below(mid))
+            c = self.below(mid, des[wide])
+            lo, hi, lo_c, hi_c, des = _split(lo, hi, lo_c, hi_c, des, wide, mid, c)
         m, start = hi_c - lo_c, np.sqrt(lo * hi)
         if sharpen and np.any(m == 1):
             one = m == 1
-            lo[one], hi[one], start[one] = self._sharpen(lo[one], hi[one])
-        return Brackets(lo, hi, m, top, start)
+            lo[one], hi[one], start[one] = self._sharpen(lo[one], hi[one], des[one])
+        found = [
+            Brackets(lo[des == d], hi[des == d], m[des == d], float(top[d]), start[des == d])
+            for d in range(n)
+        ]
+        return found[0] if n == 1 else found
 
-    def _seeds(self, lo_hz: float, hi_hz: float) -> np.ndarray:
+    def _seeds(self, design: int, lo_hz: float, hi_hz: float, wanted: int) -> np.ndarray:
         """Frequencies [Hz] in (lo_hz, hi_hz) just below and above each linearised estimate
-        (:meth:`ufmt.mstmm.nodal.NodalStiffness.estimates`) and half-way between them."""
-        est = self.nodal.estimates() / TWO_PI
-        est = est[(est > lo_hz) & (est < hi_hz)]
+        (:meth:`ufmt.mstmm.nodal.NodalStiffness.estimates`) of ``design`` and half-way
+        between them; only of the ``wanted`` + 1 lowest estimates (the next root bounds the
+        last wanted one)."""
+        est = self.nodals[design].estimates() / TWO_PI
+        est = est[(est > lo_hz) & (est < hi_hz)][: min(wanted, est.size) + 1]
         rings = np.concatenate([1 - SEED_RTOLS, 1 + SEED_RTOLS])
         seeds = np.concatenate([np.outer(est, rings).ravel(), np.sqrt(est[1:] * est[:-1])])
         return seeds[(seeds > lo_hz) & (seeds < hi_hz)]
 
-    def _sharpen(self, lo, hi, retry: bool = True):
+    def _sharpen(self, lo, hi, design, retry: bool = True):
         """Newton's start in brackets [Hz] of one root each: regula falsi (Illinois) on
         det K(ω), every point's side decided by J (the brackets it narrows stay certified),
         to a width below SECANT_RTOL (bisection on J after SECANT_ITERATIONS steps); returns
@@ -221,7 +261,7 @@ class RootCounter:
         """
         n, lo_in, hi_in = lo.size, lo, hi
         lo, hi = lo.copy(), hi.copy()
-        count, clamped, log_det, sign = self._recall(np.concatenate([lo, hi]))
+        count, clamped, log_det, sign = self._recall(np.r_[lo, hi], np.r_[design, design])
         base, ref = count[:n], np.maximum(log_det[:n], log_det[n:])
         with np.errstate(all="ignore"):
             f_lo, f_hi = sign[:n] * np.exp(log_det[:n] - ref), sign[n:] * np.exp(log_det[n:] - ref)
@@ -237,7 +277,7 @@ class RootCounter:
             with np.errstate(all="ignore"):
                 x = b - fb * (b - a) / (fb - fa)
             x = np.where(np.isfinite(x) & (x > a) & (x < b), x, np.sqrt(a * b))
-            c, c0, ld, sg = self._evaluate(x)
+            c, c0, ld, sg = self._evaluate(x, design[act])
             with np.errstate(all="ignore"):
                 f = sg * np.exp(ld - ref[act])
             above = c > base[act]  # the root lies below x: x is the new upper end
@@ -252,45 +292,56 @@ class RootCounter:
         # a start between two roots 1e-8 apart can pass for a root after one Newton step:
         # brackets the secant has not narrowed enough are bisected to SECANT_RTOL
         slow = ok & (hi - lo > SECANT_RTOL * hi)
-        lo[slow], hi[slow] = self._narrow(lo[slow], hi[slow], SECANT_RTOL)
+        lo[slow], hi[slow] = self._narrow(lo[slow], hi[slow], SECANT_RTOL, design[slow])
         start[slow] = np.sqrt(lo[slow] * hi[slow])
         lo, hi = np.where(ok, lo_in, lo), np.where(ok, hi_in, hi)
-        lo[~ok], hi[~ok] = self._narrow(lo[~ok], hi[~ok], START_RTOL)
+        lo[~ok], hi[~ok] = self._narrow(lo[~ok], hi[~ok], START_RTOL, design[~ok])
         start[~ok] = np.sqrt(lo[~ok] * hi[~ok])
         if retry and not ok.all():  # narrower, the bracket may have left the pole behind
-            lo[~ok], hi[~ok], start[~ok] = self._sharpen(lo[~ok], hi[~ok], retry=False)
+            again = self._sharpen(lo[~ok], hi[~ok], design[~ok], retry=False)
+            lo[~ok], hi[~ok], start[~ok] = again
         return lo, hi, start
 
-    def refine(self, lo_hz, hi_hz, rtol: float = 1e-13) -> np.ndarray:
-        """The roots [Hz] in brackets [lo, hi] of one root each, by bisection on J to
-        ``rtol`` (the fallback when Newton on det U_all cannot certify one)."""
-        lo, hi = self._narrow(lo_hz, hi_hz, rtol)
+    def refine(self, lo_hz, hi_hz, rtol: float = 1e-13, design=None) -> np.ndarray:
+        """The roots [Hz] in brackets [lo, hi] of one root each (of ``design``), by bisection
+        on J to ``rtol`` (the fallback when Newton on det U_all cannot certify one)."""
+        lo, hi = self._narrow(lo_hz, hi_hz, rtol, design)
         return 0.5 * (lo + hi)
 
-    def _narrow(self, lo_hz, hi_hz, rtol: float):
-        """Brackets [Hz] of one root each, bisected on J to relative width ``rtol``."""
+    def _narrow(self, lo_hz, hi_hz, rtol: float, design=None):
+        """Brackets [Hz] of one root each (of ``design``), bisected on J to relative width
+        ``rtol``."""
         lo, hi = np.array(lo_hz, dtype=float), np.array(hi_hz, dtype=float)
         if lo.size == 0:
             return lo, hi
-        base = self.below(lo)
+        design = _designs(design, lo.size)
+        base = self.below(lo, design)
         for _ in range(MAX_BISECTIONS):
             wide = hi - lo > rtol * hi
             if not wide.any():
                 break
             mid = np.sqrt(lo[wide] * hi[wide])
-            above = self.below(mid) > base[wide]
+            above = self.below(mid, design[wide]) > base[wide]
             hi[np.flatnonzero(wide)[above]] = mid[above]
             lo[np.flatnonzero(wide)[~above]] = mid[~above]
         return lo, hi
 
 
-def _split(lo, hi, lo_c, hi_c, wide, mid, c):
-    """Intervals [Hz] and the counts at their ends with the ``wide`` ones split at ``mid``
-    (counts ``c`` there); intervals that hold no root dropped; ascending."""
+def _split(lo, hi, lo_c, hi_c, design, wide, mid, c):
+    """Intervals [Hz] (of each its design) and the counts at their ends with the ``wide`` ones
+    split at ``mid`` (counts ``c`` there); intervals that hold no root dropped; ascending per
+    design."""
     lo = np.concatenate([lo[~wide], lo[wide], mid])
     hi = np.concatenate([hi[~wide], mid, hi[wide]])
     lo_c = np.concatenate([lo_c[~wide], lo_c[wide], c])
     hi_c = np.concatenate([hi_c[~wide], c, hi_c[wide]])
+    design = np.concatenate([design[~wide], design[wide], design[wide]])
     keep = np.flatnonzero(hi_c > lo_c)
-    order = keep[np.argsort(lo[keep], kind="stable")]
-    return lo[order], hi[order], lo_c[order], hi_c[order]
+    order = keep[np.lexsort((lo[keep], design[keep]))]
+    return lo[order], hi[order], lo_c[order], hi_c[order], design[order]
+
+
+def _designs(design, n: int) -> np.ndarray:
+    """The design index of each of ``n`` frequencies: ``design`` (one, or one each) as ints;
+    None is the first design."""
+    return np.broadcast_to(np.asarray(0 if design is None else design, dtype=int), (n,)).copy()
