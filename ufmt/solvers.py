@@ -5,6 +5,7 @@ packages import nothing from each other; this module is the one place that knows
 from __future__ import annotations
 
 import time
+from collections.abc import Sequence
 from pathlib import Path
 
 from ufmt.errors import UfmtError
@@ -48,3 +49,16 @@ def solve_modes(
     f = found.frequencies_hz
     seconds = time.perf_counter() - t0
     return ModalSolution(f, 0, "assembled", f.size, found.rigid_body_modes, None, seconds)
+
+
+def solve_modes_batch(
+    models: Sequence[Model],
+    *,
+    count: int | None = None,
+    fmax_hz: float | None = None,
+    shapes: bool = True,
+) -> list[ModalSolution]:
+    """MSTMM modes of several designs of one structure, one by one: ``[solve_modes(m,
+    fmax_hz, count, shapes=shapes) for m in models]`` (parameters and each result as
+    :func:`ufmt.mstmm.solve.solve_modes`)."""
+    return [mstmm_modes(model, fmax_hz, count, shapes=shapes) for model in models]
