@@ -4,12 +4,11 @@ that decides whether they may be, and the ``meta.json`` of the run.
 The workers evaluate chunks of points (:func:`ufmt.studies.parallel.chunk_size`: a few per
 worker, at most MAX_CHUNK points each); every point of a finished chunk is appended to
 ``results/<study>/points.csv`` and flushed at once, so a killed run loses only the chunks in
-flight. A rerun of the same study (same study file, model
-file, function and physics code, checked by a fingerprint in ``meta.json``) reads the rows back,
-evaluates only the missing points and ends with the same table; with anything changed it starts
-afresh. A point whose function fails is a row with ``status = "error"`` and the message; a
-rerun tries failed points again (a failure may have been transient; a deterministic one gives
-the same row). A point outside the surface model's validity domain
+flight. A rerun of the same study (same study file, model file, function and physics code,
+checked by a fingerprint in ``meta.json``) reads the rows back, evaluates only the missing
+points and ends with the same table; with anything changed it starts afresh. A point whose
+function fails is a row with ``status = "error"`` and the message; a rerun tries failed points
+again (a failure may have been transient; a deterministic one gives the same row). A point outside the surface model's validity domain
 (:mod:`ufmt.machining.validity`) is a row with ``status = "invalid"`` and the limit it breaks;
 it is deterministic, so it is reused, and the kinds leave it out of optima and fits like a
 failed point (its outputs are empty).
@@ -54,10 +53,10 @@ class Evaluator:
 
     Call :meth:`evaluate` with (group, point) pairs; each point maps parameters to values (the
     study's base is added). Rows come back in request order. The new points of a call go to
-    the ``jobs`` workers of ``parallel`` in chunks (:meth:`_run`). A point already in the log (same
-    group and parameter values) is reused, not recomputed; ``points_reused`` counts only rows
-    logged before this run (a point requested twice in one run is computed once and counted
-    once, as new).
+    the ``jobs`` workers of ``parallel`` in chunks (:meth:`_run`). A point already in the log
+    (same group and parameter values) is reused, not recomputed; ``points_reused`` counts only
+    rows logged before this run (a point requested twice in one run is computed once and
+    counted once, as new).
 
     The progress bar counts requests against ``planned`` (the kind's exact count or its
     optimiser's budget, an upper bound), which stays the bar's total: a search that stops
