@@ -19,6 +19,7 @@ import ufmt
 from ufmt.design import FREQUENCIES, METRICS
 from ufmt.errors import StudyError
 from ufmt.recent import Recent
+from ufmt.studies.outputs import read_table
 from ufmt.studies.parallel import CHUNKS_PER_WORKER, MAX_CHUNK, Execution, chunk_size
 from ufmt.studies.runner import run_study
 
@@ -160,7 +161,7 @@ def test_chunks_give_each_worker_several_and_stay_bounded(jobs):
 
 def test_a_study_of_evaluate_hands_its_worker_batches(tmp_path, monkeypatch, batch_solves):
     """jobs 1 runs the chunks in this process, where the batch solves can be counted; the
-    table is the point-by-point oracle's."""
+    table is the point-by-point oracle's, and --jobs 2's."""
     monkeypatch.setenv("UFMT_CACHE_DIR", "")
     values = [1.5e8 * (1.25**k) for k in range(8)]
     study = tmp_path / "batches.toml"
@@ -181,3 +182,6 @@ def test_a_study_of_evaluate_hands_its_worker_batches(tmp_path, monkeypatch, bat
     for name in (*METRICS, *FREQUENCIES):
         expected = [record[name] for record in oracle]
         np.testing.assert_array_equal(table[name].to_numpy(), expected, err_msg=name)
+    # --jobs 2: one point per chunk (chunk_size(8, 2) = 1) in worker processes, the same table
+    two = run_study(study, Execution(jobs=2), results=tmp_path / "r2", progress=False, plots=False)
+    pd.testing.assert_frame_equal(read_table(two / "points.csv"), read_table(out / "points.csv"))
