@@ -161,8 +161,12 @@ def evaluate_chunk(
 
 def _records(ref: str, points, model, extra) -> list[dict]:
     """The study function's record of each point (:func:`evaluate_chunk`)."""
-    function = resolve_function(ref)
-    batched = BATCHED.get((getattr(function, "__module__", None), function.__name__))
+    try:
+        function = resolve_function(ref)
+    except StudyError as exc:  # every point's record says why
+        return [_record(functools.partial(_given, exc)) for _ in points]
+    name = (getattr(function, "__module__", None), getattr(function, "__name__", None))
+    batched = BATCHED.get(name)
     if batched is not None and len(points) > 1:
         designs, processes = [dict(d) for d, _ in points], [dict(p) for _, p in points]
         try:
