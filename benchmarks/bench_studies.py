@@ -1,29 +1,42 @@
-"""Study throughput: points per second of a stiffness sweep with --jobs 1 and --jobs 2.
+"""Study throughput: new-design points per second of a stiffness sweep on 2 workers, with the
+workers' chunks evaluated as one batch (``ufmt.evaluate_batch``) and point by point.
 
 Every point is a new design (the head's angular air-bearing stiffness changes), so each costs
-a modal basis, a periodic response and a surface: the expensive case. The disk cache is off
-(``UFMT_CACHE_DIR=""``), each run writes to a fresh results directory, and a warm-up run on
-other designs first starts the workers and imports the physics, so the timed runs measure
-steady throughput. Target: speed-up >= 1.7x on 2 cores.
+a full modal basis (every mode below the default cutoff), a periodic response and a surface:
+the expensive case. Each measurement is a fresh process (``python bench_studies.py --child``)
+that runs a warm-up sweep on other designs (starting the workers, importing the physics) and
+then the timed sweep, with the disk cache off (``UFMT_CACHE_DIR=""``) and a fresh results
+directory. The variants run interleaved, round after round, and each reports its best round
+(the machine is shared). ``--against DIR`` adds a checkout of another revision (e.g. main),
+run by the same harness on its own code, and prints the ratio. Target: >= 4x the new-design
+points per second of the code before batching (main), at equal jobs.
 
-``--synthetic`` times a stand-in function that burns the same CPU time per point without
-the physics, to separate the runner's overhead from the model's cost.
+``--synthetic`` times instead a stand-in function that burns 20 ms of CPU per point without
+the physics, with --jobs 1 and 2: the runner's own overhead and its parallel speed-up (target
+>= 1.7x on 2 cores).
 
-Run: ``python benchmarks/bench_studies.py [--points N] [--synthetic]``.
+Run: ``python benchmarks/bench_studies.py [--points N] [--rounds R] [--against DIR]
+[--synthetic]``.
 """
 
 from __future__ import annotations
 
 import argparse
 import os
+import subprocess
+import sys
 import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
 
-SYNTHETIC_SECONDS = 0.02  # CPU time per point of the stand-in [s], the evaluate target
-TARGET_SPEEDUP = 1.7
+HERE = Path(__file__).resolve()
+REPO = HERE.parents[1]
+SYNTHETIC_SECONDS = 0.02  # CPU time per point of the stand-in [s]
+TARGET_SPEEDUP = 1.7  # jobs 2 / jobs 1, synthetic
+TARGET_AGAINST = 4.0  # batched / the other revision, new designs per second
+JOBS = 2
 
 STUDY = """\
 kind = "sweep"
@@ -51,6 +64,14 @@ def synthetic_pv(design, process, model=None):
     return {"pv_nm": float(np.abs(a).sum())}
 
 
+def evaluate_one_by_one(design, process, model=None, **kwargs):
+    """``ufmt.evaluate`` under another name: the runner then evaluates its chunks point by
+    point (only ``ufmt.evaluate`` itself has a batched form)."""
+    from ufmt.evaluate import evaluate
+
+    return evaluate(design, process, model, **kwargs)
+
+
 def _time_run(function: str, jobs: int, n: int, low: float, high: float, root: Path) -> float:
     """Wall time [s] of one sweep over ``n`` designs, stiffness ``low``-``high`` x calibrated
     (x 1e6 N m/rad for the synthetic function, which needs no model)."""
@@ -71,44 +92,80 @@ def _time_run(function: str, jobs: int, n: int, low: float, high: float, root: P
     return time.perf_counter() - start
 
 
-def bench(points: int, synthetic: bool) -> dict[int, float]:
-    """Points per second for jobs 1 and 2 (after a warm-up run per setting)."""
-    function = f"{Path(__file__).resolve()}:synthetic_pv" if synthetic else "ufmt.evaluate:evaluate"
-    rates = {}
+def child(function: str, jobs: int, points: int) -> None:
+    """One measurement in this process: a warm-up sweep on other designs, then the timed one;
+    prints the timed run's seconds."""
     with tempfile.TemporaryDirectory() as tmp:
-        root = Path(tmp)
-        for jobs in (1, 2):
-            _time_run(function, jobs, 4 * jobs, 0.3, 0.35, root)  # warm-up: other designs
-            seconds = _time_run(function, jobs, points, 0.5, 5.0, root)
-            rates[jobs] = points / seconds
-            print(f"  jobs {jobs}: {points} points in {seconds:.2f} s = {rates[jobs]:.1f} points/s")
-    return rates
+        _time_run(function, jobs, 2 * jobs, 0.3, 0.35, Path(tmp))  # warm-up: other designs
+        print(_time_run(function, jobs, points, 0.5, 5.0, Path(tmp)))
+
+
+def measure(repo: Path, function: str, jobs: int, points: int) -> float:
+    """Points per second of one child process running ``repo``'s code."""
+    env = {**os.environ, "UFMT_CACHE_DIR": "", "PYTHONPATH": str(repo)}
+    command = [sys.executable, str(HERE), "--child", function, str(jobs), str(points)]
+    done = subprocess.run(command, cwd=repo, env=env, capture_output=True, text=True, check=False)
+    if done.returncode != 0:
+        raise SystemExit(f"bench child failed ({repo}, {function}):\n{done.stderr[-2000:]}")
+    return points / float(done.stdout.split()[-1])
+
+
+def compare(points: int, rounds: int, against: Path | None) -> dict[str, float]:
+    """Best points per second of each variant over ``rounds`` interleaved rounds."""
+    variants = {
+        "batched": (REPO, "ufmt.evaluate:evaluate"),
+        "one by one": (REPO, f"{HERE}:evaluate_one_by_one"),
+    }
+    if against is not None:
+        variants[f"{against}"] = (against, "ufmt.evaluate:evaluate")
+    best = dict.fromkeys(variants, 0.0)
+    for k in range(rounds):
+        for label, (repo, function) in variants.items():
+            rate = measure(repo, function, JOBS, points)
+            best[label] = max(best[label], rate)
+            print(f"  round {k + 1}: {label:>12}: {rate:.2f} new-design points/s", flush=True)
+    return best
 
 
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--points", type=int, default=60, help="points per timed run")
+    parser.add_argument("--points", type=int, default=24, help="points per timed run")
+    parser.add_argument("--rounds", type=int, default=2, help="interleaved rounds")
+    parser.add_argument("--against", type=Path, help="checkout of another revision to compare")
     parser.add_argument("--synthetic", action="store_true", help="stand-in function, no physics")
+    parser.add_argument("--child", nargs=3, metavar=("FUNCTION", "JOBS", "POINTS"))
     args = parser.parse_args(argv)
-    previous = os.environ.get("UFMT_CACHE_DIR")
-    os.environ["UFMT_CACHE_DIR"] = ""  # no disk cache, inherited by the workers started below
-    try:
-        _report(args)
-    finally:
-        if previous is None:
-            del os.environ["UFMT_CACHE_DIR"]
-        else:
-            os.environ["UFMT_CACHE_DIR"] = previous
+    if args.child:
+        function, jobs, points = args.child
+        child(function, int(jobs), int(points))
+    elif args.synthetic:
+        _synthetic(args.points)
+    else:
+        _throughput(args)
 
 
-def _report(args: argparse.Namespace) -> None:
-    what = (
-        "synthetic 20 ms/point function"
-        if args.synthetic
-        else "ufmt.evaluate, new design per point"
+def _throughput(args: argparse.Namespace) -> None:
+    print(
+        f"study sweep throughput (ufmt.evaluate, a new design per point, full basis; {JOBS}"
+        f" workers; {args.points} points per run; disk cache off; {os.cpu_count()} cores;"
+        f" best of {args.rounds} interleaved rounds)"
     )
-    print(f"study sweep throughput ({what}; disk cache off; {os.cpu_count()} cores)")
-    rates = bench(args.points, args.synthetic)
+    best = compare(args.points, args.rounds, args.against)
+    batched, single = best["batched"], best["one by one"]
+    print(f"  batched {batched:.2f} points/s, one by one {single:.2f}: {batched / single:.2f}x")
+    if args.against is not None:
+        other = best[f"{args.against}"]
+        ratio = batched / other
+        verdict = "meets" if ratio >= TARGET_AGAINST else "MISSES"
+        print(f"  batched / {args.against}: {ratio:.2f}x ({verdict} target >= {TARGET_AGAINST}x)")
+
+
+def _synthetic(points: int) -> None:
+    print(f"study sweep throughput (synthetic 20 ms/point function; {os.cpu_count()} cores)")
+    function = f"{HERE}:synthetic_pv"
+    rates = {jobs: measure(REPO, function, jobs, points) for jobs in (1, 2)}
+    for jobs, rate in rates.items():
+        print(f"  jobs {jobs}: {rate:.1f} points/s")
     speedup = rates[2] / rates[1]
     verdict = "meets" if speedup >= TARGET_SPEEDUP else "MISSES"
     print(f"  speed-up jobs 2 / jobs 1: {speedup:.2f}x ({verdict} target >= {TARGET_SPEEDUP}x)")

@@ -10,6 +10,7 @@ Public entry points:
   machined surface and its PV;
 - ``ufmt.evaluate(design, process, model=None)``: the study function (design, process) → PV;
   ``process`` is a ``ufmt.Process`` or a dict; returns a :class:`ufmt.EvaluationRecord`;
+  ``ufmt.evaluate_batch(designs, processes, model=None)`` the same for many points at once;
 - ``ufmt.frf(model, direction="z", kind="receptance", output=None, input=None, ...)``:
   tool-workpiece or point-to-point FRF in any direction (:class:`ufmt.FrfResult`).
 
@@ -29,6 +30,7 @@ _PUBLIC = {
     "ModalSolution": "ufmt.mstmm.solve",
     "Process": "ufmt.machining.process",
     "evaluate": "ufmt.evaluate",
+    "evaluate_batch": "ufmt.evaluate",
     "frf": "ufmt.machining.frf",
     "load_model": "ufmt.model.load",
     "packaged_path": "ufmt.model.load",

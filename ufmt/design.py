@@ -50,21 +50,26 @@ PROCESS_PARAMETERS = tuple(REFERENCE_PROCESS)
 N_FREQUENCIES = 6  # natural frequencies reported in each record
 #: PV [nm] of the surface with one error source alone (ufmt.machining.sources.SOURCES).
 SOURCE_METRICS = tuple(f"pv_{source}_nm" for source in SOURCES)
-METRICS = (
-    "pv_nm",
-    "pv_aperture_nm",
-    "pv_tilt_removed_nm",
-    "pv_measured_nm",
-    "rms_measured_nm",
-    "rms_nm",
-    "psd1_rms_nm",
-    "psd2_rms_nm",
-    "force_peak_n",
-    *SOURCE_METRICS,
-    "waviness_rms_nm",
-    "zre_peak_nm",
-    "tip_acc_measured_mm_s2",
+#: The record's metrics in order, each with whether the physics always gives it as a finite
+#: number (the others may be NaN: a band not resolved, a source switched off).
+_METRICS_FINITE = (
+    ("pv_nm", True),
+    ("pv_aperture_nm", True),
+    ("pv_tilt_removed_nm", True),
+    ("pv_measured_nm", True),
+    ("rms_measured_nm", True),
+    ("rms_nm", True),
+    ("psd1_rms_nm", False),
+    ("psd2_rms_nm", False),
+    ("force_peak_n", True),
+    *((name, False) for name in SOURCE_METRICS),
+    ("waviness_rms_nm", False),
+    ("zre_peak_nm", False),
+    ("tip_acc_measured_mm_s2", False),
 )
+METRICS = tuple(name for name, _ in _METRICS_FINITE)
+#: Metrics the physics always gives as a finite number.
+ALWAYS_FINITE = tuple(name for name, finite in _METRICS_FINITE if finite)
 FREQUENCIES = tuple(f"f{i}_hz" for i in range(1, N_FREQUENCIES + 1))
 
 _HINGE_PARAMETER = re.compile(

@@ -13,6 +13,11 @@ Caching: whole records are cached on disk as JSON files (:mod:`ufmt.evaluate_cac
 on the SHA-256 of the hinge values the design sets, the process, the model's content and the
 physics code (:mod:`ufmt.fingerprint`). Within one process the modal basis of the last designs
 is kept in memory, so a change of process on a known design reuses it.
+
+:func:`evaluate_batch` evaluates several points at once, record for record as
+:func:`evaluate`, with the modal bases of the new designs among them solved in one batch
+(:func:`ufmt.solvers.solve_modes_batch`); a study's workers evaluate their chunks of points
+so (:func:`evaluate_each`: per point the record or the exception).
 """
 
 from __future__ import annotations
@@ -22,13 +27,16 @@ import math
 import numbers
 import os
 import warnings
-from collections.abc import Mapping
-from dataclasses import dataclass, fields, is_dataclass
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, fields, is_dataclass, replace
 from pathlib import Path
 
+import numpy as np
+
 from ufmt import evaluate_cache
-from ufmt.defaults import DEFAULT_SPACING
+from ufmt.defaults import DEFAULT_BASIS_CUTOFF_HZ, DEFAULT_SPACING
 from ufmt.design import (
+    ALWAYS_FINITE,
     FREQUENCIES,
     METRICS,
     N_FREQUENCIES,
@@ -37,10 +45,12 @@ from ufmt.design import (
     SOURCE_METRICS,
     apply_design,
 )
-from ufmt.errors import ProcessError, StudyError, closest_name
+from ufmt.errors import ProcessError, StudyError, UfmtError, closest_name
 from ufmt.fingerprint import code_sha256, file_sha256, model_sha256
-from ufmt.machining.modal import modal_basis
+from ufmt.machining.basis import ModalBasis
+from ufmt.machining.modal import basis_from_shapes, modal_basis
 from ufmt.machining.process import Process, ProcessRangeWarning
+from ufmt.machining.slide import carriage, cut_slide_position, model_at_slide
 from ufmt.machining.surface import DEFAULT_APERTURE_MARGIN
 from ufmt.machining.validity import OutsideDomainError, check_case
 from ufmt.model.load import load_model, packaged_path
@@ -48,6 +58,7 @@ from ufmt.model.machine import machine_of
 from ufmt.model.schema import DesignParameter, Model
 from ufmt.recent import Recent
 from ufmt.simulate import simulate
+from ufmt.solvers import solve_modes_batch
 
 BASIS_CACHE = 4  # modal bases kept in memory per process (recent designs)
 
@@ -200,31 +211,125 @@ def evaluate(
         A model file that cannot be loaded, or a design value it could not hold (negative,
         NaN, outside the loader's ``LIMITS``).
     """
+    return _finish(_case(design, process, model, parameters))
+
+
+def evaluate_batch(
+    designs: Sequence[Mapping[str, float]],
+    processes,
+    model: str | os.PathLike | Model | None = None,
+    *,
+    parameters: Mapping[str, DesignParameter] | None = None,
+) -> list[EvaluationRecord]:
+    """:func:`evaluate` of several points at once: ``[evaluate(d, p, model) for d, p in
+    zip(designs, processes)]``, record for record, with the modal bases of the new designs
+    solved in one batch (:func:`ufmt.solvers.solve_modes_batch`).
+
+    ``processes`` is one process for every design or a sequence of them (one per design).
+    Raises as :func:`evaluate` would on the first point that raises (before any physics runs).
+    """
+    outcomes = evaluate_each(designs, processes, model, parameters=parameters)
+    for outcome in outcomes:
+        if isinstance(outcome, Exception):
+            raise outcome
+    return outcomes
+
+
+def evaluate_each(
+    designs: Sequence[Mapping[str, float]],
+    processes,
+    model: str | os.PathLike | Model | None = None,
+    *,
+    parameters: Mapping[str, DesignParameter] | None = None,
+) -> list[EvaluationRecord | Exception]:
+    """Per point, what :func:`evaluate` returns or the exception it raises (a caller's
+    mistake, a cut outside the validity domain), the points' modal bases solved as in
+    :func:`evaluate_batch`: the form a study's worker needs (one point's mistake is that
+    point's row)."""
+    if isinstance(processes, Mapping) or (
+        is_dataclass(processes) and not isinstance(processes, type)
+    ):
+        processes = [processes] * len(designs)
+    if len(processes) != len(designs):
+        raise StudyError(f"evaluate_batch: {len(designs)} designs but {len(processes)} processes")
+    cases: list[_Case | Exception] = []
+    for design, process in zip(designs, processes, strict=True):
+        try:
+            cases.append(_case(design, process, model, parameters))
+        except Exception as exc:  # this point's own outcome
+            cases.append(exc)
+    bases = _batch_bases([c for c in cases if isinstance(c, _Case) and c.needs_basis])
+    return [c if isinstance(c, Exception) else _finish(c, bases.get(c.basis_key)) for c in cases]
+
+
+@dataclass
+class _Case:
+    """One point on its way through :func:`evaluate`: the record's inputs, the designed model
+    and process, and either its cached outputs, the failure met before the physics, or the
+    keys the physics run needs."""
+
+    record: dict
+    model: Model
+    process: dict
+    basis_key: tuple = ()
+    key: dict | None = None
+    outputs: dict | None = None
+    failure: Exception | None = None
+
+    @property
+    def needs_basis(self) -> bool:
+        """Whether the physics must run (no cached record, no earlier failure)."""
+        return self.outputs is None and self.failure is None
+
+
+def _case(design, process, model, parameters) -> _Case:
+    """A point's inputs checked, its designed model and its cached outputs, if any.
+
+    Raises the caller's mistakes (StudyError, ProcessError, ModelError) and
+    OutsideDomainError; any other failure is kept in the case and recorded by :func:`_finish`.
+    """
     process = _process_mapping(process)
     _check_process_names(process)
     base, base_sha = resolve_model(model)
     design_items = tuple(sorted((k, float(v)) for k, v in design.items()))
     designed = apply_design(base, dict(design_items), parameters)
     process_full = {**REFERENCE_PROCESS, **{k: _process_value(k, v) for k, v in process.items()}}
-    record: dict = {**dict(design_items), **process_full}
+    case = _Case({**dict(design_items), **process_full}, designed, process_full)
     try:
         _check_domain(designed, process_full)  # before the cache and the modal basis
         changes = _hinge_changes(base, designed)
-        key = {
+        case.basis_key = (base_sha, changes)
+        case.key = {
             "model_sha256": base_sha,
             "code_sha256": code_sha256(),
             "hinges": [[name, [repr(v) for v in values]] for name, values in changes],
             "machine": _machine_changes(base, designed),
             "process": {k: repr(v) for k, v in process_full.items()},
         }
-        outputs = evaluate_cache.load(key, METRICS + FREQUENCIES, physical)
+        case.outputs = evaluate_cache.load(case.key, METRICS + FREQUENCIES, physical)
+    except OutsideDomainError:
+        raise  # not a failure: the cut is outside what the surface model describes
+    except Exception as exc:  # any physics failure becomes a recorded error
+        case.failure = exc
+    return case
+
+
+def _finish(case: _Case, basis: ModalBasis | None = None) -> EvaluationRecord:
+    """The record of ``case``: its cached outputs, or the physics run (on ``basis`` if given,
+    else the design's own modal basis) and stored in the cache; a failure as status "error"."""
+    record = dict(case.record)
+    try:
+        if case.failure is not None:
+            raise case.failure
+        outputs = case.outputs
         if outputs is None:
-            outputs = _physics(designed, process_full, (base_sha, changes))
-            evaluate_cache.store(key, outputs)
+            outputs = _physics(case.model, case.process, case.basis_key, basis)
+            evaluate_cache.store(case.key, outputs)
+        outputs = dict(outputs)
         message = outputs.pop("message")
         record.update(outputs, status="ok", message=message)
     except OutsideDomainError:
-        raise  # not a failure: the cut is outside what the surface model describes
+        raise
     except Exception as exc:  # any physics failure becomes a recorded error
         record.update(dict.fromkeys(METRICS + FREQUENCIES, math.nan))
         record.update(status="error", message=_one_line(f"{type(exc).__name__}: {exc}"))
@@ -238,19 +343,6 @@ def _check_process_names(process: Mapping) -> None:
             close = closest_name(name, PROCESS_PARAMETERS)
             hint = f"did you mean {close!r}?" if close else ", ".join(PROCESS_PARAMETERS)
             raise StudyError(f"evaluate: unknown process parameter {name!r} ({hint})")
-
-
-#: Outputs the physics always gives as a finite number (the others may be NaN: a band not
-#: resolved, a source switched off, fewer modes than asked).
-ALWAYS_FINITE = (
-    "pv_nm",
-    "pv_aperture_nm",
-    "pv_tilt_removed_nm",
-    "pv_measured_nm",
-    "rms_measured_nm",
-    "rms_nm",
-    "force_peak_n",
-)
 
 
 def physical(name: str, value: float) -> bool:
@@ -303,11 +395,12 @@ def _one_line(text: str) -> str:
     return " ".join(str(text).split())
 
 
-def _physics(model: Model, process: Mapping[str, float], basis_key) -> dict:
-    """Metrics [nm], frequencies [Hz] and warnings of one case; raises on any failure."""
+def _physics(model: Model, process: Mapping[str, float], basis_key, basis=None) -> dict:
+    """Metrics [nm], frequencies [Hz] and warnings of one case on ``basis`` (None: the
+    design's own, :func:`_modal_basis`); raises on any failure."""
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        basis = _modal_basis(model, basis_key)
+        basis = _modal_basis(model, basis_key, basis)
         result = simulate(model, Process(**process), basis=basis)
     by_source = {f"pv_{k}_nm": v for k, v in result.pv_by_source_nm.items()}
     outputs = {
@@ -345,8 +438,71 @@ def _machine_changes(base: Model, model: Model) -> dict[str, str]:
 _BASES = Recent(BASIS_CACHE)  # (model_sha, hinge changes) -> ModalBasis
 
 
-def _modal_basis(model, key):
+def _modal_basis(model, key, solved=None):
     """The default modal basis of ``model`` (every mode below the default cutoff,
-    :mod:`ufmt.defaults`), kept for the last BASIS_CACHE designs so that process changes on a
-    known design reuse it."""
-    return _BASES.get(key, lambda: modal_basis(model))
+    :mod:`ufmt.defaults`): ``solved`` if given (a batch's), else the memo's or a new one; kept
+    for the last BASIS_CACHE designs so that process changes on a known design reuse it."""
+    return _BASES.get(key, (lambda: solved) if solved is not None else (lambda: modal_basis(model)))
+
+
+def _batch_bases(cases: Sequence[_Case]) -> dict:
+    """Modal bases of the distinct designs of ``cases`` that are not kept in memory, their
+    modes solved in one call (:func:`ufmt.solvers.solve_modes_batch`), by basis key: the steps
+    of :func:`ufmt.machining.modal.modal_basis` at the default cutoff, with the solve batched.
+
+    Left out, so that its point builds its basis on its own inside the physics run (which then
+    records the failure or the warnings in that point's record, as :func:`evaluate` does): a
+    design whose basis fails or warns, and every design if the batch solve fails or warns.
+    """
+    models = {}
+    for case in cases:
+        if case.basis_key not in _BASES and case.basis_key not in models:
+            models[case.basis_key] = case.model
+    if len(models) < 2:
+        return {}  # nothing to batch
+    try:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            slides = {key: _cut_slide(model) for key, model in models.items()}
+            solutions = solve_modes_batch(
+                [moved for _, moved in slides.values()], fmax_hz=DEFAULT_BASIS_CUTOFF_HZ
+            )
+    except Exception:  # each point solves its own design and records its own failure
+        return {}
+    if caught:
+        return {}
+    bases = {}
+    for (key, model), solution in zip(models.items(), solutions, strict=True):
+        slide_y, moved = slides[key]
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            try:
+                basis = _basis_of(model, moved, slide_y, solution)
+            except Exception:
+                continue
+        if not caught:
+            bases[key] = basis
+    return bases
+
+
+def _cut_slide(model: Model) -> tuple[float, Model]:
+    """The slide position the modal basis is solved at [m] and ``model`` moved there
+    (:func:`ufmt.machining.modal.modal_basis`)."""
+    machine = model.machine
+    slide_y = 0.0 if machine is None else cut_slide_position(machine)
+    return slide_y, model if slide_y == 0.0 else model_at_slide(model, machine, slide_y)
+
+
+def _basis_of(model: Model, moved: Model, slide_y: float, solution) -> ModalBasis:
+    """The modal basis of ``model`` from the modes ``solution`` of ``moved`` (``model`` at
+    slide position ``slide_y`` [m]), as :func:`ufmt.machining.modal.modal_basis` builds it."""
+    shapes = solution.shapes
+    if shapes is None or shapes.frequencies_hz.size == 0:
+        raise UfmtError(f"{model.source}: the model has no elastic modes")
+    basis = basis_from_shapes(shapes, moved)
+    if slide_y == 0.0:
+        return basis
+    carried = carriage(model, model.machine.workpiece_body)
+    back = np.array([0.0, slide_y, 0.0])  # the carried centres, back to the file's place
+    centers = {k: c + back if k in carried else c for k, c in basis.body_centers.items()}
+    return replace(basis, body_centers=centers, slide_y=float(slide_y))

@@ -37,6 +37,10 @@ class Recent:
                 del self._values[next(iter(self._values))]
         return value
 
+    def __contains__(self, key: Hashable) -> bool:
+        with self._lock:
+            return key in self._values
+
     def __len__(self) -> int:
         return len(self._values)
 

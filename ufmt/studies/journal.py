@@ -1,13 +1,14 @@
 """The journal of a study run: the rows of ``points.csv`` reused on a rerun, the fingerprint
 that decides whether they may be, and the ``meta.json`` of the run.
 
-Every finished point is appended to ``results/<study>/points.csv`` and flushed at once, so a
-killed run loses only the points in flight. A rerun of the same study (same study file, model
-file, function and physics code, checked by a fingerprint in ``meta.json``) reads the rows back,
-evaluates only the missing points and ends with the same table; with anything changed it starts
-afresh. A point whose function fails is a row with ``status = "error"`` and the message; a
-rerun tries failed points again (a failure may have been transient; a deterministic one gives
-the same row). A point outside the surface model's validity domain
+The workers evaluate chunks of points (:func:`ufmt.studies.parallel.chunk_size`: a few per
+worker, at most MAX_CHUNK points each); every point of a finished chunk is appended to
+``results/<study>/points.csv`` and flushed at once, so a killed run loses only the chunks in
+flight. A rerun of the same study (same study file, model file, function and physics code,
+checked by a fingerprint in ``meta.json``) reads the rows back, evaluates only the missing
+points and ends with the same table; with anything changed it starts afresh. A point whose
+function fails is a row with ``status = "error"`` and the message; a rerun tries failed points
+again (a failure may have been transient; a deterministic one gives the same row). A point outside the surface model's validity domain
 (:mod:`ufmt.machining.validity`) is a row with ``status = "invalid"`` and the limit it breaks;
 it is deterministic, so it is reused, and the kinds leave it out of optima and fits like a
 failed point (its outputs are empty).
@@ -34,7 +35,7 @@ from ufmt.errors import StudyError
 from ufmt.evaluate import model_file, resolve_model
 from ufmt.fingerprint import code_sha256, source_sha256
 from ufmt.studies import outputs
-from ufmt.studies.parallel import evaluate_point, pool_lost_errors
+from ufmt.studies.parallel import chunk_size, evaluate_chunk, pool_lost_errors
 from ufmt.studies.ranges import process_warnings
 from ufmt.studies.spec import Study
 
@@ -51,10 +52,11 @@ class Evaluator:
     """Evaluates batches of points of one study, logging and reusing rows in ``points.csv``.
 
     Call :meth:`evaluate` with (group, point) pairs; each point maps parameters to values (the
-    study's base is added). Rows come back in request order. A point already in the log (same
-    group and parameter values) is reused, not recomputed; ``points_reused`` counts only rows
-    logged before this run (a point requested twice in one run is computed once and counted
-    once, as new).
+    study's base is added). Rows come back in request order. The new points of a call go to
+    the ``jobs`` workers of ``parallel`` in chunks (:meth:`_run`). A point already in the log
+    (same group and parameter values) is reused, not recomputed; ``points_reused`` counts only
+    rows logged before this run (a point requested twice in one run is computed once and
+    counted once, as new).
 
     The progress bar counts requests against ``planned`` (the kind's exact count or its
     optimiser's budget, an upper bound), which stays the bar's total: a search that stops
@@ -69,12 +71,14 @@ class Evaluator:
         parallel: joblib.Parallel,
         progress: bool,
         planned: int | None = None,
+        jobs: int = 1,
     ):
         self.study = study
         self.parameters = list(study.parameters)
         self.baseline = dict(baseline)
         self.model = None if study.model is None else str(study.model)
         self._parallel = parallel
+        self._jobs = jobs
         self._log = outputs.PointLog(out_dir / outputs.POINTS, ["group", "index", *self.parameters])
         logged = {self._key(row["group"], row): row for row in self._log.read()}  # last wins
         self._rows = {k: row for k, row in logged.items() if row.get("status") != "error"}
@@ -114,38 +118,45 @@ class Evaluator:
         return [self._rows[key] for key in rows]
 
     def _run(self, todo: list) -> None:
+        """Evaluate the ``todo`` points in chunks (:func:`~ufmt.studies.parallel.chunk_size`),
+        appending each point's row to the log as its chunk finishes: a killed run loses only
+        the chunks in flight."""
         if not todo:
             return
+        size = chunk_size(len(todo), self._jobs)
         tasks = (
-            joblib.delayed(evaluate_point)(
-                position,
+            joblib.delayed(evaluate_chunk)(
+                range(start, min(start + size, len(todo))),
                 self.study.function,
-                {k: v for k, v in inputs.items() if k not in PROCESS_PARAMETERS},
-                {k: v for k, v in inputs.items() if k in PROCESS_PARAMETERS},
+                [_design_and_process(inputs) for _, (_, inputs) in todo[start : start + size]],
                 self.model,
                 self.study.design,
             )
-            for position, (_, (_, inputs)) in enumerate(todo)
+            for start in range(0, len(todo), size)
         )
         try:
-            for position, record, seconds, notes in self._parallel(tasks):
-                for note in notes:  # a worker's cache failure, reported once
-                    evaluate_cache.warn_once(note)
-                key, (row, _) = todo[position]
-                outputs_ = {k: v for k, v in record.items() if k not in row}
-                full = {**row, **outputs_}
-                self._log.append(full)
-                self._rows[key] = full
-                self.points_new += 1
-                self.evaluation_s += seconds
-                self._bar.set_postfix_str(row["group"], refresh=False)
-                self._bar.update(1)
+            for chunk in self._parallel(tasks):
+                for position, record, seconds, notes in chunk:
+                    self._record(todo[position], record, seconds, notes)
         except pool_lost_errors() as exc:
             raise StudyError(
                 f"{self.study.name}: the workers were lost ({type(exc).__name__}:"
                 f" {' '.join(str(exc).split())[:200]}); {len(self._rows)} finished points are"
                 " saved; rerun to resume"
             ) from None
+
+    def _record(self, item, record: Mapping, seconds: float, notes: Sequence[str]) -> None:
+        """Log the row of one finished point (``item``: its key and (row, inputs))."""
+        for note in notes:  # a worker's cache failure, reported once
+            evaluate_cache.warn_once(note)
+        key, (row, _) = item
+        full = {**row, **{k: v for k, v in record.items() if k not in row}}
+        self._log.append(full)
+        self._rows[key] = full
+        self.points_new += 1
+        self.evaluation_s += seconds
+        self._bar.set_postfix_str(row["group"], refresh=False)
+        self._bar.update(1)
 
     def values(self, group: str, points: Sequence[Mapping[str, float]], output="pv_nm"):
         """``output`` of each point as a float array (NaN where the point failed)."""
@@ -170,6 +181,12 @@ class Evaluator:
         """Close the progress bar and the log."""
         self._bar.close()
         self._log.close()
+
+
+def _design_and_process(inputs: Mapping[str, float]) -> tuple[dict, dict]:
+    """A point's inputs split into the design and the process (PROCESS_PARAMETERS)."""
+    design = {k: v for k, v in inputs.items() if k not in PROCESS_PARAMETERS}
+    return design, {k: v for k, v in inputs.items() if k in PROCESS_PARAMETERS}
 
 
 def _number(value) -> float:

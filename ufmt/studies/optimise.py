@@ -8,7 +8,8 @@ or in its log10 for ``spacing = "log"`` bounds (stiffnesses span decades).
 
 1. **Global**: :func:`scipy.optimize.differential_evolution` (seeded; ``vectorized`` with
    ``updating="deferred"`` so every generation is one batch the study's workers evaluate in
-   parallel; no gradient polish). PV is multimodal where a spindle harmonic crosses a mode.
+   parallel, in chunks each evaluated as one batch (:mod:`ufmt.studies.parallel`); no
+   gradient polish). PV is multimodal where a spindle harmonic crosses a mode.
 2. **Convex trust-region steps** (cvxpy): around the incumbent ``u0``, fit the convex
    quadratic ``q(d) = c + g.d + d.H.d / 2`` (``d = u - u0``, ``H`` positive semidefinite) to
    samples in the trust box by least squares (a semidefinite program), minimise ``q`` over the

@@ -5,10 +5,13 @@ One level of parallelism: the study's points are evaluated by the study function
 workers, ``loky`` processes on this machine (default: one per core) or a dask.distributed
 cluster through joblib's dask backend (``backend="dask"``; ``scheduler`` is the address of a
 running scheduler, e.g. ``tcp://10.0.0.5:8786``; without one a local cluster with ``jobs``
-worker processes is started). Each worker's BLAS thread pools are limited to one thread with
-threadpoolctl: the model's matrices are small (order 66), so threaded BLAS only adds overhead
-(measured on the UFMT: 1.0 s per modal basis with one thread, 1.3-2.5 s with two), and the
-cores are better used by evaluating points side by side.
+worker processes is started). A task is a chunk of several points (:func:`chunk_size`), not
+one point; ``ufmt.evaluate`` evaluates a chunk as one batch
+(:func:`ufmt.evaluate.evaluate_each`: the new designs' modes in one solve). Each worker's
+BLAS thread pools are limited to one thread with threadpoolctl: the model's matrices are small
+(order 66), so threaded BLAS only adds overhead (measured on the UFMT: 1.0 s per modal basis
+with one thread, 1.3-2.5 s with two), and the cores are better used by evaluating points side
+by side.
 
 A loky worker ends when the main process dies, even by kill -9 (which runs no clean-up): on
 Linux the kernel sends it SIGTERM (``prctl(PR_SET_PDEATHSIG)``, set by the worker initializer
@@ -37,7 +40,7 @@ import sys
 import threading
 import time
 import warnings
-from collections.abc import Iterator, Mapping
+from collections.abc import Iterator, Mapping, Sequence
 from concurrent.futures import CancelledError
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -107,23 +110,37 @@ def resolve_function(ref: str):
     return function
 
 
+#: Study functions with a batched form, by (module, name): a function of (designs,
+#: processes, model) giving per point the record or the exception the function would give.
+BATCHED = {("ufmt.evaluate", "evaluate"): "ufmt.evaluate:evaluate_each"}
+MAX_CHUNK = 32  # points per task at most (a task's points are lost if the run is killed)
+CHUNKS_PER_WORKER = 4  # tasks per worker at least, while chunks stay under MAX_CHUNK
+
 _tasks_done = 0
 
 
-def evaluate_point(
-    position: int,
+def chunk_size(points: int, jobs: int) -> int:
+    """Points per task for ``points`` points on ``jobs`` workers: each worker gets about
+    CHUNKS_PER_WORKER tasks (the load stays balanced), none over MAX_CHUNK points."""
+    return max(1, min(MAX_CHUNK, -(-points // (CHUNKS_PER_WORKER * jobs))))
+
+
+def evaluate_chunk(
+    positions: Sequence[int],
     ref: str,
-    design: Mapping[str, float],
-    process: Mapping[str, float],
+    points: Sequence[tuple[Mapping[str, float], Mapping[str, float]]],
     model: str | None,
     parameters: Mapping[str, DesignParameter] | None = None,
-) -> tuple[int, dict, float, list[str]]:
-    """Run the study function on one point in a worker: (position, record, seconds, cache
-    warnings) (the main process reports each cache warning once).
+) -> list[tuple[int, dict, float, list[str]]]:
+    """Run the study function on a chunk of (design, process) points in a worker: per point
+    (position, record, seconds, cache warnings) (seconds: the chunk's time shared equally;
+    the main process reports each cache warning once).
 
-    ``parameters`` (the study file's own ``[design]`` declarations) is passed to the function
-    as a keyword only when the study declares any. Never raises: an exception of the function
-    becomes a record with status "error".
+    A function in :data:`BATCHED` (``ufmt.evaluate``) evaluates the chunk in one call of its
+    batched form, any other point by point. ``parameters`` (the study file's own ``[design]``
+    declarations) is passed to the function as a keyword only when the study declares any.
+    Never raises: an exception of the function becomes that point's record with status
+    "error" ("invalid" outside the validity domain).
     """
     global _tasks_done
     if _tasks_done < _BLAS_LIMITED_TASKS:
@@ -133,15 +150,48 @@ def evaluate_point(
     extra = {"parameters": dict(parameters)} if parameters else {}
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", CacheWarning)
-        record = _record(ref, design, process, model, extra)
+        records = _records(ref, points, model, extra)
     notes = [str(w.message) for w in caught if issubclass(w.category, CacheWarning)]
-    return position, record, time.perf_counter() - start, notes
+    seconds = (time.perf_counter() - start) / max(len(points), 1)
+    return [
+        (position, record, seconds, notes if i == 0 else [])
+        for i, (position, record) in enumerate(zip(positions, records, strict=True))
+    ]
 
 
-def _record(ref: str, design, process, model, extra) -> dict:
-    """The study function's record of one point; an exception becomes status "error"."""
+def _records(ref: str, points, model, extra) -> list[dict]:
+    """The study function's record of each point (:func:`evaluate_chunk`)."""
     try:
-        record = resolve_function(ref)(dict(design), dict(process), model, **extra)
+        function = resolve_function(ref)
+    except StudyError as exc:  # every point's record says why
+        return [_record(functools.partial(_given, exc)) for _ in points]
+    name = (getattr(function, "__module__", None), getattr(function, "__name__", None))
+    batched = BATCHED.get(name)
+    if batched is not None and len(points) > 1:
+        designs, processes = [dict(d) for d, _ in points], [dict(p) for _, p in points]
+        try:
+            outcomes = resolve_function(batched)(designs, processes, model, **extra)
+        except Exception:  # not a point's outcome: each point runs on its own below
+            outcomes = None
+        if outcomes is not None:
+            return [_record(functools.partial(_given, outcome)) for outcome in outcomes]
+    return [
+        _record(functools.partial(function, dict(design), dict(process), model, **extra))
+        for design, process in points
+    ]
+
+
+def _given(outcome):
+    """``outcome``: a record, or an exception raised as the function would have raised it."""
+    if isinstance(outcome, BaseException):
+        raise outcome
+    return outcome
+
+
+def _record(call) -> dict:
+    """The record ``call()`` returns for one point; an exception becomes status "error"."""
+    try:
+        record = call()
         if not isinstance(record, Mapping):
             raise TypeError(f"returned {type(record).__name__}, not a dict")
         record = dict(record)

@@ -165,7 +165,9 @@ def _evaluate(
     try:
         with parallel_pool(execution) as parallel:
             planned = kind.planned_points(study)
-            evaluator = Evaluator(study, out_dir, baseline, parallel, progress, planned)
+            evaluator = Evaluator(
+                study, out_dir, baseline, parallel, progress, planned, execution.n_jobs
+            )
             try:
                 headline = kind.analyse(study, evaluator, baseline, out_dir)
                 evaluator.complete()

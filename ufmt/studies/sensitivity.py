@@ -15,6 +15,9 @@ value, or in log10 of it for ``spacing = "log"`` (stiffnesses spanning decades).
   evaluations; first-order ``S1`` and total ``ST`` shares of PV variance with bootstrap 95 %
   confidence half-widths.
 
+The whole sample is one request to the runner: its workers evaluate it in chunks, each as one
+batch (:mod:`ufmt.studies.parallel`).
+
 Writes ``indices.csv`` (one row per factor, most influential first); its figure is a bar chart
 of the indices.
 """
