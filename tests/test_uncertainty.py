@@ -25,11 +25,17 @@ import pytest
 
 from ufmt.cli import main
 from ufmt.errors import StudyError
+from ufmt.machining.modal import modal_basis
 from ufmt.machining.process import Process
 from ufmt.model.load import load_model, packaged_path
 from ufmt.simulate import simulate
 from ufmt.studies.bands import documented_bands
-from ufmt.studies.intervals import headline_intervals, input_bands, sample_designs
+from ufmt.studies.intervals import (
+    headline_intervals,
+    input_bands,
+    sample_designs,
+    scale_hinge_damping,
+)
 from ufmt.studies.load import parse_study
 from ufmt.studies.outputs import read_meta, read_table
 from ufmt.studies.parallel import Execution
@@ -325,6 +331,41 @@ def test_headline_interval_of_a_linear_source_is_its_amplitude_interval_scaled()
     got = intervals.to_dict()["metrics"]["pv_nm"]
     expected = per_metre * np.quantile(amplitude, [0.05, 0.95])
     np.testing.assert_allclose([got["q05"], got["q95"]], expected, rtol=1e-9)
+
+
+def test_hinge_damping_factor_on_the_shared_basis_equals_the_basis_of_the_scaled_model():
+    """Oracle: an independent assembly. The projected hinge damping Phi_rel^T C Phi_rel is
+    linear in C, so the shared basis' matrix times the factor equals the basis solved again
+    from the model whose hinge dampers carry the factor (same modes: damping does not enter
+    them)."""
+    model = load_model()
+    factor = 1.7
+    shared = modal_basis(model)
+    again = modal_basis(scale_hinge_damping(model, factor))
+    np.testing.assert_allclose(again.omega, shared.omega, rtol=1e-12)
+    np.testing.assert_allclose(
+        again.hinge_damping, factor * shared.hinge_damping, rtol=1e-9, atol=1e-12
+    )
+
+
+def test_damping_samples_are_simulations_at_the_sampled_ratio_and_factor():
+    """Oracle: each sample of the damping bands equals a simulation called directly with that
+    zeta on the model whose hinge dampers carry that factor; the bands are the assumed ones."""
+    model = load_model()
+    process = Process(300.0, 15.0, 4.0)
+    bands = input_bands(["damping.*"])
+    assert (bands["damping.zeta"].low, bands["damping.zeta"].high) == (0.005, 0.02)
+    assert (bands["damping.hinge_factor"].low, bands["damping.hinge_factor"].high) == (0.5, 2.0)
+    intervals = headline_intervals(model, process, 2, ["damping.*"])
+    for row in intervals.samples.to_dict("records"):
+        direct = simulate(
+            scale_hinge_damping(model, row["damping.hinge_factor"]),
+            process,
+            zeta=row["damping.zeta"],
+        )
+        assert row["zre_peak_nm"] == pytest.approx(direct.metrics["zre_peak_nm"], rel=1e-9)
+    zre = intervals.samples["zre_peak_nm"].to_numpy()
+    assert np.ptp(zre) > 0  # the damping moves the vibration
 
 
 def test_simulate_uncertainty_json_keeps_every_key_and_adds_intervals(capsys):
