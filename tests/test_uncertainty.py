@@ -189,6 +189,66 @@ def test_uncertainty_study_gives_linear_sobol_indices_and_the_distribution(tmp_p
     assert sorted(set(conv["samples"])) == [8, 16, 32, 64, 128, 256]
 
 
+def product_study(design, process, model=None):
+    """Y = (1 + u1) depth_um, u1 the rpm on [0, 1]; a missing process value takes the
+    reference case (300 rpm, 4 um), as the study function does."""
+    low, high = RANGES["rpm"]
+    u1 = (process.get("rpm", 300.0) - low) / (high - low)
+    return {"pv_measured_nm": (1.0 + u1) * process.get("depth_um", 4.0)}
+
+
+def test_contrast_interval_is_the_change_at_the_uncertain_samples(tmp_path):
+    """Oracle: for Y = (1 + u1) d with u1 uniform on [0, 1], the change from d = 2 to d = 6 is
+    4 (1 + u1), uniform on [4, 8] (5-95 %: 4.2-7.8), +200 % in every sample, 6 at the
+    calibrated u1 = 1/2 (300 rpm); a contrast of the uncertain input itself (rpm 100 -> 500)
+    overrides its samples: the change is d = 4 (the reference depth) in every sample."""
+    body = 'method = "lhs"\nsamples = 400\nmetrics = ["pv_measured_nm"]\n' + _inputs(["rpm"])
+    body += '[[contrast]]\nname = "depth"\nstudy = "sweep-process"\nparameter = "depth_um"\n'
+    body += 'values = [2.0, 6.0]\nmetric = "pv_measured_nm"\n'
+    body += '[[contrast]]\nname = "rpm"\nparameter = "rpm"\nvalues = [100.0, 500.0]\n'
+    body += 'metric = "pv_measured_nm"\nsamples = 10\n'
+    path = write_study(tmp_path, "contrast", body, "product_study")
+    assert parse_study(path.read_text(), path).options["contrasts"][1]["samples"] == 10
+    out = run(path, tmp_path / "r")
+    table = read_table(out / "contrast.csv").set_index("name")
+    depth = table.loc["depth"]
+    assert depth["samples"] == depth["resolved"] == 400
+    assert depth["point_change"] == pytest.approx(6.0, rel=1e-12)
+    assert depth["change_q05"] == pytest.approx(4.2, abs=0.02)
+    assert depth["change_q95"] == pytest.approx(7.8, abs=0.02)
+    assert depth["change_pct_q05"] == pytest.approx(200.0, rel=1e-9)
+    assert depth["change_pct_q95"] == pytest.approx(200.0, rel=1e-9)
+    assert depth["p_falls"] == 0.0 and depth["study"] == "sweep-process"
+    assert (
+        "depth: pv_measured_nm 3 -> 9 (+200.0 %; 5-95 % over 400 samples: +200.0 to"
+        in (read_meta(out)["headline"])
+    )
+    rpm = table.loc["rpm"]
+    assert rpm["samples"] == 10
+    assert rpm["change_q05"] == pytest.approx(4.0, rel=1e-12)
+    assert rpm["change_q95"] == pytest.approx(4.0, rel=1e-12)
+    points = read_table(out / "points.csv")
+    # the rpm contrast's points are the same two in every sample (rpm is its only input):
+    # the journal computes each once
+    assert len(points) == 400 + (2 * 400 + 2) + 2
+
+
+def test_contrast_mistakes_are_one_line_each(tmp_path):
+    base = 'method = "lhs"\nsamples = 4\n' + _inputs(["rpm"])
+    cases = {
+        'parameter = "rpm"\nmetric = "pv_nm"\n': "scale, values",
+        'parameter = "rpm"\nvalues = [2.0, 2.0]\nmetric = "pv_nm"\n': "equal",
+        'parameter = "rpm"\nvalues = [2.0, 3.0]\nmetric = "nothing"\n': "metric",
+        'parameter = "nothing"\nvalues = [2.0, 3.0]\nmetric = "pv_nm"\n': "nothing",
+    }
+    for body, words in cases.items():
+        text = base + '[[contrast]]\nname = "x"\n' + body
+        path = write_study(tmp_path, "bad", text, "sum_study")
+        with pytest.raises(StudyError, match=words) as err:
+            parse_study(path.read_text(), path)
+        assert "\n" not in str(err.value) and "contrast[0]" in str(err.value)
+
+
 def test_documented_bands_reach_the_study_function(tmp_path):
     """The machine.* pattern takes the bands of calibration.toml (read, not restated)."""
     bands = documented_bands()
