@@ -172,16 +172,22 @@ def _row(contrast: Mapping, metric: str, span, point, ends: np.ndarray) -> dict:
     return row
 
 
+def change_text(row: Mapping) -> str:
+    """The point change and its 5-95 % interval in per cent, "-10.5 % [-1.7, -0.8]" (the
+    form the README and the report quote)."""
+    return (
+        f"{row['point_change_pct']:+.1f} % [{row['change_pct_q05']:+.1f},"
+        f" {row['change_pct_q95']:+.1f}]"
+    )
+
+
 def sentence(row: Mapping) -> str:
     """One contrast row as the finding with its interval, e.g. "head axial 0.1x -> 10x:
-    pv_nm 502 -> 490 (-2.4 %; 5-95 % over 32 samples: -3.1 to -0.2 %, falls in 30 of
-    them)"."""
+    pv_nm 502 -> 490, -2.4 % [-3.1, -0.2] (5-95 % over 32 samples; falls in 30 of them)"."""
     if not row["resolved"]:
         return f"{row['name']}: {row['metric']} not resolved in any sample"
     falls = round(row["p_falls"] * row["resolved"])
     return (
-        f"{row['name']}: {row['metric']} {short(row['point_from'])} -> {short(row['point_to'])}"
-        f" ({row['point_change_pct']:+.1f} %; 5-95 % over {row['resolved']} samples:"
-        f" {row['change_pct_q05']:+.1f} to {row['change_pct_q95']:+.1f} %, falls in {falls}"
-        " of them)"
+        f"{row['name']}: {row['metric']} {short(row['point_from'])} -> {short(row['point_to'])},"
+        f" {change_text(row)} (5-95 % over {row['resolved']} samples; falls in {falls} of them)"
     )
