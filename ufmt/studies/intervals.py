@@ -112,8 +112,8 @@ def headline_intervals(
     shared_basis = all(
         machine_target(name) is not None or name.startswith(DAMPING_PREFIX) for name in bands
     )
-    basis = None
-    if shared_basis and "basis" not in options:
+    basis = options.get("basis")  # the caller's basis: its hinge damping scaled too
+    if shared_basis and basis is None:
         basis_options = {"n_modes": options.get("n_modes")}
         if "basis_cutoff_hz" in options:
             basis_options["cutoff_hz"] = options["basis_cutoff_hz"]
