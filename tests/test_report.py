@@ -168,3 +168,60 @@ def test_report_fits_a_1400_px_window_without_horizontal_scroll(tmp_path):
     overflow = re.search(r'data-overflow="(-?\d+)"', done.stdout)
     assert overflow is not None, done.stderr[-2000:]
     assert int(overflow.group(1)) <= 0
+
+
+def test_report_puts_the_intervals_beside_the_reference_cut_and_the_sweep_finding(tmp_path):
+    """Oracle: the files themselves. The reference cut's point value (metrics.json) stands
+    beside the uncertainty study's quantiles (distribution.csv), and the sweep's finding gets
+    the contrast row of contrast.csv that names it; nothing is recomputed."""
+    from ufmt.report import build_report
+
+    _results(tmp_path)
+    cut = tmp_path / "validation" / "reference-process"
+    (cut / "metrics.json").write_text(
+        json.dumps({"method": "time", "pv_measured_nm": 65.53, "zre_peak_nm": 34.82}), "utf-8"
+    )
+    study = tmp_path / "uncertainty"
+    study.mkdir()
+    meta = {"kind": "uncertainty", "name": "uncertainty", "options": {"inputs": [1, 2, 3]}}
+    (study / "meta.json").write_text(json.dumps(meta), encoding="utf-8")
+    pd.DataFrame(
+        {
+            "metric": ["pv_measured_nm", "psd1_rms_nm"],
+            "samples": [64, 64],
+            "resolved": [64, 0],
+            "q05": [27.04, np.nan],
+            "q50": [102.5, np.nan],
+            "q95": [390.4, np.nan],
+            "limit": [100.0, np.nan],
+            "p_meet": [0.5, np.nan],
+            "p_meet_low": [0.372, np.nan],
+            "p_meet_high": [0.628, np.nan],
+        }
+    ).to_csv(study / "distribution.csv", index=False)
+    contrast = {
+        "name": "rpm 150 -> 350",
+        "study": "sweep-x",
+        "parameter": "rpm",
+        "from": 150.0,
+        "to": 350.0,
+        "metric": "pv_nm",
+        "point_from": 3.0,
+        "point_to": 1.0,
+        "point_change": -2.0,
+        "point_change_pct": -66.67,
+        "samples": 32,
+        "resolved": 32,
+        "change_pct_q05": -71.25,
+        "change_pct_q95": -12.5,
+        "p_falls": 1.0,
+    }
+    pd.DataFrame([contrast]).to_csv(study / "contrast.csv", index=False)
+    page = build_report(tmp_path, load_model(EXAMPLE))
+    row = re.search(r"<td[^>]*>pv_measured_nm</td>(.*?)</tr>", page, flags=re.S).group(1)
+    cells = re.findall(r"<td[^>]*>(.*?)</td>", row)
+    assert cells[:4] == ["65.53", "27.04", "102.5", "390.4"]
+    assert "P(≤ 100) = 0.50 [0.37, 0.63]" in cells[-1]
+    assert "not resolved" in page and "time path" in page
+    sweep = page[page.index('id="sweep-x"') :]
+    assert "rpm 150 -&gt; 350: pv_nm 3 -&gt; 1, -66.7 % [-71.2, -12.5] (5-95 % over 32" in sweep

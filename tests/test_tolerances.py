@@ -218,3 +218,55 @@ def test_rerun_that_computes_nothing_rewrites_nothing(tmp_path):
     first = {p: p.read_bytes() for p in sorted(root.rglob("*")) if p.is_file()}
     run(tmp_path, "clean", text)
     assert {p: p.read_bytes() for p in sorted(root.rglob("*")) if p.is_file()} == first
+
+
+def scaled_budget(design, process, model=None):
+    """linear_budget times fs / 3: an uncertain factor (the force factor) on the whole
+    budget, so P(y <= L) is the probability that fs <= 3 L / (R + C tau)."""
+    force = design.get("machine.force_scale", 3.0)
+    return {"pv_measured_nm": force / 3.0 * (R + float(C @ _tau(design)))}
+
+
+def test_probability_constraint_is_the_closed_form_at_the_samples_quantile(tmp_path):
+    """Oracle: with y = (fs / 3)(R + C tau), P(y <= L) >= p over the M common samples holds
+    iff C tau <= 3 L / F - R, F the ceil(p M)-th smallest sampled fs: the cheapest allocation
+    is the Lagrange optimum at the level 3 L / F. F lies in the ceil(p M)-th stratum of the
+    Latin hypercube of fs's log-uniform band (an analytic interval of the p quantile), and the
+    model meets the limit in exactly ceil(p M) samples."""
+    from ufmt.studies.bands import documented_bands
+
+    m, p, limit = 40, 0.9, 60.0
+    need = math.ceil(p * m)
+    extra = f'uncertain = ["machine.force_scale"]\nuncertain_samples = {m}\nprobability = {p}\n'
+    out = run(tmp_path, "chance", study_text("scaled_budget", limit, extra))
+    points = read_table(out / "points.csv")
+    fs = np.unique(points[points["group"] == "interval"]["machine.force_scale"])  # sorted
+    band = documented_bands()["machine.force_scale"]
+    stratum = band.low * (band.high / band.low) ** (np.array([need - 1, need]) / m)
+    assert len(fs) == m and stratum[0] <= fs[need - 1] <= stratum[1]
+    tau, cost = linear_optimum(3.0 * limit / fs[need - 1])
+    assert np.all((tau > TAU_MIN) & (tau < 1))  # interior: the closed form holds
+    final = read_table(out / "allocation.csv").iloc[-1]
+    assert final["meets"] and final["step"] == 0 and final["p_meet"] == need / m
+    assert final["cost"] == pytest.approx(cost, rel=1e-6)
+    designed = _tau({name: final[name] for name in VARIABLES})
+    np.testing.assert_allclose(designed, tau, rtol=1e-5)
+    assert final["evaluated"] == pytest.approx(limit, rel=1e-6)  # the need-th value binds
+    nominal = read_table(out / "allocation.csv").query("specification == 'nominal'").iloc[-1]
+    assert nominal["cost"] > final["cost"]  # the nominal (fs = 3) design is the dearer
+    interval = read_table(out / "interval.csv").set_index("specification")
+    assert interval.loc["P >= 0.9", "p_meet"] == need / m
+    assert interval.loc["nominal", "p_meet"] == 1.0  # fs <= 3 in every sample
+    assert f"P(pv_measured_nm <= 60) >= 0.9 over {m} samples" in read_meta(out)["headline"]
+
+
+def test_probability_needs_uncertain_bands_and_a_probability(tmp_path):
+    path = tmp_path / "bad.toml"
+    for extra, phrase in (
+        ("probability = 0.9\n", "uncertain"),
+        ('uncertain = ["machine.force_scale"]\nprobability = 1.0\n', "outside \\(0, 1\\)"),
+    ):
+        text = study_text("linear_budget", 50.0, extra)
+        with pytest.raises(StudyError, match=phrase) as err:
+            parse_study(text, path)
+        assert "\n" not in str(err.value)

@@ -25,11 +25,17 @@ import pytest
 
 from ufmt.cli import main
 from ufmt.errors import StudyError
+from ufmt.machining.modal import modal_basis
 from ufmt.machining.process import Process
 from ufmt.model.load import load_model, packaged_path
 from ufmt.simulate import simulate
 from ufmt.studies.bands import documented_bands
-from ufmt.studies.intervals import headline_intervals, input_bands, sample_designs
+from ufmt.studies.intervals import (
+    headline_intervals,
+    input_bands,
+    sample_designs,
+    scale_hinge_damping,
+)
 from ufmt.studies.load import parse_study
 from ufmt.studies.outputs import read_meta, read_table
 from ufmt.studies.parallel import Execution
@@ -183,6 +189,64 @@ def test_uncertainty_study_gives_linear_sobol_indices_and_the_distribution(tmp_p
     assert sorted(set(conv["samples"])) == [8, 16, 32, 64, 128, 256]
 
 
+def product_study(design, process, model=None):
+    """Y = (1 + u1) depth_um, u1 the rpm on [0, 1]; a missing process value takes the
+    reference case (300 rpm, 4 um), as the study function does."""
+    low, high = RANGES["rpm"]
+    u1 = (process.get("rpm", 300.0) - low) / (high - low)
+    return {"pv_measured_nm": (1.0 + u1) * process.get("depth_um", 4.0)}
+
+
+def test_contrast_interval_is_the_change_at_the_uncertain_samples(tmp_path):
+    """Oracle: for Y = (1 + u1) d with u1 uniform on [0, 1], the change from d = 2 to d = 6 is
+    4 (1 + u1), uniform on [4, 8] (5-95 %: 4.2-7.8), +200 % in every sample, 6 at the
+    calibrated u1 = 1/2 (300 rpm); a contrast of the uncertain input itself (rpm 100 -> 500)
+    overrides its samples: the change is d = 4 (the reference depth) in every sample."""
+    body = 'method = "lhs"\nsamples = 400\nmetrics = ["pv_measured_nm"]\n' + _inputs(["rpm"])
+    body += '[[contrast]]\nname = "depth"\nstudy = "sweep-process"\nparameter = "depth_um"\n'
+    body += 'values = [2.0, 6.0]\nmetric = "pv_measured_nm"\n'
+    body += '[[contrast]]\nname = "rpm"\nparameter = "rpm"\nvalues = [100.0, 500.0]\n'
+    body += 'metric = "pv_measured_nm"\nsamples = 10\n'
+    path = write_study(tmp_path, "contrast", body, "product_study")
+    assert parse_study(path.read_text(), path).options["contrasts"][1]["samples"] == 10
+    out = run(path, tmp_path / "r")
+    table = read_table(out / "contrast.csv").set_index("name")
+    depth = table.loc["depth"]
+    assert depth["samples"] == depth["resolved"] == 400
+    assert depth["point_change"] == pytest.approx(6.0, rel=1e-12)
+    assert depth["change_q05"] == pytest.approx(4.2, abs=0.02)
+    assert depth["change_q95"] == pytest.approx(7.8, abs=0.02)
+    assert depth["change_pct_q05"] == pytest.approx(200.0, rel=1e-9)
+    assert depth["change_pct_q95"] == pytest.approx(200.0, rel=1e-9)
+    assert depth["p_falls"] == 0.0 and depth["study"] == "sweep-process"
+    headline = read_meta(out)["headline"]
+    assert "depth: pv_measured_nm 3 -> 9, +200.0 % [+200.0, +200.0] (5-95 % over 400" in headline
+    rpm = table.loc["rpm"]
+    assert rpm["samples"] == 10
+    assert rpm["change_q05"] == pytest.approx(4.0, rel=1e-12)
+    assert rpm["change_q95"] == pytest.approx(4.0, rel=1e-12)
+    points = read_table(out / "points.csv")
+    # the rpm contrast's points are the same two in every sample (rpm is its only input):
+    # the journal computes each once
+    assert len(points) == 400 + (2 * 400 + 2) + 2
+
+
+def test_contrast_mistakes_are_one_line_each(tmp_path):
+    base = 'method = "lhs"\nsamples = 4\n' + _inputs(["rpm"])
+    cases = {
+        'parameter = "rpm"\nmetric = "pv_nm"\n': "scale, values",
+        'parameter = "rpm"\nvalues = [2.0, 2.0]\nmetric = "pv_nm"\n': "equal",
+        'parameter = "rpm"\nvalues = [2.0, 3.0]\nmetric = "nothing"\n': "metric",
+        'parameter = "nothing"\nvalues = [2.0, 3.0]\nmetric = "pv_nm"\n': "nothing",
+    }
+    for body, words in cases.items():
+        text = base + '[[contrast]]\nname = "x"\n' + body
+        path = write_study(tmp_path, "bad", text, "sum_study")
+        with pytest.raises(StudyError, match=words) as err:
+            parse_study(path.read_text(), path)
+        assert "\n" not in str(err.value) and "contrast[0]" in str(err.value)
+
+
 def test_documented_bands_reach_the_study_function(tmp_path):
     """The machine.* pattern takes the bands of calibration.toml (read, not restated)."""
     bands = documented_bands()
@@ -325,6 +389,41 @@ def test_headline_interval_of_a_linear_source_is_its_amplitude_interval_scaled()
     got = intervals.to_dict()["metrics"]["pv_nm"]
     expected = per_metre * np.quantile(amplitude, [0.05, 0.95])
     np.testing.assert_allclose([got["q05"], got["q95"]], expected, rtol=1e-9)
+
+
+def test_hinge_damping_factor_on_the_shared_basis_equals_the_basis_of_the_scaled_model():
+    """Oracle: an independent assembly. The projected hinge damping Phi_rel^T C Phi_rel is
+    linear in C, so the shared basis' matrix times the factor equals the basis solved again
+    from the model whose hinge dampers carry the factor (same modes: damping does not enter
+    them)."""
+    model = load_model()
+    factor = 1.7
+    shared = modal_basis(model)
+    again = modal_basis(scale_hinge_damping(model, factor))
+    np.testing.assert_allclose(again.omega, shared.omega, rtol=1e-12)
+    np.testing.assert_allclose(
+        again.hinge_damping, factor * shared.hinge_damping, rtol=1e-9, atol=1e-12
+    )
+
+
+def test_damping_samples_are_simulations_at_the_sampled_ratio_and_factor():
+    """Oracle: each sample of the damping bands equals a simulation called directly with that
+    zeta on the model whose hinge dampers carry that factor; the bands are the assumed ones."""
+    model = load_model()
+    process = Process(300.0, 15.0, 4.0)
+    bands = input_bands(["damping.*"])
+    assert (bands["damping.zeta"].low, bands["damping.zeta"].high) == (0.005, 0.02)
+    assert (bands["damping.hinge_factor"].low, bands["damping.hinge_factor"].high) == (0.5, 2.0)
+    intervals = headline_intervals(model, process, 2, ["damping.*"])
+    for row in intervals.samples.to_dict("records"):
+        direct = simulate(
+            scale_hinge_damping(model, row["damping.hinge_factor"]),
+            process,
+            zeta=row["damping.zeta"],
+        )
+        assert row["zre_peak_nm"] == pytest.approx(direct.metrics["zre_peak_nm"], rel=1e-9)
+    zre = intervals.samples["zre_peak_nm"].to_numpy()
+    assert np.ptp(zre) > 0  # the damping moves the vibration
 
 
 def test_simulate_uncertainty_json_keeps_every_key_and_adds_intervals(capsys):

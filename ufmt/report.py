@@ -27,6 +27,20 @@ REPORT = "report.html"
 VALIDATION = "validation"
 REFERENCE_CUT = "reference-process"
 FRF = "frf"
+UNCERTAINTY = "uncertainty"  # the uncertainty study's folder: the intervals of the headlines
+#: A study's tables shown in its section (when present).
+STUDY_TABLES = (
+    "optima.csv",
+    "indices.csv",
+    "pareto.csv",
+    "distribution.csv",
+    "sobol.csv",
+    "contrast.csv",
+    "allocation.csv",
+    "budget.csv",
+    "interval.csv",
+    "tradeoff.csv",
+)
 MAX_TABLE_ROWS = 40  # longer tables are shown in full behind a <details> toggle
 COLUMN_CHARS = 40  # a column's width follows its longest cell up to this many characters
 
@@ -82,7 +96,11 @@ def build_report(results: str | Path = "results", model: Model | None = None) ->
         ("model", "Model", _model_section(model)),
         ("validation", "Validation against the paper", _validation_section(results / VALIDATION)),
         ("reference-cut", "Reference cut and FRF", _reference_section(results)),
-    ] + [(name, f"Study: {name}", _study_section(d, meta)) for name, d, meta in studies]
+    ]
+    contrasts = _contrasts(results / UNCERTAINTY)
+    sections += [
+        (name, f"Study: {name}", _study_section(d, meta, contrasts)) for name, d, meta in studies
+    ]
     nav = " ".join(f'<a href="#{key}">{html.escape(title)}</a>' for key, title, _ in sections)
     body = "\n".join(
         f'<h2 id="{key}">{html.escape(title)}</h2>\n{content}' for key, title, content in sections
@@ -308,6 +326,7 @@ def _reference_section(results: Path) -> str:
     ]
     pngs = sorted(cut.glob("*.png")) if cut.is_dir() else []
     parts += [_figure(p) for p in pngs] or [_missing(f"{cut}/")]
+    parts.append(_headline_intervals(cut, results / UNCERTAINTY))
     parts.append(_error_budget(cut))
     parts.append("<h3>Tool-workpiece receptance (ufmt frf)</h3>")
     frf = sorted((results / FRF).glob("*.png")) if (results / FRF).is_dir() else []
@@ -337,18 +356,92 @@ def _error_budget(cut: Path) -> str:
     return "<h3>Error budget per source</h3>" + _table(pd.DataFrame(rows))
 
 
-def _study_section(folder: Path, meta: dict) -> str:
+def _headline_intervals(cut: Path, uncertainty: Path) -> str:
+    """The reference cut's headline numbers (``metrics.json`` of ``ufmt simulate --save``)
+    beside their 5-95 % intervals over the documented bands, read from the uncertainty
+    study's ``distribution.csv`` (never recomputed here)."""
+    title = "<h3>Headline numbers with their 5–95 % intervals</h3>"
+    table_file, meta_file = uncertainty / "distribution.csv", uncertainty / "meta.json"
+    if not table_file.is_file() or not meta_file.is_file():
+        return title + _missing(f"{table_file} (make uncertainty)")
+    metrics = cut / "metrics.json"
+    point = json.loads(metrics.read_text(encoding="utf-8")) if metrics.is_file() else {}
+    meta = json.loads(meta_file.read_text(encoding="utf-8"))
+    table = pd.read_csv(table_file)
+    rows = []
+    for r in table.to_dict("records"):
+        value = point.get(r["metric"])
+        resolved = r["resolved"] > 0
+        rows.append(
+            {
+                "metric": r["metric"],
+                "reference cut": "" if value is None else f"{value:.4g}",
+                "5 %": f"{r['q05']:.4g}" if resolved else "not resolved",
+                "median": f"{r['q50']:.4g}" if resolved else "",
+                "95 %": f"{r['q95']:.4g}" if resolved else "",
+                "samples resolved": f"{r['resolved']} of {r['samples']}",
+                "P(meet)": _p_meet(r),
+            }
+        )
+    inputs = meta.get("options", {}).get("inputs", [])
+    note = (
+        f"<p>Point values: the reference cut ({html.escape(str(point.get('method', '?')))} "
+        f"path, <code>{html.escape(str(metrics))}</code>). Intervals: the "
+        f"<code>{html.escape(meta.get('name', UNCERTAINTY))}</code> study over "
+        f"{len(inputs)} documented bands (the study function's periodic path; "
+        f"<code>distribution.csv</code>), its independent samples only. A point value outside "
+        "its interval sits at the edge of a band it was fitted to.</p>"
+    )
+    return title + note + _table(pd.DataFrame(rows))
+
+
+def _p_meet(row: dict) -> str:
+    if not np.isfinite(row.get("p_meet", np.nan)):
+        return ""
+    return (
+        f"P(≤ {row['limit']:.4g}) = {row['p_meet']:.2f} "
+        f"[{row['p_meet_low']:.2f}, {row['p_meet_high']:.2f}]"
+    )
+
+
+def _contrasts(uncertainty: Path) -> pd.DataFrame | None:
+    """The uncertainty study's ``contrast.csv`` (the sweeps' findings with intervals), or
+    None."""
+    path = uncertainty / "contrast.csv"
+    return pd.read_csv(path, keep_default_na=False, na_values=[""]) if path.is_file() else None
+
+
+def _finding_intervals(name: str, contrasts: pd.DataFrame | None) -> str:
+    """This study's findings evaluated at the uncertainty study's samples, one sentence each
+    (:func:`ufmt.studies.contrasts.sentence`), or ''."""
+    from ufmt.studies.contrasts import sentence
+
+    if contrasts is None or "study" not in contrasts:
+        return ""
+    rows = contrasts[contrasts["study"] == name].to_dict("records")
+    if not rows:
+        return ""
+    items = "".join(f"<li>{html.escape(sentence(r))}</li>" for r in rows)
+    return (
+        '<div class="finding"><b>The finding over the uncertain inputs</b> (the change between '
+        "the sweep's ends evaluated again at the uncertainty study's samples of the documented "
+        f"bands; <code>{UNCERTAINTY}/contrast.csv</code>):<ul>{items}</ul></div>"
+    )
+
+
+def _study_section(folder: Path, meta: dict, contrasts: pd.DataFrame | None = None) -> str:
     parts = []
     if meta.get("description"):
         parts.append(f"<p>{html.escape(meta['description'])}</p>")
     finding = meta.get("headline") or "(run incomplete)"
     parts.append(f'<p class="finding"><b>Finding:</b> {html.escape(finding)}</p>')
+    parts.append(_finding_intervals(folder.name, contrasts))
     warning = _range_warning(folder / "points.csv")
     if warning:
         parts.append(f'<p class="warning">{html.escape(warning)}</p>')
     for name in meta.get("plots", []):
         parts.append(_figure(folder / name))
-    for name in ("optima.csv", "indices.csv", "pareto.csv"):
+    for name in STUDY_TABLES:
         if (folder / name).is_file():
             parts.append(f"<h3>{name}</h3>" + _csv(folder / name))
     parts.append(_details("provenance", _provenance(meta)))

@@ -17,7 +17,28 @@ in docs/ufmt-model.md):
   are left out.
 
 Keys of the model loader without a documented band (its :data:`OPTIONAL_FIELDS` ranges say
-only what a file may hold) and damping are not listed: give them a ``range`` in the study file.
+only what a file may hold) are not listed: give them a ``range`` in the study file.
+
+Damping has no calibration entry (the paper gives none and nothing identifies it), so its band
+is an engineering assumption stated here (:data:`DAMPING_BANDS`, :func:`damping_bands`), as
+two parameters outside the model's design vocabulary:
+
+* ``damping.zeta``: the structural modal damping ratio of every mode
+  (:data:`ufmt.machining.recurrence.DEFAULT_ZETA` = 0.01, the bodies' own damping), band
+  0.005-0.02, log scale. Measured modal damping of precision machine structures with bolted
+  and aerostatic joints is about 1-5 % in total, most of it in the joints (Slocum, *Precision
+  Machine Design*, 1992, ch. 7; Altintas, *Manufacturing Automation*, 2nd ed., 2012, ch. 3);
+  the model's joints are its hinges, so the bodies' share is the low end: half to twice the
+  default.
+* ``damping.hinge_factor``: one factor on every hinge damper of the model (``damping`` and
+  ``rotational_damping``; written as zeta 1-5 % per joint at a reference frequency,
+  docs/ufmt-model.md), band 0.5-2, log scale: a joint's damping ratio is known to about a
+  factor of two (squeeze-film air gaps, bolted interfaces, grout), and the per-joint values
+  already span the 1-5 % of the literature.
+
+``ufmt.evaluate`` (and so a study) takes no damping parameter; ``ufmt simulate
+--uncertainty`` samples both (:mod:`ufmt.studies.intervals`: the ratio through simulate's
+``zeta``, the factor on the model's hinge dampers).
 """
 
 from __future__ import annotations
@@ -46,6 +67,35 @@ class DocumentedBand:
     log: bool
     unit: str
     reason: str
+
+
+DAMPING_PREFIX = "damping."
+DAMPING_BANDS = (
+    (
+        "zeta",
+        0.005,
+        0.02,
+        "structural modal damping ratio of every mode (bodies' own share of"
+        " the 1-5 % measured on precision machines; assumption, ufmt.studies.bands)",
+    ),
+    (
+        "hinge_factor",
+        0.5,
+        2.0,
+        "factor on every hinge damper (a joint's damping ratio known to"
+        " about a factor of two; assumption, ufmt.studies.bands)",
+    ),
+)
+
+
+def damping_bands() -> dict[str, DocumentedBand]:
+    """The assumed damping bands (``damping.zeta``, ``damping.hinge_factor``), log scale."""
+    return {
+        f"{DAMPING_PREFIX}{key}": DocumentedBand(
+            f"{DAMPING_PREFIX}{key}", low, high, True, "-", why
+        )
+        for key, low, high, why in DAMPING_BANDS
+    }
 
 
 def documented_bands(calibration: str | Path | None = None) -> dict[str, DocumentedBand]:

@@ -7,12 +7,18 @@ log scale: stiffnesses, the force factor, the straightness wavelength; uniform o
 independently. The samples are whole simulations with the caller's options; a design whose
 stiffnesses are the model's shares the model's modal basis (no stiffness input: one basis for
 every sample).
+
+Damping (:func:`ufmt.studies.bands.damping_bands`, an assumed band): ``damping.zeta`` is
+simulate's structural ratio ``zeta`` of the sample (it replaces the caller's), and
+``damping.hinge_factor`` multiplies every hinge damper of the model; with a shared basis its
+projected hinge damping Phi_rel^T C Phi_rel, linear in C, is multiplied instead (the same
+matrix, without solving the modes again).
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import pandas as pd
@@ -20,10 +26,11 @@ import pandas as pd
 from ufmt.design import apply_design, machine_target
 from ufmt.errors import StudyError
 from ufmt.machining.modal import modal_basis
-from ufmt.studies.bands import documented_bands, matching
+from ufmt.studies.bands import DAMPING_PREFIX, damping_bands, documented_bands, matching
 from ufmt.studies.uncertainty import quantile_column, summarise, unit_sample
 
-DEFAULT_INPUTS = ("machine.*", "hinge.h31.*", "hinge.h25.*")  # [machine] bands, both bearings
+#: [machine] bands, both bearings, the assumed damping bands
+DEFAULT_INPUTS = ("machine.*", "hinge.h31.*", "hinge.h25.*", "damping.*")
 INTERVAL = (0.05, 0.95)
 
 
@@ -65,8 +72,9 @@ class Intervals:
 
 
 def input_bands(patterns: Sequence[str] = DEFAULT_INPUTS) -> dict:
-    """The documented bands matching the shell ``patterns`` (in the bands' order)."""
-    bands = documented_bands()
+    """The documented bands matching the shell ``patterns`` (in the bands' order), the assumed
+    damping bands included."""
+    bands = {**documented_bands(), **damping_bands()}
     names = [n for pattern in patterns for n in matching(pattern, bands)]
     unknown = [p for p in patterns if not matching(p, bands)]
     if unknown:
@@ -101,17 +109,50 @@ def headline_intervals(
 
     bands = input_bands(patterns)
     designs = sample_designs(bands, n, seed)
-    machine_only = all(machine_target(name) is not None for name in bands)
-    shared = {}
-    if machine_only and "basis" not in options:
+    shared_basis = all(
+        machine_target(name) is not None or name.startswith(DAMPING_PREFIX) for name in bands
+    )
+    basis = options.get("basis")  # the caller's basis: its hinge damping scaled too
+    if shared_basis and basis is None:
         basis_options = {"n_modes": options.get("n_modes")}
         if "basis_cutoff_hz" in options:
             basis_options["cutoff_hz"] = options["basis_cutoff_hz"]
-        shared["basis"] = modal_basis(model, **basis_options)
+        basis = modal_basis(model, **basis_options)
     rows = []
     for design in designs.to_dict("records"):
-        result = simulate(apply_design(model, design), process, **options, **shared)
+        sample_model, sample_options = _with_damping(model, design, basis, options)
+        result = simulate(apply_design(sample_model, design), process, **sample_options)
         metrics = {k: np.nan if v is None else float(v) for k, v in result.metrics.items()}
         rows.append(metrics)
     samples = pd.concat([designs, pd.DataFrame(rows)], axis=1)
     return Intervals(samples, tuple(bands))
+
+
+def _with_damping(model, design: dict, basis, options: Mapping) -> tuple:
+    """(model, simulate options) of one sample: its ``damping.*`` values taken out of
+    ``design`` and applied (the ratio as ``zeta``, the factor on every hinge damper and on the
+    shared ``basis``' projected hinge damping)."""
+    options = dict(options)
+    zeta = design.pop(f"{DAMPING_PREFIX}zeta", None)
+    if zeta is not None:
+        options["zeta"] = zeta
+    factor = design.pop(f"{DAMPING_PREFIX}hinge_factor", None)
+    if factor is not None:
+        model = scale_hinge_damping(model, factor)
+        if basis is not None and basis.hinge_damping is not None:
+            basis = replace(basis, hinge_damping=factor * basis.hinge_damping)
+    if basis is not None:
+        options["basis"] = basis
+    return model, options
+
+
+def scale_hinge_damping(model, factor: float):
+    """A copy of ``model`` with every hinge's ``damping`` and ``rotational_damping`` times
+    ``factor`` (>= 0)."""
+    for hinge in model.hinges:
+        model = model.with_hinge(
+            hinge.name,
+            damping=factor * np.asarray(hinge.damping),
+            rotational_damping=factor * np.asarray(hinge.rotational_damping),
+        )
+    return model

@@ -12,6 +12,8 @@ Fields::
     uncertain = ["machine.force_scale"]  # optional: documented bands (shell patterns) sampled
                                      #   at the optimum for its interval (a Latin hypercube)
     uncertain_samples = 32
+    probability = 0.9                # optional: the specification is P(metric <= limit) >= p
+                                     #   over the uncertain_samples (needs uncertain)
 
     [[variable]]                     # one per designed quantity (at least one)
     parameter = "machine.straightness_m"
@@ -51,6 +53,15 @@ an input fixed in ``[base]``, e.g. at the worst case of its band for the design,
 over its band here), giving the metric's 5-95 % interval and the probability of meeting the
 limit at the allocated tolerances.
 
+A probability of meeting the specification (``probability = p``): the allocation at the
+limit is then the cheapest whose metric meets the limit in at least ceil(p M) of the M fixed
+samples of the ``uncertain`` bands (common random numbers: the interval's Latin hypercube),
+each sample with its own separable budget from k + 1 model runs (:mod:`ufmt.studies.chance`:
+a convex program per set of samples, greedy discarding of the hardest). The allocation is
+checked with the model at every sample (the interval's runs); where fewer than ceil(p M)
+meet, the level is scaled by limit / (the ceil(p M)-th smallest evaluated value) and solved
+again. The trade-off curve stays the nominal one (the inputs at their base values).
+
 Tables: ``budget.csv`` (per variable: range, fitted contribution at the loosest tolerance,
 cost model and reason; the fits' residuals), ``allocation.csv`` (every model-checked
 allocation at the study's limit), ``tradeoff.csv`` (the cheapest allocation at each
@@ -72,7 +83,7 @@ from matplotlib.figure import Figure
 from ufmt.design import METRICS, PROCESS_PARAMETERS
 from ufmt.errors import StudyError
 from ufmt.plots.uncertainty import plot_tradeoff
-from ufmt.studies import outputs
+from ufmt.studies import chance, outputs
 from ufmt.studies.bands import documented_bands, matching
 from ufmt.studies.fields import Parameters
 from ufmt.studies.intervals import sample_designs
@@ -89,6 +100,7 @@ TRADEOFF = "tradeoff.csv"
 INTERVAL = "interval.csv"
 _VARIABLE_FIELDS = ("parameter", "kind", "range", "cost", "reason")
 MEETS_RTOL = 1e-9  # an evaluated metric this close above the limit meets it
+NOMINAL = "nominal"  # the allocation meeting the limit with the uncertain inputs at their base
 
 
 # ---------------------------------------------------------------------------------------------
@@ -110,8 +122,16 @@ def parse(where: Where, data: Mapping, parameters: Parameters) -> dict:
     if "limit" not in data:
         where.missing("limit", "the specification: metric <= limit")
     uncertain = _uncertain(where, data, bands, [b.parameter for b in bounds], parameters)
+    probability = None
+    if "probability" in data:
+        probability = where.number("probability", data["probability"], allowed="in (0, 1)")
+        if not 0.0 < probability < 1.0:
+            where.fail("probability", f"{probability:g} is outside (0, 1)")
+        if not uncertain:
+            where.missing("uncertain", "a probability is taken over the uncertain bands")
     options = {
         "variables": variables,
+        "probability": probability,
         "uncertain": [b.parameter for b in uncertain],
         "uncertain_samples": where.integer(
             "uncertain_samples", data.get("uncertain_samples", 32), 2, 10_000
@@ -349,6 +369,47 @@ class _Budget:
             target *= level / y
         return rows
 
+    def cheapest_likely(self, study) -> list[dict]:
+        """Model-checked allocations meeting the limit with the study's probability over the
+        fixed sample of its uncertain bands: the first, then each corrected one."""
+        options = study.options
+        p, limit = options["probability"], self.limit
+        samples = _uncertain_samples(study, len(self.variables))
+        n, k = len(samples), len(self.variables)
+        need = math.ceil(p * n - 1e-12)
+        runs = chance.sample_points(self.tau_min)
+        points = [{**self._design(tau), **sample} for sample in samples for tau in runs]
+        y = self.evaluator.values("chance", points, output=self.metric).reshape(n, k + 1)
+        r, c = chance.sample_budgets(y, self.tau_min, self.form)
+        b = np.array([v["b"] for v in self.variables], dtype=float)
+        rows, target = [], limit
+        for step in range(options["corrections"] + 1):
+            row = {"level": limit, "step": step, "budget_level": target, "probability": p}
+            tau = chance.allocate_with_probability(r, c, self.form, target, p, self.tau_min, b)
+            if tau is None:
+                rows.append({**row, "feasible": False})
+                break
+            design = self._design(tau)
+            values = self.evaluator.values(
+                "interval", [{**design, **sample} for sample in samples], output=self.metric
+            )
+            hits = int(np.count_nonzero(values <= limit * (1 + MEETS_RTOL)))
+            quantile = float(np.sort(np.where(np.isfinite(values), values, np.inf))[need - 1])
+            predicted = np.sort(chance.predict_samples(tau, r, c, self.form))[need - 1]
+            row.update(feasible=True, cost=float(cost_of(tau, self.variables)))
+            row.update(predicted=float(predicted), evaluated=quantile, meets=hits >= need)
+            row.update(p_meet=hits / n, **design)
+            rows.append(row)
+            if row["meets"] or not np.isfinite(quantile):
+                break
+            target *= limit / quantile
+        return rows
+
+    def _design(self, tau: np.ndarray) -> dict[str, float]:
+        """The designed parameters' values [SI] of normalised tolerances ``tau``."""
+        values = values_of(tau, self.bounds, self.variables)
+        return dict(zip(self.names, map(float, values), strict=True))
+
     def table(self) -> pd.DataFrame:
         """``budget.csv``: per variable, then one row per fit."""
         rows = []
@@ -384,7 +445,11 @@ def analyse(study, evaluator, baseline: Mapping, out_dir: Path) -> str:
     options = study.options
     budget = _Budget(study, evaluator)
     outputs.write_table(budget.table(), out_dir / BUDGET)
-    allocation = pd.DataFrame(budget.cheapest("optimum", budget.limit, options["corrections"]))
+    found = {NOMINAL: budget.cheapest("optimum", budget.limit, options["corrections"])}
+    if options.get("probability") is not None:
+        found[f"P >= {options['probability']:g}"] = budget.cheapest_likely(study)
+    rows = [{"specification": spec, **row} for spec, checked in found.items() for row in checked]
+    allocation = pd.DataFrame(rows)
     outputs.write_table(allocation, out_dir / ALLOCATION)
     tight, loose = float(budget.y[0]), float(budget.y[1])
     levels = np.geomspace(1.05 * tight, loose, options["levels"]) if loose > 1.05 * tight else []
@@ -395,54 +460,77 @@ def analyse(study, evaluator, baseline: Mapping, out_dir: Path) -> str:
     columns = ["level", "step", "budget_level", "feasible", "cost", "predicted", "evaluated"]
     columns += ["meets", *budget.names]
     outputs.write_table(pd.DataFrame(rows, columns=columns), out_dir / TRADEOFF)
-    interval = _interval(study, budget, allocation.iloc[-1])
-    if interval is not None:
+    intervals = [_interval(study, budget, checked[-1]) for checked in found.values()]
+    interval = None
+    if all(i is not None for i in intervals):
+        interval = pd.concat(intervals, ignore_index=True)
+        interval.insert(0, "specification", list(found))
         outputs.write_table(interval, out_dir / INTERVAL)
     return headline(budget, allocation, options, interval)
 
 
-def _interval(study, budget: _Budget, final) -> pd.DataFrame | None:
+def _interval(study, budget: _Budget, final: Mapping) -> pd.DataFrame | None:
     """The metric at the optimum over a Latin hypercube of the uncertain bands (None without
     them or without an optimum)."""
-    options = study.options
     uncertain = study.bounds[len(budget.variables) :]
     if not uncertain or not final.get("feasible", False):
         return None
-    bands = {b.parameter: b for b in uncertain}
-    samples = sample_designs(bands, options["uncertain_samples"], options["seed"])
+    samples = _uncertain_samples(study, len(budget.variables))
     design = {n: float(final[n]) for n in budget.names}
-    points = [{**design, **row} for row in samples.to_dict("records")]
+    points = [{**design, **row} for row in samples]
     y = budget.evaluator.values("interval", points, output=budget.metric)
-    row = summarise(y, (0.05, 0.5, 0.95), budget.limit)
-    return pd.DataFrame([{"metric": budget.metric, "inputs": " ".join(bands), **row}])
+    row = summarise(y, (0.05, 0.5, 0.95), budget.limit * (1 + MEETS_RTOL))  # as meets
+    row["limit"] = budget.limit
+    inputs = " ".join(b.parameter for b in uncertain)
+    return pd.DataFrame([{"metric": budget.metric, "inputs": inputs, **row}])
+
+
+def _uncertain_samples(study, n_variables: int) -> list[dict]:
+    """The fixed Latin hypercube of the uncertain bands (the bounds after the variables): the
+    interval's samples and the common random numbers of a probability."""
+    options = study.options
+    bands = {b.parameter: b for b in study.bounds[n_variables:]}
+    samples = sample_designs(bands, options["uncertain_samples"], options["seed"])
+    return samples.to_dict("records")
 
 
 def headline(budget: _Budget, allocation: pd.DataFrame, options: Mapping, interval) -> str:
     """The cheapest allocation at the limit (or why there is none), the budget's fit and the
     interval at the optimum."""
-    metric, limit = options["metric"], options["limit"]
+    metric, limit, p = options["metric"], options["limit"], options.get("probability")
     fit = f"{budget.form} budget, largest fit residual {budget.fits[budget.form][2]:.1%}"
+    spec = f"{metric} <= {short(limit)}"
+    if p is not None:
+        spec = f"P({spec}) >= {short(p)} over {options['uncertain_samples']} samples"
     final = allocation.iloc[-1]
     if not final.get("feasible", False):
         return (
-            f"{metric} <= {short(limit)}: not reachable inside the ranges (all tightest:"
-            f" {short(budget.y[0])}; {fit})."
+            f"{spec}: not reachable inside the ranges (all tightest: {short(budget.y[0])}; {fit})."
         )
     values = ", ".join(f"{n} = {short(final[n])}" for n in budget.names)
     verdict = "meets it" if final["meets"] else "misses it after the corrections"
+    gives = f"{short(final['evaluated'])}"
+    if p is not None:
+        gives = f"P = {short(final['p_meet'])} (its {short(p)} quantile {gives})"
     text = (
-        f"Cheapest allocation for {metric} <= {short(limit)}: {values}; cost {short(final['cost'])}"
+        f"Cheapest allocation for {spec}: {values}; cost {short(final['cost'])}"
         f" (all tightest {short(cost_of(budget.tau_min, budget.variables))}); the model gives"
-        f" {short(final['evaluated'])} ({verdict}; {fit})"
+        f" {gives} ({verdict}; {fit})"
     )
+    if p is not None:
+        nominal = allocation[allocation["specification"] == NOMINAL].iloc[-1]
+        if nominal.get("feasible", False):
+            text += f"; the nominal allocation (inputs at base) costs {short(nominal['cost'])}"
     if interval is None:
         return text + "."
-    r = interval.iloc[0]
-    return (
-        f"{text}; over {r['samples']} samples of {r['inputs']}: 5-95 % {short(r['q05'])}-"
-        f"{short(r['q95'])}, P(meet) {short(r['p_meet'])} [{short(r['p_meet_low'])},"
-        f" {short(r['p_meet_high'])}]."
-    )
+    parts = []
+    for r in interval.to_dict("records"):
+        parts.append(
+            f"{r['specification']}: 5-95 % {short(r['q05'])}-{short(r['q95'])}, P(meet)"
+            f" {short(r['p_meet'])} [{short(r['p_meet_low'])}, {short(r['p_meet_high'])}]"
+        )
+    r = interval.iloc[-1]
+    return f"{text}; over {r['samples']} samples of {r['inputs']}: " + "; ".join(parts) + "."
 
 
 def planned_points(study) -> int:
@@ -450,7 +538,10 @@ def planned_points(study) -> int:
     options = study.options
     k = len(options["variables"])
     interval = options["uncertain_samples"] if options["uncertain"] else 0
-    return 2 * k + 2 + (1 + options["levels"]) * (options["corrections"] + 1) + interval
+    likely = 0
+    if options.get("probability") is not None:  # per-sample budgets, then a check per step
+        likely = interval * (k + 1 + options["corrections"] + 1)
+    return 2 * k + 2 + (1 + options["levels"]) * (options["corrections"] + 1) + interval + likely
 
 
 def figures(out_dir: Path) -> dict[str, Figure]:
@@ -480,6 +571,7 @@ OPTIMISE_TOLERANCES = StudyKind(
         "seed",
         "uncertain",
         "uncertain_samples",
+        "probability",
     ),
     tables=(BUDGET, ALLOCATION, TRADEOFF, INTERVAL),
     parse=parse,

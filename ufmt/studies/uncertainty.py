@@ -19,6 +19,9 @@ Fields::
     [specification]                  # optional: upper limits of metrics
     pv_measured_nm = 100.0
 
+    [[contrast]]                     # optional: a sweep's finding with its interval
+                                     #   (ufmt.studies.contrasts)
+
 Distributions act on the unit coordinate of the band (0 at its low end, 1 at its high end):
 ``uniform`` over the band, ``loguniform`` uniform in log10 of the value, ``normal`` a normal
 truncated to the band with the band = mean +- 2 sigma, ``triangular`` with its mode at the
@@ -34,8 +37,9 @@ estimators with bootstrap 95 % confidence half-widths). ``lhs`` is a Latin hyper
 Tables: ``distribution.csv`` (per metric: valid samples, mean, standard deviation, the
 quantiles, the specification and the probability of meeting it with its 95 % Clopper-Pearson
 interval), ``sobol.csv`` (per metric and input: S1, ST and their confidence half-widths),
-``convergence.csv`` (the estimates on the nested prefixes of N/2^j base samples) and
-``samples.csv`` (inputs and metrics of the independent points). A metric that is NaN (a band
+``convergence.csv`` (the estimates on the nested prefixes of N/2^j base samples),
+``samples.csv`` (inputs and metrics of the independent points) and, with ``[[contrast]]``,
+``contrast.csv`` (:mod:`ufmt.studies.contrasts`). A metric that is NaN (a band
 the plate does not resolve, e.g. PSD1 on a plate shorter than three periods of 33 mm, or a
 failed point) counts as not resolved: its row says how many samples were, and it gets Sobol
 indices only where every sample is resolved.
@@ -53,8 +57,9 @@ from matplotlib.figure import Figure
 
 from ufmt.design import METRICS
 from ufmt.plots.uncertainty import plot_convergence, plot_distributions, plot_sobol
-from ufmt.studies import outputs
+from ufmt.studies import contrasts, outputs
 from ufmt.studies.bands import documented_bands, matching
+from ufmt.studies.contrasts import CONTRAST, evaluate_contrasts, parse_contrasts, sentence
 from ufmt.studies.fields import MAX_POINTS, Parameters
 from ufmt.studies.optimise import Space
 from ufmt.studies.outputs import short
@@ -104,7 +109,10 @@ def parse(where: Where, data: Mapping, parameters: Parameters) -> dict:
         "quantiles": _quantiles(where, data.get("quantiles", list(DEFAULT_QUANTILES))),
         "specification": _specification(where, data.get("specification", {})),
     }
-    return {"bounds": bounds, "options": options}
+    groups, options["contrasts"] = parse_contrasts(
+        where, data, parameters, [b.parameter for b in bounds]
+    )
+    return {"bounds": bounds, "groups": groups, "options": options}
 
 
 def _inputs(
@@ -365,7 +373,13 @@ def analyse(study, evaluator, baseline: Mapping, out_dir: Path) -> str:
     outputs.write_table(sobol, out_dir / SOBOL)
     outputs.write_table(convergence(study, space.names, outputs_), out_dir / CONVERGENCE)
     outputs.write_table(samples, out_dir / SAMPLES)
-    return headline(distribution, sobol, options)
+    text = headline(distribution, sobol, options)
+    if options["contrasts"]:
+        draws = [dict(zip(space.names, map(float, row), strict=True)) for row in values[keep]]
+        contrast = evaluate_contrasts(study, evaluator, baseline, draws)
+        outputs.write_table(contrast, out_dir / CONTRAST)
+        text += "; findings: " + "; ".join(sentence(r) for r in contrast.to_dict("records"))
+    return text
 
 
 def headline(distribution: pd.DataFrame, sobol: pd.DataFrame, options: Mapping) -> str:
@@ -403,9 +417,11 @@ def _number(value) -> float:
 
 
 def planned_points(study) -> int:
-    """Saltelli N (k + 2) for k inputs, Latin hypercube N."""
+    """Saltelli N (k + 2) for k inputs, Latin hypercube N; then the contrasts."""
     n, k = study.options["samples"], len(study.bounds)
-    return n * (k + 2) if study.options["method"] == "saltelli" else n
+    saltelli = study.options["method"] == "saltelli"
+    independent = 2 * n if saltelli else n
+    return (n * (k + 2) if saltelli else n) + contrasts.planned(study, independent)
 
 
 def figures(out_dir: Path) -> dict[str, Figure]:
@@ -424,8 +440,17 @@ def figures(out_dir: Path) -> dict[str, Figure]:
 
 UNCERTAINTY = StudyKind(
     name="uncertainty",
-    fields=("input", "method", "samples", "seed", "metrics", "quantiles", "specification"),
-    tables=(DISTRIBUTION, SOBOL, CONVERGENCE, SAMPLES),
+    fields=(
+        "input",
+        "method",
+        "samples",
+        "seed",
+        "metrics",
+        "quantiles",
+        "specification",
+        "contrast",
+    ),
+    tables=(DISTRIBUTION, SOBOL, CONVERGENCE, SAMPLES, CONTRAST),
     parse=parse,
     planned_points=planned_points,
     analyse=analyse,
