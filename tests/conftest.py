@@ -3,10 +3,27 @@
 Models are immutable, so one loaded object serves the whole session.
 """
 
+import os
+
 import pytest
 from synthetic import packaged_model
 
 from ufmt.model.load import load_model
+
+
+@pytest.fixture(scope="session", autouse=True)
+def _own_evaluation_cache(tmp_path_factory):
+    """Each test session (each pytest-xdist worker) has an evaluation cache of its own, empty
+    at the start: no test reuses points that an earlier run or another worker left in the
+    user's cache, so a run computes what a fresh clone computes. Tests that need a cache of
+    their own (or none) still set UFMT_CACHE_DIR themselves."""
+    before = os.environ.get("UFMT_CACHE_DIR")
+    os.environ["UFMT_CACHE_DIR"] = str(tmp_path_factory.mktemp("evaluation-cache"))
+    yield
+    if before is None:
+        os.environ.pop("UFMT_CACHE_DIR", None)
+    else:
+        os.environ["UFMT_CACHE_DIR"] = before
 
 
 @pytest.fixture(scope="session")

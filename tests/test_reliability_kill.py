@@ -79,7 +79,7 @@ def test_the_watchdog_ends_a_process_whose_parent_died():
     change: a grandchild watching its parent ends when that parent gets kill -9."""
     grandchild = (
         "import os, time; from ufmt.studies.parallel import watch_parent;"
-        " watch_parent(os.getppid(), 0.05); time.sleep(120)"
+        " watch_parent(os.getppid(), 0.05); print('watching', flush=True); time.sleep(120)"
     )
     proc = _python(
         f"""
@@ -90,7 +90,9 @@ def test_the_watchdog_ends_a_process_whose_parent_died():
         """
     )
     pid = int(proc.stdout.readline())
-    time.sleep(1.0)  # the grandchild imports ufmt and starts watching
+    # the grandchild watches before the kill (a sleep here raced its import of ufmt on a
+    # loaded machine: a parent killed first is never the one it watches)
+    assert proc.stdout.readline().strip() == "watching"
     assert process_running(pid)
     assert _kill_and_wait_for(proc, [pid]) == []
 
