@@ -8,6 +8,7 @@ import os
 import pytest
 from synthetic import packaged_model
 
+from ufmt.machining.modal import modal_basis
 from ufmt.model.load import load_model
 
 
@@ -30,6 +31,13 @@ def _own_evaluation_cache(tmp_path_factory):
 def packaged():
     """The packaged, calibrated UFMT."""
     return load_model()
+
+
+@pytest.fixture(scope="session")
+def packaged_basis(packaged):
+    """The packaged UFMT's default modal basis (every mode below the default cutoff, the slide
+    half way through the cut), as ``ufmt.simulate`` and ``ufmt validate`` build it."""
+    return modal_basis(packaged)
 
 
 @pytest.fixture(scope="session")

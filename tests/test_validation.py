@@ -111,18 +111,17 @@ def committed_response_targets() -> tuple[pd.DataFrame, list]:
     return committed, targets
 
 
-def test_committed_response_table_has_the_packaged_models_periodic_numbers(model):
+def test_committed_response_table_has_the_packaged_models_periodic_numbers(model, packaged_basis):
     """results/validation/response.csv (written by ``ufmt validate``): one row per paper
     quantity of the [response] targets; its fast periodic-path column is the packaged
     model's. (Small version: the exact time path of every column is the slow test below.)"""
     from ufmt.calibration.response import reference_process
     from ufmt.calibration.response_fit import response_metrics
-    from ufmt.machining.modal import modal_basis
     from ufmt.tomlfile import read_toml
 
     committed, targets = committed_response_targets()
     process = reference_process(read_toml(DATA / "paper_reference.toml"))
-    fast = response_metrics(model, process, modal_basis(model), "periodic")
+    fast = response_metrics(model, process, packaged_basis, "periodic")  # the same file
     np.testing.assert_allclose(
         [fast[t.metric] for t in targets],
         committed["ours_periodic"].to_numpy(float),
