@@ -200,7 +200,7 @@ def test_restarts_keep_the_lowest_cost_and_stay_deterministic(model, basis):
         {"force_scale": 1.7},
         {"key": "force_scale", "band": [0.3, 3.0], "start": 0.3},
         ("zre_peak_nm",),
-        starts=3,
+        starts=2,
         max_evaluations=2,
     )
     costs = [f.cost for f in alone]
