@@ -2,6 +2,8 @@
 PY      := .venv/bin/python
 STAMP   := .venv/.installed
 JOBS    ?= 2
+# test workers (pytest-xdist); worksteal evens out the long tests between them
+TEST_JOBS ?= 2
 
 .PHONY: test test-all bench lint format calibrate sweep-stiffness sweep-process \
         optimise-process optimise-design sensitivity uncertainty \
@@ -14,10 +16,10 @@ $(STAMP): pyproject.toml
 	touch $(STAMP)
 
 test: $(STAMP)
-	$(PY) -m pytest -m "not slow" tests
+	$(PY) -m pytest -m "not slow" -n $(TEST_JOBS) --dist worksteal --durations=20 tests
 
 test-all: $(STAMP)
-	$(PY) -m pytest tests
+	$(PY) -m pytest -n $(TEST_JOBS) --dist worksteal --durations=20 tests
 
 bench: $(STAMP)
 	$(PY) benchmarks/run.py

@@ -8,10 +8,14 @@ packaged model at unit force scale); fixtures are in conftest.py.
 * axisymmetric_chain: a random chain whose y and z modes are double roots.
 * packaged_text, packaged_model: the packaged UFMT with ``force_scale = 1`` (the literature
   force coefficients, whatever the calibration fitted).
+* process_running, child_pids, still_running: the process table as /proc shows it (the
+  oracle of the tests that kill a run and look for workers left behind).
 """
 
 import re
+import time
 from importlib import resources
+from pathlib import Path
 
 import numpy as np
 
@@ -112,3 +116,28 @@ def packaged_text() -> str:
 def packaged_model():
     """The packaged model (force_scale = 1), loaded."""
     return load_model_text(packaged_text(), "ufmt.toml")
+
+
+def process_running(pid: int) -> bool:
+    """Whether process ``pid`` runs (a zombie left for its parent or init to reap has ended)."""
+    try:
+        status = Path(f"/proc/{pid}/status").read_text()
+    except OSError:
+        return False
+    return "\nState:\tZ" not in status
+
+
+def child_pids(pid: int) -> list[int]:
+    """The children of process ``pid``, over all its threads."""
+    found = []
+    for task in Path(f"/proc/{pid}/task").iterdir():
+        found += [int(c) for c in (task / "children").read_text().split()]
+    return found
+
+
+def still_running(pids: list[int], within_s: float) -> list[int]:
+    """Wait up to ``within_s`` [s] for every process in ``pids`` to end; those still running."""
+    deadline = time.monotonic() + within_s
+    while time.monotonic() < deadline and any(process_running(p) for p in pids):
+        time.sleep(0.1)
+    return [p for p in pids if process_running(p)]

@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 import scipy.signal
-from synthetic import MACHINE, synthetic_basis
+from synthetic import SMALL, synthetic_basis
 
 import ufmt
 from ufmt.machining.process import Process
@@ -271,8 +271,9 @@ def test_psd_2d_parseval_and_band():
 
 
 def test_simulate_reports_both_directions_and_the_psd2_patch():
-    """On the 0.41 m test plate PSD1 is resolved; the PSD2 patch gives the psd2 keys."""
-    model = Model("syn", (), (), machine=read_machine(MACHINE), source="syn.toml")
+    """PSD1 is resolved on the whole plate (the small 0.1 m x 0.2 m one: three periods of its
+    longest wavelength, 33 mm); the PSD2 patch gives the psd2 keys."""
+    model = Model("syn", (), (), machine=read_machine(SMALL), source="syn.toml")
     basis = synthetic_basis(n=6)
     process = Process(300, 15, 4)
     r = ufmt.simulate(model, process, basis=basis, static_correction=False)

@@ -506,6 +506,8 @@ def test_the_cache_never_executes_code_and_ignores_tampered_entries(tmp_path, mo
 
 @pytest.mark.slow
 def test_sigterm_stops_the_workers_and_leaves_meta_interrupted(tmp_path):
+    from synthetic import child_pids, still_running  # the study subprocesses import this file
+
     body = RPM_SWEEP.format(n=40)
     study = study_file(tmp_path, "term", body, "slow_line_pv")
     results = tmp_path / "r"
@@ -515,16 +517,13 @@ def test_sigterm_stops_the_workers_and_leaves_meta_interrupted(tmp_path):
     deadline = time.monotonic() + 120
     while time.monotonic() < deadline and not (log.exists() and log.read_bytes().count(b"\n") > 4):
         time.sleep(0.05)
-    children = _children(proc.pid)
+    children = child_pids(proc.pid)
     assert children, "no worker processes"
     proc.send_signal(signal.SIGTERM)
     assert proc.wait(timeout=60) == 130
     assert "interrupted" in proc.stderr.read()
     assert read_meta(results / "term")["status"] == "interrupted"
-    deadline = time.monotonic() + 20
-    while time.monotonic() < deadline and [c for c in children if _alive(c)]:
-        time.sleep(0.1)
-    assert not [c for c in children if _alive(c)]
+    assert still_running(children, 20.0) == []
     out = _run(study, results, jobs=2)
     assert (out / "points.csv").read_bytes() == _reference(tmp_path, "term", body)
 
@@ -546,23 +545,6 @@ def test_sigterm_in_process_interrupts_and_a_rerun_resumes(tmp_path):
     out = _run(study, results)
     assert read_meta(out)["run"]["points_reused"] == saved
     assert (out / "points.csv").read_bytes() == _reference(tmp_path, "term", body)
-
-
-def _alive(pid: int) -> bool:
-    """Whether process ``pid`` runs (a zombie left for init to reap does not count)."""
-    try:
-        status = Path(f"/proc/{pid}/status").read_text()
-    except OSError:
-        return False
-    return "\nState:\tZ" not in status
-
-
-def _children(pid: int) -> list[int]:
-    found = []
-    for task in Path(f"/proc/{pid}/task").iterdir():
-        children = (task / "children").read_text().split()
-        found += [int(c) for c in children]
-    return found
 
 
 def test_meta_json_is_strict_json(tmp_path):

@@ -17,28 +17,13 @@ from pathlib import Path
 
 import joblib
 import pytest
+from synthetic import child_pids, process_running, still_running
 
 HERE = Path(__file__).resolve()
 REPO = HERE.parents[1]
 ENDS_WITHIN_S = 30.0  # a liveness bound, far below what an orphan lives (its 120 s task)
 
 pytestmark = pytest.mark.skipif(not Path("/proc/self/task").is_dir(), reason="needs /proc")
-
-
-def _alive(pid: int) -> bool:
-    """Whether process ``pid`` runs (a zombie left for init to reap does not count)."""
-    try:
-        status = Path(f"/proc/{pid}/status").read_text()
-    except OSError:
-        return False
-    return "\nState:\tZ" not in status
-
-
-def _children(pid: int) -> list[int]:
-    found = []
-    for task in Path(f"/proc/{pid}/task").iterdir():
-        found += [int(c) for c in (task / "children").read_text().split()]
-    return found
 
 
 def _python(code: str) -> subprocess.Popen:
@@ -57,10 +42,7 @@ def _kill_and_wait_for(proc: subprocess.Popen, orphans: list[int]) -> list[int]:
     """kill -9 ``proc``; the ``orphans`` still alive after ENDS_WITHIN_S (killed then)."""
     proc.kill()
     proc.wait()
-    deadline = time.monotonic() + ENDS_WITHIN_S
-    while time.monotonic() < deadline and any(_alive(p) for p in orphans):
-        time.sleep(0.1)
-    left = [p for p in orphans if _alive(p)]
+    left = still_running(orphans, ENDS_WITHIN_S)
     for pid in left:
         os.kill(pid, signal.SIGKILL)
     return left
@@ -87,7 +69,7 @@ def test_loky_workers_busy_in_a_point_end_when_the_main_process_is_killed():
     )
     assert proc.stdout.readline().strip() == "ready"
     time.sleep(1.0)  # the two long tasks reach the workers
-    children = _children(proc.pid)
+    children = child_pids(proc.pid)
     assert len(children) >= 2, "no worker processes"
     assert _kill_and_wait_for(proc, children) == []
 
@@ -97,7 +79,7 @@ def test_the_watchdog_ends_a_process_whose_parent_died():
     change: a grandchild watching its parent ends when that parent gets kill -9."""
     grandchild = (
         "import os, time; from ufmt.studies.parallel import watch_parent;"
-        " watch_parent(os.getppid(), 0.05); time.sleep(120)"
+        " watch_parent(os.getppid(), 0.05); print('watching', flush=True); time.sleep(120)"
     )
     proc = _python(
         f"""
@@ -108,8 +90,10 @@ def test_the_watchdog_ends_a_process_whose_parent_died():
         """
     )
     pid = int(proc.stdout.readline())
-    time.sleep(1.0)  # the grandchild imports ufmt and starts watching
-    assert _alive(pid)
+    # the grandchild watches before the kill (a sleep here raced its import of ufmt on a
+    # loaded machine: a parent killed first is never the one it watches)
+    assert proc.stdout.readline().strip() == "watching"
+    assert process_running(pid)
     assert _kill_and_wait_for(proc, [pid]) == []
 
 
@@ -132,6 +116,6 @@ def test_ufmt_run_workers_end_when_the_run_is_killed(tmp_path):
     deadline = time.monotonic() + 240
     while time.monotonic() < deadline and not (log.exists() and log.read_bytes().count(b"\n") > 3):
         time.sleep(0.05)
-    children = _children(proc.pid)
+    children = child_pids(proc.pid)
     assert len(children) >= 2, "no worker processes"
     assert _kill_and_wait_for(proc, children) == []

@@ -83,9 +83,7 @@ def test_fit_recovers_known_force_scale_and_spindle_tilt(model, basis):
     assert fit.values["spindle_tilt_rad"] == pytest.approx(TRUTH["spindle_tilt_rad"], rel=1e-5)
     assert np.abs(fit.residuals).max() < 1e-5
     assert fit.at_bound == ()
-    again = fit_response(model, settings, REFERENCE, basis)
-    assert again.values == fit.values  # deterministic to the written digits
-    assert len(repr(fit)) < 1000
+    assert len(repr(fit)) < 1000  # (a rerun gives the same digits: the restart tests below)
 
 
 def test_a_target_beyond_the_band_is_reported_at_the_bound(model, basis):
@@ -164,34 +162,72 @@ def test_implied_forces_are_coefficients_times_chip(model):
     assert forces["edge_thrust"]["specific_gpa"] == pytest.approx(2.0 * 200.0 * edge / area / 1e9)
 
 
-def test_restarts_keep_the_lowest_cost_and_stay_deterministic(model, basis):
-    """The plate size steps the metrics (the grid is laid out anew per size), so a local fit
-    stalls near its start on a kink. Oracle: the fit from each restart point run on its own
-    (one start each); the restarted fit must return the lowest of their costs, and the same
-    values when rerun (fixed seed)."""
-    truth = response_metrics(
-        with_values(model, {"workpiece_size": 0.062}), REFERENCE, basis, "periodic"
-    )
-    metrics = ("pv_nm", "centre_rise_nm")
+def restarted_and_alone(model, basis, truth, parameter, metrics, starts, **options):
+    """The fit of ``parameter`` to the ``metrics`` of ``truth`` restarted from ``starts``
+    points, and the fit from each of those points run on its own (one start each)."""
+    at_truth = response_metrics(with_values(model, truth), REFERENCE, basis, "periodic")
     targets = [{"metric": k, "reference": f"truth.{k}"} for k in metrics]
-    reference = {"truth": {k: truth[k] for k in metrics}}
-    parameter = {"key": "workpiece_size", "band": [0.04, 0.07], "start": 0.045}
-    several = _settings([parameter], targets, reference, starts=4)
-    fit = fit_response(model, several, REFERENCE, basis)
+    reference = {"truth": {k: at_truth[k] for k in metrics}}
+    several = _settings([parameter], targets, reference, starts=starts, **options)
     alone = [
         fit_response(
             model,
             _settings(
-                [{**parameter, "start": several.parameters[0].from_x(x[0])}], targets, reference
+                [{**parameter, "start": several.parameters[0].from_x(x[0])}],
+                targets,
+                reference,
+                **options,
             ),
             REFERENCE,
             basis,
-        ).cost
+        )
         for x in start_points(several.parameters, several.starts)
     ]
-    assert max(alone) > 2 * min(alone)  # the restarts matter here
-    assert fit.cost == pytest.approx(min(alone), rel=1e-9)
-    assert fit_response(model, several, REFERENCE, basis).values == fit.values
+    return fit_response(model, several, REFERENCE, basis), alone
+
+
+def test_restarts_keep_the_lowest_cost_and_stay_deterministic(model, basis):
+    """Oracle: the fit from each restart point run on its own; the restarted fit must return
+    the lowest of their costs and the values of that lone fit (the same local fit run twice
+    gives the same digits). Small and smooth: z_re is linear in the force scale; a budget of
+    two evaluations per start leaves each start short of the truth by a different amount,
+    and the documented start (the lower bound) is the worst, so a restart must win. On a
+    small plate, which z_re does not need. The stalls on a kinked metric are the slow test
+    below."""
+    fit, alone = restarted_and_alone(
+        with_values(model, {"workpiece_size": 0.02}),
+        basis,
+        {"force_scale": 1.7},
+        {"key": "force_scale", "band": [0.3, 3.0], "start": 0.3},
+        ("zre_peak_nm",),
+        starts=2,
+        max_evaluations=2,
+    )
+    costs = [f.cost for f in alone]
+    assert max(costs) > 2 * min(costs)  # the restarts matter here
+    best = alone[int(np.argmin(costs))]
+    assert best is not alone[0]  # a restart point, not the documented start, wins
+    assert fit.cost == pytest.approx(best.cost, rel=1e-9)
+    assert fit.values == best.values
+
+
+@pytest.mark.slow
+def test_restarts_keep_the_lowest_cost_of_fits_that_stall_on_kinks(model, basis):
+    """The plate size steps the metrics (the grid is laid out anew per size), so a local fit
+    stalls near its start on a kink: four starts, the default budget. Same oracle, and the
+    restarted fit rerun gives the same values (fixed seed)."""
+    fit, alone = restarted_and_alone(
+        model,
+        basis,
+        {"workpiece_size": 0.062},
+        {"key": "workpiece_size", "band": [0.04, 0.07], "start": 0.045},
+        ("pv_nm", "centre_rise_nm"),
+        starts=4,
+    )
+    costs = [f.cost for f in alone]
+    assert max(costs) > 2 * min(costs)  # the restarts matter here
+    assert fit.cost == pytest.approx(min(costs), rel=1e-9)
+    assert fit_response(model, fit.settings, REFERENCE, basis).values == fit.values
 
 
 def test_held_parameters_keep_their_documented_value(model, basis):

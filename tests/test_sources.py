@@ -2,7 +2,7 @@
 
 import numpy as np
 import pytest
-from synthetic import MACHINE, synthetic_basis
+from synthetic import MACHINE, SMALL, synthetic_basis
 
 from ufmt.errors import ModelError
 from ufmt.machining.process import Process
@@ -23,8 +23,9 @@ GEOMETRY = {
 P = Process(300, 13.7, 4)  # feed per revolution incommensurate with the grid
 
 
-def run(machine_extra=None, sources=SOURCES, **options):
-    machine = read_machine({**MACHINE, **GEOMETRY, **(machine_extra or {})})
+def run(machine_extra=None, sources=SOURCES, plate=MACHINE, **options):
+    """The synthetic machine with GEOMETRY on ``plate`` (a [machine] table) cut at P."""
+    machine = read_machine({**plate, **GEOMETRY, **(machine_extra or {})})
     model = Model("syn", (), (), machine=machine)
     return simulate(
         model, P, basis=synthetic_basis(n=6), sources=sources, static_correction=False, **options
@@ -80,17 +81,19 @@ def test_feed_marks_alone_are_the_nose_scallop():
 
 def test_sources_that_depend_on_the_angle_only_superpose_exactly():
     """Tilt and error motion are the same on both bracketing passes: the surface is the
-    dynamic surface plus their closed forms, exactly; all sources scale linearly."""
-    alone = run(sources=("dynamic",)).surface.z
-    both = run(sources=("dynamic", "spindle_tilt", "error_motion"))
-    geo = run(sources=("spindle_tilt", "error_motion")).surface.z
+    dynamic surface plus their closed forms, exactly; all sources scale linearly. (On the
+    small plate: superposition and linearity hold on any plate.)"""
+    alone = run(sources=("dynamic",), plate=SMALL).surface.z
+    both = run(sources=("dynamic", "spindle_tilt", "error_motion"), plate=SMALL)
+    geo = run(sources=("spindle_tilt", "error_motion"), plate=SMALL).surface.z
     np.testing.assert_allclose(both.surface.z, alone + geo, atol=1e-12 * np.abs(geo).max())
     doubled = {
         k: 2 * v if k != "error_motion_phase_deg" and not k.endswith("_wavelength_m") else v
         for k, v in GEOMETRY.items()
     }
-    twice = run(doubled, sources=("spindle_tilt", "error_motion", "straightness")).surface.z
-    once = run(sources=("spindle_tilt", "error_motion", "straightness")).surface.z
+    three = ("spindle_tilt", "error_motion", "straightness")
+    twice = run(doubled, sources=three, plate=SMALL).surface.z
+    once = run(sources=three, plate=SMALL).surface.z
     np.testing.assert_allclose(twice, 2 * once, atol=1e-12 * np.abs(once).max())
 
 
@@ -130,10 +133,10 @@ def test_total_pv_is_bounded_by_the_sum_of_the_sources():
 
 
 def test_switched_off_sources_report_none_and_unknown_names_fail():
-    r = run(sources=("dynamic", "feed_marks"))
+    r = run(sources=("dynamic", "feed_marks"), plate=SMALL)
     assert r.pv_by_source_nm["spindle_tilt"] is None
     assert r.pv_by_source_nm["dynamic"] > 0
-    off = run({"spindle_tilt_rad": 0.0}, sources=SOURCES)
+    off = run({"spindle_tilt_rad": 0.0}, sources=SOURCES, plate=SMALL)
     assert off.pv_by_source_nm["spindle_tilt"] == 0.0
     with pytest.raises(ModelError, match="did you mean 'straightness'"):
         run(sources=("straightnes",))

@@ -95,10 +95,8 @@ def test_packaged_model_reproduces_its_validation_table(result):
         assert fresh[column].fillna("").tolist() == committed[column].fillna("").tolist(), column
 
 
-def test_committed_response_table_matches_the_packaged_model(model, result):
-    """results/validation/response.csv (written by ``ufmt validate``): one row per paper
-    quantity of the [response] targets, and its numbers are the packaged model's."""
-    from ufmt.calibration.response import response_table
+def committed_response_targets() -> tuple[pd.DataFrame, list]:
+    """results/validation/response.csv and the [response] targets it has one row for."""
     from ufmt.calibration.settings import read_response_settings
     from ufmt.tomlfile import read_toml
 
@@ -110,6 +108,33 @@ def test_committed_response_table_matches_the_packaged_model(model, result):
     ).targets
     assert committed["metric"].tolist() == [t.metric for t in targets]
     assert {"paper", "ours", "error_percent", "fitted"} <= set(committed.columns)
+    return committed, targets
+
+
+def test_committed_response_table_has_the_packaged_models_periodic_numbers(model, packaged_basis):
+    """results/validation/response.csv (written by ``ufmt validate``): one row per paper
+    quantity of the [response] targets; its fast periodic-path column is the packaged
+    model's. (Small version: the exact time path of every column is the slow test below.)"""
+    from ufmt.calibration.response import reference_process
+    from ufmt.calibration.response_fit import response_metrics
+    from ufmt.tomlfile import read_toml
+
+    committed, targets = committed_response_targets()
+    process = reference_process(read_toml(DATA / "paper_reference.toml"))
+    fast = response_metrics(model, process, packaged_basis, "periodic")  # the same file
+    np.testing.assert_allclose(
+        [fast[t.metric] for t in targets],
+        committed["ours_periodic"].to_numpy(float),
+        rtol=1e-5,  # the file is written to 6 significant digits
+    )
+
+
+@pytest.mark.slow
+def test_committed_response_table_matches_the_packaged_model(model):
+    """Every column of results/validation/response.csv is the packaged model's."""
+    from ufmt.calibration.response import response_table
+
+    committed, _ = committed_response_targets()
     # as `ufmt validate` does: the response's default basis (every mode below the cutoff)
     fresh = response_table(model, DATA / "paper_reference.toml")
     assert list(fresh.columns) == list(committed.columns)
