@@ -28,10 +28,8 @@ import numbers
 import os
 import warnings
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, fields, is_dataclass, replace
+from dataclasses import dataclass, fields, is_dataclass
 from pathlib import Path
-
-import numpy as np
 
 from ufmt import evaluate_cache
 from ufmt.defaults import DEFAULT_BASIS_CUTOFF_HZ, DEFAULT_SPACING
@@ -45,12 +43,11 @@ from ufmt.design import (
     SOURCE_METRICS,
     apply_design,
 )
-from ufmt.errors import ProcessError, StudyError, UfmtError, closest_name
+from ufmt.errors import ProcessError, StudyError, closest_name
 from ufmt.fingerprint import code_sha256, file_sha256, model_sha256
 from ufmt.machining.basis import ModalBasis
-from ufmt.machining.modal import basis_from_shapes, modal_basis
+from ufmt.machining.modal import basis_at_slide, modal_basis, model_where_it_cuts
 from ufmt.machining.process import Process, ProcessRangeWarning
-from ufmt.machining.slide import carriage, cut_slide_position, model_at_slide
 from ufmt.machining.surface import DEFAULT_APERTURE_MARGIN
 from ufmt.machining.validity import OutsideDomainError, check_case
 from ufmt.model.load import load_model, packaged_path
@@ -463,7 +460,7 @@ def _batch_bases(cases: Sequence[_Case]) -> dict:
     try:
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
-            slides = {key: _cut_slide(model) for key, model in models.items()}
+            slides = {key: model_where_it_cuts(model) for key, model in models.items()}
             solutions = solve_modes_batch(
                 [moved for _, moved in slides.values()], fmax_hz=DEFAULT_BASIS_CUTOFF_HZ
             )
@@ -477,32 +474,9 @@ def _batch_bases(cases: Sequence[_Case]) -> dict:
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             try:
-                basis = _basis_of(model, moved, slide_y, solution)
+                basis = basis_at_slide(model, moved, slide_y, solution)
             except Exception:
                 continue
         if not caught:
             bases[key] = basis
     return bases
-
-
-def _cut_slide(model: Model) -> tuple[float, Model]:
-    """The slide position the modal basis is solved at [m] and ``model`` moved there
-    (:func:`ufmt.machining.modal.modal_basis`)."""
-    machine = model.machine
-    slide_y = 0.0 if machine is None else cut_slide_position(machine)
-    return slide_y, model if slide_y == 0.0 else model_at_slide(model, machine, slide_y)
-
-
-def _basis_of(model: Model, moved: Model, slide_y: float, solution) -> ModalBasis:
-    """The modal basis of ``model`` from the modes ``solution`` of ``moved`` (``model`` at
-    slide position ``slide_y`` [m]), as :func:`ufmt.machining.modal.modal_basis` builds it."""
-    shapes = solution.shapes
-    if shapes is None or shapes.frequencies_hz.size == 0:
-        raise UfmtError(f"{model.source}: the model has no elastic modes")
-    basis = basis_from_shapes(shapes, moved)
-    if slide_y == 0.0:
-        return basis
-    carried = carriage(model, model.machine.workpiece_body)
-    back = np.array([0.0, slide_y, 0.0])  # the carried centres, back to the file's place
-    centers = {k: c + back if k in carried else c for k, c in basis.body_centers.items()}
-    return replace(basis, body_centers=centers, slide_y=float(slide_y))

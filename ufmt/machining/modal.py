@@ -36,22 +36,35 @@ def modal_basis(
     its hinge damping included. ``slide_y`` [m]: the slide position the modes are solved at
     (default: half way through the cut, :func:`~ufmt.machining.slide.cut_slide_position`;
     0 for a model without a ``[machine]`` table); body centres stay in the file's coordinates."""
-    machine = model.machine
-    if slide_y is None:
-        slide_y = 0.0 if machine is None else cut_slide_position(machine)
-    moved = model if slide_y == 0.0 else model_at_slide(model, machine, slide_y)
+    slide_y, moved = model_where_it_cuts(model, slide_y)
     solution = (
         solve_modes(moved, count=n_modes)
         if n_modes is not None
         else solve_modes(moved, fmax_hz=cutoff_hz)
     )
+    return basis_at_slide(model, moved, slide_y, solution)
+
+
+def model_where_it_cuts(model: Model, slide_y: float | None = None) -> tuple[float, Model]:
+    """The slide position the modes are solved at [m] (``slide_y``, or by default half way
+    through the cut; 0 without a ``[machine]`` table) and ``model`` moved there."""
+    machine = model.machine
+    if slide_y is None:
+        slide_y = 0.0 if machine is None else cut_slide_position(machine)
+    return slide_y, model if slide_y == 0.0 else model_at_slide(model, machine, slide_y)
+
+
+def basis_at_slide(model: Model, moved: Model, slide_y: float, solution) -> ModalBasis:
+    """ModalBasis of ``model`` from the MSTMM ``solution`` (with shapes) of ``moved``, the
+    model at slide position ``slide_y`` [m] (:func:`model_where_it_cuts`); body centres back
+    in the file's coordinates."""
     shapes = solution.shapes
     if shapes is None or shapes.frequencies_hz.size == 0:
         raise UfmtError(f"{model.source}: the model has no elastic modes")
     basis = basis_from_shapes(shapes, moved)
     if slide_y == 0.0:
         return basis
-    carried = carriage(model, machine.workpiece_body)
+    carried = carriage(model, model.machine.workpiece_body)
     back = np.array([0.0, slide_y, 0.0])  # the carried centres, back to the file's place
     centers = {k: c + back if k in carried else c for k, c in basis.body_centers.items()}
     return replace(basis, body_centers=centers, slide_y=float(slide_y))

@@ -1,5 +1,5 @@
-"""The journal of a study run: the rows of ``points.csv`` reused on a rerun, the fingerprint
-that decides whether they may be, and the ``meta.json`` of the run.
+"""The journal of a study run: the rows of ``points.csv`` reused on a rerun, the fingerprint that
+decides whether they may be, and the ``meta.json`` of the run.
 
 The workers evaluate chunks of points (:func:`ufmt.studies.parallel.chunk_size`: a few per
 worker, at most MAX_CHUNK points each); every point of a finished chunk is appended to
@@ -8,10 +8,10 @@ flight. A rerun of the same study (same study file, model file, function and phy
 checked by a fingerprint in ``meta.json``) reads the rows back, evaluates only the missing
 points and ends with the same table; with anything changed it starts afresh. A point whose
 function fails is a row with ``status = "error"`` and the message; a rerun tries failed points
-again (a failure may have been transient; a deterministic one gives the same row). A point outside the surface model's validity domain
-(:mod:`ufmt.machining.validity`) is a row with ``status = "invalid"`` and the limit it breaks;
-it is deterministic, so it is reused, and the kinds leave it out of optima and fits like a
-failed point (its outputs are empty).
+again (a failure may have been transient; a deterministic one gives the same row). A point
+outside the surface model's validity domain (:mod:`ufmt.machining.validity`) is a row with
+``status = "invalid"`` and the limit it breaks; it is deterministic, so it is reused, and the
+kinds leave it out of optima and fits like a failed point (its outputs are empty).
 """
 
 from __future__ import annotations
