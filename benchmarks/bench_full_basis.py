@@ -15,7 +15,9 @@ cost growth of both with the model's size.
   limit and "equal accuracy" is set by the target.
 * A new design per call on both sides (the head's radial air-bearing stiffness changes by
   1e-4 each call: the structure caches are shared, as in a study, the stiffness is new).
-* One BLAS thread on both sides (threadpoolctl), calls interleaved in one run (medians).
+* One BLAS thread on both sides (threadpoolctl), calls interleaved in one run (medians of
+  CPU time, ``time.process_time``: both sides run on one thread, and on a shared machine
+  wall time mostly measures the wait for a core).
 * Secondary line: the same for the first 30 modes (the former default basis).
 * Batches: the full basis of new designs per design, ``solve_modes_batch`` over batches of 8
   and 32 designs of one structure against ``solve_modes`` one by one, interleaved (target
@@ -92,13 +94,13 @@ SOLVERS = {
 
 
 def interleaved(calls: dict, rounds: int = ROUNDS) -> dict:
-    """Median wall time [s] of each callable, called in turn for ``rounds`` rounds."""
+    """Median CPU time [s] of each callable, called in turn for ``rounds`` rounds."""
     times: dict = {name: [] for name in calls}
     for _ in range(rounds):
         for name, fn in calls.items():
-            t0 = time.perf_counter()
+            t0 = time.process_time()
             fn()
-            times[name].append(time.perf_counter() - t0)
+            times[name].append(time.process_time() - t0)
     return {name: statistics.median(t) for name, t in times.items()}
 
 
@@ -151,7 +153,7 @@ def compare(model, count: int | None, label: str, errors: dict) -> None:
     for name, elements, _ in {c for cs in chosen.values() for c in cs}:
         calls[(name, elements)] = lambda s=SOLVERS[name], e=elements: s(next(supply), e, n)
     seconds = interleaved(calls)
-    print(f"{label}: MSTMM {1e3 * seconds['mstmm']:8.1f} ms per new design (median)")
+    print(f"{label}: MSTMM {1e3 * seconds['mstmm']:8.1f} ms CPU per new design (median)")
     for target in TARGETS:
         best = min(chosen[target], key=lambda c: seconds[c[:2]])
         for name, elements, reached in chosen[target]:
@@ -174,13 +176,13 @@ def batches(model) -> None:
     for _ in range(ROUNDS):
         for size in times:
             stack = [next(supply) for _ in range(8 if size == "one by one" else size)]
-            t0 = time.perf_counter()
+            t0 = time.process_time()
             if size == "one by one":
                 [solve_modes(d, fmax_hz=FMAX_HZ) for d in stack]
             else:
                 solve_modes_batch(stack, fmax_hz=FMAX_HZ)
-            times[size].append((time.perf_counter() - t0) / len(stack))
-    print(f"designs in batches, full basis to {FMAX_HZ:g} Hz with shapes (median of {ROUNDS}):")
+            times[size].append((time.process_time() - t0) / len(stack))
+    print(f"designs in batches, full basis to {FMAX_HZ:g} Hz with shapes (CPU, {ROUNDS} rounds):")
     for size, seconds in times.items():
         label = size if isinstance(size, str) else f"batch of {size}"
         ms = 1e3 * statistics.median(seconds)
