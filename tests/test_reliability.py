@@ -528,12 +528,21 @@ def test_sigterm_stops_the_workers_and_leaves_meta_interrupted(tmp_path):
     assert (out / "points.csv").read_bytes() == _reference(tmp_path, "term", body)
 
 
+def _sigterm_once_rows_exist(folder: Path, timeout: float = 60.0) -> None:
+    """SIGTERM to this process as soon as the study in ``folder`` has written its first chunk
+    of rows (the runner writes a chunk at a time, so a fixed delay may fall before it)."""
+    end = time.monotonic() + timeout
+    while not (folder / "points.csv").exists() and time.monotonic() < end:
+        time.sleep(0.01)
+    os.kill(os.getpid(), signal.SIGTERM)
+
+
 def test_sigterm_in_process_interrupts_and_a_rerun_resumes(tmp_path):
     """Small version of the test above: SIGTERM to this process mid-study."""
     body = RPM_SWEEP.format(n=12)
     study = study_file(tmp_path, "term", body, "slow_line_pv")
     results = tmp_path / "r"
-    timer = threading.Timer(1.0, os.kill, (os.getpid(), signal.SIGTERM))
+    timer = threading.Thread(target=_sigterm_once_rows_exist, args=(results / "term",))
     timer.start()
     with pytest.raises(KeyboardInterrupt):
         _run(study, results)

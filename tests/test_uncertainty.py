@@ -401,8 +401,11 @@ def test_hinge_damping_factor_on_the_shared_basis_equals_the_basis_of_the_scaled
     shared = modal_basis(model)
     again = modal_basis(scale_hinge_damping(model, factor))
     np.testing.assert_allclose(again.omega, shared.omega, rtol=1e-12)
+    # the two solves agree to rounding: entries far below the largest carry its absolute
+    # rounding, so the absolute floor is relative to the matrix's scale (entries up to ~10)
+    scale = np.abs(shared.hinge_damping).max()
     np.testing.assert_allclose(
-        again.hinge_damping, factor * shared.hinge_damping, rtol=1e-9, atol=1e-12
+        again.hinge_damping, factor * shared.hinge_damping, rtol=1e-9, atol=1e-12 * scale
     )
 
 
