@@ -268,7 +268,7 @@ def test_record_windows_of_both_paths_agree(still):
 def test_pv_is_linear_in_depth_and_force_scale():
     """Doubling the depth doubles the chip area, every cutting force, z_re and the PV (dynamic
     source alone, no edge term); doubling the force scale doubles them with the edge term."""
-    model = Model("syn", (), (), machine=read_machine(MACHINE))
+    model = Model("syn", (), (), machine=read_machine(SMALL))
     basis = synthetic_basis(n=8)
     base = simulate(model, Process(300, 15, 3), basis=basis, coefficients=AREA_ONLY, **DYN)
     deep = simulate(model, Process(300, 15, 6), basis=basis, coefficients=AREA_ONLY, **DYN)
@@ -282,21 +282,21 @@ def test_pv_is_linear_in_depth_and_force_scale():
 
 def test_the_machines_force_scale_scales_the_vibration_pv():
     """With the dynamic source alone PV is linear in the force (z_re linear, min over passes)."""
-    model = Model("syn", (), (), machine=read_machine(MACHINE))
+    model = Model("syn", (), (), machine=read_machine(SMALL))
     basis = synthetic_basis(n=8)
     p = Process(300, 15, 4)
     target = 1.7 * simulate(model, p, basis=basis, **DYN).metrics["pv_nm"]
     pv = simulate(model, p, basis=basis, force_scale=1.7, **DYN).metrics["pv_nm"]
     assert pv == pytest.approx(target, rel=1e-9)
     # the model's [machine] force_scale is the default
-    fitted = Model("syn", (), (), machine=read_machine({**MACHINE, "force_scale": 1.7}))
+    fitted = Model("syn", (), (), machine=read_machine({**SMALL, "force_scale": 1.7}))
     assert simulate(fitted, p, basis=basis, **DYN).metrics["pv_nm"] == pytest.approx(
         target, rel=1e-9
     )
 
 
 def test_simulate_options_are_checked():
-    model = Model("syn", (), (), machine=read_machine(MACHINE))
+    model = Model("syn", (), (), machine=read_machine(SMALL))
     basis = synthetic_basis(n=4)
     p = Process(300, 15, 4)
     with pytest.raises(ValueError, match="method must be one of"):

@@ -8,7 +8,7 @@ import sys
 import numpy as np
 import pytest
 from matplotlib.figure import Figure
-from synthetic import MACHINE, packaged_text, synthetic_basis
+from synthetic import SMALL, packaged_text, synthetic_basis
 
 import ufmt
 from ufmt.errors import ModelError
@@ -76,7 +76,7 @@ def test_psd2_patch_resolves_psd2(model_file):
 
 def test_result_api(tmp_path, model_file):
     """Path or model in; short repr, tidy frame, Figure, save."""
-    model = Model("syn", (), (), machine=read_machine(MACHINE), source="syn.toml")
+    model = Model("syn", (), (), machine=read_machine(SMALL), source="syn.toml")
     basis = synthetic_basis(n=6)
     r = ufmt.simulate(model, Process(300, 15, 4), basis=basis, static_correction=False)
     assert len(repr(r)) < 1000 and "pv_nm" in repr(r)
