@@ -2,6 +2,7 @@
 without it, the two response paths with it, and the model-file contract."""
 
 import numpy as np
+import pandas as pd
 import pytest
 from synthetic import MACHINE, SMALL, dynamic_surface, synthetic_basis
 
@@ -20,6 +21,7 @@ from ufmt.machining.surface import steady_region
 from ufmt.machining.time_path import time_response
 from ufmt.model.load import model_from_dict
 from ufmt.model.machine import machine_of, read_machine
+from ufmt.model.schema import Model
 from ufmt.model.write import model_to_toml
 from ufmt.simulate import simulate
 
@@ -295,3 +297,24 @@ def test_beam_ends_and_virtual_bodies_enter_the_hinge_matrix():
         c += (d.T * np.where(h.rigid, 0.0, h.damping6)) @ d
     oracle = np.einsum("ki,ij,kj->k", modes.shapes, c, modes.shapes)
     np.testing.assert_allclose(np.diag(basis.hinge_damping), oracle, rtol=1e-5)
+
+
+def test_the_machines_modal_damping_ratio_is_the_default_zeta():
+    """Oracle: the explicit argument. A model whose ``[machine]`` sets modal_damping_ratio
+    simulates and gives the FRF exactly as the default model with that ``zeta`` passed; the
+    default ratio is DEFAULT_ZETA."""
+    assert read_machine(SMALL).modal_damping_ratio == DEFAULT_ZETA
+    basis = synthetic_basis()
+    process = Process(300.0, 15.0, 4.0)
+    plain = Model("syn", (), (), machine=read_machine(SMALL))
+    damped = Model("syn", (), (), machine=read_machine({**SMALL, "modal_damping_ratio": 0.03}))
+    options = {"basis": basis, "static_correction": False}  # a model without bodies
+    got = pd.Series(simulate(damped, process, **options).metrics)
+    want = pd.Series(simulate(plain, process, zeta=0.03, **options).metrics)
+    pd.testing.assert_series_equal(got, want, rtol=0, atol=0)  # NaN (unresolved) equal NaN
+    assert got["zre_peak_nm"] != simulate(plain, process, **options).metrics["zre_peak_nm"]
+    freq = np.linspace(50.0, 2000.0, 40)
+    np.testing.assert_array_equal(
+        tool_workpiece_receptance(basis, damped.machine, freq),
+        tool_workpiece_receptance(basis, plain.machine, freq, zeta=0.03),
+    )

@@ -34,7 +34,7 @@ from ufmt.machining.instruments import (
 from ufmt.machining.periodic_path import periodic_response
 from ufmt.machining.process import Process
 from ufmt.machining.psd import band_rms
-from ufmt.machining.recurrence import DEFAULT_ZETA, modal_damping
+from ufmt.machining.recurrence import modal_damping
 from ufmt.machining.response import Response
 from ufmt.machining.sources import SCALLOP, SOURCES, ErrorSource, acting_sources, check_sources
 from ufmt.machining.static import ResidualFlexibility, residual_flexibility
@@ -207,7 +207,7 @@ def simulate(
     *,
     n_modes: int | None = None,
     basis_cutoff_hz: float = DEFAULT_BASIS_CUTOFF_HZ,
-    zeta=DEFAULT_ZETA,
+    zeta=None,
     method: str = "periodic",
     basis: ModalBasis | None = None,
     force_scale: float | None = None,
@@ -232,9 +232,9 @@ def simulate(
     n_modes, basis_cutoff_hz : the modal basis: every mode below ``basis_cutoff_hz`` [Hz]
         (default 5 kHz, :mod:`ufmt.defaults`), or the first ``n_modes`` when given (the
         paper's choice is 30); the static residual stands for the modes above.
-    zeta : structural modal damping ratio, scalar or (n_modes,) array (default 0.01, see
-        :mod:`ufmt.machining.recurrence`); the model's hinge dampers act on top of it
-        (:mod:`ufmt.machining.damping`, carried by the basis).
+    zeta : structural modal damping ratio, scalar or (n_modes,) array; default the model's
+        ``machine.modal_damping_ratio`` (0.01 unless the file says otherwise); the model's
+        hinge dampers act on top of it (:mod:`ufmt.machining.damping`, carried by the basis).
     method : "periodic" (frequency domain, milliseconds; quasi-static in the slide position)
         or "time" (every revolution, exact recurrence, seconds); :mod:`ufmt.machining.response`.
     basis : modal basis to use instead of the model's (it is cut to ``n_modes`` or to the
@@ -266,7 +266,7 @@ def simulate(
     n_phi = _sampling(machine, basis, process, n_phi, spacing)
     residual = _residual(model, basis, machine) if static_correction else None
     options = SimulationOptions(
-        zeta=zeta,
+        zeta=machine.modal_damping_ratio if zeta is None else zeta,
         method=method,
         force_scale=machine.force_scale if force_scale is None else force_scale,
         coefficients=coefficients,

@@ -95,7 +95,8 @@ def _register_simulate(subparsers) -> None:
         "--zeta",
         type=positive(float, below=1.0),
         default=None,
-        help=f"structural modal damping ratio (default {DEFAULT_ZETA:g}; hinge dampers add to it)",
+        help="structural modal damping ratio (default: the model's machine.modal_damping_ratio,"
+        f" {DEFAULT_ZETA:g} unless the file sets it; hinge dampers add to it)",
     )
     p.add_argument(
         "--sources",
@@ -165,7 +166,8 @@ def _register_frf(subparsers) -> None:
         "--zeta",
         type=positive(float, below=1.0),
         default=None,
-        help=f"structural damping ratio ({DEFAULT_ZETA:g})",
+        help="structural damping ratio (default: the model's machine.modal_damping_ratio,"
+        f" {DEFAULT_ZETA:g} unless the file sets it)",
     )
     p.add_argument("--no-static", action="store_true", help="modal sum without static correction")
     p.add_argument(

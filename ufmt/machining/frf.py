@@ -134,7 +134,7 @@ def tool_workpiece_receptance(
     basis: ModalBasis,
     machine: Machine,
     freq_hz,
-    zeta=DEFAULT_ZETA,
+    zeta=None,
     tool_angle: float = 0.0,
     residual: ResidualFlexibility | None = None,
 ) -> np.ndarray:
@@ -144,8 +144,10 @@ def tool_workpiece_receptance(
     bodies (``residual``: :func:`ufmt.machining.static.residual_flexibility`, the tool's own
     compliance included; None: modal superposition alone). ``tool_angle``: spindle angle phi
     of the tip [rad] (0: along +y). The workpiece point is the material point under the tip
-    with the slide where the basis was solved (``basis.slide_y``).
+    with the slide where the basis was solved (``basis.slide_y``). ``zeta``: structural modal
+    damping ratio (default the machine's ``modal_damping_ratio``).
     """
+    zeta = machine.modal_damping_ratio if zeta is None else zeta
     end = tool_workpiece_end(machine, tool_angle, basis.slide_y)
     c = participation(basis, end, AXES["z"])
     h = modal_receptance(basis, c, c, freq_hz, zeta)
@@ -237,7 +239,7 @@ def frf(
     points: int = 4000,
     n_modes: int | None = None,
     basis_cutoff_hz: float = DEFAULT_BASIS_CUTOFF_HZ,
-    zeta=DEFAULT_ZETA,
+    zeta=None,
     static_correction: bool = True,
     tool_angle: float = 0.0,
 ) -> FrfResult:
@@ -253,7 +255,8 @@ def frf(
         body; ``input`` defaults to ``output`` (a driving point).
     fmin_hz, fmax_hz, points : log-spaced frequencies [Hz].
     n_modes, basis_cutoff_hz : the modal basis (first n modes, or every mode below the cutoff).
-    zeta : structural modal damping ratio (the hinge damping adds to it).
+    zeta : structural modal damping ratio (the hinge damping adds to it); default the model's
+        ``machine.modal_damping_ratio`` (:data:`DEFAULT_ZETA` without ``[machine]``).
     static_correction : add the residual flexibility of the modes above the basis.
     tool_angle : spindle angle of the tool tip [rad] (0: along +y).
     """
@@ -264,6 +267,8 @@ def frf(
     if not (0 < fmin_hz < fmax_hz and points >= 2):
         raise UfmtError(f"FRF range: need 0 < fmin {fmin_hz} < fmax {fmax_hz} and points >= 2")
     machine = machine_of(model) if model.machine is not None else None
+    if zeta is None:
+        zeta = DEFAULT_ZETA if machine is None else machine.modal_damping_ratio
     basis = modal_basis(model, n_modes, basis_cutoff_hz)
     out = _end(model, output, tool_angle, basis.slide_y)
     inp = out if input is None else _end(model, input, tool_angle, basis.slide_y)

@@ -26,7 +26,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-DEFAULT_ZETA = 0.01
+from ufmt.model.machine import OPTIONAL_FIELDS
+
+#: the default of ``[machine] modal_damping_ratio`` (:mod:`ufmt.model.machine`)
+DEFAULT_ZETA = OPTIONAL_FIELDS["modal_damping_ratio"][0]
 
 
 def modal_damping(zeta, n_modes: int) -> np.ndarray:

@@ -51,6 +51,8 @@ class Machine:
     pressure_ripple_m, pressure_ripple_hz : amplitude [m] and frequency [Hz] of the axial
         motion of the head from the fluctuation of its bearings' air supply pressure (a
         non-synchronous source, :mod:`ufmt.machining.sources`).
+    modal_damping_ratio : structural damping ratio of every mode [-] (the bodies' own
+        damping; the hinge dampers act on top of it, :mod:`ufmt.machining.damping`).
     table : the ``[machine]`` table as it was read (its keys in their order, their TOML
         types), which :func:`ufmt.model.write.model_to_toml` writes back.
     Defaults and bands: :data:`OPTIONAL_FIELDS`.
@@ -76,6 +78,7 @@ class Machine:
     tool_compliance_m_per_N: float = 0.0
     pressure_ripple_m: float = 0.0
     pressure_ripple_hz: float = 0.0096
+    modal_damping_ratio: float = 0.01
     table: Mapping = dataclasses.field(default_factory=dict, compare=False, repr=False)
 
     @property
@@ -149,6 +152,7 @@ OPTIONAL_FIELDS = {
     "tool_compliance_m_per_N": (0.0, 0.0, 2e-7, "m/N"),
     "pressure_ripple_m": (0.0, 0.0, 1e-7, "m"),
     "pressure_ripple_hz": (0.0096, 1e-4, 100.0, "Hz"),
+    "modal_damping_ratio": (0.01, 0.0, 0.2, "-"),
 }
 
 

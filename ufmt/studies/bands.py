@@ -20,25 +20,26 @@ Keys of the model loader without a documented band (its :data:`OPTIONAL_FIELDS` 
 only what a file may hold) are not listed: give them a ``range`` in the study file.
 
 Damping has no calibration entry (the paper gives none and nothing identifies it), so its band
-is an engineering assumption stated here (:data:`DAMPING_BANDS`, :func:`damping_bands`), as
-two parameters outside the model's design vocabulary:
+is an engineering assumption stated here (:data:`DAMPING_BANDS`), as two parameters:
 
-* ``damping.zeta``: the structural modal damping ratio of every mode
-  (:data:`ufmt.machining.recurrence.DEFAULT_ZETA` = 0.01, the bodies' own damping), band
+* ``machine.modal_damping_ratio``: the structural modal damping ratio of every mode (the
+  ``[machine]`` key, default 0.01, the bodies' own damping; a design parameter, so the
+  uncertainty and tolerance studies sample it with the other ``machine.*`` bands), band
   0.005-0.02, log scale. Measured modal damping of precision machine structures with bolted
   and aerostatic joints is about 1-5 % in total, most of it in the joints (Slocum, *Precision
   Machine Design*, 1992, ch. 7; Altintas, *Manufacturing Automation*, 2nd ed., 2012, ch. 3);
   the model's joints are its hinges, so the bodies' share is the low end: half to twice the
   default.
-* ``damping.hinge_factor``: one factor on every hinge damper of the model (``damping`` and
+* ``damping.hinge_factor`` (:func:`damping_bands`, outside the model's design vocabulary):
+  one factor on every hinge damper of the model (``damping`` and
   ``rotational_damping``; written as zeta 1-5 % per joint at a reference frequency,
   docs/ufmt-model.md), band 0.5-2, log scale: a joint's damping ratio is known to about a
   factor of two (squeeze-film air gaps, bolted interfaces, grout), and the per-joint values
   already span the 1-5 % of the literature.
 
-``ufmt.evaluate`` (and so a study) takes no damping parameter; ``ufmt simulate
---uncertainty`` samples both (:mod:`ufmt.studies.intervals`: the ratio through simulate's
-``zeta``, the factor on the model's hinge dampers).
+``ufmt simulate --uncertainty`` samples both (:mod:`ufmt.studies.intervals`: the factor on
+the model's hinge dampers); a study samples the ratio only (``ufmt.evaluate`` has no hinge
+damping factor).
 """
 
 from __future__ import annotations
@@ -72,14 +73,14 @@ class DocumentedBand:
 DAMPING_PREFIX = "damping."
 DAMPING_BANDS = (
     (
-        "zeta",
+        f"{MACHINE_PREFIX}modal_damping_ratio",
         0.005,
         0.02,
         "structural modal damping ratio of every mode (bodies' own share of"
         " the 1-5 % measured on precision machines; assumption, ufmt.studies.bands)",
     ),
     (
-        "hinge_factor",
+        f"{DAMPING_PREFIX}hinge_factor",
         0.5,
         2.0,
         "factor on every hinge damper (a joint's damping ratio known to"
@@ -88,14 +89,18 @@ DAMPING_BANDS = (
 )
 
 
-def damping_bands() -> dict[str, DocumentedBand]:
-    """The assumed damping bands (``damping.zeta``, ``damping.hinge_factor``), log scale."""
+def _assumed_bands(prefix: str) -> dict[str, DocumentedBand]:
+    """The assumed damping bands whose name starts with ``prefix``, log scale."""
     return {
-        f"{DAMPING_PREFIX}{key}": DocumentedBand(
-            f"{DAMPING_PREFIX}{key}", low, high, True, "-", why
-        )
-        for key, low, high, why in DAMPING_BANDS
+        name: DocumentedBand(name, low, high, True, "-", why)
+        for name, low, high, why in DAMPING_BANDS
+        if name.startswith(prefix)
     }
+
+
+def damping_bands() -> dict[str, DocumentedBand]:
+    """The assumed damping bands outside the design vocabulary (``damping.hinge_factor``)."""
+    return _assumed_bands(DAMPING_PREFIX)
 
 
 def documented_bands(calibration: str | Path | None = None) -> dict[str, DocumentedBand]:
@@ -110,6 +115,7 @@ def documented_bands(calibration: str | Path | None = None) -> dict[str, Documen
                 name = f"{MACHINE_PREFIX}{p.key}"
                 unit = OPTIONAL_FIELDS[p.key][3]
                 bands[name] = DocumentedBand(name, *p.band, p.scale == "log", unit, p.reason)
+    bands.update(_assumed_bands(MACHINE_PREFIX))  # the structural damping ratio
     for p in settings.parameters:
         if len(p.hinges) != 1 or len(p.components) != 1 or p.band[1] <= p.band[0]:
             continue

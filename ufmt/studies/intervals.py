@@ -8,9 +8,9 @@ independently. The samples are whole simulations with the caller's options; a de
 stiffnesses are the model's shares the model's modal basis (no stiffness input: one basis for
 every sample).
 
-Damping (:func:`ufmt.studies.bands.damping_bands`, an assumed band): ``damping.zeta`` is
-simulate's structural ratio ``zeta`` of the sample (it replaces the caller's), and
-``damping.hinge_factor`` multiplies every hinge damper of the model; with a shared basis its
+Damping (assumed bands, :mod:`ufmt.studies.bands`): ``machine.modal_damping_ratio`` is the
+sample's structural ratio (it replaces the caller's ``zeta``), and ``damping.hinge_factor``
+multiplies every hinge damper of the model; with a shared basis its
 projected hinge damping Phi_rel^T C Phi_rel, linear in C, is multiplied instead (the same
 matrix, without solving the modes again).
 """
@@ -23,7 +23,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 import pandas as pd
 
-from ufmt.design import apply_design, machine_target
+from ufmt.design import MACHINE_PREFIX, apply_design, machine_target
 from ufmt.errors import StudyError
 from ufmt.machining.modal import modal_basis
 from ufmt.studies.bands import DAMPING_PREFIX, damping_bands, documented_bands, matching
@@ -129,13 +129,12 @@ def headline_intervals(
 
 
 def _with_damping(model, design: dict, basis, options: Mapping) -> tuple:
-    """(model, simulate options) of one sample: its ``damping.*`` values taken out of
-    ``design`` and applied (the ratio as ``zeta``, the factor on every hinge damper and on the
-    shared ``basis``' projected hinge damping)."""
+    """(model, simulate options) of one sample: its ``damping.hinge_factor`` taken out of
+    ``design`` and applied (on every hinge damper and on the shared ``basis``' projected hinge
+    damping); a sampled ``machine.modal_damping_ratio`` replaces the caller's ``zeta``."""
     options = dict(options)
-    zeta = design.pop(f"{DAMPING_PREFIX}zeta", None)
-    if zeta is not None:
-        options["zeta"] = zeta
+    if f"{MACHINE_PREFIX}modal_damping_ratio" in design:
+        options.pop("zeta", None)  # the sample's ratio, through its [machine] value
     factor = design.pop(f"{DAMPING_PREFIX}hinge_factor", None)
     if factor is not None:
         model = scale_hinge_damping(model, factor)
