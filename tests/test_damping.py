@@ -7,6 +7,7 @@ import pytest
 from synthetic import MACHINE, SMALL, dynamic_surface, synthetic_basis
 
 from ufmt.assembled import assemble
+from ufmt.errors import ModelError
 from ufmt.kinematics import point_motion
 from ufmt.machining.basis import ModalBasis
 from ufmt.machining.cut_geometry import cut_geometry
@@ -318,3 +319,11 @@ def test_the_machines_modal_damping_ratio_is_the_default_zeta():
         tool_workpiece_receptance(basis, damped.machine, freq),
         tool_workpiece_receptance(basis, plain.machine, freq, zeta=0.03),
     )
+
+
+def test_a_modal_damping_ratio_outside_its_band_is_one_line():
+    """Oracle: the band of OPTIONAL_FIELDS. Zero (which the response cannot take: the
+    recurrence needs a positive ratio) and 0.5 are refused on load with the file and key."""
+    for value in (0.0, 0.5):
+        with pytest.raises(ModelError, match="modal_damping_ratio"):
+            read_machine({**SMALL, "modal_damping_ratio": value}, "m.toml")

@@ -1,4 +1,4 @@
-"""The periodic path's O(n A) steady state (periodic_coordinates, PeriodicRecurrence.from_rest)
+"""The periodic path's O(n A sqrt(A)) steady state (periodic_coordinates, from_rest)
 against two independent formulas: the sum of the force with the periodic impulse response
 (the O(n A^2) formula it replaced, kept here as the oracle) and plain time stepping of the
 recurrence over many periods until it is periodic. The record window's motion projected through

@@ -459,3 +459,17 @@ def test_solve_modes_batch_equals_the_solve_of_each_design_alone():
             for body, motion in alone.shapes.rigid.items():
                 scale = np.abs(motion).max()
                 np.testing.assert_allclose(got.shapes.rigid[body], motion, atol=1e-8 * scale)
+
+
+def test_a_designs_modes_do_not_depend_on_its_batch_to_the_last_bit():
+    """Oracle: :func:`solve_modes` of each design alone, bitwise. A study's table must not
+    depend on how its points are chunked (``--jobs 1`` against ``--jobs 2``): every design of
+    a batch of ten, with the default basis, has exactly its own frequencies and shapes."""
+    from ufmt.mstmm.solve import solve_modes_batch
+
+    designs = packaged_designs(10)
+    for model, got in zip(designs, solve_modes_batch(designs, fmax_hz=5000.0), strict=True):
+        alone = solve_modes(model, fmax_hz=5000.0)
+        np.testing.assert_array_equal(got.frequencies_hz, alone.frequencies_hz)
+        for body, motion in alone.shapes.rigid.items():
+            np.testing.assert_array_equal(got.shapes.rigid[body], motion)

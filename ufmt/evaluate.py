@@ -223,7 +223,8 @@ def evaluate_batch(
     solved in one batch (:func:`ufmt.solvers.solve_modes_batch`).
 
     ``processes`` is one process for every design or a sequence of them (one per design).
-    Raises as :func:`evaluate` would on the first point that raises (before any physics runs).
+    Raises what :func:`evaluate` would raise for the first point that fails, after every point
+    has been evaluated (:func:`evaluate_each` keeps each point's outcome instead).
     """
     outcomes = evaluate_each(designs, processes, model, parameters=parameters)
     for outcome in outcomes:

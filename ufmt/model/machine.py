@@ -152,7 +152,7 @@ OPTIONAL_FIELDS = {
     "tool_compliance_m_per_N": (0.0, 0.0, 2e-7, "m/N"),
     "pressure_ripple_m": (0.0, 0.0, 1e-7, "m"),
     "pressure_ripple_hz": (0.0096, 1e-4, 100.0, "Hz"),
-    "modal_damping_ratio": (0.01, 0.0, 0.2, "-"),
+    "modal_damping_ratio": (0.01, 1e-4, 0.2, "-"),
 }
 
 

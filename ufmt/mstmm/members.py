@@ -172,11 +172,6 @@ def member_stiffness(omega: np.ndarray, beam: Beam) -> np.ndarray:
     return np.einsum("nt,tij->nij", members.terms(omega), members.patterns)
 
 
-def clamped_count(omega: np.ndarray, beam: Beam) -> np.ndarray:
-    """J₀ (n,) of one beam at ω (n,) [rad/s] (:meth:`Members.clamped`)."""
-    return Members([beam]).clamped(omega)
-
-
 def local_to_global(beam: Beam) -> np.ndarray:
     """(12, 12) map from the global end motions (start, end) to the local ones."""
     return np.kron(np.eye(4), beam_frame(beam, beam.start, beam.end).T)

@@ -216,7 +216,11 @@ class CondensationStack:
         w2 = np.atleast_1d(np.asarray(omega, dtype=float)) ** 2
         n, o = w2.size, self.order
         k = self.static[design] - w2[:, None, None] * self.mass
-        k += (self.members.terms(np.sqrt(w2)) @ self.patterns).reshape(n, o, o)
+        # one row per product (n, 1, t) @ (t, o o): each ω's sum is formed alike however many
+        # ω and designs share the call, so a design's count and roots do not depend on its
+        # batch (a (n, t) @ (t, o o) product takes another BLAS path when n is 1)
+        terms = self.members.terms(np.sqrt(w2))[:, None, :]
+        k += (terms @ self.patterns)[:, 0].reshape(n, o, o)
         gap = self.poles[design] - w2[:, None]
         with np.errstate(divide="ignore"):
             # ω on a pole to the last bit: a mode of the inner structure the outer coordinates
@@ -229,7 +233,7 @@ class CondensationStack:
                 at = np.flatnonzero(design == d)
                 used = self.products[d].shape[0]  # 3 with mass coupling between I and O
                 flat = self.products[d].reshape(used * gap.shape[1], o * o)
-                terms = np.concatenate(powers[:used, at], axis=1) @ flat
+                terms = (np.concatenate(powers[:used, at], axis=1)[:, None, :] @ flat)[:, 0]
                 k[at] += terms.reshape(at.size, o, o)
         return k, np.count_nonzero(gap < 0, axis=1), log_gap
 

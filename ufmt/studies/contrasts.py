@@ -173,7 +173,7 @@ def _row(contrast: Mapping, metric: str, span, point, ends: np.ndarray) -> dict:
 
 
 def change_text(row: Mapping) -> str:
-    """The point change and its 5-95 % interval in per cent, "-10.5 % [-1.7, -0.8]" (the
+    """The point change and its 5-95 % interval in per cent, "-10.5 % [-10.7, -0.2]" (the
     form the README and the report quote)."""
     return (
         f"{row['point_change_pct']:+.1f} % [{row['change_pct_q05']:+.1f},"
