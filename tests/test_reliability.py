@@ -530,11 +530,20 @@ def test_sigterm_stops_the_workers_and_leaves_meta_interrupted(tmp_path):
 
 def _sigterm_once_rows_exist(folder: Path, timeout: float = 60.0) -> None:
     """SIGTERM to this process as soon as the study in ``folder`` has written its first chunk
-    of rows (the runner writes a chunk at a time, so a fixed delay may fall before it)."""
+    of rows (the runner writes a chunk at a time, so a fixed delay may fall before it; the
+    table's header alone does not count)."""
     end = time.monotonic() + timeout
-    while not (folder / "points.csv").exists() and time.monotonic() < end:
+    while _rows_written(folder / "points.csv") < 1 and time.monotonic() < end:
         time.sleep(0.01)
     os.kill(os.getpid(), signal.SIGTERM)
+
+
+def _rows_written(table: Path) -> int:
+    """Data rows in ``table`` so far (the header may be written before any row)."""
+    try:
+        return max(table.read_bytes().count(b"\n") - 1, 0)
+    except FileNotFoundError:
+        return 0
 
 
 def test_sigterm_in_process_interrupts_and_a_rerun_resumes(tmp_path):
