@@ -103,17 +103,53 @@ def _frozen(a: np.ndarray) -> np.ndarray:
     return a
 
 
-def _assemble(blocks: list[State], n_omega: int, n: int) -> np.ndarray:
-    """Stack equation blocks into the dense (n_omega, n, n) matrix, one slice per block."""
+def assemble(blocks: list[State], n: int, at=slice(None)) -> np.ndarray:
+    """Stack equation blocks (:meth:`TransferSystem.equation_blocks`) into the dense U_all
+    (n_omega, n, n), one slice per block; ``at``: only these of the blocks' frequencies."""
     if sum(b.arr.shape[1] for b in blocks) != n:  # pragma: no cover - counting argument
         raise AssertionError(f"U_all has the wrong number of rows for {n} unknowns")
+    n_omega = blocks[0].arr[at].shape[0]
     u = np.zeros((n_omega, n, n), dtype=np.result_type(*[b.arr for b in blocks]))
     r0 = 0
     for b in blocks:
         r = b.arr.shape[1]
-        u[:, r0 : r0 + r, b.cols] = b.arr
+        u[:, r0 : r0 + r, b.cols] = b.arr[at]
         r0 += r
     return u
+
+
+def place(blocks: list[State], row_to: np.ndarray, col_to: np.ndarray, shape) -> np.ndarray:
+    """U_all's entries scattered straight into an (n_omega, *shape) matrix: row i of U_all
+    to row ``row_to[i]``, column j to ``col_to[j]`` (-1: left out), the rest zero.
+
+    The same numbers as ``assemble`` followed by a gather (pure data movement), without
+    building U_all; one flat scatter per block, its index plan cached per structure.
+    """
+    n_omega = blocks[0].arr.shape[0]
+    out = np.zeros((n_omega, *shape), dtype=np.result_type(*[b.arr for b in blocks]))
+    flat = out.reshape(n_omega, -1)
+    key = tuple((b.arr.shape[1], _key(b.cols)) for b in blocks)
+    plan = _place_plan(_key(row_to), _key(col_to), shape[1], key)
+    for b, (dst, src) in zip(blocks, plan, strict=True):
+        flat[:, dst] = b.arr.reshape(n_omega, -1)[:, src]
+    return out
+
+
+@functools.lru_cache(maxsize=256)
+def _place_plan(row_to: bytes, col_to: bytes, width: int, blocks: tuple) -> tuple:
+    """Per equation block (its row count, its columns as int64 bytes): the flat destination
+    in an output of ``width`` columns and the flat source of every entry :func:`place` keeps."""
+    row_to, col_to = np.frombuffer(row_to, dtype=np.int64), np.frombuffer(col_to, dtype=np.int64)
+    plan, r0 = [], 0
+    for r, cols in blocks:
+        cols = np.frombuffer(cols, dtype=np.int64)
+        rows, columns = row_to[r0 : r0 + r], col_to[cols]
+        i, j = np.flatnonzero(rows >= 0), np.flatnonzero(columns >= 0)
+        dst = (rows[i, None] * width + columns[None, j]).ravel()
+        src = (i[:, None] * cols.size + j[None, :]).ravel()
+        plan.append((_frozen(dst), _frozen(src)))
+        r0 += r
+    return tuple(plan)
 
 
 @functools.lru_cache(maxsize=4096)
@@ -252,14 +288,13 @@ class TransferSystem:
 
     def evaluate(self, omega) -> np.ndarray:
         """U_all(ω) as (n_omega, n, n) for ω [rad/s]."""
-        omega = np.atleast_1d(np.asarray(omega, dtype=float))
-        return _assemble(self._walk(omega, False)[0], omega.size, self.size)
+        return assemble(self.equation_blocks(omega)[0], self.size)
 
-    def evaluate_with_states(self, omega) -> tuple[np.ndarray, dict]:
-        """U_all(ω) (n_omega, n, n) and every state map (:meth:`states`) from one walk."""
-        omega = np.atleast_1d(np.asarray(omega, dtype=float))
-        rows, states = self._walk(omega, True)
-        return _assemble(rows, omega.size, self.size), states
+    def equation_blocks(self, omega, keep_states: bool = False) -> tuple[list[State], dict]:
+        """U_all(ω)'s rows as equation blocks, in order (:func:`assemble` stacks them,
+        :func:`place` scatters them), and with ``keep_states`` every state map
+        (:meth:`states`), from one walk."""
+        return self._walk(np.atleast_1d(np.asarray(omega, dtype=float)), keep_states)
 
     def states(self, omega) -> dict:
         """Every state map at ω [rad/s]: ``("node_in", node, k)`` (k-th input end),

@@ -47,9 +47,10 @@ class ConstantParts:
     """The elimination of U_all's ω-independent columns and rows (module docstring).
 
     rows, columns: the rows and ω-dependent columns of U_all that :meth:`reduce` reads, in
-    its order (o, r, p rows of step 1; o, r, p columns of step 2); constant: the eliminated
-    columns; row_combine (o, k): G; pivot_block (k, k): B_p; kept: positions of S's
-    non-constant rows; column_combine (k2, o2): C.
+    its order (S's non-constant rows of step 1's o and r rows, then its k pivot rows; o, r, p
+    columns of step 2); constant: the eliminated columns; row_combine (o, k): G;
+    pivot_block (k, k): B_p; kept: positions of S's non-constant rows among the o and r
+    rows; column_combine (k2, o2): C.
     """
 
     rows: np.ndarray
@@ -94,32 +95,51 @@ class ConstantParts:
         rest2 = np.flatnonzero(~touches2)
         columns = moving[np.concatenate([touched2[order2[k2:]], rest2, touched2[order2[:k2]]])]
         pivot_block = u0[np.ix_(rows[size - k :], constant)]
-        return cls(rows, columns, constant, g, pivot_block, kept, g2.T)
+        read = np.concatenate([rows[kept], rows[size - k :]])  # S's constant rows: unread
+        return cls(read, columns, constant, g, pivot_block, kept, g2.T)
 
     @property
     def order(self) -> int:
         """Order of S'."""
         return self.kept.size
 
+    @property
+    def arranged_shape(self) -> tuple[int, int]:
+        """Rows and columns of an arranged U_all (:meth:`arrange`)."""
+        return self.rows.size, self.columns.size
+
+    def placement(self) -> tuple[np.ndarray, np.ndarray]:
+        """Where U_all's rows and columns go in the arranged matrix (-1: left out), for
+        :func:`ufmt.mstmm.overall.place`, which builds it without U_all."""
+        size = self.constant.size + self.columns.size
+        row_to, col_to = np.full(size, -1), np.full(size, -1)
+        row_to[self.rows] = np.arange(self.rows.size)
+        col_to[self.columns] = np.arange(self.columns.size)
+        return row_to, col_to
+
     def arrange(self, u: np.ndarray) -> np.ndarray:
         """U_all (n, size, size) cut to :attr:`rows` and :attr:`columns`, one gather."""
         return u[:, self.rows[:, None], self.columns]
 
     def reduce(self, a: np.ndarray) -> np.ndarray:
-        """S'(ω) (n, m', m') from U_all(ω) arranged (:meth:`arrange`); ``a``'s o rows are
-        changed in place, its pivot rows are kept for :meth:`null_vectors`. dS'/dω from
-        dU_all/dω likewise (the map is linear)."""
-        k, k2 = self.constant.size, self.column_combine.shape[0]
-        size, m = self.rows.size, self.columns.size
-        a[:, : self.row_combine.shape[0]] -= self.row_combine @ a[:, size - k :]
-        s = a[:, self.kept]  # S's non-constant rows (a copy)
+        """S'(ω) (n, m', m') from U_all(ω) arranged (:meth:`arrange`), a view of ``a``,
+        whose other rows are changed in place; its pivot rows are kept for
+        :meth:`null_vectors`. dS'/dω from dU_all/dω likewise (the map is linear)."""
+        n_kept, k2 = self.kept.size, self.column_combine.shape[0]
+        m = self.columns.size
+        combined = self.row_combine @ a[:, n_kept:]  # G times the pivot rows
+        n_o = int(np.searchsorted(self.kept, combined.shape[1]))  # S's o rows first
+        if n_o < combined.shape[1]:
+            combined = combined[:, self.kept[:n_o]]
+        a[:, :n_o] -= combined
+        s = a[:, :n_kept]
         s[:, :, : self.column_combine.shape[1]] -= s[:, :, m - k2 :] @ self.column_combine
         return s[:, :, : m - k2]
 
     def pivot_rows(self, a: np.ndarray) -> np.ndarray:
         """The pivot rows (n, k, columns) of an :meth:`arrange` d U_all (a view): all that
         :meth:`null_vectors` reads of it."""
-        return a[:, self.rows.size - self.constant.size :]
+        return a[:, self.kept.size :]
 
     def null_vectors(self, pivot_rows: np.ndarray, z_reduced: np.ndarray) -> np.ndarray:
         """U_all's null vectors (n, size, q) from S''s (n, m', q), with ``pivot_rows`` those
@@ -127,7 +147,8 @@ class ConstantParts:
         o2 = self.column_combine.shape[1]
         z_p = -self.column_combine @ z_reduced[:, :o2]
         z_m = np.concatenate([z_reduced, z_p], axis=1)  # in the order of ``columns``
-        z = np.empty((z_m.shape[0], self.rows.size, z_m.shape[-1]), dtype=z_reduced.dtype)
+        size = self.constant.size + self.columns.size
+        z = np.empty((z_m.shape[0], size, z_m.shape[-1]), dtype=z_reduced.dtype)
         z[:, self.columns] = z_m
         if self.constant.size:
             z[:, self.constant] = -np.linalg.solve(self.pivot_block, pivot_rows @ z_m)

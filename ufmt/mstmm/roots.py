@@ -38,7 +38,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ufmt.errors import UfmtError
-from ufmt.mstmm.overall import State, TransferSystem, equilibrate
+from ufmt.mstmm.overall import State, TransferSystem, assemble, equilibrate, place
 from ufmt.mstmm.reduced import ConstantParts
 
 TWO_PI = 2.0 * np.pi
@@ -468,13 +468,14 @@ def _newton(system, omega, lo, hi, mult, rtol, state_keys=()):
         h = DERIVATIVE_STEP * wa
         if reduction is None:
             # ω-independent parts: bitwise equal at ω_0, ω_0 + dω and a distant 0.61 ω_0
-            u, walked = _walk(system, np.concatenate([wa, wa + h, [0.61 * wa[0]]]), state_keys)
-            reduction = ConstantParts.of(u[[0, act.size, -1]])
-            u = u[:-1]
+            omega_q = np.concatenate([wa, wa + h, [0.61 * wa[0]]])
+            blocks, walked = _walk(system, omega_q, state_keys)
+            reduction = ConstantParts.of(assemble(blocks, system.size, [0, act.size, -1]))
+            blocks = [State(b.cols, b.arr[:-1]) for b in blocks]
             start = np.random.default_rng(0).standard_normal((reduction.order, int(mult.max())))
         else:
-            u, walked = _walk(system, np.concatenate([wa, wa + h]), state_keys)
-        u = reduction.arrange(u)
+            blocks, walked = _walk(system, np.concatenate([wa, wa + h]), state_keys)
+        u = place(blocks, *reduction.placement(), reduction.arranged_shape)  # U_all arranged
         s0, s1 = reduction.reduce(u).reshape(2, act.size, reduction.order, reduction.order)
         if r is None:  # at ω(1 + DERIVATIVE_STEP): off the root even from an exact start
             r, c = equilibrate(s1)
@@ -549,12 +550,11 @@ def _states_at_roots(walked: dict, act, sel, t, n: int, at_roots: dict) -> None:
         at_roots[key].arr[act[sel]] = arr[sel] + t[:, None, None] * (arr[act.size + sel] - arr[sel])
 
 
-def _walk(system: TransferSystem, omega: np.ndarray, state_keys) -> tuple[np.ndarray, dict]:
-    """U_all at ω and the state maps of ``state_keys`` (none: U_all's walk only)."""
-    if not state_keys:
-        return system.evaluate(omega), {}
-    u, states = system.evaluate_with_states(omega)
-    return u, {key: states[key] for key in state_keys}
+def _walk(system: TransferSystem, omega: np.ndarray, state_keys) -> tuple[list, dict]:
+    """U_all's equation blocks at ω and the state maps of ``state_keys`` (none: U_all's
+    walk only)."""
+    blocks, states = system.equation_blocks(omega, bool(state_keys))
+    return blocks, {key: states[key] for key in state_keys}
 
 
 def orthonormal(x: np.ndarray) -> np.ndarray:
