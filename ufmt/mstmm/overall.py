@@ -126,7 +126,8 @@ def place(blocks: list[State], row_to: np.ndarray, col_to: np.ndarray, shape) ->
     building U_all; one flat scatter per block, its index plan cached per structure.
     """
     n_omega = blocks[0].arr.shape[0]
-    out = np.zeros((n_omega, *shape), dtype=np.result_type(*[b.arr for b in blocks]))
+    out = np.empty((n_omega, *shape), dtype=np.result_type(*[b.arr for b in blocks]))
+    out.fill(0.0)  # every page written once now (np.zeros would fault each twice later)
     flat = out.reshape(n_omega, -1)
     key = tuple((b.arr.shape[1], _key(b.cols)) for b in blocks)
     plan = _place_plan(_key(row_to), _key(col_to), shape[1], key)

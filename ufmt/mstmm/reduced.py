@@ -125,15 +125,18 @@ class ConstantParts:
         """S'(ω) (n, m', m') from U_all(ω) arranged (:meth:`arrange`), a view of ``a``,
         whose other rows are changed in place; its pivot rows are kept for
         :meth:`null_vectors`. dS'/dω from dU_all/dω likewise (the map is linear)."""
-        n_kept, k2 = self.kept.size, self.column_combine.shape[0]
-        m = self.columns.size
-        combined = self.row_combine @ a[:, n_kept:]  # G times the pivot rows
-        n_o = int(np.searchsorted(self.kept, combined.shape[1]))  # S's o rows first
-        if n_o < combined.shape[1]:
-            combined = combined[:, self.kept[:n_o]]
-        a[:, :n_o] -= combined
+        n_kept, (k2, o2), o = self.kept.size, self.column_combine.shape, self.row_combine.shape[0]
+        n, m = a.shape[0], self.columns.size
+        # one scratch array for both products (fresh memory costs a page fault per page)
+        scratch = np.empty(n * max(o * m, n_kept * o2), dtype=np.result_type(a, self.row_combine))
+        combined = np.matmul(  # G times the pivot rows
+            self.row_combine, a[:, n_kept:], out=scratch[: n * o * m].reshape(n, o, m)
+        )
+        n_o = int(np.searchsorted(self.kept, o))  # S's o rows come first
+        a[:, :n_o] -= combined if n_o == o else combined[:, self.kept[:n_o]]
         s = a[:, :n_kept]
-        s[:, :, : self.column_combine.shape[1]] -= s[:, :, m - k2 :] @ self.column_combine
+        out = scratch[: n * n_kept * o2].reshape(n, n_kept, o2)
+        s[:, :, :o2] -= np.matmul(s[:, :, m - k2 :], self.column_combine, out=out)
         return s[:, :, : m - k2]
 
     def pivot_rows(self, a: np.ndarray) -> np.ndarray:

@@ -509,9 +509,10 @@ def _newton(system, omega, lo, hi, mult, rtol, state_keys=()):
 def _aberth_step(s0, s1, r, c, h, w, act, mult):
     """S⁻¹ dS/dω (rows and columns scaled by r, c) at the active iterates ``w[act]`` (S at
     ω and ω + h: s0, s1) and the multiplicity-corrected Newton step on det U_all with the
-    other clusters' current roots divided out (Aberth) [rad/s]."""
+    other clusters' current roots divided out (Aberth) [rad/s]. Both are overwritten (dS
+    in place of s1: no new array)."""
     wa = w[act]
-    ds = s1 - s0
+    ds = np.subtract(s1, s0, out=s1)
     ds *= r / h[:, None, None]
     ds *= c
     s0 *= r
@@ -536,7 +537,12 @@ def _null_basis(reduction, start, product, u, n_active, sel, t, scale) -> np.nda
         for _ in range(NULL_SPACE_PRODUCTS):
             x = orthonormal(product @ x)
     pivots = reduction.pivot_rows(u)
-    at_root = pivots[sel] + t[:, None, None] * (pivots[n_active + sel] - pivots[sel])
+    at, above = pivots[:n_active], pivots[n_active:]  # at ω and at ω + dω
+    if sel.size < n_active:
+        at, above = at[sel], above[sel]
+    at_root = above - at  # at + t (above - at), in place
+    at_root *= t[:, None, None]
+    at_root += at
     return reduction.null_vectors(at_root, scale * np.real(x))
 
 
