@@ -20,6 +20,11 @@ constant factors, chosen once per solve by scaled partial pivoting:
 det B_p and det R_p are constants: S' has the same roots as U_all and
 tr(S'⁻¹ dS'/dω) = tr(U_all⁻¹ dU_all/dω). On the packaged model the order drops from 102
 to 64, so each LU and solve of the Newton iteration costs about a third.
+
+Only S's non-constant rows, the pivot rows and the ω-dependent columns are read (the
+arranged layout, :meth:`ConstantParts.arrange`); the Newton iteration places its walk's
+entries straight there (:meth:`ConstantParts.placement`, :func:`ufmt.mstmm.overall.place`)
+and builds the dense U_all only at the three frequencies that find the constant parts.
 """
 
 from __future__ import annotations
