@@ -15,6 +15,7 @@ cost growth of both with the model's size.
   limit and "equal accuracy" is set by the target.
 * A new design per call on both sides (the head's radial air-bearing stiffness changes by
   1e-4 each call: the structure caches are shared, as in a study, the stiffness is new).
+* The C heap's thresholds raised as in the CLI (:mod:`ufmt.allocator`), for both sides.
 * One BLAS thread on both sides (threadpoolctl), calls interleaved in one run (medians of
   CPU time, ``time.process_time``: both sides run on one thread, and on a shared machine
   wall time mostly measures the wait for a core).
@@ -38,6 +39,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from threadpoolctl import threadpool_limits
 
+from ufmt.allocator import retain_freed_memory
 from ufmt.assembled import assemble, assembled_modes, reduced_matrices
 from ufmt.design import apply_design, design_value
 from ufmt.model.load import load_model, model_from_dict
@@ -272,6 +274,7 @@ def growth() -> None:
 
 
 def main() -> None:
+    retain_freed_memory()  # as the CLI and the study workers run; both sides share it
     model = load_model()
     with threadpool_limits(limits=1, user_api="blas"):
         reference = solve_modes(model, fmax_hz=FMAX_HZ)

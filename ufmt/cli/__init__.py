@@ -75,9 +75,11 @@ def main(argv=None) -> int:
     if argv[:1] == ["--version"]:  # as argparse's version action, without building the parser
         print(f"ufmt {__version__}")
         raise SystemExit(0)
+    from ufmt.allocator import retain_freed_memory
     from ufmt.cli.environment import matplotlib_config_dir
 
     matplotlib_config_dir()
+    retain_freed_memory()
     with warnings.catch_warnings():
         warnings.showwarning = _warning_line
         return _main(argv)

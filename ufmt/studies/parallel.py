@@ -49,6 +49,7 @@ import joblib
 from joblib.externals.loky.process_executor import TerminatedWorkerError
 from threadpoolctl import threadpool_limits
 
+from ufmt.allocator import retain_freed_memory
 from ufmt.errors import StudyError
 from ufmt.evaluate_cache import CacheWarning
 from ufmt.machining.validity import OutsideDomainError
@@ -143,6 +144,7 @@ def evaluate_chunk(
     "error" ("invalid" outside the validity domain).
     """
     global _tasks_done
+    retain_freed_memory()  # once per worker: each design reuses the last one's pages
     if _tasks_done < _BLAS_LIMITED_TASKS:
         threadpool_limits(limits=BLAS_THREADS)
         _tasks_done += 1
