@@ -115,19 +115,20 @@ class Condensation:
     ``C(ω) = K_OO(ω) - Wᵀ diag(1/(λ_i - ω²)) W``, W = Φᵀ(S_IO - ω² M_IO). By Haynsworth's
     inertia additivity s{K} = #{λ_i < ω²} + s{C}, and det K = det(Φ)⁻² Π(λ_i - ω²) det C:
     the count needs an LDLᵀ of C only (order 18 instead of 78 on the packaged model), and
-    WᵀDW is three matrix products with per-mode outer products precomputed here, for all
-    frequencies at once. Without inner coordinates (M_II not positive definite), or where
-    those products cost more per ω than an LDLᵀ of the whole K (r o² > n³/3), C = K.
+    WᵀDW is one (o, r) @ (r, o) product per ω. Without inner coordinates (M_II not positive
+    definite), or where that product costs more per ω than an LDLᵀ of the whole K
+    (r o² > n³/3), C = K.
 
     Attributes
     ----------
     inner, outer : coordinates of v in I and in O.
     poles : λ_i (r,) [rad²/s²], the inner structure's squared natural frequencies.
     static, mass : S_OO, M_OO (o, o).
-    products : (3, r, o²) w_iᵀ w_i terms: a_i a_iᵀ, a_i b_iᵀ + b_i a_iᵀ, b_i b_iᵀ with
-        a = ΦᵀS_IO, b = ΦᵀM_IO (W = a - ω² b); (1, r, o²) without mass coupling (b = 0).
-    members, patterns : the beams' stiffness terms (:class:`ufmt.mstmm.members.Members`)
-        and each term's pattern GᵀE_tG on O (terms, o²): K_OO gets terms(ω) @ patterns.
+    coupling, mass_coupling : a = ΦᵀS_IO and b = ΦᵀM_IO (r, o): W = a - ω² b (b None
+        without mass coupling between inner and outer coordinates).
+    members : the beams' stiffness terms (:class:`ufmt.mstmm.members.Members`).
+    patterns : each term's pattern GᵀE_tG on O (terms, o²), sparse: K_OO gets
+        terms(ω) @ patterns, added as :attr:`scatter`.
     """
 
     inner: np.ndarray
@@ -135,9 +136,27 @@ class Condensation:
     poles: np.ndarray
     static: np.ndarray
     mass: np.ndarray
-    products: np.ndarray
+    coupling: np.ndarray
+    mass_coupling: np.ndarray | None
     members: Members
     patterns: np.ndarray
+
+    @functools.cached_property
+    def scatter(self) -> tuple[tuple[np.ndarray, np.ndarray, np.ndarray], ...]:
+        """terms(ω) @ patterns as layers (term, entry of C flattened, value), each entry at
+        most once per layer: ``k[:, entry] += terms[:, term] * value`` layer by layer adds
+        the few nonzeros of the patterns alone, elementwise, in an order that does not depend
+        on the number of frequencies (a product would take another BLAS path at one)."""
+        term, entry = np.nonzero(self.patterns)
+        order = np.lexsort((term, entry))
+        term, entry = term[order], entry[order]
+        first = np.r_[0, np.flatnonzero(np.diff(entry)) + 1]  # each entry's first nonzero
+        layer = np.arange(entry.size) - np.repeat(first, np.diff(np.r_[first, entry.size]))
+        value = self.patterns[term, entry]
+        return tuple(
+            (term[layer == i], entry[layer == i], value[layer == i])
+            for i in range(layer.max(initial=-1) + 1)
+        )
 
     @classmethod
     def of(cls, nodal: NodalStiffness) -> Condensation:
@@ -167,15 +186,8 @@ class Condensation:
         outer = np.setdiff1d(np.arange(n), inner)
         a = phi.T @ nodal.static[np.ix_(inner, outer)]
         b = phi.T @ nodal.mass[np.ix_(inner, outer)]
-        if (3 if b.any() else 1) * inner.size * outer.size**2 > n**3 / 3:
+        if inner.size * outer.size**2 > n**3 / 3:
             return cls.of_whole(nodal)  # costs more per ω than the LDLᵀ of the whole K
-        products = [a[:, :, None] * a[:, None, :]]
-        if b.any():  # mass coupling between inner and outer coordinates
-            products += [
-                a[:, :, None] * b[:, None, :] + b[:, :, None] * a[:, None, :],
-                b[:, :, None] * b[:, None, :],
-            ]
-        products = np.array(products).reshape(len(products), inner.size, outer.size**2)
         position = np.full(n, -1)
         position[outer] = np.arange(outer.size)
         members = nodal.members
@@ -187,7 +199,8 @@ class Condensation:
         static = nodal.static[np.ix_(outer, outer)]
         mass = nodal.mass[np.ix_(outer, outer)]
         patterns = patterns.reshape(members.owner.size, outer.size**2)
-        return cls(inner, outer, poles, static, mass, products, members, patterns)
+        coupled = b if b.any() else None  # mass coupling between inner and outer coordinates
+        return cls(inner, outer, poles, static, mass, a, coupled, members, patterns)
 
 
 class CondensationStack:
@@ -203,24 +216,33 @@ class CondensationStack:
                 and np.array_equal(other.mass, first.mass)
             ):
                 raise ValueError("designs of different structures cannot share a count")
-        self.members, self.patterns, self.mass = first.members, first.patterns, first.mass
+        self.members, self.mass, self.scatter = first.members, first.mass, first.scatter
         self.order = first.outer.size
         self.static = np.array([c.static for c in condensations])
         self.poles = np.array([c.poles for c in condensations])
-        self.products = [c.products for c in condensations]
+        self.coupling = np.array([c.coupling for c in condensations])
+        self.mass_coupling = None  # b of each design (zeros where uncoupled), if any has one
+        if any(c.mass_coupling is not None for c in condensations):
+            self.mass_coupling = np.array(
+                [
+                    0 * c.coupling if c.mass_coupling is None else c.mass_coupling
+                    for c in condensations
+                ]
+            )
 
     def complement(self, omega, design) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(C(ω) (len(ω), o, o), #{λ_i < ω²} (len(ω),), Σ log|λ_i - ω²| (len(ω),)) of each
         design ``design`` (len(ω),) at ω [rad/s]; log|det K| = Σ log|λ_i - ω²| + log|det C|
-        - 2 log|det Φ| (:class:`Condensation`)."""
+        - 2 log|det Φ| (:class:`Condensation`). Each ω's C is formed by elementwise steps and
+        one (o, r) @ (r, o) product of its own: the same arithmetic however many ω and
+        designs share the call, so a design's count and roots do not depend on its batch."""
         w2 = np.atleast_1d(np.asarray(omega, dtype=float)) ** 2
         n, o = w2.size, self.order
         k = self.static[design] - w2[:, None, None] * self.mass
-        # one row per product (n, 1, t) @ (t, o o): each ω's sum is formed alike however many
-        # ω and designs share the call, so a design's count and roots do not depend on its
-        # batch (a (n, t) @ (t, o o) product takes another BLAS path when n is 1)
-        terms = self.members.terms(np.sqrt(w2))[:, None, :]
-        k += (terms @ self.patterns)[:, 0].reshape(n, o, o)
+        flat = k.reshape(n, o * o)
+        terms = self.members.terms(np.sqrt(w2))
+        for term, entry, value in self.scatter:
+            flat[:, entry] += terms[:, term] * value
         gap = self.poles[design] - w2[:, None]
         with np.errstate(divide="ignore"):
             # ω on a pole to the last bit: a mode of the inner structure the outer coordinates
@@ -228,13 +250,10 @@ class CondensationStack:
             inverse = np.where(gap == 0.0, 0.0, 1.0 / gap)
             log_gap = np.sum(np.log(np.abs(gap)), axis=1)
         if gap.shape[1]:
-            powers = np.stack([-inverse, w2[:, None] * inverse, -(w2**2)[:, None] * inverse])
-            for d in np.unique(design):
-                at = np.flatnonzero(design == d)
-                used = self.products[d].shape[0]  # 3 with mass coupling between I and O
-                flat = self.products[d].reshape(used * gap.shape[1], o * o)
-                terms = (np.concatenate(powers[:used, at], axis=1)[:, None, :] @ flat)[:, 0]
-                k[at] += terms.reshape(at.size, o, o)
+            w = self.coupling[design]
+            if self.mass_coupling is not None:
+                w = w - w2[:, None, None] * self.mass_coupling[design]
+            k -= np.swapaxes(w, 1, 2) @ (inverse[:, :, None] * w)
         return k, np.count_nonzero(gap < 0, axis=1), log_gap
 
 
