@@ -33,6 +33,7 @@ from ufmt.recent import Recent
 RANK_RTOL = 1e-9  # rank of geometric (unit-row) matrices, relative to the largest value
 END_RTOL = 1e-9  # a hinge point within this (relative to the beam length) of a beam end
 COMPONENTS = ("x", "y", "z", "rx", "ry", "rz")
+CHUNK = 32  # frequencies per block of the condensation's products (temporaries stay in cache)
 
 
 @dataclass(frozen=True, eq=False)
@@ -217,6 +218,7 @@ class CondensationStack:
             ):
                 raise ValueError("designs of different structures cannot share a count")
         self.members, self.mass, self.scatter = first.members, first.mass, first.scatter
+        self.mass_entries = np.nonzero(self.mass)
         self.order = first.outer.size
         self.static = np.array([c.static for c in condensations])
         self.poles = np.array([c.poles for c in condensations])
@@ -237,24 +239,43 @@ class CondensationStack:
         one (o, r) @ (r, o) product of its own: the same arithmetic however many ω and
         designs share the call, so a design's count and roots do not depend on its batch."""
         w2 = np.atleast_1d(np.asarray(omega, dtype=float)) ** 2
-        n, o = w2.size, self.order
-        k = self.static[design] - w2[:, None, None] * self.mass
-        flat = k.reshape(n, o * o)
         terms = self.members.terms(np.sqrt(w2))
-        for term, entry, value in self.scatter:
-            flat[:, entry] += terms[:, term] * value
         gap = self.poles[design] - w2[:, None]
         with np.errstate(divide="ignore"):
             # ω on a pole to the last bit: a mode of the inner structure the outer coordinates
             # do not feel (w_i at rounding level), a root of K itself: log|det K| = -inf
             inverse = np.where(gap == 0.0, 0.0, 1.0 / gap)
             log_gap = np.sum(np.log(np.abs(gap)), axis=1)
-        if gap.shape[1]:
-            w = self.coupling[design]
-            if self.mass_coupling is not None:
-                w = w - w2[:, None, None] * self.mass_coupling[design]
-            k -= np.swapaxes(w, 1, 2) @ (inverse[:, :, None] * w)
+        k = np.empty((w2.size, self.order, self.order))
+        for d in np.unique(design):
+            at = np.flatnonzero(design == d) if len(self.poles) > 1 else np.arange(w2.size)
+            for start in range(0, at.size, CHUNK):  # CHUNK ω at a time: temporaries in cache
+                block = at[start : start + CHUNK]
+                k[block] = self._block(d, w2[block], terms[block], inverse[block])
         return k, np.count_nonzero(gap < 0, axis=1), log_gap
+
+    def _block(self, design: int, w2, terms, inverse) -> np.ndarray:
+        """C(ω) (len(ω), o, o) of one design at ω² [rad²/s²] (len(ω),), given the beams'
+        ``terms`` (len(ω), t) and 1/(λ_i - ω²) (len(ω), r)."""
+        n, o = w2.size, self.order
+        k = np.repeat(self.static[design][None], n, axis=0)
+        rows, cols = self.mass_entries
+        k[:, rows, cols] -= w2[:, None] * self.mass[rows, cols]
+        flat = k.reshape(n, o * o)
+        for term, entry, value in self.scatter:
+            flat[:, entry] += terms[:, term] * value
+        if inverse.shape[1]:
+            k -= self._coupled(design, w2, inverse)
+        return k
+
+    def _coupled(self, design: int, w2: np.ndarray, inverse: np.ndarray) -> np.ndarray:
+        """Wᵀ diag(1/(λ_i - ω²)) W (len(ω), o, o) of one design at ω² [rad²/s²] (len(ω),),
+        ``inverse`` 1/(λ_i - ω²) (len(ω), r): one (o, r) @ (r, o) product per ω."""
+        a = self.coupling[design]
+        if self.mass_coupling is None:
+            return a.T @ (inverse[:, :, None] * a)
+        w = a - w2[:, None, None] * self.mass_coupling[design]
+        return np.swapaxes(w, 1, 2) @ (inverse[:, :, None] * w)
 
 
 class _Layout:
