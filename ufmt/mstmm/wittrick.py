@@ -57,18 +57,22 @@ def negative_eigenvalues(k: np.ndarray) -> np.ndarray:
     return inertia(k)[0]
 
 
-def inertia(k: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def inertia(k: np.ndarray, overwrite: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """(s{K}, log|det K|) of each symmetric matrix of the stack (n_ω, n, n) from one LDLᵀ
     (Bunch-Kaufman) factorisation each: det K = det D (det L = 1), the product of the 1x1
-    blocks and the 2x2 blocks' determinants; sign det K = (-1)^s{K}."""
+    blocks and the 2x2 blocks' determinants; sign det K = (-1)^s{K}. ``overwrite``: the
+    factors may overwrite ``k`` (C-contiguous float64)."""
     n_omega, n = k.shape[:2]
     if n == 0:  # nothing left to factor (every coordinate condensed)
         return np.zeros(n_omega, dtype=int), np.zeros(n_omega)
-    diagonal, below, pivots = np.empty((n_omega, n)), np.zeros((n_omega, n)), np.empty((n_omega, n))
-    for i, matrix in enumerate(k):  # LAPACK per matrix, the rest batched
-        lu, pivots[i], _ = dsytrf(matrix.T, lower=1)  # symmetric: the transpose is Fortran order
-        diagonal[i] = lu.diagonal()
-        below[i, :-1] = lu.diagonal(-1)
+    if not (overwrite and k.flags.c_contiguous and k.dtype == np.float64):
+        k = np.array(k, dtype=float, order="C")
+    pivots = np.empty((n_omega, n), dtype=np.int32)
+    for i, matrix in enumerate(k):  # LAPACK per matrix in place, the rest batched
+        # symmetric: the transpose is Fortran order, its lower triangle matrix's upper one
+        _, pivots[i], _ = dsytrf(matrix.T, lower=1, overwrite_a=1)
+    diagonal, below = k.diagonal(axis1=1, axis2=2), np.zeros((n_omega, n))
+    below[:, :-1] = k.diagonal(offset=1, axis1=1, axis2=2)
     # a 2x2 block D(j:j+2, j:j+2) has ipiv < 0 at both j and j + 1: pairs of negative pivots
     start = pivots < 0
     for j in np.flatnonzero(start[:, 1:].any(axis=0)) + 1:  # ascending, where any pivot < 0
@@ -136,7 +140,7 @@ class RootCounter:
         design = _designs(design, hz.size)
         omega = TWO_PI * hz
         complement, inner_negative, inner_log_det = self.stack.complement(omega, design)
-        negative, log_det = inertia(complement)
+        negative, log_det = inertia(complement, overwrite=True)
         negative, log_det = negative + inner_negative, log_det + inner_log_det
         clamped = self.stack.members.clamped(omega)
         sign = np.where(negative % 2 == 1, -1.0, 1.0)
