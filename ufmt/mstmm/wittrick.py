@@ -198,15 +198,7 @@ class RootCounter:
         sharpen = start_rtol is None
         start_rtol = SECANT_FROM if sharpen else start_rtol
         steps = np.geomspace(10.0**-GRID_DECADES, 1.0, GRID_POINTS)
-        grid = [top[d] * steps for d in range(n)]
-        if sharpen:  # first points beside the linearised estimates: most roots isolated
-            grid = [
-                np.unique(np.r_[g, self._seeds(d, g[0], top[d], wanted[d])])
-                for d, g in enumerate(grid)
-            ]
-        design = np.repeat(np.arange(n), [g.size for g in grid])
-        grid = np.concatenate(grid)
-        counts = self.below(grid, design)
+        grid, design, counts = self._first_counts(top, wanted, steps, sharpen)
         while np.any(low := counts[np.r_[0, np.flatnonzero(np.diff(design)) + 1]] > 0):
             # roots below the grid: extend it downwards
             lowest = grid[np.r_[0, np.flatnonzero(np.diff(design)) + 1]][low]
@@ -238,16 +230,45 @@ class RootCounter:
         ]
         return found[0] if n == 1 else found
 
-    def _seeds(self, design: int, lo_hz: float, hi_hz: float, wanted: int) -> np.ndarray:
-        """Frequencies [Hz] in (lo_hz, hi_hz) just below and above each linearised estimate
-        (:meth:`ufmt.mstmm.nodal.NodalStiffness.estimates`) of ``design`` and half-way
-        between them; only of the ``wanted`` + 1 lowest estimates (the next root bounds the
-        last wanted one)."""
+    def _first_counts(self, top, wanted, steps, seeded: bool):
+        """(hz, design, J): the first points [Hz] of the search, ascending per design, and J
+        there. The geometric grid ``top * steps``; ``seeded``: in two passes, first only the
+        grid's ends and the points just beside each linearised estimate (:meth:`_seeds`,
+        SEED_RTOLS[0]: most roots isolated there), then the other seeds and grid points
+        where J still rises between two of them (a root not yet isolated beside its
+        estimate)."""
+        n = len(self.models)
+        grid = [top[d] * steps for d in range(n)]
+        if not seeded:
+            hz, design = np.concatenate(grid), np.repeat(np.arange(n), steps.size)
+            return hz, design, self.below(hz, design)
+        est = [self._estimates(d, g[0], top[d], wanted[d]) for d, g in enumerate(grid)]
+        near = [
+            np.unique(np.r_[g[0], g[-1], _seeds(e, g[0], g[-1], SEED_RTOLS[:1], middles=False)])
+            for e, g in zip(est, grid, strict=True)
+        ]
+        design = np.repeat(np.arange(n), [p.size for p in near])
+        hz, counts = np.concatenate(near), self.below(np.concatenate(near), design)
+        more = []
+        for d, g in enumerate(grid):  # the other points, where J rises between the first
+            at, c = hz[design == d], counts[design == d]
+            others = np.r_[g, _seeds(est[d], g[0], g[-1], SEED_RTOLS)]
+            i = np.clip(np.searchsorted(at, others), 1, at.size - 1)
+            more.append(
+                np.unique(others[(c[i] > c[i - 1]) & (others > at[i - 1]) & (others < at[i])])
+            )
+        more_design = np.repeat(np.arange(n), [p.size for p in more])
+        more = np.concatenate(more)
+        order = np.lexsort((np.r_[hz, more], np.r_[design, more_design]))
+        counts = np.r_[counts, self.below(more, more_design)][order]
+        return np.r_[hz, more][order], np.r_[design, more_design][order], counts
+
+    def _estimates(self, design: int, lo_hz: float, hi_hz: float, wanted: int) -> np.ndarray:
+        """The linearised estimates [Hz] in (lo_hz, hi_hz) of ``design``
+        (:meth:`ufmt.mstmm.nodal.NodalStiffness.estimates`), only the ``wanted`` + 1 lowest
+        (the next root bounds the last wanted one)."""
         est = self.nodals[design].estimates() / TWO_PI
-        est = est[(est > lo_hz) & (est < hi_hz)][: min(wanted, est.size) + 1]
-        rings = np.concatenate([1 - SEED_RTOLS, 1 + SEED_RTOLS])
-        seeds = np.concatenate([np.outer(est, rings).ravel(), np.sqrt(est[1:] * est[:-1])])
-        return seeds[(seeds > lo_hz) & (seeds < hi_hz)]
+        return est[(est > lo_hz) & (est < hi_hz)][: min(wanted, est.size) + 1]
 
     def _sharpen(self, lo, hi, design, retry: bool = True):
         """Newton's start in brackets [Hz] of one root each: regula falsi (Illinois) on
@@ -329,6 +350,16 @@ class RootCounter:
             hi[np.flatnonzero(wide)[above]] = mid[above]
             lo[np.flatnonzero(wide)[~above]] = mid[~above]
         return lo, hi
+
+
+def _seeds(est, lo_hz: float, hi_hz: float, rtols, middles: bool = True) -> np.ndarray:
+    """Frequencies [Hz] in (lo_hz, hi_hz) ``rtols`` (relative) below and above each estimate
+    ``est`` [Hz] and (``middles``) half-way between them."""
+    rings = np.concatenate([1 - rtols, 1 + rtols])
+    seeds = np.outer(est, rings).ravel()
+    if middles:
+        seeds = np.r_[seeds, np.sqrt(est[1:] * est[:-1])]
+    return seeds[(seeds > lo_hz) & (seeds < hi_hz)]
 
 
 def _split(lo, hi, lo_c, hi_c, design, wide, mid, c):
