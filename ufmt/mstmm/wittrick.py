@@ -259,6 +259,8 @@ class RootCounter:
             )
         more_design = np.repeat(np.arange(n), [p.size for p in more])
         more = np.concatenate(more)
+        if more.size == 0:
+            return hz, design, counts
         order = np.lexsort((np.r_[hz, more], np.r_[design, more_design]))
         counts = np.r_[counts, self.below(more, more_design)][order]
         return np.r_[hz, more][order], np.r_[design, more_design][order], counts
