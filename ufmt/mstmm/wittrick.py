@@ -47,6 +47,7 @@ SEED_RTOLS = np.array([1e-5, 1e-3])  # the first points lie this far (relative) 
 SECANT_ITERATIONS = 12  # Illinois steps at most (3 reach SECANT_RTOL from ±1e-5 mostly)
 GRID_POINTS = 48  # the first, geometric grid of the search below the upper frequency
 GRID_DECADES = 6.0  # ... spanning this many decades below it (extended while roots remain)
+SPLIT_LEVELS = 2  # each wide interval is cut into 2**SPLIT_LEVELS parts per J evaluation
 MAX_BISECTIONS = 200  # levels of bisection before giving up (never reached: ~60 reach eps)
 
 
@@ -217,9 +218,9 @@ class RootCounter:
             wide = np.where(m > 1, CLUSTER_RTOL, start_rtol) * hi < hi - lo
             if not wide.any():
                 break
-            mid = np.sqrt(lo[wide] * hi[wide])
-            c = self.below(mid, des[wide])
-            lo, hi, lo_c, hi_c, des = _split(lo, hi, lo_c, hi_c, des, wide, mid, c)
+            cuts = _cuts(lo[wide], hi[wide], SPLIT_LEVELS)
+            c = self.below(cuts.ravel(), des[wide].repeat(cuts.shape[1])).reshape(cuts.shape)
+            lo, hi, lo_c, hi_c, des = _split(lo, hi, lo_c, hi_c, des, wide, cuts, c)
         m, start = hi_c - lo_c, np.sqrt(lo * hi)
         if sharpen and np.any(m == 1):
             one = m == 1
@@ -364,15 +365,28 @@ def _seeds(est, lo_hz: float, hi_hz: float, rtols, middles: bool = True) -> np.n
     return seeds[(seeds > lo_hz) & (seeds < hi_hz)]
 
 
-def _split(lo, hi, lo_c, hi_c, design, wide, mid, c):
+def _cuts(lo, hi, levels: int) -> np.ndarray:
+    """(len(lo), 2**levels - 1) points [Hz] cutting each [lo, hi] into 2**levels parts of
+    equal ratio, ascending: geometric middles, ``levels`` deep."""
+    ends = np.stack([lo, hi], axis=1)
+    for _ in range(levels):
+        middles = np.sqrt(ends[:, :-1] * ends[:, 1:])
+        ends = np.stack([ends[:, :-1], middles], axis=2).reshape(lo.size, -1)
+        ends = np.c_[ends, hi]
+    return ends[:, 1:-1]
+
+
+def _split(lo, hi, lo_c, hi_c, design, wide, cuts, c):
     """Intervals [Hz] (of each its design) and the counts at their ends with the ``wide`` ones
-    split at ``mid`` (counts ``c`` there); intervals that hold no root dropped; ascending per
-    design."""
-    lo = np.concatenate([lo[~wide], lo[wide], mid])
-    hi = np.concatenate([hi[~wide], mid, hi[wide]])
-    lo_c = np.concatenate([lo_c[~wide], lo_c[wide], c])
-    hi_c = np.concatenate([hi_c[~wide], c, hi_c[wide]])
-    design = np.concatenate([design[~wide], design[wide], design[wide]])
+    cut at ``cuts`` (wide, k) (counts ``c`` there); intervals that hold no root dropped;
+    ascending per design."""
+    ends = np.c_[lo[wide], cuts, hi[wide]]
+    counts = np.c_[lo_c[wide], c, hi_c[wide]]
+    lo = np.concatenate([lo[~wide], ends[:, :-1].ravel()])
+    hi = np.concatenate([hi[~wide], ends[:, 1:].ravel()])
+    lo_c = np.concatenate([lo_c[~wide], counts[:, :-1].ravel()])
+    hi_c = np.concatenate([hi_c[~wide], counts[:, 1:].ravel()])
+    design = np.concatenate([design[~wide], design[wide].repeat(cuts.shape[1] + 1)])
     keep = np.flatnonzero(hi_c > lo_c)
     order = keep[np.lexsort((lo[keep], design[keep]))]
     return lo[order], hi[order], lo_c[order], hi_c[order], design[order]
