@@ -386,12 +386,34 @@ def _check_massless_mechanism(layout, basis, springs, massless) -> None:
     )
 
 
-_GEOMETRY = Recent(8)  # Model.structure_key() -> (layout, basis, zero modes)
+_STRUCTURES = Recent(8)  # Model.structure_key() -> _Structure
 
 
-def _geometry(model: Model):
-    """Layout, constraint basis and zero-mode count: the same for every design of a
-    stiffness study (built once per structure)."""
+@dataclass(frozen=True, eq=False)
+class _Structure:
+    """What every design of a stiffness study shares (built once per structure).
+
+    Attributes
+    ----------
+    basis : N (dofs, n), the motions the rigid directions allow.
+    zero_modes : motions that strain nothing.
+    elastic : (6 hinges,) which hinge directions are springs (finite, nonzero stiffness).
+    springs : (springs, n) their relative motions d_j on the constrained motions (d_j N):
+        the hinges' stiffness is ``springsᵀ diag(k) springs``.
+    mass : (n, n) the rigid bodies' mass on the constrained motions.
+    beams : as :attr:`NodalStiffness.beams`.
+    """
+
+    basis: np.ndarray
+    zero_modes: int
+    elastic: np.ndarray
+    springs: np.ndarray
+    mass: np.ndarray
+    beams: tuple
+
+
+def _structure(model: Model) -> _Structure:
+    """The :class:`_Structure` of ``model``'s structure (cached)."""
 
     def build():
         layout = _Layout(model)
@@ -402,29 +424,25 @@ def _geometry(model: Model):
         basis = _null_basis(np.concatenate([np.zeros((0, layout.size)), *rigid]), layout.size)
         springs = np.concatenate([np.zeros((0, layout.size)), *elastic])
         norms = np.linalg.norm(springs, axis=1, keepdims=True)
-        springs = springs / np.where(norms > 0, norms, 1.0)
+        unit = springs / np.where(norms > 0, norms, 1.0)
         massless = np.zeros(layout.size, dtype=bool)
         for body in model.bodies:
             if isinstance(body, VirtualBody):
                 massless[layout.nodes[body.name][0] + np.arange(6)] = True
-        _check_massless_mechanism(layout, basis, springs, massless)
-        beams = [_beam_rigidity(layout, b) for b in model.bodies if isinstance(b, Beam)]
-        strain = np.concatenate([springs, *beams]) @ basis
-        return layout, basis, basis.shape[1] - _rank(strain)
+        _check_massless_mechanism(layout, basis, unit, massless)
+        rigidity = [_beam_rigidity(layout, b) for b in model.bodies if isinstance(b, Beam)]
+        zero_modes = basis.shape[1] - _rank(np.concatenate([unit, *rigidity]) @ basis)
+        k = np.concatenate([np.zeros(0), *k])
+        mass, beams = _bodies(model, layout, basis)
+        return _Structure(basis, zero_modes, np.isfinite(k) & (k > 0), springs @ basis, mass, beams)
 
-    return _GEOMETRY.get(model.structure_key(), build)
+    return _STRUCTURES.get(model.structure_key(), build)
 
 
-def nodal_stiffness(model: Model) -> NodalStiffness:
-    """The :class:`NodalStiffness` of ``model`` (module docstring)."""
-    layout, basis, zero_modes = _geometry(model)
-    static = np.zeros((layout.size, layout.size))
+def _bodies(model: Model, layout: _Layout, basis: np.ndarray) -> tuple[np.ndarray, tuple]:
+    """(the rigid bodies' mass (n, n) on the constrained motions, the beams as
+    :attr:`NodalStiffness.beams`)."""
     mass = np.zeros((layout.size, layout.size))
-    for hinge in model.hinges:
-        k = hinge.stiffness6
-        elastic = np.isfinite(k) & (k > 0)
-        d = _hinge_rows(layout, hinge)[elastic]
-        static += d.T @ (k[elastic, None] * d)
     beams = []
     for body in model.bodies:
         first, _ = layout.nodes[body.name]
@@ -435,6 +453,13 @@ def nodal_stiffness(model: Model) -> NodalStiffness:
             g = local_to_global(body) @ basis[first : first + 12]
             columns = np.flatnonzero(np.any(g != 0.0, axis=0))
             beams.append((body, columns, g[:, columns]))
-    return NodalStiffness(
-        basis.T @ static @ basis, basis.T @ mass @ basis, tuple(beams), zero_modes
-    )
+    return basis.T @ mass @ basis, tuple(beams)
+
+
+def nodal_stiffness(model: Model) -> NodalStiffness:
+    """The :class:`NodalStiffness` of ``model`` (module docstring): the hinges' springs on
+    the cached geometry of its structure."""
+    structure = _structure(model)
+    k = np.concatenate([np.zeros(0), *(h.stiffness6 for h in model.hinges)])[structure.elastic]
+    static = structure.springs.T @ (k[:, None] * structure.springs)
+    return NodalStiffness(static, structure.mass, structure.beams, structure.zero_modes)
