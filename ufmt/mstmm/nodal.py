@@ -128,8 +128,11 @@ class Condensation:
     coupling, mass_coupling : a = ΦᵀS_IO and b = ΦᵀM_IO (r, o): W = a - ω² b (b None
         without mass coupling between inner and outer coordinates).
     members : the beams' stiffness terms (:class:`ufmt.mstmm.members.Members`).
-    patterns : each term's pattern GᵀE_tG on O (terms, o²), sparse: K_OO gets
-        terms(ω) @ patterns, added as :attr:`scatter`.
+    scatter : K_OO's beam part terms(ω) @ P, P (terms, o²) each term's pattern GᵀE_tG on O,
+        sparse: layers (term, entry of C flattened, value), each entry at most once per
+        layer: ``k[:, entry] += terms[:, term] * value`` layer by layer adds the few nonzeros
+        of P alone, elementwise, in an order that does not depend on the number of
+        frequencies (a product would take another BLAS path at one).
     """
 
     inner: np.ndarray
@@ -140,24 +143,7 @@ class Condensation:
     coupling: np.ndarray
     mass_coupling: np.ndarray | None
     members: Members
-    patterns: np.ndarray
-
-    @functools.cached_property
-    def scatter(self) -> tuple[tuple[np.ndarray, np.ndarray, np.ndarray], ...]:
-        """terms(ω) @ patterns as layers (term, entry of C flattened, value), each entry at
-        most once per layer: ``k[:, entry] += terms[:, term] * value`` layer by layer adds
-        the few nonzeros of the patterns alone, elementwise, in an order that does not depend
-        on the number of frequencies (a product would take another BLAS path at one)."""
-        term, entry = np.nonzero(self.patterns)
-        order = np.lexsort((term, entry))
-        term, entry = term[order], entry[order]
-        first = np.r_[0, np.flatnonzero(np.diff(entry)) + 1]  # each entry's first nonzero
-        layer = np.arange(entry.size) - np.repeat(first, np.diff(np.r_[first, entry.size]))
-        value = self.patterns[term, entry]
-        return tuple(
-            (term[layer == i], entry[layer == i], value[layer == i])
-            for i in range(layer.max(initial=-1) + 1)
-        )
+    scatter: tuple
 
     @classmethod
     def of(cls, nodal: NodalStiffness) -> Condensation:
@@ -189,19 +175,43 @@ class Condensation:
         b = phi.T @ nodal.mass[np.ix_(inner, outer)]
         if inner.size * outer.size**2 > n**3 / 3:
             return cls.of_whole(nodal)  # costs more per ω than the LDLᵀ of the whole K
-        position = np.full(n, -1)
-        position[outer] = np.arange(outer.size)
-        members = nodal.members
-        patterns = np.zeros((members.owner.size, outer.size, outer.size))
-        for j, (_, columns, g) in enumerate(nodal.beams):
-            at = position[columns]
-            terms = np.flatnonzero(members.owner == j)
-            patterns[terms[:, None, None], at[:, None], at] = g.T @ members.patterns[terms] @ g
         static = nodal.static[np.ix_(outer, outer)]
         mass = nodal.mass[np.ix_(outer, outer)]
-        patterns = patterns.reshape(members.owner.size, outer.size**2)
         coupled = b if b.any() else None  # mass coupling between inner and outer coordinates
-        return cls(inner, outer, poles, static, mass, a, coupled, members, patterns)
+        scatter = _scatter(nodal, outer)
+        return cls(inner, outer, poles, static, mass, a, coupled, nodal.members, scatter)
+
+
+def _scatter(nodal: NodalStiffness, outer: np.ndarray) -> tuple:
+    """:attr:`Condensation.scatter` of the beams of ``nodal`` on the ``outer`` coordinates."""
+    position = np.full(nodal.order, -1)
+    position[outer] = np.arange(outer.size)
+    members = nodal.members
+    term, entry, value = [np.zeros(0, dtype=int)], [np.zeros(0, dtype=int)], [np.zeros(0)]
+    for j, (_, columns, g) in enumerate(nodal.beams):
+        at = position[columns]
+        terms = np.flatnonzero(members.owner == j)
+        block = g.T @ members.patterns[terms] @ g  # (terms, c, c)
+        t, r, c = np.nonzero(block)
+        term.append(terms[t])
+        entry.append(at[r] * outer.size + at[c])
+        value.append(block[t, r, c])
+    term, entry, value = np.concatenate(term), np.concatenate(entry), np.concatenate(value)
+    order = np.lexsort((term, entry))
+    term, entry, value = term[order], entry[order], value[order]
+    first = np.r_[0, np.flatnonzero(np.diff(entry)) + 1]  # each entry's first nonzero
+    layer = np.arange(entry.size) - np.repeat(first, np.diff(np.r_[first, entry.size]))
+    return tuple(
+        (term[layer == i], entry[layer == i], value[layer == i])
+        for i in range(layer.max(initial=-1) + 1)
+    )
+
+
+def _same_scatter(a: tuple, b: tuple) -> bool:
+    """Whether two :attr:`Condensation.scatter` are the same."""
+    return len(a) == len(b) and all(
+        np.array_equal(x, y) for p, q in zip(a, b, strict=True) for x, y in zip(p, q, strict=True)
+    )
 
 
 class CondensationStack:
@@ -213,7 +223,7 @@ class CondensationStack:
         for other in condensations[1:]:
             if not (
                 np.array_equal(other.outer, first.outer)
-                and np.array_equal(other.patterns, first.patterns)
+                and _same_scatter(other.scatter, first.scatter)
                 and np.array_equal(other.mass, first.mass)
             ):
                 raise ValueError("designs of different structures cannot share a count")
@@ -223,14 +233,9 @@ class CondensationStack:
         self.static = np.array([c.static for c in condensations])
         self.poles = np.array([c.poles for c in condensations])
         self.coupling = np.array([c.coupling for c in condensations])
-        self.mass_coupling = None  # b of each design (zeros where uncoupled), if any has one
-        if any(c.mass_coupling is not None for c in condensations):
-            self.mass_coupling = np.array(
-                [
-                    0 * c.coupling if c.mass_coupling is None else c.mass_coupling
-                    for c in condensations
-                ]
-            )
+        self.mass_coupling = None  # b of each design, if M_IO ≠ 0 (then in all designs)
+        if first.mass_coupling is not None:
+            self.mass_coupling = np.array([c.mass_coupling for c in condensations])
 
     def complement(self, omega, design) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(C(ω) (len(ω), o, o), #{λ_i < ω²} (len(ω),), Σ log|λ_i - ω²| (len(ω),)) of each
