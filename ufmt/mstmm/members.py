@@ -57,8 +57,9 @@ def _bending_functions(lam4: np.ndarray) -> np.ndarray:
     out = np.zeros((7, lam4.size))
     if np.any(small):  # (the series costs as much as a J evaluation's LDLᵀ: only if used)
         x4 = np.where(small, lam4, 0.0)
-        for coefficients in _SERIES.T[::-1]:  # Horner in λ⁴
-            out = out * x4 + coefficients[:, None]
+        for coefficients in _SERIES.T[::-1]:  # Horner in λ⁴ (in place)
+            out *= x4
+            out += coefficients[:, None]
     if np.any(~small):
         x = np.sqrt(np.sqrt(lam4[~small]))
         c, s, ch, sh = np.cos(x), np.sin(x), np.cosh(x), np.sinh(x)
