@@ -119,11 +119,11 @@ class Members:
         order = [i for kind in ("rod", "bending") for i, p in enumerate(patterns) if p[0] == kind]
         self.patterns = np.array([patterns[i][1] for i in order]).reshape(-1, 12, 12)
         self.owner = np.array(owner, dtype=int)[order]
-        k, mu, length = self.rods.T
+        k, mu, _ = self.rods.T
         self._slowness = np.sqrt(mu / k)  # κ/ω [s/m]
-        ei, _, length = self.bends.T
-        # per bending term (k11, k12, k13, k14, k22, k24): EI, its power of L, f's row, sign
-        self._bend_ei, self._bend_length4 = ei, length**4
+        length = self.bends[:, 2]
+        self._bend_length4 = length**4
+        # per bending term (k11, k12, k13, k14, k22, k24): its power of L, f's row and sign
         self._bend_powers = np.array([length**3, length**2, length**3, length**2, length, length])
         self._bend_rows, self._bend_signs = [1, 3, 5, 4, 2, 6], np.array([1, 1, -1, 1, 1, 1.0])
 

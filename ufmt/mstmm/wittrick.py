@@ -186,11 +186,13 @@ class RootCounter:
 
     def brackets(self, below_hz, start_rtol: float | None = None, first=None):
         """Brackets of every natural frequency below ``below_hz`` [Hz] (only the ``first``
-        ones, if given), by bisection on J (geometric middles, all brackets of all designs at
-        once): single roots to ``start_rtol`` (relative width), clusters to CLUSTER_RTOL. By
+        ones, if given), by cutting on J (each wide bracket into 2**SPLIT_LEVELS parts of equal
+        ratio per evaluation, :func:`_cuts`, all brackets of all designs at once): single
+        roots to ``start_rtol`` (relative width), clusters to CLUSTER_RTOL. By
         default (``start_rtol`` None) single roots are bisected to SECANT_FROM only, then
         sharpened by :meth:`_sharpen` (``start_hz``: Newton's start within SECANT_RTOL of the
-        root). The first J points lie beside the linearised estimates (:meth:`_seeds`).
+        root). The first J points lie beside the linearised estimates
+        (:meth:`_first_counts`).
         ``below_hz`` and ``first`` may be one per design; one :class:`Brackets` for a
         counter of one design, else a list of them."""
         n = len(self.models)
@@ -234,7 +236,7 @@ class RootCounter:
     def _first_counts(self, top, wanted, steps, seeded: bool):
         """(hz, design, J): the first points [Hz] of the search, ascending per design, and J
         there. The geometric grid ``top * steps``; ``seeded``: in two passes, first only the
-        grid's ends and the points just beside each linearised estimate (:meth:`_seeds`,
+        grid's ends and the points just beside each linearised estimate (:func:`_seeds`,
         SEED_RTOLS[0]: most roots isolated there), then the other seeds and grid points
         where J still rises between two of them (a root not yet isolated beside its
         estimate)."""
