@@ -57,8 +57,9 @@ def _bending_functions(lam4: np.ndarray) -> np.ndarray:
     out = np.zeros((7, lam4.size))
     if np.any(small):  # (the series costs as much as a J evaluation's LDLᵀ: only if used)
         x4 = np.where(small, lam4, 0.0)
-        for coefficients in _SERIES.T[::-1]:  # Horner in λ⁴
-            out = out * x4 + coefficients[:, None]
+        for coefficients in _SERIES.T[::-1]:  # Horner in λ⁴ (in place)
+            out *= x4
+            out += coefficients[:, None]
     if np.any(~small):
         x = np.sqrt(np.sqrt(lam4[~small]))
         c, s, ch, sh = np.cos(x), np.sin(x), np.cosh(x), np.sinh(x)
@@ -118,33 +119,38 @@ class Members:
         order = [i for kind in ("rod", "bending") for i, p in enumerate(patterns) if p[0] == kind]
         self.patterns = np.array([patterns[i][1] for i in order]).reshape(-1, 12, 12)
         self.owner = np.array(owner, dtype=int)[order]
+        k, mu, _ = self.rods.T
+        self._slowness = np.sqrt(mu / k)  # κ/ω [s/m]
+        length = self.bends[:, 2]
+        self._bend_length4 = length**4
+        # per bending term (k11, k12, k13, k14, k22, k24): its power of L, f's row and sign
+        self._bend_powers = np.array([length**3, length**2, length**3, length**2, length, length])
+        self._bend_rows, self._bend_signs = [1, 3, 5, 4, 2, 6], np.array([1, 1, -1, 1, 1, 1.0])
 
     def terms(self, omega) -> np.ndarray:
         """The scalar terms (len(ω), 2 rods + 6 bending planes) at ω [rad/s]."""
         omega = np.atleast_1d(np.asarray(omega, dtype=float))[:, None]
-        k, mu, length = self.rods.T
-        kl = omega * np.sqrt(mu / k) * length
+        k, _, length = self.rods.T
+        kl = omega * self._slowness * length
         factor = k / (length * np.sinc(kl / np.pi))
         rod = np.stack([factor * np.cos(kl), -factor], axis=-1).reshape(omega.size, -1)
-        ei, rho_a, length = self.bends.T
-        lam4 = rho_a * omega**2 / ei * length**4
-        d, a1, a3, p2, u2, t1, v3 = _bending_functions(lam4.ravel()).reshape(7, *lam4.shape)
-        lengths = [length**3, length**2, length**3, length**2, length, length]
-        bend = np.stack(
-            [ei * f / (d * L) for f, L in zip((a1, p2, -t1, u2, a3, v3), lengths, strict=True)],
-            axis=-1,
-        ).reshape(omega.size, -1)
-        return np.concatenate([rod, bend], axis=1)
+        ei, rho_a, _ = self.bends.T
+        lam4 = rho_a * omega**2 / ei * self._bend_length4
+        f = _bending_functions(lam4.ravel()).reshape(7, *lam4.shape)
+        # EI f / (δ Lᵖ) for f = (a1, p2, -t1, u2, a3, v3) (module docstring), (6, len(ω), m)
+        bend = ei * (f[self._bend_rows] * self._bend_signs[:, None, None])
+        bend /= f[0] * self._bend_powers[:, None, :]
+        return np.concatenate([rod, bend.transpose(1, 2, 0).reshape(omega.size, -1)], axis=1)
 
     def clamped(self, omega) -> np.ndarray:
         """J₀: the number (len(ω),) of clamped-clamped member frequencies below ω [rad/s], all
         members together. Rods: ⌊κL/π⌋. Bending: i - (1 - (-1)ⁱ sgn δ)/2 with i = ⌊λ/π⌋ and
         δ = 1 - cos λ cosh λ (Williams and Wittrick's closed form)."""
         omega = np.atleast_1d(np.asarray(omega, dtype=float))[:, None]
-        k, mu, length = self.rods.T
-        count = np.floor(omega * np.sqrt(mu / k) * length / np.pi).astype(int).sum(axis=1)
-        ei, rho_a, length = self.bends.T
-        lam = np.sqrt(np.sqrt(rho_a * omega**2 / ei * length**4))
+        _, _, length = self.rods.T
+        count = np.floor(omega * self._slowness * length / np.pi).astype(int).sum(axis=1)
+        ei, rho_a, _ = self.bends.T
+        lam = np.sqrt(np.sqrt(rho_a * omega**2 / ei * self._bend_length4))
         i = np.floor(lam / np.pi).astype(int)
         # δ = λ⁴/6 + ... > 0 below λ = 2 (the first zero is at 4.73): the closed form above
         with np.errstate(over="ignore"):

@@ -33,6 +33,7 @@ from ufmt.recent import Recent
 RANK_RTOL = 1e-9  # rank of geometric (unit-row) matrices, relative to the largest value
 END_RTOL = 1e-9  # a hinge point within this (relative to the beam length) of a beam end
 COMPONENTS = ("x", "y", "z", "rx", "ry", "rz")
+CHUNK = 32  # frequencies per block of the condensation's products (temporaries stay in cache)
 
 
 @dataclass(frozen=True, eq=False)
@@ -115,19 +116,23 @@ class Condensation:
     ``C(ω) = K_OO(ω) - Wᵀ diag(1/(λ_i - ω²)) W``, W = Φᵀ(S_IO - ω² M_IO). By Haynsworth's
     inertia additivity s{K} = #{λ_i < ω²} + s{C}, and det K = det(Φ)⁻² Π(λ_i - ω²) det C:
     the count needs an LDLᵀ of C only (order 18 instead of 78 on the packaged model), and
-    WᵀDW is three matrix products with per-mode outer products precomputed here, for all
-    frequencies at once. Without inner coordinates (M_II not positive definite), or where
-    those products cost more per ω than an LDLᵀ of the whole K (r o² > n³/3), C = K.
+    WᵀDW is one (o, r) @ (r, o) product per ω. Without inner coordinates (M_II not positive
+    definite), or where that product costs more per ω than an LDLᵀ of the whole K
+    (r o² > n³/3), C = K.
 
     Attributes
     ----------
     inner, outer : coordinates of v in I and in O.
     poles : λ_i (r,) [rad²/s²], the inner structure's squared natural frequencies.
     static, mass : S_OO, M_OO (o, o).
-    products : (3, r, o²) w_iᵀ w_i terms: a_i a_iᵀ, a_i b_iᵀ + b_i a_iᵀ, b_i b_iᵀ with
-        a = ΦᵀS_IO, b = ΦᵀM_IO (W = a - ω² b); (1, r, o²) without mass coupling (b = 0).
-    members, patterns : the beams' stiffness terms (:class:`ufmt.mstmm.members.Members`)
-        and each term's pattern GᵀE_tG on O (terms, o²): K_OO gets terms(ω) @ patterns.
+    coupling, mass_coupling : a = ΦᵀS_IO and b = ΦᵀM_IO (r, o): W = a - ω² b (b None
+        without mass coupling between inner and outer coordinates).
+    members : the beams' stiffness terms (:class:`ufmt.mstmm.members.Members`).
+    scatter : K_OO's beam part terms(ω) @ P, P (terms, o²) each term's pattern GᵀE_tG on O,
+        sparse: layers (term, entry of C flattened, value), each entry at most once per
+        layer: ``k[:, entry] += terms[:, term] * value`` layer by layer adds the few nonzeros
+        of P alone, elementwise, in an order that does not depend on the number of
+        frequencies (a product would take another BLAS path at one).
     """
 
     inner: np.ndarray
@@ -135,9 +140,10 @@ class Condensation:
     poles: np.ndarray
     static: np.ndarray
     mass: np.ndarray
-    products: np.ndarray
+    coupling: np.ndarray
+    mass_coupling: np.ndarray | None
     members: Members
-    patterns: np.ndarray
+    scatter: tuple
 
     @classmethod
     def of(cls, nodal: NodalStiffness) -> Condensation:
@@ -167,27 +173,45 @@ class Condensation:
         outer = np.setdiff1d(np.arange(n), inner)
         a = phi.T @ nodal.static[np.ix_(inner, outer)]
         b = phi.T @ nodal.mass[np.ix_(inner, outer)]
-        if (3 if b.any() else 1) * inner.size * outer.size**2 > n**3 / 3:
+        if inner.size * outer.size**2 > n**3 / 3:
             return cls.of_whole(nodal)  # costs more per ω than the LDLᵀ of the whole K
-        products = [a[:, :, None] * a[:, None, :]]
-        if b.any():  # mass coupling between inner and outer coordinates
-            products += [
-                a[:, :, None] * b[:, None, :] + b[:, :, None] * a[:, None, :],
-                b[:, :, None] * b[:, None, :],
-            ]
-        products = np.array(products).reshape(len(products), inner.size, outer.size**2)
-        position = np.full(n, -1)
-        position[outer] = np.arange(outer.size)
-        members = nodal.members
-        patterns = np.zeros((members.owner.size, outer.size, outer.size))
-        for j, (_, columns, g) in enumerate(nodal.beams):
-            at = position[columns]
-            terms = np.flatnonzero(members.owner == j)
-            patterns[terms[:, None, None], at[:, None], at] = g.T @ members.patterns[terms] @ g
         static = nodal.static[np.ix_(outer, outer)]
         mass = nodal.mass[np.ix_(outer, outer)]
-        patterns = patterns.reshape(members.owner.size, outer.size**2)
-        return cls(inner, outer, poles, static, mass, products, members, patterns)
+        coupled = b if b.any() else None  # mass coupling between inner and outer coordinates
+        scatter = _scatter(nodal, outer)
+        return cls(inner, outer, poles, static, mass, a, coupled, nodal.members, scatter)
+
+
+def _scatter(nodal: NodalStiffness, outer: np.ndarray) -> tuple:
+    """:attr:`Condensation.scatter` of the beams of ``nodal`` on the ``outer`` coordinates."""
+    position = np.full(nodal.order, -1)
+    position[outer] = np.arange(outer.size)
+    members = nodal.members
+    term, entry, value = [np.zeros(0, dtype=int)], [np.zeros(0, dtype=int)], [np.zeros(0)]
+    for j, (_, columns, g) in enumerate(nodal.beams):
+        at = position[columns]
+        terms = np.flatnonzero(members.owner == j)
+        block = g.T @ members.patterns[terms] @ g  # (terms, c, c)
+        t, r, c = np.nonzero(block)
+        term.append(terms[t])
+        entry.append(at[r] * outer.size + at[c])
+        value.append(block[t, r, c])
+    term, entry, value = np.concatenate(term), np.concatenate(entry), np.concatenate(value)
+    order = np.lexsort((term, entry))
+    term, entry, value = term[order], entry[order], value[order]
+    first = np.r_[0, np.flatnonzero(np.diff(entry)) + 1]  # each entry's first nonzero
+    layer = np.arange(entry.size) - np.repeat(first, np.diff(np.r_[first, entry.size]))
+    return tuple(
+        (term[layer == i], entry[layer == i], value[layer == i])
+        for i in range(layer.max(initial=-1) + 1)
+    )
+
+
+def _same_scatter(a: tuple, b: tuple) -> bool:
+    """Whether two :attr:`Condensation.scatter` are the same."""
+    return len(a) == len(b) and all(
+        np.array_equal(x, y) for p, q in zip(a, b, strict=True) for x, y in zip(p, q, strict=True)
+    )
 
 
 class CondensationStack:
@@ -199,43 +223,64 @@ class CondensationStack:
         for other in condensations[1:]:
             if not (
                 np.array_equal(other.outer, first.outer)
-                and np.array_equal(other.patterns, first.patterns)
+                and _same_scatter(other.scatter, first.scatter)
                 and np.array_equal(other.mass, first.mass)
             ):
                 raise ValueError("designs of different structures cannot share a count")
-        self.members, self.patterns, self.mass = first.members, first.patterns, first.mass
+        self.members, self.mass, self.scatter = first.members, first.mass, first.scatter
+        self.mass_entries = np.nonzero(self.mass)
         self.order = first.outer.size
         self.static = np.array([c.static for c in condensations])
         self.poles = np.array([c.poles for c in condensations])
-        self.products = [c.products for c in condensations]
+        self.coupling = np.array([c.coupling for c in condensations])
+        self.mass_coupling = None  # b of each design, if M_IO ≠ 0 (then in all designs)
+        if first.mass_coupling is not None:
+            self.mass_coupling = np.array([c.mass_coupling for c in condensations])
 
     def complement(self, omega, design) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(C(ω) (len(ω), o, o), #{λ_i < ω²} (len(ω),), Σ log|λ_i - ω²| (len(ω),)) of each
         design ``design`` (len(ω),) at ω [rad/s]; log|det K| = Σ log|λ_i - ω²| + log|det C|
-        - 2 log|det Φ| (:class:`Condensation`)."""
+        - 2 log|det Φ| (:class:`Condensation`). Each ω's C is formed by elementwise steps and
+        one (o, r) @ (r, o) product of its own: the same arithmetic however many ω and
+        designs share the call, so a design's count and roots do not depend on its batch."""
         w2 = np.atleast_1d(np.asarray(omega, dtype=float)) ** 2
-        n, o = w2.size, self.order
-        k = self.static[design] - w2[:, None, None] * self.mass
-        # one row per product (n, 1, t) @ (t, o o): each ω's sum is formed alike however many
-        # ω and designs share the call, so a design's count and roots do not depend on its
-        # batch (a (n, t) @ (t, o o) product takes another BLAS path when n is 1)
-        terms = self.members.terms(np.sqrt(w2))[:, None, :]
-        k += (terms @ self.patterns)[:, 0].reshape(n, o, o)
+        terms = self.members.terms(np.sqrt(w2))
         gap = self.poles[design] - w2[:, None]
         with np.errstate(divide="ignore"):
             # ω on a pole to the last bit: a mode of the inner structure the outer coordinates
             # do not feel (w_i at rounding level), a root of K itself: log|det K| = -inf
             inverse = np.where(gap == 0.0, 0.0, 1.0 / gap)
             log_gap = np.sum(np.log(np.abs(gap)), axis=1)
-        if gap.shape[1]:
-            powers = np.stack([-inverse, w2[:, None] * inverse, -(w2**2)[:, None] * inverse])
-            for d in np.unique(design):
-                at = np.flatnonzero(design == d)
-                used = self.products[d].shape[0]  # 3 with mass coupling between I and O
-                flat = self.products[d].reshape(used * gap.shape[1], o * o)
-                terms = (np.concatenate(powers[:used, at], axis=1)[:, None, :] @ flat)[:, 0]
-                k[at] += terms.reshape(at.size, o, o)
+        k = np.empty((w2.size, self.order, self.order))
+        for d in np.unique(design):
+            at = np.flatnonzero(design == d) if len(self.poles) > 1 else np.arange(w2.size)
+            for start in range(0, at.size, CHUNK):  # CHUNK ω at a time: temporaries in cache
+                block = at[start : start + CHUNK]
+                k[block] = self._block(d, w2[block], terms[block], inverse[block])
         return k, np.count_nonzero(gap < 0, axis=1), log_gap
+
+    def _block(self, design: int, w2, terms, inverse) -> np.ndarray:
+        """C(ω) (len(ω), o, o) of one design at ω² [rad²/s²] (len(ω),), given the beams'
+        ``terms`` (len(ω), t) and 1/(λ_i - ω²) (len(ω), r)."""
+        n, o = w2.size, self.order
+        k = np.repeat(self.static[design][None], n, axis=0)
+        rows, cols = self.mass_entries
+        k[:, rows, cols] -= w2[:, None] * self.mass[rows, cols]
+        flat = k.reshape(n, o * o)
+        for term, entry, value in self.scatter:
+            flat[:, entry] += terms[:, term] * value
+        if inverse.shape[1]:
+            k -= self._coupled(design, w2, inverse)
+        return k
+
+    def _coupled(self, design: int, w2: np.ndarray, inverse: np.ndarray) -> np.ndarray:
+        """Wᵀ diag(1/(λ_i - ω²)) W (len(ω), o, o) of one design at ω² [rad²/s²] (len(ω),),
+        ``inverse`` 1/(λ_i - ω²) (len(ω), r): one (o, r) @ (r, o) product per ω."""
+        a = self.coupling[design]
+        if self.mass_coupling is None:
+            return a.T @ (inverse[:, :, None] * a)
+        w = a - w2[:, None, None] * self.mass_coupling[design]
+        return np.swapaxes(w, 1, 2) @ (inverse[:, :, None] * w)
 
 
 class _Layout:
@@ -346,12 +391,34 @@ def _check_massless_mechanism(layout, basis, springs, massless) -> None:
     )
 
 
-_GEOMETRY = Recent(8)  # Model.structure_key() -> (layout, basis, zero modes)
+_STRUCTURES = Recent(8)  # Model.structure_key() -> _Structure
 
 
-def _geometry(model: Model):
-    """Layout, constraint basis and zero-mode count: the same for every design of a
-    stiffness study (built once per structure)."""
+@dataclass(frozen=True, eq=False)
+class _Structure:
+    """What every design of a stiffness study shares (built once per structure).
+
+    Attributes
+    ----------
+    basis : N (dofs, n), the motions the rigid directions allow.
+    zero_modes : motions that strain nothing.
+    elastic : (6 hinges,) which hinge directions are springs (finite, nonzero stiffness).
+    springs : (springs, n) their relative motions d_j on the constrained motions (d_j N):
+        the hinges' stiffness is ``springsᵀ diag(k) springs``.
+    mass : (n, n) the rigid bodies' mass on the constrained motions.
+    beams : as :attr:`NodalStiffness.beams`.
+    """
+
+    basis: np.ndarray
+    zero_modes: int
+    elastic: np.ndarray
+    springs: np.ndarray
+    mass: np.ndarray
+    beams: tuple
+
+
+def _structure(model: Model) -> _Structure:
+    """The :class:`_Structure` of ``model``'s structure (cached)."""
 
     def build():
         layout = _Layout(model)
@@ -362,29 +429,25 @@ def _geometry(model: Model):
         basis = _null_basis(np.concatenate([np.zeros((0, layout.size)), *rigid]), layout.size)
         springs = np.concatenate([np.zeros((0, layout.size)), *elastic])
         norms = np.linalg.norm(springs, axis=1, keepdims=True)
-        springs = springs / np.where(norms > 0, norms, 1.0)
+        unit = springs / np.where(norms > 0, norms, 1.0)
         massless = np.zeros(layout.size, dtype=bool)
         for body in model.bodies:
             if isinstance(body, VirtualBody):
                 massless[layout.nodes[body.name][0] + np.arange(6)] = True
-        _check_massless_mechanism(layout, basis, springs, massless)
-        beams = [_beam_rigidity(layout, b) for b in model.bodies if isinstance(b, Beam)]
-        strain = np.concatenate([springs, *beams]) @ basis
-        return layout, basis, basis.shape[1] - _rank(strain)
+        _check_massless_mechanism(layout, basis, unit, massless)
+        rigidity = [_beam_rigidity(layout, b) for b in model.bodies if isinstance(b, Beam)]
+        zero_modes = basis.shape[1] - _rank(np.concatenate([unit, *rigidity]) @ basis)
+        k = np.concatenate([np.zeros(0), *k])
+        mass, beams = _bodies(model, layout, basis)
+        return _Structure(basis, zero_modes, np.isfinite(k) & (k > 0), springs @ basis, mass, beams)
 
-    return _GEOMETRY.get(model.structure_key(), build)
+    return _STRUCTURES.get(model.structure_key(), build)
 
 
-def nodal_stiffness(model: Model) -> NodalStiffness:
-    """The :class:`NodalStiffness` of ``model`` (module docstring)."""
-    layout, basis, zero_modes = _geometry(model)
-    static = np.zeros((layout.size, layout.size))
+def _bodies(model: Model, layout: _Layout, basis: np.ndarray) -> tuple[np.ndarray, tuple]:
+    """(the rigid bodies' mass (n, n) on the constrained motions, the beams as
+    :attr:`NodalStiffness.beams`)."""
     mass = np.zeros((layout.size, layout.size))
-    for hinge in model.hinges:
-        k = hinge.stiffness6
-        elastic = np.isfinite(k) & (k > 0)
-        d = _hinge_rows(layout, hinge)[elastic]
-        static += d.T @ (k[elastic, None] * d)
     beams = []
     for body in model.bodies:
         first, _ = layout.nodes[body.name]
@@ -395,6 +458,13 @@ def nodal_stiffness(model: Model) -> NodalStiffness:
             g = local_to_global(body) @ basis[first : first + 12]
             columns = np.flatnonzero(np.any(g != 0.0, axis=0))
             beams.append((body, columns, g[:, columns]))
-    return NodalStiffness(
-        basis.T @ static @ basis, basis.T @ mass @ basis, tuple(beams), zero_modes
-    )
+    return basis.T @ mass @ basis, tuple(beams)
+
+
+def nodal_stiffness(model: Model) -> NodalStiffness:
+    """The :class:`NodalStiffness` of ``model`` (module docstring): the hinges' springs on
+    the cached geometry of its structure."""
+    structure = _structure(model)
+    k = np.concatenate([np.zeros(0), *(h.stiffness6 for h in model.hinges)])[structure.elastic]
+    static = structure.springs.T @ (k[:, None] * structure.springs)
+    return NodalStiffness(static, structure.mass, structure.beams, structure.zero_modes)

@@ -47,6 +47,7 @@ SEED_RTOLS = np.array([1e-5, 1e-3])  # the first points lie this far (relative) 
 SECANT_ITERATIONS = 12  # Illinois steps at most (3 reach SECANT_RTOL from ±1e-5 mostly)
 GRID_POINTS = 48  # the first, geometric grid of the search below the upper frequency
 GRID_DECADES = 6.0  # ... spanning this many decades below it (extended while roots remain)
+SPLIT_LEVELS = 2  # each wide interval is cut into 2**SPLIT_LEVELS parts per J evaluation
 MAX_BISECTIONS = 200  # levels of bisection before giving up (never reached: ~60 reach eps)
 
 
@@ -57,18 +58,22 @@ def negative_eigenvalues(k: np.ndarray) -> np.ndarray:
     return inertia(k)[0]
 
 
-def inertia(k: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def inertia(k: np.ndarray, overwrite: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """(s{K}, log|det K|) of each symmetric matrix of the stack (n_ω, n, n) from one LDLᵀ
     (Bunch-Kaufman) factorisation each: det K = det D (det L = 1), the product of the 1x1
-    blocks and the 2x2 blocks' determinants; sign det K = (-1)^s{K}."""
+    blocks and the 2x2 blocks' determinants; sign det K = (-1)^s{K}. ``overwrite``: the
+    factors may overwrite ``k`` (C-contiguous float64)."""
     n_omega, n = k.shape[:2]
     if n == 0:  # nothing left to factor (every coordinate condensed)
         return np.zeros(n_omega, dtype=int), np.zeros(n_omega)
-    diagonal, below, pivots = np.empty((n_omega, n)), np.zeros((n_omega, n)), np.empty((n_omega, n))
-    for i, matrix in enumerate(k):  # LAPACK per matrix, the rest batched
-        lu, pivots[i], _ = dsytrf(matrix.T, lower=1)  # symmetric: the transpose is Fortran order
-        diagonal[i] = lu.diagonal()
-        below[i, :-1] = lu.diagonal(-1)
+    if not (overwrite and k.flags.c_contiguous and k.dtype == np.float64):
+        k = np.array(k, dtype=float, order="C")
+    pivots = np.empty((n_omega, n), dtype=np.int32)
+    for i, matrix in enumerate(k):  # LAPACK per matrix in place, the rest batched
+        # symmetric: the transpose is Fortran order, its lower triangle matrix's upper one
+        _, pivots[i], _ = dsytrf(matrix.T, lower=1, overwrite_a=1)
+    diagonal, below = k.diagonal(axis1=1, axis2=2), np.zeros((n_omega, n))
+    below[:, :-1] = k.diagonal(offset=1, axis1=1, axis2=2)
     # a 2x2 block D(j:j+2, j:j+2) has ipiv < 0 at both j and j + 1: pairs of negative pivots
     start = pivots < 0
     for j in np.flatnonzero(start[:, 1:].any(axis=0)) + 1:  # ascending, where any pivot < 0
@@ -136,7 +141,7 @@ class RootCounter:
         design = _designs(design, hz.size)
         omega = TWO_PI * hz
         complement, inner_negative, inner_log_det = self.stack.complement(omega, design)
-        negative, log_det = inertia(complement)
+        negative, log_det = inertia(complement, overwrite=True)
         negative, log_det = negative + inner_negative, log_det + inner_log_det
         clamped = self.stack.members.clamped(omega)
         sign = np.where(negative % 2 == 1, -1.0, 1.0)
@@ -181,11 +186,13 @@ class RootCounter:
 
     def brackets(self, below_hz, start_rtol: float | None = None, first=None):
         """Brackets of every natural frequency below ``below_hz`` [Hz] (only the ``first``
-        ones, if given), by bisection on J (geometric middles, all brackets of all designs at
-        once): single roots to ``start_rtol`` (relative width), clusters to CLUSTER_RTOL. By
+        ones, if given), by cutting on J (each wide bracket into 2**SPLIT_LEVELS parts of equal
+        ratio per evaluation, :func:`_cuts`, all brackets of all designs at once): single
+        roots to ``start_rtol`` (relative width), clusters to CLUSTER_RTOL. By
         default (``start_rtol`` None) single roots are bisected to SECANT_FROM only, then
         sharpened by :meth:`_sharpen` (``start_hz``: Newton's start within SECANT_RTOL of the
-        root). The first J points lie beside the linearised estimates (:meth:`_seeds`).
+        root). The first J points lie beside the linearised estimates
+        (:meth:`_first_counts`).
         ``below_hz`` and ``first`` may be one per design; one :class:`Brackets` for a
         counter of one design, else a list of them."""
         n = len(self.models)
@@ -194,15 +201,7 @@ class RootCounter:
         sharpen = start_rtol is None
         start_rtol = SECANT_FROM if sharpen else start_rtol
         steps = np.geomspace(10.0**-GRID_DECADES, 1.0, GRID_POINTS)
-        grid = [top[d] * steps for d in range(n)]
-        if sharpen:  # first points beside the linearised estimates: most roots isolated
-            grid = [
-                np.unique(np.r_[g, self._seeds(d, g[0], top[d], wanted[d])])
-                for d, g in enumerate(grid)
-            ]
-        design = np.repeat(np.arange(n), [g.size for g in grid])
-        grid = np.concatenate(grid)
-        counts = self.below(grid, design)
+        grid, design, counts = self._first_counts(top, wanted, steps, sharpen)
         while np.any(low := counts[np.r_[0, np.flatnonzero(np.diff(design)) + 1]] > 0):
             # roots below the grid: extend it downwards
             lowest = grid[np.r_[0, np.flatnonzero(np.diff(design)) + 1]][low]
@@ -221,9 +220,9 @@ class RootCounter:
             wide = np.where(m > 1, CLUSTER_RTOL, start_rtol) * hi < hi - lo
             if not wide.any():
                 break
-            mid = np.sqrt(lo[wide] * hi[wide])
-            c = self.below(mid, des[wide])
-            lo, hi, lo_c, hi_c, des = _split(lo, hi, lo_c, hi_c, des, wide, mid, c)
+            cuts = _cuts(lo[wide], hi[wide], SPLIT_LEVELS)
+            c = self.below(cuts.ravel(), des[wide].repeat(cuts.shape[1])).reshape(cuts.shape)
+            lo, hi, lo_c, hi_c, des = _split(lo, hi, lo_c, hi_c, des, wide, cuts, c)
         m, start = hi_c - lo_c, np.sqrt(lo * hi)
         if sharpen and np.any(m == 1):
             one = m == 1
@@ -234,16 +233,47 @@ class RootCounter:
         ]
         return found[0] if n == 1 else found
 
-    def _seeds(self, design: int, lo_hz: float, hi_hz: float, wanted: int) -> np.ndarray:
-        """Frequencies [Hz] in (lo_hz, hi_hz) just below and above each linearised estimate
-        (:meth:`ufmt.mstmm.nodal.NodalStiffness.estimates`) of ``design`` and half-way
-        between them; only of the ``wanted`` + 1 lowest estimates (the next root bounds the
-        last wanted one)."""
+    def _first_counts(self, top, wanted, steps, seeded: bool):
+        """(hz, design, J): the first points [Hz] of the search, ascending per design, and J
+        there. The geometric grid ``top * steps``; ``seeded``: in two passes, first only the
+        grid's ends and the points just beside each linearised estimate (:func:`_seeds`,
+        SEED_RTOLS[0]: most roots isolated there), then the other seeds and grid points
+        where J still rises between two of them (a root not yet isolated beside its
+        estimate)."""
+        n = len(self.models)
+        grid = [top[d] * steps for d in range(n)]
+        if not seeded:
+            hz, design = np.concatenate(grid), np.repeat(np.arange(n), steps.size)
+            return hz, design, self.below(hz, design)
+        est = [self._estimates(d, g[0], top[d], wanted[d]) for d, g in enumerate(grid)]
+        near = [
+            np.unique(np.r_[g[0], g[-1], _seeds(e, g[0], g[-1], SEED_RTOLS[:1], middles=False)])
+            for e, g in zip(est, grid, strict=True)
+        ]
+        design = np.repeat(np.arange(n), [p.size for p in near])
+        hz, counts = np.concatenate(near), self.below(np.concatenate(near), design)
+        more = []
+        for d, g in enumerate(grid):  # the other points, where J rises between the first
+            at, c = hz[design == d], counts[design == d]
+            others = np.r_[g, _seeds(est[d], g[0], g[-1], SEED_RTOLS)]
+            i = np.clip(np.searchsorted(at, others), 1, at.size - 1)
+            more.append(
+                np.unique(others[(c[i] > c[i - 1]) & (others > at[i - 1]) & (others < at[i])])
+            )
+        more_design = np.repeat(np.arange(n), [p.size for p in more])
+        more = np.concatenate(more)
+        if more.size == 0:
+            return hz, design, counts
+        order = np.lexsort((np.r_[hz, more], np.r_[design, more_design]))
+        counts = np.r_[counts, self.below(more, more_design)][order]
+        return np.r_[hz, more][order], np.r_[design, more_design][order], counts
+
+    def _estimates(self, design: int, lo_hz: float, hi_hz: float, wanted: int) -> np.ndarray:
+        """The linearised estimates [Hz] in (lo_hz, hi_hz) of ``design``
+        (:meth:`ufmt.mstmm.nodal.NodalStiffness.estimates`), only the ``wanted`` + 1 lowest
+        (the next root bounds the last wanted one)."""
         est = self.nodals[design].estimates() / TWO_PI
-        est = est[(est > lo_hz) & (est < hi_hz)][: min(wanted, est.size) + 1]
-        rings = np.concatenate([1 - SEED_RTOLS, 1 + SEED_RTOLS])
-        seeds = np.concatenate([np.outer(est, rings).ravel(), np.sqrt(est[1:] * est[:-1])])
-        return seeds[(seeds > lo_hz) & (seeds < hi_hz)]
+        return est[(est > lo_hz) & (est < hi_hz)][: min(wanted, est.size) + 1]
 
     def _sharpen(self, lo, hi, design, retry: bool = True):
         """Newton's start in brackets [Hz] of one root each: regula falsi (Illinois) on
@@ -327,15 +357,38 @@ class RootCounter:
         return lo, hi
 
 
-def _split(lo, hi, lo_c, hi_c, design, wide, mid, c):
+def _seeds(est, lo_hz: float, hi_hz: float, rtols, middles: bool = True) -> np.ndarray:
+    """Frequencies [Hz] in (lo_hz, hi_hz) ``rtols`` (relative) below and above each estimate
+    ``est`` [Hz] and (``middles``) half-way between them."""
+    rings = np.concatenate([1 - rtols, 1 + rtols])
+    seeds = np.outer(est, rings).ravel()
+    if middles:
+        seeds = np.r_[seeds, np.sqrt(est[1:] * est[:-1])]
+    return seeds[(seeds > lo_hz) & (seeds < hi_hz)]
+
+
+def _cuts(lo, hi, levels: int) -> np.ndarray:
+    """(len(lo), 2**levels - 1) points [Hz] cutting each [lo, hi] into 2**levels parts of
+    equal ratio, ascending: geometric middles, ``levels`` deep."""
+    ends = np.stack([lo, hi], axis=1)
+    for _ in range(levels):
+        middles = np.sqrt(ends[:, :-1] * ends[:, 1:])
+        ends = np.stack([ends[:, :-1], middles], axis=2).reshape(lo.size, -1)
+        ends = np.c_[ends, hi]
+    return ends[:, 1:-1]
+
+
+def _split(lo, hi, lo_c, hi_c, design, wide, cuts, c):
     """Intervals [Hz] (of each its design) and the counts at their ends with the ``wide`` ones
-    split at ``mid`` (counts ``c`` there); intervals that hold no root dropped; ascending per
-    design."""
-    lo = np.concatenate([lo[~wide], lo[wide], mid])
-    hi = np.concatenate([hi[~wide], mid, hi[wide]])
-    lo_c = np.concatenate([lo_c[~wide], lo_c[wide], c])
-    hi_c = np.concatenate([hi_c[~wide], c, hi_c[wide]])
-    design = np.concatenate([design[~wide], design[wide], design[wide]])
+    cut at ``cuts`` (wide, k) (counts ``c`` there); intervals that hold no root dropped;
+    ascending per design."""
+    ends = np.c_[lo[wide], cuts, hi[wide]]
+    counts = np.c_[lo_c[wide], c, hi_c[wide]]
+    lo = np.concatenate([lo[~wide], ends[:, :-1].ravel()])
+    hi = np.concatenate([hi[~wide], ends[:, 1:].ravel()])
+    lo_c = np.concatenate([lo_c[~wide], counts[:, :-1].ravel()])
+    hi_c = np.concatenate([hi_c[~wide], counts[:, 1:].ravel()])
+    design = np.concatenate([design[~wide], design[wide].repeat(cuts.shape[1] + 1)])
     keep = np.flatnonzero(hi_c > lo_c)
     order = keep[np.lexsort((lo[keep], design[keep]))]
     return lo[order], hi[order], lo_c[order], hi_c[order], design[order]
