@@ -45,7 +45,9 @@ from ufmt.machining.response import (
     cubic_weights,
     motion_shapes,
     projected_motion,
+    projected_tip_acceleration,
     record_slide,
+    tip_acceleration_shapes,
 )
 from ufmt.model.machine import Machine
 
@@ -252,20 +254,19 @@ def periodic_response(geo, process, zeta=DEFAULT_ZETA, force_scale: float = 1.0)
     zeta = modal_damping(zeta, geo.basis.n_modes)
     f = process.spindle_hz
     n = geo.n_phi
-    amps = np.array([force_scale * part_amplitude(process, geo.machine, g.part) for g in parts])
+    amps = _amplitudes(parts, process, force_scale)
     units = [_record_unit(g) for g in parts]
-    fs = sum(amp * u.fs for amp, u in zip(amps, units, strict=True))
+    fs = sum(amp * _record_force(g) for amp, g in zip(amps, parts, strict=True))
     y_rec = record_slide(geo.machine)
     j = np.arange(n)
-    tip, acc, work = projected_motion(
-        geo, j, np.full(n, y_rec), *_record_motion(geo, zeta, f, fs), f
-    )
+    motion = _record_motion(geo, zeta, f, fs, motion_shapes(geo))
+    tip, acc, work = projected_motion(geo, j, np.full(n, y_rec), *motion, f)
     for amp, u in zip(amps, units, strict=True):
         if u.static_tip is not None:
             tip, work = tip + amp * u.static_tip, work + amp * u.static_work
     return Response(
         method="periodic",
-        t=(j + (y_rec - geo.machine.cut_span[0]) / process.feed_per_rev_m * n) / (f * n),
+        t=_record_times(geo, process),
         slide_y=np.full(n, y_rec),
         force=sum(amp * u.force for amp, u in zip(amps, units, strict=True)),
         tip_disp=tip,
@@ -278,12 +279,49 @@ def periodic_response(geo, process, zeta=DEFAULT_ZETA, force_scale: float = 1.0)
     )
 
 
-def _record_motion(geo: CutGeometry, zeta: np.ndarray, spindle_hz: float, fs: np.ndarray):
+def record_tip_acceleration(
+    geo, process, zeta=DEFAULT_ZETA, force_scale: float = 1.0
+) -> tuple[np.ndarray, np.ndarray]:
+    """The record window of :func:`periodic_response` reduced to what an accelerometer on the
+    tool reads: its times t (N,) [s] and the tool tip's z acceleration (N,) [m/s^2], equal to
+    that response's ``t`` and ``tip_acc[:, 2]`` to rounding.
+
+    The same periodic state under the same modal force, projected on the 7 modal shapes the
+    acceleration reads (:func:`~ufmt.machining.response.tip_acceleration_shapes`) instead of
+    21; the static correction (which does not reach the acceleration, see
+    :mod:`ufmt.machining.response`), the workpiece's motion, the force and the z_re table are
+    not formed, so the geometries' table rows and residual are not read. ``geo``, ``zeta``
+    and ``force_scale`` as in :func:`periodic_response`.
+    """
+    parts = (geo,) if isinstance(geo, CutGeometry) else tuple(geo)
+    geo = parts[0]
+    zeta = modal_damping(zeta, geo.basis.n_modes)
+    f = process.spindle_hz
+    amps = _amplitudes(parts, process, force_scale)
+    fs = sum(amp * _record_force(g) for amp, g in zip(amps, parts, strict=True))
+    motion = _record_motion(geo, zeta, f, fs, tip_acceleration_shapes(geo))
+    acc = projected_tip_acceleration(geo, np.arange(geo.n_phi), *motion, f)
+    return _record_times(geo, process), acc
+
+
+def _amplitudes(parts: tuple[CutGeometry, ...], process, force_scale: float) -> np.ndarray:
+    """The force parts' amplitudes [m^2 or m] times the force scale."""
+    return np.array([force_scale * part_amplitude(process, g.machine, g.part) for g in parts])
+
+
+def _record_times(geo: CutGeometry, process) -> np.ndarray:
+    """Times [s] of the record window's samples (0 at the first touch of the cut)."""
+    n, f = geo.n_phi, process.spindle_hz
+    y_rec = record_slide(geo.machine)
+    return (np.arange(n) + (y_rec - geo.machine.cut_span[0]) / process.feed_per_rev_m * n) / (f * n)
+
+
+def _record_motion(geo: CutGeometry, zeta: np.ndarray, spindle_hz: float, fs: np.ndarray, shapes):
     """The periodic steady state under the modal force fs (n, N) (zero outside the cut's run)
-    projected on the bodies' modes (:func:`~ufmt.machining.response.projected_motion`'s
-    moved, spin and accel)."""
+    projected on the modal ``shapes`` (n, k) on q, q' and q'' (those of
+    :func:`~ufmt.machining.response.motion_shapes` give
+    :func:`~ufmt.machining.response.projected_motion`'s moved, spin and accel): (N, k) each."""
     b, n = geo.basis, geo.n_phi
-    shapes = motion_shapes(geo)  # on q, q', q''
     modes = damped_modes(b, zeta)
     if modes is None:
         rec = _recurrence(b, n, spindle_hz, tuple(zeta.tolist()))
@@ -487,11 +525,10 @@ def _coefficients(shapes, static_hats) -> tuple[np.ndarray, np.ndarray]:
 class _RecordUnit:
     """Record-window quantities of one force part per unit amplitude (process-independent).
 
-    fs (n, N) the modal force; force (N, 3) the force on the tool [N per unit]; static_tip,
-    static_work (N, 3) or None the static correction's displacements.
+    force (N, 3) the force on the tool [N per unit]; static_tip, static_work (N, 3) or None
+    the static correction's displacements (the modal force: :func:`_record_force`).
     """
 
-    fs: np.ndarray
     force: np.ndarray
     static_tip: np.ndarray | None
     static_work: np.ndarray | None
@@ -499,20 +536,28 @@ class _RecordUnit:
 
 @lru_cache(maxsize=8)
 def _record_unit(geo: CutGeometry) -> _RecordUnit:
-    """The record window of :func:`periodic_response` per unit amplitude (cached per geometry;
-    the modal force formed on the cutting samples only)."""
-    y_rec, chip, force, cut = _record_pattern(geo.machine, geo.coefficients, geo.n_phi, geo.part)
-    w, w_y, _ = geo.modal_at(cut)
-    fs = np.zeros((geo.basis.n_modes, geo.n_phi))
-    fs[:, cut] = (w + y_rec * w_y) * chip[cut]
+    """The record window of :func:`periodic_response` per unit amplitude (cached per
+    geometry)."""
+    y_rec, chip, force, _ = _record_pattern(geo.machine, geo.coefficients, geo.n_phi, geo.part)
     static_tip = static_work = None
     if geo.static_tool is not None:
         s_tool, s_work = geo.static_at(slice(None), y_rec)
         static_tip, static_work = chip[:, None] * s_tool, chip[:, None] * s_work
-    for a in (fs, static_tip, static_work):
-        if a is not None:
+        for a in (static_tip, static_work):
             a.setflags(write=False)
-    return _RecordUnit(fs, force, static_tip, static_work)
+    return _RecordUnit(force, static_tip, static_work)
+
+
+@lru_cache(maxsize=8)
+def _record_force(geo: CutGeometry) -> np.ndarray:
+    """The record window's modal force (n, N) per unit amplitude (cached per geometry; formed
+    on the cutting samples only, read-only)."""
+    y_rec, chip, _, cut = _record_pattern(geo.machine, geo.coefficients, geo.n_phi, geo.part)
+    w, w_y, _ = geo.modal_at(cut)
+    fs = np.zeros((geo.basis.n_modes, geo.n_phi))
+    fs[:, cut] = (w + y_rec * w_y) * chip[cut]
+    fs.setflags(write=False)
+    return fs
 
 
 @lru_cache(maxsize=4)  # machine-only
