@@ -39,6 +39,7 @@ from ufmt.machining.recurrence import (
     periodic_recurrence,
     pole_recurrence,
     pole_transfer,
+    real_part_product,
 )
 from ufmt.machining.response import (
     Response,
@@ -317,43 +318,40 @@ def _record_times(geo: CutGeometry, process) -> np.ndarray:
 
 
 def _record_motion(geo: CutGeometry, zeta: np.ndarray, spindle_hz: float, fs: np.ndarray, shapes):
-    """The periodic steady state under the modal force fs (n, N) (zero outside the cut's run)
-    projected on the modal ``shapes`` (n, k) on q, q' and q'' (those of
-    :func:`~ufmt.machining.response.motion_shapes` give
+    """The periodic steady state under the modal force fs (n, A) on the cut's run (zero
+    outside it, :func:`_record_force`) projected on the modal ``shapes`` (n, k) on q, q' and
+    q'' (those of :func:`~ufmt.machining.response.motion_shapes` give
     :func:`~ufmt.machining.response.projected_motion`'s moved, spin and accel): (N, k) each."""
     b, n = geo.basis, geo.n_phi
+    run = _cut_run(geo.active.tobytes())[1]
     modes = damped_modes(b, zeta)
     if modes is None:
         rec = _recurrence(b, n, spindle_hz, tuple(zeta.tolist()))
-        q, qd = periodic_state(rec, fs, geo.active)
-        qdd = fs - (2 * zeta * b.omega)[:, None] * qd - (b.omega**2)[:, None] * q
+        force = np.zeros((b.n_modes, n))
+        force[:, run] = fs
+        q, qd = periodic_state(rec, force, geo.active)
+        qdd = force - (2 * zeta * b.omega)[:, None] * qd - (b.omega**2)[:, None] * q
         return q.T @ shapes[0], qd.T @ shapes[1], qdd.T @ shapes[2]
     with serial_blas():
-        run = _cut_run(geo.active.tobytes())[1]
-        u = np.zeros((modes.poles.size, n), complex)  # the modal force acts on the run only
-        u[:, run] = modes.inputs @ fs[:, run]
-        z = periodic_coordinates(_pole_recurrence(modes, n, spindle_hz), u, geo.active)
-        return modes.projected(z, fs, *shapes)
+        rec = _pole_recurrence(modes, n, spindle_hz)
+        out = periodic_projection(rec, modes.inputs @ fs, geo.active, modes.state_weights(*shapes))
+        q, qd, qdd = np.split(out, np.cumsum([shapes[0].shape[1], shapes[1].shape[1]]), axis=1)
+        qdd[run] += fs.T @ shapes[2]
+        return q, qd, qdd
 
 
-@lru_cache(maxsize=4)  # ~0.3 MiB each
+@lru_cache(maxsize=4)  # n N complex each once its powers are formed
 def _recurrence(basis: ModalBasis, n_phi: int, spindle_hz: float, zeta: tuple):
     """:func:`periodic_recurrence` of the basis at the spindle frequency [Hz] (cached per
     spindle speed and damping; its arrays read-only)."""
-    out = periodic_recurrence(basis.omega, np.array(zeta), 1 / (spindle_hz * n_phi), n_phi)
-    for a in (out.lam, out.e, out.b0, out.b1, out.powers, out.period):
-        a.setflags(write=False)
-    return out
+    return periodic_recurrence(basis.omega, np.array(zeta), 1 / (spindle_hz * n_phi), n_phi)
 
 
 @lru_cache(maxsize=4)
 def _pole_recurrence(modes: DampedModes, n_phi: int, spindle_hz: float) -> PeriodicRecurrence:
     """:func:`pole_recurrence` of the complex modes at the spindle frequency [Hz] (cached per
     modes and spindle speed; its arrays read-only)."""
-    out = pole_recurrence(modes.poles, 1 / (spindle_hz * n_phi), n_phi)
-    for a in (out.lam, out.e, out.b0, out.b1, out.powers, out.period):
-        a.setflags(write=False)
-    return out
+    return pole_recurrence(modes.poles, 1 / (spindle_hz * n_phi), n_phi)
 
 
 @lru_cache(maxsize=8)
@@ -402,6 +400,34 @@ def periodic_coordinates(recurrence: PeriodicRecurrence, force: np.ndarray, acti
     np.multiply(powers[:, :head], after[:, None], out=x[:, start : start + head])
     np.multiply(powers[:, head : n - a], after[:, None], out=x[:, : n - a - head])
     return x
+
+
+def periodic_projection(
+    recurrence: PeriodicRecurrence, force: np.ndarray, active: np.ndarray, weights: np.ndarray
+) -> np.ndarray:
+    """2 Re(z^T W) (N, k) of the complex state z of :func:`periodic_coordinates` under the
+    input ``force`` (n, A) on the circular run of ``active`` (N,) (its A samples in order),
+    for complex weights W (n, k), without forming z.
+
+    Over the run, from its A states; over the free decay after it, where z = E^l z_a, as
+    :meth:`~ufmt.machining.recurrence.PeriodicRecurrence.projected_powers` of the weights
+    times z_a: neither the (n, N) state nor the table of E^l is formed.
+    """
+    first, run = _cut_run(active.tobytes())
+    n, a = active.size, run.size
+    e = recurrence.e
+    w = recurrence.from_rest(force)
+    left = e * w[:, -1] + recurrence.b1 * force[:, -1]  # w_A: no force after the run
+    before = recurrence.power(n - 1 - a) * left / (1.0 - recurrence.period)  # z_b
+    after = left + e * recurrence.power(a) * before  # the state after the run's last sample
+    out = np.empty((n, weights.shape[1]))
+    inside = w + recurrence.power(np.arange(1, a + 1)) * before[:, None]
+    out[run] = real_part_product(inside.T, weights)
+    start = (first + a) % n  # the free decay: n - a samples from here, circularly
+    head = min(n - a, n - start)
+    decay = recurrence.projected_powers(after[:, None] * weights, n - a)
+    out[start : start + head], out[: n - a - head] = decay[:head], decay[head:]
+    return out
 
 
 @lru_cache(maxsize=2)  # ~4.7 MiB each (two parts, 192 rows); machine-only
@@ -550,12 +576,16 @@ def _record_unit(geo: CutGeometry) -> _RecordUnit:
 
 @lru_cache(maxsize=8)
 def _record_force(geo: CutGeometry) -> np.ndarray:
-    """The record window's modal force (n, N) per unit amplitude (cached per geometry; formed
-    on the cutting samples only, read-only)."""
+    """The record window's modal force per unit amplitude on the cut's run (n, A) (the
+    samples of :func:`_cut_run`; zero outside it), cached per geometry, read-only."""
     y_rec, chip, _, cut = _record_pattern(geo.machine, geo.coefficients, geo.n_phi, geo.part)
+    first, run = _cut_run(geo.active.tobytes())
+    at = (cut - first) % geo.n_phi  # the cutting samples' places in the run
+    if np.any(at >= run.size):
+        raise ValueError("the record window cuts outside the cut's active angles")
     w, w_y, _ = geo.modal_at(cut)
-    fs = np.zeros((geo.basis.n_modes, geo.n_phi))
-    fs[:, cut] = (w + y_rec * w_y) * chip[cut]
+    fs = np.zeros((geo.basis.n_modes, run.size))
+    fs[:, at] = (w + y_rec * w_y) * chip[cut]
     fs.setflags(write=False)
     return fs
 
