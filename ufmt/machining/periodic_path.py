@@ -141,18 +141,21 @@ def _lag_products(h, lag_index, c, w, chunk_bytes: int = 2**21) -> np.ndarray:
     """Re sum_s c[k, i, s] h[lag_index[a, k], s] w[a, s, p] (A, K I, P): the state per lag
     h (L, n) between the output shapes c (K, I, n) and the inputs w (A, n, P), real or
     complex. A few angles a at a time, so that their (K I, n) products stay in cache
-    (``chunk_bytes``); complex factors as one real product over [Re; Im]."""
+    (``chunk_bytes``); complex factors as one real product of x's real and imaginary parts
+    as they lie in memory (interleaved) with the rows of Re w and -Im w interleaved."""
     active, samples = lag_index.shape
     rows, width = samples * c.shape[1], c.shape[2]
     split = np.iscomplexobj(h) or np.iscomplexobj(c) or np.iscomplexobj(w)
-    if split:  # Re(x w) = [Re x, Im x] [Re w; -Im w]
-        w = np.concatenate([w.real, -w.imag], axis=1)
+    if split:  # Re(x w) = sum_s Re x_s Re w_s - Im x_s Im w_s
+        stacked = np.empty((active, 2 * width, w.shape[2]))
+        stacked[:, 0::2], stacked[:, 1::2] = w.real, -w.imag
+        w = stacked
     out = np.empty((active, rows, w.shape[2]))
     step = max(1, chunk_bytes // (rows * width * 16))
     for a in range(0, active, step):
         x = (h[lag_index[a : a + step]][:, :, None, :] * c).reshape(-1, rows, width)
         if split:
-            x = np.concatenate([x.real, x.imag], axis=2)
+            x = x.astype(complex, copy=False).view(float)
         np.matmul(x, w[a : a + step], out=out[a : a + step])
     return out
 
