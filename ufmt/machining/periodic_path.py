@@ -244,10 +244,10 @@ def periodic_response(geo, process, zeta=DEFAULT_ZETA, force_scale: float = 1.0)
     :func:`discrete_receptance`; with the workpiece arm's Y terms the kernels are a quadratic
     in Y, sum_p Y^p K_pd. The record window is one spindle period at the slide position of
     :func:`record_slide`: the periodic state of the recurrence under the modal force there
-    (:func:`periodic_coordinates`: the state over the cut's run, free decay after it;
-    :class:`PeriodicRecurrence` cached per spindle speed and damping, the force per unit
-    amplitude per geometry), projected on the tool's and workpiece's motion
-    (:func:`_record_motion`).
+    (the state over the cut's run, free decay after it; :class:`PeriodicRecurrence` cached
+    per spindle speed and damping, the force per unit amplitude per geometry), projected on
+    the tool's and workpiece's motion (:func:`_record_motion`; with complex modes
+    :func:`periodic_projection`, which never forms the state over the free decay).
 
     ``geo``: one :class:`CutGeometry` or a sequence of them, the force parts of one force on
     the same basis, machine, n_phi and table rows: their responses are summed (each times its
