@@ -79,13 +79,20 @@ def resolve_model(model) -> tuple[Model, str]:
         The file cannot be read or is not a valid model.
     """
     if isinstance(model, Model):
-        return model, model_sha256(model)
+        return model, _loaded_sha256(model)
     path = model_file(model)
     try:
         sha = file_sha256(path)
     except OSError:
         sha = ""  # load_model gives the one-line error
     return _load_model(str(path), sha)
+
+
+@functools.lru_cache(maxsize=4)
+def _loaded_sha256(model: Model) -> str:
+    """The content hash of a loaded model (cached per object: a model is immutable, its
+    arrays read-only; the hash writes the whole model as TOML, ~5 ms for the packaged one)."""
+    return model_sha256(model)
 
 
 @functools.lru_cache(maxsize=4)

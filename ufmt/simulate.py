@@ -31,7 +31,7 @@ from ufmt.machining.instruments import (
     interferometer_metrics,
     scallop_roughness,
 )
-from ufmt.machining.periodic_path import periodic_response
+from ufmt.machining.periodic_path import periodic_response, record_tip_acceleration
 from ufmt.machining.process import Process
 from ufmt.machining.psd import band_rms
 from ufmt.machining.recurrence import modal_damping
@@ -49,8 +49,8 @@ from ufmt.machining.surface import (
 from ufmt.machining.time_path import DEFAULT_RECORD_PERIODS, time_response
 from ufmt.model.machine import Machine, machine_of
 
-#: Slide positions of the periodic tables that refine the accelerometer's peak: only their
-#: record window is read, which does not depend on the rows (:func:`_extrapolated_acceleration`).
+#: Slide positions of the geometries that refine the accelerometer's peak: only their record
+#: window is read, which does not depend on the rows (:func:`_periodic_acceleration`).
 ACCELEROMETER_TABLE_ROWS = 8
 
 METHODS = ("periodic", "time")
@@ -409,7 +409,7 @@ def _run(
     pv_by_source = _pv_by_source(sources, passes, terms, metrics["pv_nm"])
     metrics.update(_record_metrics(response, force_scale))
     metrics["tip_acc_measured_mm_s2"] = _extrapolated_acceleration(
-        metrics["tip_acc_measured_mm_s2"], basis, machine, process, residual, zeta, options
+        metrics["tip_acc_measured_mm_s2"], basis, machine, process, zeta, options
     )
     metrics.update(_instrument_metrics(machine, process, band_surface, scallops, total, options))
     highest = float(basis.omega[-1]) / (2 * np.pi)
@@ -464,17 +464,27 @@ def _response(
 ) -> Response:
     """The response of every force part with a non-zero coefficient, by ``options.method``:
     the parts share one inverse FFT (periodic) or one recurrence (time)."""
-    coefficients = options.coefficients
-    parts = [p for p in FORCE_PARTS if any(coefficients.vector(p))]
-    geos = [
-        cut_geometry(
-            basis, machine, coefficients, options.n_phi, options.table_rows, part, residual
-        )
-        for part in parts
-    ]
+    geos = _geometries(basis, machine, residual, options)
     if options.method == "periodic":
         return periodic_response(geos, process, zeta, options.force_scale)
     return time_response(geos, process, zeta, options.force_scale, options.record_periods)
+
+
+def _geometries(
+    basis: ModalBasis,
+    machine: Machine,
+    residual: ResidualFlexibility | None,
+    options: SimulationOptions,
+) -> list:
+    """The cut geometry of every force part with a non-zero coefficient."""
+    coefficients = options.coefficients
+    return [
+        cut_geometry(
+            basis, machine, coefficients, options.n_phi, options.table_rows, part, residual
+        )
+        for part in FORCE_PARTS
+        if any(coefficients.vector(part))
+    ]
 
 
 def _psd2_band_rms(
@@ -535,8 +545,13 @@ def _record_metrics(response: Response, force_scale: float) -> dict[str, float]:
 
 def _measured_peak(response: Response) -> float:
     """The accelerometer's peak [mm/s^2] of a response's record window."""
-    dt = float(response.t[1] - response.t[0])
-    return accelerometer_peak(response.tip_acc[:, 2], dt, response.periods) * 1e3
+    return _accelerometer_peak(response.t, response.tip_acc[:, 2], response.periods)
+
+
+def _accelerometer_peak(t: np.ndarray, acc: np.ndarray, periods: int) -> float:
+    """The accelerometer's peak [mm/s^2] of the tool tip's z acceleration ``acc`` [m/s^2] at
+    times ``t`` [s] over ``periods`` spindle periods."""
+    return accelerometer_peak(acc, float(t[1] - t[0]), periods) * 1e3
 
 
 def _extrapolated_acceleration(
@@ -544,7 +559,6 @@ def _extrapolated_acceleration(
     basis: ModalBasis,
     machine: Machine,
     process: Process,
-    residual: ResidualFlexibility | None,
     zeta: np.ndarray,
     options: SimulationOptions,
 ) -> float:
@@ -554,17 +568,35 @@ def _extrapolated_acceleration(
     follows the force directly, so the peak converges at second order in the sample step
     (measured on the packaged model: the differences fall 3.97x and 4.0x per doubling,
     tests/test_convergence.py). a(n) + (4/3) (a_p(2n) - a_p(n)) removes that term, a_p the
-    periodic path's record at the same slide position (only the record is needed:
-    ACCELEROMETER_TABLE_ROWS slide positions); ``measured`` a(n) is the run's own value.
+    periodic path's record at the same slide position (:func:`_periodic_acceleration`);
+    ``measured`` a(n) is the run's own value.
     """
-    coarse = replace(options, table_rows=ACCELEROMETER_TABLE_ROWS, method="periodic")
-    fine = replace(coarse, n_phi=2 * options.n_phi)
-    a_fine = _measured_peak(_response(basis, machine, process, residual, zeta, fine))
+    fine = replace(options, n_phi=2 * options.n_phi)
+    a_fine = _periodic_acceleration(basis, machine, process, zeta, fine)
     if options.method == "periodic":
         a_coarse = measured  # the record does not depend on the table's rows
     else:
-        a_coarse = _measured_peak(_response(basis, machine, process, residual, zeta, coarse))
+        a_coarse = _periodic_acceleration(basis, machine, process, zeta, options)
     return measured + (a_fine - a_coarse) * 4.0 / 3.0
+
+
+def _periodic_acceleration(
+    basis: ModalBasis,
+    machine: Machine,
+    process: Process,
+    zeta: np.ndarray,
+    options: SimulationOptions,
+) -> float:
+    """The accelerometer's peak [mm/s^2] of the periodic path's record window at
+    ``options.n_phi``: that of ``_response`` with ``method="periodic"`` to rounding, from the
+    tool tip's z acceleration alone
+    (:func:`~ufmt.machining.periodic_path.record_tip_acceleration`: the record does not read
+    the table's rows, of which the geometry then holds ACCELEROMETER_TABLE_ROWS, nor the static
+    correction, which does not reach the acceleration)."""
+    record = replace(options, table_rows=ACCELEROMETER_TABLE_ROWS)
+    geos = _geometries(basis, machine, None, record)
+    t, acc = record_tip_acceleration(geos, process, zeta, options.force_scale)
+    return _accelerometer_peak(t, acc, 1)
 
 
 def _mean_peak(signal: np.ndarray, periods: int) -> float:

@@ -137,7 +137,8 @@ class CutGeometry:
     def modal_at(self, samples) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """w, w_y and c (n, S) at the sample indices ``samples`` (S,) (a slice: all of them)."""
         n = self.n_phi
-        maps = self.maps.modal[:, : 3 * n].reshape(12, 3, n)[:, :, samples].reshape(12, -1)
+        samples = np.arange(n)[samples]
+        maps = self.maps.modal[:, (np.arange(3)[:, None] * n + samples).ravel()]  # no copy of all
         out = self.shapes @ maps
         size = out.shape[1] // 3
         mass = self.basis.modal_mass[:, None]

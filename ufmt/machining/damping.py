@@ -141,16 +141,7 @@ class DampedModes:
         q = 2 Re(P z), q' = 2 Re(P Lambda z) and q'' = f - D q' - Omega^2 q; the shapes are
         carried to the complex modes, so q, q', q'' (n, T) are never formed: one real product
         of (2 k, m) by (m, 2 T) in place of complex ones of (n, m) by (m, T)."""
-        rate = self.outputs * self.poles  # P Lambda
-        weights = np.concatenate(
-            [
-                self.outputs.T @ on_q,
-                rate.T @ on_qd,
-                -(self.outputs.T @ ((self.omega**2)[:, None] * on_qdd))
-                - rate.T @ (self.damping.T @ on_qdd),
-            ],
-            axis=1,
-        )  # (m, k): q^T X = 2 Re(z^T P^T X)
+        weights = self.state_weights(on_q, on_qd, on_qdd)
         k = weights.shape[1]
         # one product with z's real and imaginary parts as they lie in memory (interleaved)
         both = np.concatenate([weights.real.T, weights.imag.T]) @ z.view(float)  # (2 k, 2 T)
@@ -158,6 +149,21 @@ class DampedModes:
         cuts = np.cumsum([on_q.shape[1], on_qd.shape[1]])
         q, qd, qdd = np.split(out, cuts, axis=1)
         return q, qd, qdd + force.T @ on_qdd
+
+    def state_weights(self, on_q, on_qd, on_qdd) -> np.ndarray:
+        """W (m, k) with [q^T on_q, q'^T on_qd, (q'' - f)^T on_qdd] = 2 Re(z^T W) for complex
+        coordinates z (m, T), shapes (n, k_q), (n, k_qd), (n, k_qdd), k their total (see
+        :meth:`projected`)."""
+        rate = self.outputs * self.poles  # P Lambda
+        return np.concatenate(
+            [
+                self.outputs.T @ on_q,
+                rate.T @ on_qd,
+                -(self.outputs.T @ ((self.omega**2)[:, None] * on_qdd))
+                - rate.T @ (self.damping.T @ on_qdd),
+            ],
+            axis=1,
+        )
 
 
 def damped_modes(basis: ModalBasis, zeta) -> DampedModes | None:
@@ -175,9 +181,15 @@ def _damped_modes(basis: ModalBasis, zeta: tuple) -> DampedModes:
     d = damping_matrix(basis, np.array(zeta))
     a = np.block([[np.zeros((n, n)), np.eye(n)], [-np.diag(basis.omega**2), -d]])
     lam, vectors = np.linalg.eig(a)
-    if np.linalg.cond(vectors) > MAX_CONDITION:
+    try:
+        inverse = np.linalg.inv(vectors)
+    except np.linalg.LinAlgError:
+        inverse = np.full_like(vectors, np.inf)
+    # the product of the Frobenius norms bounds the condition number from above: the SVD of
+    # the exact one only where the bound does not settle it
+    bound = np.linalg.norm(vectors) * np.linalg.norm(inverse)
+    if not bound <= MAX_CONDITION and not np.linalg.cond(vectors) <= MAX_CONDITION:
         raise UfmtError("the hinge-damped modal equations are defective (coalescing poles)")
-    inverse = np.linalg.inv(vectors)
     keep = np.flatnonzero(lam.imag >= 0.0)
     keep = keep[np.argsort(np.abs(lam[keep]), kind="stable")]
     weight = np.where(lam[keep].imag > 0.0, 1.0, 0.5)

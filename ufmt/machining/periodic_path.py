@@ -39,13 +39,16 @@ from ufmt.machining.recurrence import (
     periodic_recurrence,
     pole_recurrence,
     pole_transfer,
+    real_part_product,
 )
 from ufmt.machining.response import (
     Response,
     cubic_weights,
     motion_shapes,
     projected_motion,
+    projected_tip_acceleration,
     record_slide,
+    tip_acceleration_shapes,
 )
 from ufmt.model.machine import Machine
 
@@ -138,18 +141,21 @@ def _lag_products(h, lag_index, c, w, chunk_bytes: int = 2**21) -> np.ndarray:
     """Re sum_s c[k, i, s] h[lag_index[a, k], s] w[a, s, p] (A, K I, P): the state per lag
     h (L, n) between the output shapes c (K, I, n) and the inputs w (A, n, P), real or
     complex. A few angles a at a time, so that their (K I, n) products stay in cache
-    (``chunk_bytes``); complex factors as one real product over [Re; Im]."""
+    (``chunk_bytes``); complex factors as one real product of x's real and imaginary parts
+    as they lie in memory (interleaved) with the rows of Re w and -Im w interleaved."""
     active, samples = lag_index.shape
     rows, width = samples * c.shape[1], c.shape[2]
     split = np.iscomplexobj(h) or np.iscomplexobj(c) or np.iscomplexobj(w)
-    if split:  # Re(x w) = [Re x, Im x] [Re w; -Im w]
-        w = np.concatenate([w.real, -w.imag], axis=1)
+    if split:  # Re(x w) = sum_s Re x_s Re w_s - Im x_s Im w_s
+        stacked = np.empty((active, 2 * width, w.shape[2]))
+        stacked[:, 0::2], stacked[:, 1::2] = w.real, -w.imag
+        w = stacked
     out = np.empty((active, rows, w.shape[2]))
     step = max(1, chunk_bytes // (rows * width * 16))
     for a in range(0, active, step):
         x = (h[lag_index[a : a + step]][:, :, None, :] * c).reshape(-1, rows, width)
         if split:
-            x = np.concatenate([x.real, x.imag], axis=2)
+            x = x.astype(complex, copy=False).view(float)
         np.matmul(x, w[a : a + step], out=out[a : a + step])
     return out
 
@@ -238,10 +244,10 @@ def periodic_response(geo, process, zeta=DEFAULT_ZETA, force_scale: float = 1.0)
     :func:`discrete_receptance`; with the workpiece arm's Y terms the kernels are a quadratic
     in Y, sum_p Y^p K_pd. The record window is one spindle period at the slide position of
     :func:`record_slide`: the periodic state of the recurrence under the modal force there
-    (:func:`periodic_coordinates`: the state over the cut's run, free decay after it;
-    :class:`PeriodicRecurrence` cached per spindle speed and damping, the force per unit
-    amplitude per geometry), projected on the tool's and workpiece's motion
-    (:func:`_record_motion`).
+    (the state over the cut's run, free decay after it; :class:`PeriodicRecurrence` cached
+    per spindle speed and damping, the force per unit amplitude per geometry), projected on
+    the tool's and workpiece's motion (:func:`_record_motion`; with complex modes
+    :func:`periodic_projection`, which never forms the state over the free decay).
 
     ``geo``: one :class:`CutGeometry` or a sequence of them, the force parts of one force on
     the same basis, machine, n_phi and table rows: their responses are summed (each times its
@@ -252,20 +258,19 @@ def periodic_response(geo, process, zeta=DEFAULT_ZETA, force_scale: float = 1.0)
     zeta = modal_damping(zeta, geo.basis.n_modes)
     f = process.spindle_hz
     n = geo.n_phi
-    amps = np.array([force_scale * part_amplitude(process, geo.machine, g.part) for g in parts])
+    amps = _amplitudes(parts, process, force_scale)
     units = [_record_unit(g) for g in parts]
-    fs = sum(amp * u.fs for amp, u in zip(amps, units, strict=True))
+    fs = sum(amp * _record_force(g) for amp, g in zip(amps, parts, strict=True))
     y_rec = record_slide(geo.machine)
     j = np.arange(n)
-    tip, acc, work = projected_motion(
-        geo, j, np.full(n, y_rec), *_record_motion(geo, zeta, f, fs), f
-    )
+    motion = _record_motion(geo, zeta, f, fs, motion_shapes(geo))
+    tip, acc, work = projected_motion(geo, j, np.full(n, y_rec), *motion, f)
     for amp, u in zip(amps, units, strict=True):
         if u.static_tip is not None:
             tip, work = tip + amp * u.static_tip, work + amp * u.static_work
     return Response(
         method="periodic",
-        t=(j + (y_rec - geo.machine.cut_span[0]) / process.feed_per_rev_m * n) / (f * n),
+        t=_record_times(geo, process),
         slide_y=np.full(n, y_rec),
         force=sum(amp * u.force for amp, u in zip(amps, units, strict=True)),
         tip_disp=tip,
@@ -278,44 +283,78 @@ def periodic_response(geo, process, zeta=DEFAULT_ZETA, force_scale: float = 1.0)
     )
 
 
-def _record_motion(geo: CutGeometry, zeta: np.ndarray, spindle_hz: float, fs: np.ndarray):
-    """The periodic steady state under the modal force fs (n, N) (zero outside the cut's run)
-    projected on the bodies' modes (:func:`~ufmt.machining.response.projected_motion`'s
-    moved, spin and accel)."""
+def record_tip_acceleration(
+    geo, process, zeta=DEFAULT_ZETA, force_scale: float = 1.0
+) -> tuple[np.ndarray, np.ndarray]:
+    """The record window of :func:`periodic_response` reduced to what an accelerometer on the
+    tool reads: its times t (N,) [s] and the tool tip's z acceleration (N,) [m/s^2], equal to
+    that response's ``t`` and ``tip_acc[:, 2]`` to rounding.
+
+    The same periodic state under the same modal force, projected on the 7 modal shapes the
+    acceleration reads (:func:`~ufmt.machining.response.tip_acceleration_shapes`) instead of
+    21; the static correction (which does not reach the acceleration, see
+    :mod:`ufmt.machining.response`), the workpiece's motion, the force and the z_re table are
+    not formed, so the geometries' table rows and residual are not read. ``geo``, ``zeta``
+    and ``force_scale`` as in :func:`periodic_response`.
+    """
+    parts = (geo,) if isinstance(geo, CutGeometry) else tuple(geo)
+    geo = parts[0]
+    zeta = modal_damping(zeta, geo.basis.n_modes)
+    f = process.spindle_hz
+    amps = _amplitudes(parts, process, force_scale)
+    fs = sum(amp * _record_force(g) for amp, g in zip(amps, parts, strict=True))
+    motion = _record_motion(geo, zeta, f, fs, tip_acceleration_shapes(geo))
+    acc = projected_tip_acceleration(geo, np.arange(geo.n_phi), *motion, f)
+    return _record_times(geo, process), acc
+
+
+def _amplitudes(parts: tuple[CutGeometry, ...], process, force_scale: float) -> np.ndarray:
+    """The force parts' amplitudes [m^2 or m] times the force scale."""
+    return np.array([force_scale * part_amplitude(process, g.machine, g.part) for g in parts])
+
+
+def _record_times(geo: CutGeometry, process) -> np.ndarray:
+    """Times [s] of the record window's samples (0 at the first touch of the cut)."""
+    n, f = geo.n_phi, process.spindle_hz
+    y_rec = record_slide(geo.machine)
+    return (np.arange(n) + (y_rec - geo.machine.cut_span[0]) / process.feed_per_rev_m * n) / (f * n)
+
+
+def _record_motion(geo: CutGeometry, zeta: np.ndarray, spindle_hz: float, fs: np.ndarray, shapes):
+    """The periodic steady state under the modal force fs (n, A) on the cut's run (zero
+    outside it, :func:`_record_force`) projected on the modal ``shapes`` (n, k) on q, q' and
+    q'' (those of :func:`~ufmt.machining.response.motion_shapes` give
+    :func:`~ufmt.machining.response.projected_motion`'s moved, spin and accel): (N, k) each."""
     b, n = geo.basis, geo.n_phi
-    shapes = motion_shapes(geo)  # on q, q', q''
+    run = _cut_run(geo.active.tobytes())[1]
     modes = damped_modes(b, zeta)
     if modes is None:
         rec = _recurrence(b, n, spindle_hz, tuple(zeta.tolist()))
-        q, qd = periodic_state(rec, fs, geo.active)
-        qdd = fs - (2 * zeta * b.omega)[:, None] * qd - (b.omega**2)[:, None] * q
+        force = np.zeros((b.n_modes, n))
+        force[:, run] = fs
+        q, qd = periodic_state(rec, force, geo.active)
+        qdd = force - (2 * zeta * b.omega)[:, None] * qd - (b.omega**2)[:, None] * q
         return q.T @ shapes[0], qd.T @ shapes[1], qdd.T @ shapes[2]
     with serial_blas():
-        run = _cut_run(geo.active.tobytes())[1]
-        u = np.zeros((modes.poles.size, n), complex)  # the modal force acts on the run only
-        u[:, run] = modes.inputs @ fs[:, run]
-        z = periodic_coordinates(_pole_recurrence(modes, n, spindle_hz), u, geo.active)
-        return modes.projected(z, fs, *shapes)
+        rec = _pole_recurrence(modes, n, spindle_hz)
+        out = periodic_projection(rec, modes.inputs @ fs, geo.active, modes.state_weights(*shapes))
+        q, qd, qdd = np.split(out, np.cumsum([shapes[0].shape[1], shapes[1].shape[1]]), axis=1)
+        qdd[run] += fs.T @ shapes[2]
+        return q, qd, qdd
 
 
-@lru_cache(maxsize=4)  # ~0.3 MiB each
+@lru_cache(maxsize=4)  # n N complex each once its powers are formed
 def _recurrence(basis: ModalBasis, n_phi: int, spindle_hz: float, zeta: tuple):
     """:func:`periodic_recurrence` of the basis at the spindle frequency [Hz] (cached per
     spindle speed and damping; its arrays read-only)."""
-    out = periodic_recurrence(basis.omega, np.array(zeta), 1 / (spindle_hz * n_phi), n_phi)
-    for a in (out.lam, out.e, out.b0, out.b1, out.powers, out.period):
-        a.setflags(write=False)
-    return out
+    return periodic_recurrence(basis.omega, np.array(zeta), 1 / (spindle_hz * n_phi), n_phi)
 
 
 @lru_cache(maxsize=4)
 def _pole_recurrence(modes: DampedModes, n_phi: int, spindle_hz: float) -> PeriodicRecurrence:
     """:func:`pole_recurrence` of the complex modes at the spindle frequency [Hz] (cached per
     modes and spindle speed; its arrays read-only)."""
-    out = pole_recurrence(modes.poles, 1 / (spindle_hz * n_phi), n_phi)
-    for a in (out.lam, out.e, out.b0, out.b1, out.powers, out.period):
-        a.setflags(write=False)
-    return out
+    return pole_recurrence(modes.poles, 1 / (spindle_hz * n_phi), n_phi)
 
 
 @lru_cache(maxsize=8)
@@ -364,6 +403,34 @@ def periodic_coordinates(recurrence: PeriodicRecurrence, force: np.ndarray, acti
     np.multiply(powers[:, :head], after[:, None], out=x[:, start : start + head])
     np.multiply(powers[:, head : n - a], after[:, None], out=x[:, : n - a - head])
     return x
+
+
+def periodic_projection(
+    recurrence: PeriodicRecurrence, force: np.ndarray, active: np.ndarray, weights: np.ndarray
+) -> np.ndarray:
+    """2 Re(z^T W) (N, k) of the complex state z of :func:`periodic_coordinates` under the
+    input ``force`` (n, A) on the circular run of ``active`` (N,) (its A samples in order),
+    for complex weights W (n, k), without forming z.
+
+    Over the run, from its A states; over the free decay after it, where z = E^l z_a, as
+    :meth:`~ufmt.machining.recurrence.PeriodicRecurrence.projected_powers` of the weights
+    times z_a: neither the (n, N) state nor the table of E^l is formed.
+    """
+    first, run = _cut_run(active.tobytes())
+    n, a = active.size, run.size
+    e = recurrence.e
+    w = recurrence.from_rest(force)
+    left = e * w[:, -1] + recurrence.b1 * force[:, -1]  # w_A: no force after the run
+    before = recurrence.power(n - 1 - a) * left / (1.0 - recurrence.period)  # z_b
+    after = left + e * recurrence.power(a) * before  # the state after the run's last sample
+    out = np.empty((n, weights.shape[1]))
+    inside = w + recurrence.power(np.arange(1, a + 1)) * before[:, None]
+    out[run] = real_part_product(inside.T, weights)
+    start = (first + a) % n  # the free decay: n - a samples from here, circularly
+    head = min(n - a, n - start)
+    decay = recurrence.projected_powers(after[:, None] * weights, n - a)
+    out[start : start + head], out[: n - a - head] = decay[:head], decay[head:]
+    return out
 
 
 @lru_cache(maxsize=2)  # ~4.7 MiB each (two parts, 192 rows); machine-only
@@ -487,11 +554,10 @@ def _coefficients(shapes, static_hats) -> tuple[np.ndarray, np.ndarray]:
 class _RecordUnit:
     """Record-window quantities of one force part per unit amplitude (process-independent).
 
-    fs (n, N) the modal force; force (N, 3) the force on the tool [N per unit]; static_tip,
-    static_work (N, 3) or None the static correction's displacements.
+    force (N, 3) the force on the tool [N per unit]; static_tip, static_work (N, 3) or None
+    the static correction's displacements (the modal force: :func:`_record_force`).
     """
 
-    fs: np.ndarray
     force: np.ndarray
     static_tip: np.ndarray | None
     static_work: np.ndarray | None
@@ -499,20 +565,32 @@ class _RecordUnit:
 
 @lru_cache(maxsize=8)
 def _record_unit(geo: CutGeometry) -> _RecordUnit:
-    """The record window of :func:`periodic_response` per unit amplitude (cached per geometry;
-    the modal force formed on the cutting samples only)."""
-    y_rec, chip, force, cut = _record_pattern(geo.machine, geo.coefficients, geo.n_phi, geo.part)
-    w, w_y, _ = geo.modal_at(cut)
-    fs = np.zeros((geo.basis.n_modes, geo.n_phi))
-    fs[:, cut] = (w + y_rec * w_y) * chip[cut]
+    """The record window of :func:`periodic_response` per unit amplitude (cached per
+    geometry)."""
+    y_rec, chip, force, _ = _record_pattern(geo.machine, geo.coefficients, geo.n_phi, geo.part)
     static_tip = static_work = None
     if geo.static_tool is not None:
         s_tool, s_work = geo.static_at(slice(None), y_rec)
         static_tip, static_work = chip[:, None] * s_tool, chip[:, None] * s_work
-    for a in (fs, static_tip, static_work):
-        if a is not None:
+        for a in (static_tip, static_work):
             a.setflags(write=False)
-    return _RecordUnit(fs, force, static_tip, static_work)
+    return _RecordUnit(force, static_tip, static_work)
+
+
+@lru_cache(maxsize=8)
+def _record_force(geo: CutGeometry) -> np.ndarray:
+    """The record window's modal force per unit amplitude on the cut's run (n, A) (the
+    samples of :func:`_cut_run`; zero outside it), cached per geometry, read-only."""
+    y_rec, chip, _, cut = _record_pattern(geo.machine, geo.coefficients, geo.n_phi, geo.part)
+    first, run = _cut_run(geo.active.tobytes())
+    at = (cut - first) % geo.n_phi  # the cutting samples' places in the run
+    if np.any(at >= run.size):
+        raise ValueError("the record window cuts outside the cut's active angles")
+    w, w_y, _ = geo.modal_at(cut)
+    fs = np.zeros((geo.basis.n_modes, run.size))
+    fs[:, at] = (w + y_rec * w_y) * chip[cut]
+    fs.setflags(write=False)
+    return fs
 
 
 @lru_cache(maxsize=4)  # machine-only

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -128,17 +129,46 @@ def _hold_transfer(e, b0, b1, theta):
 class PeriodicRecurrence:
     """The exact recurrence (:func:`discretise`) over a period of N samples.
 
-    lam, e, b0, b1 (n,) as :func:`discretise` returns them; powers (n, N) E^l for
-    l = 0..N - 1, the product of E^(B a) and E^b for l = B a + b (B ~ sqrt(N): two short
-    tables of exponentials); period (n,) E^N.
+    lam, e, b0, b1 (n,) as :func:`discretise` returns them; E^l for l = B a + b is the product
+    of two short tables of exponentials (B ~ sqrt(N)), ``blocks`` (n, ceil(N / B)) E^(B a) and
+    ``steps`` (n, B) E^b, formed where read (:meth:`power`, :meth:`projected_powers`; the
+    whole table ``powers`` (n, N) on first use); period (n,) E^N. Arrays read-only.
     """
 
     lam: np.ndarray
     e: np.ndarray
     b0: np.ndarray
     b1: np.ndarray
-    powers: np.ndarray
+    blocks: np.ndarray
+    steps: np.ndarray
     period: np.ndarray
+    n_samples: int
+
+    def power(self, lags) -> np.ndarray:
+        """E^l (n, ...) at integer ``lags`` in 0..N - 1."""
+        lags = np.asarray(lags)
+        size = self.steps.shape[1]
+        return self.blocks[:, lags // size] * self.steps[:, lags % size]
+
+    @cached_property
+    def powers(self) -> np.ndarray:
+        """E^l (n, N) for l = 0..N - 1 (the products :meth:`power` forms; read-only)."""
+        n = self.lam.size
+        out = (self.blocks[:, :, None] * self.steps[:, None, :]).reshape(n, -1)[:, : self.n_samples]
+        out.setflags(write=False)
+        return out
+
+    def projected_powers(self, weights: np.ndarray, length: int) -> np.ndarray:
+        """2 Re sum_s E_s^l W[s, c] (length, k) for l = 0..length - 1 (length <= N) and complex
+        weights W (n, k), without the (n, length) table: per block a of B lags one product of
+        the steps E^b with the weights times E^(B a), all blocks in one real product (half the
+        multiplications of a complex one, :func:`real_part_product`)."""
+        n, k = weights.shape
+        size = self.steps.shape[1]
+        count = -(-length // size)
+        scaled = (self.blocks[:, :count, None] * weights[:, None, :]).reshape(n, count * k)
+        out = real_part_product(np.ascontiguousarray(self.steps.T), scaled)  # (B, count k)
+        return out.reshape(size, count, k).transpose(1, 0, 2).reshape(-1, k)[:length]
 
     def impulse(self, lags) -> np.ndarray:
         """Complex state z_l (n, ...) at integer ``lags`` in 0..N - 1 of the periodic steady
@@ -150,8 +180,8 @@ class PeriodicRecurrence:
         """
         lags = np.asarray(lags)
         flat = lags.ravel()
-        previous = self.powers[:, flat - 1]  # index -1 is E^(N - 1)
-        z = (self.b0[:, None] * self.powers[:, flat] + self.b1[:, None] * previous) / (
+        previous = self.power((flat - 1) % self.n_samples)  # E^(N - 1) before lag 0
+        z = (self.b0[:, None] * self.power(flat) + self.b1[:, None] * previous) / (
             1.0 - self.period[:, None]
         )
         return z.reshape(-1, *lags.shape)
@@ -164,7 +194,7 @@ class PeriodicRecurrence:
         B ~ sqrt(A) samples: inside each block one product with the triangle of E^(i - j), the
         blocks' end states by one product with the triangle of E^(B (b - b')), each carried
         into the next block by E^(i + 1): O(n A sqrt(A)), no loop over samples, every power
-        read from ``powers`` (no growing or inverse powers).
+        one of :meth:`power` (no growing or inverse powers).
         """
         n, a = force.shape
         g = self.b0[:, None] * force
@@ -175,15 +205,25 @@ class PeriodicRecurrence:
         padded[:, :a] = g
         local = np.matmul(padded.reshape(n, blocks, size), self._triangle(size, 1))
         ends = np.matmul(local[:, None, :, -1], self._triangle(blocks, size))[:, 0, :-1]
-        local[:, 1:] += ends[:, :, None] * self.powers[:, None, 1 : size + 1]
+        local[:, 1:] += ends[:, :, None] * self.power(np.arange(1, size + 1))[:, None, :]
         return local.reshape(n, -1)[:, :a]
 
     def _triangle(self, size: int, step: int) -> np.ndarray:
         """(n, size, size) with E^(step (i - j)) at [i, j] for i >= j and 0 above, transposed
         (the right factor of a product along the last axis)."""
         lag = np.subtract.outer(np.arange(size), np.arange(size))
-        upper = np.where(lag >= 0, self.powers[:, step * np.maximum(lag, 0)], 0.0)
+        upper = np.where(lag >= 0, self.power(step * np.maximum(lag, 0)), 0.0)
         return upper.transpose(0, 2, 1)
+
+
+def real_part_product(x: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """2 Re(x w) (T, k) of complex x (T, n) and w (n, k): one real product of x's real and
+    imaginary parts as they lie in memory (interleaved, (T, 2 n)) with the rows of Re w and
+    -Im w interleaved (2 n, k)."""
+    x = np.ascontiguousarray(x, dtype=complex)
+    stacked = np.empty((2 * w.shape[0], w.shape[1]))
+    stacked[0::2], stacked[1::2] = w.real, -w.imag
+    return 2 * (x.view(float) @ stacked)
 
 
 def periodic_recurrence(omega, zeta, dt: float, n_samples: int) -> PeriodicRecurrence:
@@ -199,13 +239,17 @@ def pole_recurrence(poles, dt: float, n_samples: int) -> PeriodicRecurrence:
 
 
 def _periodic(discrete, dt: float, n_samples: int) -> PeriodicRecurrence:
-    """:class:`PeriodicRecurrence` of a discretisation (lam, E, b0, b1)."""
+    """:class:`PeriodicRecurrence` of a discretisation (lam, E, b0, b1); its arrays read-only."""
     lam, e, b0, b1 = discrete
     step = math.isqrt(n_samples - 1) + 1
-    fine = np.exp(np.outer(lam, dt * np.arange(step)))
-    coarse = np.exp(np.outer(lam, dt * step * np.arange(-(-n_samples // step))))
-    powers = (coarse[:, :, None] * fine[:, None, :]).reshape(lam.size, -1)[:, :n_samples]
-    return PeriodicRecurrence(lam, e, b0, b1, powers, np.exp(lam * (dt * n_samples)))
+    steps = np.exp(np.outer(lam, dt * np.arange(step)))
+    blocks = np.exp(np.outer(lam, dt * step * np.arange(-(-n_samples // step))))
+    out = PeriodicRecurrence(
+        lam, e, b0, b1, blocks, steps, np.exp(lam * (dt * n_samples)), n_samples
+    )
+    for a in (lam, e, b0, b1, blocks, steps, out.period):
+        a.setflags(write=False)
+    return out
 
 
 def real_recurrence(omega, zeta, dt: float) -> tuple[np.ndarray, np.ndarray]:

@@ -184,6 +184,29 @@ def projected_motion(geo: CutGeometry, j, slide, moved, spin, accel, spindle_hz:
     return moved[:, :3] + turn[0], acc, moved[:, 6:9] + turn[1]
 
 
+def tip_acceleration_shapes(geo: CutGeometry) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The columns of :func:`motion_shapes` that the tool tip's z acceleration reads, on q, q'
+    and q'': the tool's rotation about x and y (n, 2), the same (n, 2), and its z translation
+    with its rotation about x and y (n, 3)."""
+    tool = geo.basis.body_shapes[geo.machine.tool_body]
+    return tool[:, 3:5], tool[:, 3:5], tool[:, 2:5]
+
+
+def projected_tip_acceleration(geo: CutGeometry, j, tilt, spin, accel, spindle_hz: float):
+    """The z component of :func:`projected_motion`'s tool-tip acceleration (T,) [m/s^2] from
+    the tool's motions on :func:`tip_acceleration_shapes`: tilt (T, 2) its rotation about x
+    and y, spin (T, 2) their rates and accel (T, 3) the accelerations of its z translation and
+    of the tilt; j (T,) phase indices. The same operations in the same order as there."""
+    arm = geo.tip[j] - geo.basis.body_centers[geo.machine.tool_body]
+    om = 2 * np.pi * spindle_hz
+
+    def turn(rot, lever):  # z of rot x lever
+        return rot[:, 0] * lever[:, 1] - rot[:, 1] * lever[:, 0]
+
+    rate, curve = 2 * om * geo.dtip[j], om**2 * geo.ddtip[j]
+    return accel[:, 0] + turn(accel[:, 1:], arm) + turn(spin, rate) + turn(tilt, curve)
+
+
 def combine(responses) -> Response:
     """Sum of the responses of the force parts of one process (the response is linear).
 
