@@ -5,11 +5,13 @@ Every point is a new design (the head's angular air-bearing stiffness changes), 
 a full modal basis (every mode below the default cutoff), a periodic response and a surface:
 the expensive case. Each measurement is a fresh process (``python bench_studies.py --child``)
 that runs a warm-up sweep on other designs (starting the workers, importing the physics) and
-then the timed sweep, with the disk cache off (``UFMT_CACHE_DIR=""``) and a fresh results
-directory. The variants run interleaved, round after round, and each reports its best round
-(the machine is shared). ``--against DIR`` adds a checkout of another revision (e.g. main),
-run by the same harness on its own code, and prints the ratio. Target: >= 4x the new-design
-points per second of the code before batching (main), at equal jobs.
+then the timed sweep, with the disk cache off (``UFMT_CACHE_DIR=""``), a fresh results
+directory and the C heap's thresholds of :mod:`ufmt.allocator` (as environment variables, so
+that another revision's processes get them too). The variants run interleaved, round after
+round, and each reports its best round (the machine is shared). ``--against DIR`` adds a
+checkout of another revision (e.g. main), run by the same harness on its own code, and prints
+the ratio. Target: >= 4x the new-design points per second of the code before batching (main),
+at equal jobs.
 
 ``--synthetic`` times instead a stand-in function that burns 20 ms of CPU per point without
 the physics, with --jobs 1 and 2: the runner's own overhead and its parallel speed-up (target
@@ -37,6 +39,9 @@ SYNTHETIC_SECONDS = 0.02  # CPU time per point of the stand-in [s]
 TARGET_SPEEDUP = 1.7  # jobs 2 / jobs 1, synthetic
 TARGET_AGAINST = 4.0  # batched / the other revision, new designs per second
 JOBS = 2
+# glibc's heap thresholds as ufmt.allocator sets them in ufmt's own processes, given to every
+# variant's processes (the other revision's too: its best, not its defaults)
+HEAP = {"MALLOC_MMAP_THRESHOLD_": str(32 << 20), "MALLOC_TRIM_THRESHOLD_": str(256 << 20)}
 
 STUDY = """\
 kind = "sweep"
@@ -102,7 +107,7 @@ def child(function: str, jobs: int, points: int) -> None:
 
 def measure(repo: Path, function: str, jobs: int, points: int) -> float:
     """Points per second of one child process running ``repo``'s code."""
-    env = {**os.environ, "UFMT_CACHE_DIR": "", "PYTHONPATH": str(repo)}
+    env = {**os.environ, "UFMT_CACHE_DIR": "", "PYTHONPATH": str(repo), **HEAP}
     command = [sys.executable, str(HERE), "--child", function, str(jobs), str(points)]
     done = subprocess.run(command, cwd=repo, env=env, capture_output=True, text=True, check=False)
     if done.returncode != 0:
