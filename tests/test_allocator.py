@@ -41,3 +41,45 @@ def test_a_new_designs_solve_reuses_the_last_ones_pages():
     retained, default = _faults_per_design("retain"), _faults_per_design("default")
     assert default > 500  # the control: glibc's defaults fault a full basis's arrays in again
     assert retained < default / 20
+
+
+def heap_retained(design, process, model=None):
+    """Study function: pv_nm 1 where this process keeps freed heap (ufmt.allocator), else 0."""
+    from ufmt.allocator import retain_freed_memory
+
+    return {"pv_nm": float(retain_freed_memory.cache_info().currsize)}
+
+
+RUN_IN_A_LIBRARY_CALLER = """
+import sys
+from pathlib import Path
+import pandas as pd
+from ufmt.allocator import retain_freed_memory
+from ufmt.studies.parallel import Execution
+from ufmt.studies.runner import run_study
+study, results = Path(sys.argv[1]), Path(sys.argv[2])
+for jobs in (1, 2):
+    out = run_study(study, Execution(jobs=jobs), results=results / str(jobs), progress=False,
+                    plots=False)
+    print(jobs, pd.read_csv(out / "points.csv")["pv_nm"].tolist(),
+          retain_freed_memory.cache_info().currsize)
+"""
+
+
+def test_only_the_pools_own_workers_change_their_heap(tmp_path):
+    """A library caller's process keeps glibc's defaults (``--jobs 1`` runs the points there);
+    the study pool's workers take the thresholds. Oracle: whether each process called it."""
+    study = tmp_path / "heap.toml"
+    study.write_text(
+        f'function = "{__file__}:heap_retained"\nkind = "sweep"\n'
+        '[[axis]]\nparameter = "rpm"\nrange = [200.0, 400.0]\nn = 4\n',
+        encoding="utf-8",
+    )
+    run = subprocess.run(
+        [sys.executable, "-c", RUN_IN_A_LIBRARY_CALLER, str(study), str(tmp_path / "r")],
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    lines = run.stdout.splitlines()
+    assert lines == ["1 [0.0, 0.0, 0.0, 0.0] 0", "2 [1.0, 1.0, 1.0, 1.0] 0"]

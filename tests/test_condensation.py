@@ -94,3 +94,19 @@ def test_cuts_split_intervals_into_parts_of_equal_ratio():
     ends = np.c_[lo, _cuts(lo, hi, 2), hi]
     ratios = ends[:, 1:] / ends[:, :-1]
     np.testing.assert_allclose(ratios, np.repeat((hi / lo) ** 0.25, 4).reshape(3, 4), rtol=1e-14)
+
+
+@pytest.mark.parametrize("value", [-5e6, np.nan])
+def test_a_design_with_a_negative_or_nan_spring_is_refused_and_leaves_the_structure_alone(value):
+    """A negative or NaN stiffness shares its structure key with valid designs (the key tells
+    only rigid and released directions apart), so solving it first must not fix which springs
+    the structure has. Oracle: the chain's exact frequencies (its 3x3 (K, M) eigenvalues)."""
+    from ufmt.errors import ModelError
+    from ufmt.mstmm.solve import solve_modes
+
+    good, exact = spring_chain()
+    bad = good.with_hinge("k1", stiffness=[value, 0.0, 0.0])
+    with pytest.raises(ModelError, match="hinge 'k1': stiffness"):
+        solve_modes(bad, fmax_hz=3000)
+    found = solve_modes(good, fmax_hz=3000).frequencies_hz
+    np.testing.assert_allclose(found, exact, rtol=1e-10)

@@ -29,15 +29,12 @@ def test_placed_matrix_is_the_assembled_one_cut_to_the_reduced_layout_bitwise(na
     omega = np.concatenate([omega, omega * (1 + 1e-7), [0.61 * omega[0]]])
     blocks, _ = system.equation_blocks(omega)
     dense = assemble(blocks, system.size)
-    assert np.array_equal(dense, system.evaluate(omega))
     at = [0, 9, -1]
     assert np.array_equal(assemble(blocks, system.size, at), dense[at])
     reduction = ConstantParts.of(dense[at])
     placed = place(blocks, *reduction.placement(), reduction.arranged_shape)
     assert placed.shape == (omega.size, *reduction.arranged_shape)
     assert np.array_equal(placed, reduction.arrange(dense))
-    # and S' from either layout is the same to the last bit
-    assert np.array_equal(reduction.reduce(placed), reduction.reduce(reduction.arrange(dense)))
 
 
 def _synthetic(omega: float) -> np.ndarray:

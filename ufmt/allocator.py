@@ -9,9 +9,10 @@ full-basis solve's time. Raising both thresholds (blocks below 32 MiB from the h
 top kept up to 256 MiB) makes a design reuse the last one's pages (a handful of faults per
 design). The cost: a process keeps its peak heap instead of shrinking after it.
 
-Set by the CLI (:func:`ufmt.cli.main`) and by every study worker
-(:func:`ufmt.studies.parallel.evaluate_chunk`); a script calling ``ufmt.evaluate`` may call
-:func:`retain_freed_memory` itself. Only on Linux with glibc (``mallopt``); elsewhere nothing.
+Set by the CLI (:func:`ufmt.cli.main`) and by the study pool's own workers
+(:func:`ufmt.studies.parallel.start_worker`), never in a caller's process by a library call
+(a script calling ``ufmt.evaluate`` or ``run_study`` may call :func:`retain_freed_memory`
+itself). Only on Linux with glibc (``mallopt``); elsewhere nothing.
 The arithmetic does not change: the same operations on the same values, wherever they live.
 """
 

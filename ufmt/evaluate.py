@@ -90,8 +90,9 @@ def resolve_model(model) -> tuple[Model, str]:
 
 @functools.lru_cache(maxsize=4)
 def _loaded_sha256(model: Model) -> str:
-    """The content hash of a loaded model (cached per object: a model is immutable, its
-    arrays read-only; the hash writes the whole model as TOML, ~5 ms for the packaged one)."""
+    """The content hash of a loaded model (cached per object, which the cache keeps alive:
+    models are frozen dataclasses with read-only arrays, and a design is a new object; the
+    hash writes the whole model as TOML, ~5 ms for the packaged one)."""
     return model_sha256(model)
 
 

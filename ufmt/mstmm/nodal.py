@@ -463,8 +463,29 @@ def _bodies(model: Model, layout: _Layout, basis: np.ndarray) -> tuple[np.ndarra
 
 def nodal_stiffness(model: Model) -> NodalStiffness:
     """The :class:`NodalStiffness` of ``model`` (module docstring): the hinges' springs on
-    the cached geometry of its structure."""
+    the cached geometry of its structure.
+
+    Raises
+    ------
+    ModelError
+        A hinge stiffness that is negative or NaN: its structure (which springs exist) would
+        be cached for every design of the same key (:meth:`Model.structure_key` tells only
+        the rigid and released directions apart), so it is refused before.
+    """
+    _check_stiffness_values(model)
     structure = _structure(model)
     k = np.concatenate([np.zeros(0), *(h.stiffness6 for h in model.hinges)])[structure.elastic]
     static = structure.springs.T @ (k[:, None] * structure.springs)
     return NodalStiffness(static, structure.mass, structure.beams, structure.zero_modes)
+
+
+def _check_stiffness_values(model: Model) -> None:
+    """ModelError unless every hinge stiffness is positive, 0 (released) or inf (rigid)."""
+    for hinge in model.hinges:
+        bad = ~(hinge.stiffness6 >= 0.0)  # negative or NaN
+        if bad.any():
+            value = hinge.stiffness6[np.flatnonzero(bad)[0]]
+            raise ModelError(
+                f"{model.source}: hinge {hinge.name!r}: stiffness {value:g} must be positive, "
+                "0 (released) or inf (rigid)"
+            )

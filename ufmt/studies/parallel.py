@@ -144,7 +144,6 @@ def evaluate_chunk(
     "error" ("invalid" outside the validity domain).
     """
     global _tasks_done
-    retain_freed_memory()  # once per worker: each design reuses the last one's pages
     if _tasks_done < _BLAS_LIMITED_TASKS:
         threadpool_limits(limits=BLAS_THREADS)
         _tasks_done += 1
@@ -208,6 +207,15 @@ def _record(call) -> dict:
 
 # ---------------------------------------------------------------------------------------------
 # workers that die with the main process
+
+
+def start_worker(parent: int) -> None:
+    """Worker initializer of the study pool: the heap kept for reuse
+    (:func:`ufmt.allocator.retain_freed_memory`: each design reuses the last one's pages) and
+    the worker tied to the main process (:func:`exit_with_parent`). Only in the pool's own
+    workers: a caller's process (``--jobs 1``, a user's dask workers) keeps its heap."""
+    retain_freed_memory()
+    exit_with_parent(parent)
 
 
 def exit_with_parent(parent: int) -> None:
@@ -299,7 +307,7 @@ def parallel_pool(execution: Execution) -> Iterator[joblib.Parallel]:
             backend="loky",
             n_jobs=n,
             inner_max_num_threads=BLAS_THREADS,
-            initializer=exit_with_parent,
+            initializer=start_worker,
             initargs=(os.getpid(),),
         )
         with config:
