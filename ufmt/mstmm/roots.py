@@ -307,22 +307,13 @@ def natural_frequencies(
     )
 
 
-def bracketed_roots(
-    system: TransferSystem,
-    brackets,
-    refine,
-    rtol: float = 1e-12,
-    state_keys=(),
-    certify=None,
-):
+def bracketed_roots(system: TransferSystem, brackets, refine, rtol: float = 1e-12, state_keys=()):
     """Every natural frequency in certified brackets (:class:`ufmt.mstmm.wittrick.Brackets`,
     bracket j holds exactly ``multiplicity[j]`` roots) [Hz], to relative precision ``rtol``.
 
     Newton starts at each bracket's ``start_hz`` (else its geometric centre) and must
-    converge inside it; ``certify(roots_hz, multiplicity)`` (the count, optional) must then
-    confirm each converged cluster, bool per cluster (a det U_all that is rounding noise
-    within ~1e-9 of a root passes Newton's step test there); a bracket neither certifies
-    falls back to ``refine(lo_hz, hi_hz)``, bisection on the count
+    converge inside it; a bracket Newton cannot certify falls back to
+    ``refine(lo_hz, hi_hz)``, bisection on the count
     (:meth:`ufmt.mstmm.wittrick.RootCounter.refine`, no null vector then). Parameters and
     result as :func:`natural_frequencies`.
     """
@@ -338,9 +329,7 @@ def bracketed_roots(
     windows = Windows(
         centre, lo, hi, mult, [np.full(m, c) for c, m in zip(centre, mult, strict=True)]
     )
-    return roots_in_windows(
-        system, fmax_hz, int(mult.sum()), windows, bisect, rtol, state_keys, certify
-    )
+    return roots_in_windows(system, fmax_hz, int(mult.sum()), windows, bisect, rtol, state_keys)
 
 
 @dataclass(frozen=True)
@@ -355,12 +344,9 @@ class Windows:
     estimates: list
 
 
-def roots_in_windows(
-    system, fmax_hz, expected, windows: Windows, fallback, rtol, state_keys, certify=None
-):
-    """The roots in each window (Newton, confirmed by ``certify`` if given, split clusters,
-    then ``fallback(failed windows)`` returning roots [Hz] inside those windows); see
-    :func:`natural_frequencies` and :func:`bracketed_roots`."""
+def roots_in_windows(system, fmax_hz, expected, windows: Windows, fallback, rtol, state_keys):
+    """The roots in each window (Newton, split clusters, then ``fallback(failed windows)``
+    returning roots [Hz] inside those windows); see :func:`natural_frequencies`."""
     centre, lo, hi, mult = windows.centre, windows.lo, windows.hi, windows.mult
     if centre.size == 0:
         return Roots(np.zeros(0), expected, np.zeros(0), 0, np.zeros((0, system.size)))
@@ -368,8 +354,6 @@ def roots_in_windows(
         system, TWO_PI * centre, TWO_PI * lo, TWO_PI * hi, mult, rtol, state_keys
     )
     root /= TWO_PI
-    if certify is not None and ok.any():
-        ok[ok] = certify(root[ok], mult[ok])
     found = np.repeat(root[ok], mult[ok])
     vectors = [basis[j].T for j in np.flatnonzero(ok)]
     split, split_hz, split_vectors = _split_clusters(

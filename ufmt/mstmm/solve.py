@@ -29,11 +29,6 @@ from ufmt.mstmm.roots import RootsLostError, bracketed_roots, continued_roots
 from ufmt.mstmm.wittrick import Brackets, RootCounter
 
 DEFAULT_FMAX_HZ = 1000.0
-# every Newton root is proven by the count to lie within this (relative) of a natural
-# frequency, else bisected on the count: the packaged model's 68 roots to 5 kHz pass at 1e-11
-# (67 at 1e-12); a model whose det U_all is rounding noise near a root (up to 8e-9 off there,
-# tests/test_wittrick.py) gets those roots from the count
-CERTIFY_RTOL = 1e-11
 DIRECTIONS = ("x", "y", "z", "rx", "ry", "rz")
 
 
@@ -360,10 +355,7 @@ def _solution(counter: RootCounter, design: int, brackets: Brackets, count, shap
     def refine(lo_hz, hi_hz):
         return counter.refine(lo_hz, hi_hz, design=design)
 
-    def certify(roots_hz, multiplicity):
-        return counter.holds(roots_hz, multiplicity, CERTIFY_RTOL, design=design)
-
-    roots = bracketed_roots(system, brackets, refine, state_keys=keys, certify=certify)
+    roots = bracketed_roots(system, brackets, refine, state_keys=keys)
     if roots.missing_hz.size:
         raise RootsLostError(
             f"{model.source}: the MSTMM found {roots.frequencies_hz.size} of the "

@@ -332,14 +332,6 @@ class RootCounter:
             lo[~ok], hi[~ok], start[~ok] = again
         return lo, hi, start
 
-    def holds(self, hz, multiplicity, rtol: float, design=None) -> np.ndarray:
-        """Whether J proves exactly ``multiplicity`` natural frequencies within
-        hz (1 ± rtol) of each frequency of ``hz`` [Hz] (of ``design``): bool per frequency."""
-        hz = np.asarray(hz, dtype=float)
-        design = _designs(design, hz.size)
-        j = self.below(np.r_[hz * (1 - rtol), hz * (1 + rtol)], np.r_[design, design])
-        return j[hz.size :] - j[: hz.size] == np.asarray(multiplicity)
-
     def refine(self, lo_hz, hi_hz, rtol: float = 1e-13, design=None) -> np.ndarray:
         """The roots [Hz] in brackets [lo, hi] of one root each (of ``design``), by bisection
         on J to ``rtol`` (the fallback when Newton on det U_all cannot certify one)."""
