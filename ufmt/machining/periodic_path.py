@@ -388,21 +388,31 @@ def periodic_coordinates(recurrence: PeriodicRecurrence, force: np.ndarray, acti
     the sum of the force with the periodic impulse response (:meth:`PeriodicRecurrence.impulse`)
     without its (n, A, A) tensor: O(n A sqrt(A)) over the run, O(n N) for the decay.
     """
-    first, run = _cut_run(active.tobytes())
-    n, a = active.size, run.size
-    e, powers = recurrence.e, recurrence.powers
-    f = force[:, run]
-    w = recurrence.from_rest(f)
-    left = e * w[:, -1] + recurrence.b1 * f[:, -1]  # w_A: no force after the run
-    before = powers[:, n - 1 - a] * left / (1.0 - recurrence.period)  # z_b
+    run = _cut_run(active.tobytes())[1]
+    inside, after, start, head = _periodic_run(recurrence, force[:, run], active)
+    n, a, powers = active.size, run.size, recurrence.powers
     x = np.empty(force.shape, complex)
-    x[:, run] = w + powers[:, 1 : a + 1] * before[:, None]
-    after = left + e * powers[:, a] * before  # the state after the run's last sample
-    start = (first + a) % n  # the free decay: n - a samples from here, circularly
-    head = min(n - a, n - start)
+    x[:, run] = inside
     np.multiply(powers[:, :head], after[:, None], out=x[:, start : start + head])
     np.multiply(powers[:, head : n - a], after[:, None], out=x[:, : n - a - head])
     return x
+
+
+def _periodic_run(recurrence: PeriodicRecurrence, force: np.ndarray, active: np.ndarray):
+    """The periodic state over the circular run of ``active`` (N,) under the input ``force``
+    (n, A) there (:func:`periodic_coordinates`): (the state over the run (n, A), the state
+    after its last sample (n,), where the free decay starts, how many of its N - A samples
+    come before the period wraps)."""
+    first, run = _cut_run(active.tobytes())
+    n, a = active.size, run.size
+    e = recurrence.e
+    w = recurrence.from_rest(force)
+    left = e * w[:, -1] + recurrence.b1 * force[:, -1]  # w_A: no force after the run
+    before = recurrence.power(n - 1 - a) * left / (1.0 - recurrence.period)  # z_b
+    inside = w + recurrence.power(np.arange(1, a + 1)) * before[:, None]
+    after = left + e * recurrence.power(a) * before  # the state after the run's last sample
+    start = (first + a) % n  # the free decay: n - a samples from here, circularly
+    return inside, after, start, min(n - a, n - start)
 
 
 def periodic_projection(
@@ -416,18 +426,11 @@ def periodic_projection(
     :meth:`~ufmt.machining.recurrence.PeriodicRecurrence.projected_powers` of the weights
     times z_a: neither the (n, N) state nor the table of E^l is formed.
     """
-    first, run = _cut_run(active.tobytes())
+    run = _cut_run(active.tobytes())[1]
+    inside, after, start, head = _periodic_run(recurrence, force, active)
     n, a = active.size, run.size
-    e = recurrence.e
-    w = recurrence.from_rest(force)
-    left = e * w[:, -1] + recurrence.b1 * force[:, -1]  # w_A: no force after the run
-    before = recurrence.power(n - 1 - a) * left / (1.0 - recurrence.period)  # z_b
-    after = left + e * recurrence.power(a) * before  # the state after the run's last sample
     out = np.empty((n, weights.shape[1]))
-    inside = w + recurrence.power(np.arange(1, a + 1)) * before[:, None]
     out[run] = real_part_product(inside.T, weights)
-    start = (first + a) % n  # the free decay: n - a samples from here, circularly
-    head = min(n - a, n - start)
     decay = recurrence.projected_powers(after[:, None] * weights, n - a)
     out[start : start + head], out[: n - a - head] = decay[:head], decay[head:]
     return out

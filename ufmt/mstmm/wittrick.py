@@ -207,9 +207,7 @@ class RootCounter:
             lowest = grid[np.r_[0, np.flatnonzero(np.diff(design)) + 1]][low]
             lower = (lowest[:, None] * steps[:-1]).ravel()
             lower_design = np.repeat(np.flatnonzero(low), steps.size - 1)
-            order = np.lexsort((np.r_[lower, grid], np.r_[lower_design, design]))
-            counts = np.r_[self.below(lower, lower_design), counts][order]
-            grid, design = np.r_[lower, grid][order], np.r_[lower_design, design][order]
+            grid, design, counts = self._added(grid, design, counts, lower, lower_design)
         keep = np.flatnonzero((np.diff(counts) > 0) & (np.diff(design) == 0))
         lo, hi, lo_c, hi_c = grid[keep], grid[keep + 1], counts[keep], counts[keep + 1]
         des = design[keep]
@@ -264,9 +262,14 @@ class RootCounter:
         more = np.concatenate(more)
         if more.size == 0:
             return hz, design, counts
-        order = np.lexsort((np.r_[hz, more], np.r_[design, more_design]))
-        counts = np.r_[counts, self.below(more, more_design)][order]
-        return np.r_[hz, more][order], np.r_[design, more_design][order], counts
+        return self._added(hz, design, counts, more, more_design)
+
+    def _added(self, hz, design, counts, new_hz, new_design):
+        """(hz, design, J) with J at the points ``new_hz`` [Hz] of ``new_design`` added,
+        ascending per design (the new points are none of the old ones)."""
+        order = np.lexsort((np.r_[hz, new_hz], np.r_[design, new_design]))
+        counts = np.r_[counts, self.below(new_hz, new_design)][order]
+        return np.r_[hz, new_hz][order], np.r_[design, new_design][order], counts
 
     def _estimates(self, design: int, lo_hz: float, hi_hz: float, wanted: int) -> np.ndarray:
         """The linearised estimates [Hz] in (lo_hz, hi_hz) of ``design``
