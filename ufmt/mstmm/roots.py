@@ -38,6 +38,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ufmt.errors import UfmtError
+from ufmt.mstmm.lu import factor
 from ufmt.mstmm.overall import State, TransferSystem, assemble, equilibrate, place
 from ufmt.mstmm.reduced import ConstantParts
 
@@ -434,17 +435,24 @@ def _newton(system, omega, lo, hi, mult, rtol, state_keys=()):
     Returns (roots, certified, null bases, state maps): a cluster is certified when its last
     step is below ``rtol`` or, being below ACCEPT_STEP, contracted superlinearly from the
     previous one, inside [lo, hi]. The iteration works on S(ω), U_all with its ω-independent
-    columns and rows eliminated (:mod:`ufmt.mstmm.reduced`: det U_all = const · det S, so
-    the same roots and tr(S⁻¹ dS) = tr(U⁻¹ dU) at about a third of the LU cost). Rows and
-    columns are scaled once per cluster, off the root (at the first ω + dω), so that the LU
-    solves see O(1) entries (the scaling cancels in the trace). The null space comes with
-    the last step for free: near a root of multiplicity m, S⁻¹ dS/dω has m eigenvalues ≈
-    1/(ω - ω_k), all others O(1), so each product with an m-column block (QR after each)
-    shrinks the other components by about the relative distance δ of the last iterate from
-    the root. Three products give a basis of S's null space to O(δ²) or rounding (two left
-    errors of order δ on S, a 6 % wrong shape on a test model), completed to U_all's (size,
-    m). A step that would leave the window (a neighbouring root pulls Newton too far) goes
-    half way to the window's end instead; such a step never counts as converged.
+    columns and rows eliminated (:mod:`ufmt.mstmm.reduced`: det U_all = const · det S, the
+    same roots at about a third of the LU cost). Rows and columns are scaled once per
+    cluster (at its first iterate), so that the LU solves see O(1) entries.
+
+    d ln det S/dω = tr(S⁻¹ dS/dω) is the sum of the eigenvalues of P = S⁻¹ dS/dω; near a
+    cluster of m roots, m of them are ≈ 1/(ω - ω_k) and all others O(1/gap) to the other
+    roots. The step takes only the cluster's own: inverse iteration with P on an m-column
+    block (S's LU kept, :mod:`ufmt.mstmm.lu`; QR after each product, the block carried from
+    one iterate to the next) converges to P's dominant invariant subspace by the ratio of
+    the distances to the cluster and to the next root per product, and the trace of P
+    projected on it gives ω_k ← ω_k - m / tr(XᵀPX): Newton on det with every other root
+    divided out exactly (so two clusters are not drawn to one root), at a third of the cost
+    of the whole tr(S⁻¹ dS) (one LU and a few solves with m columns instead of a solve with
+    all of them). The block is also the null space: P x = λ x means S(ω - 1/λ) x = 0 to
+    first order, so after NULL_SPACE_PRODUCTS products it is S's null space at the new
+    iterate to O(δ²) or rounding (δ: the step), completed to U_all's (size, m). A step
+    that would leave the window (a neighbouring root pulls Newton too far) goes half way
+    to the window's end instead; such a step never counts as converged.
 
     The state maps of ``state_keys`` come at the roots for free as well ({key: State
     (clusters, 12, k)}): the walks that evaluate U_all keep them, and each is interpolated
@@ -455,7 +463,7 @@ def _newton(system, omega, lo, hi, mult, rtol, state_keys=()):
     n = w.size
     r = c = None  # the scaling, from the first evaluation (one walk of the transfer graph)
     reduction = None  # U_all's ω-independent columns and rows eliminated (ufmt.mstmm.reduced)
-    start = None  # the start block of the null-space products
+    block = None  # each cluster's current block of the inverse iteration
     previous = np.full(n, np.inf)
     basis: dict[int, np.ndarray] = {}
     done = np.zeros(n, dtype=bool)
@@ -472,16 +480,19 @@ def _newton(system, omega, lo, hi, mult, rtol, state_keys=()):
             blocks, walked = _walk(system, omega_q, state_keys)
             reduction = ConstantParts.of(assemble(blocks, system.size, [0, act.size, -1]))
             blocks = [State(b.cols, b.arr[:-1]) for b in blocks]
-            start = np.random.default_rng(0).standard_normal((reduction.order, int(mult.max())))
+            # one column more than the largest cluster: see _own_step
+            start = np.random.default_rng(0).standard_normal((reduction.order, mult.max() + 1))
+            block = np.broadcast_to(start, (n, *start.shape)).copy()
         else:
             blocks, walked = _walk(system, np.concatenate([wa, wa + h]), state_keys)
         u = place(blocks, *reduction.placement(), reduction.arranged_shape)  # U_all arranged
-        s0, s1 = reduction.reduce(u).reshape(2, act.size, reduction.order, reduction.order)
-        if r is None:  # at ω(1 + DERIVATIVE_STEP): off the root even from an exact start
-            r, c = equilibrate(s1)
-        product, step = _aberth_step(s0, s1, r[act], c[act], h, w, act, mult)
-        finite = np.isfinite(step)
-        step = np.where(finite, step, 0.0)  # exactly singular: ω is the root
+        s0 = reduction.reduce(u[: act.size])  # S at ω; at ω + dω only products with it
+        if r is None:  # row and column maxima: as good at a root as off it
+            r, c = equilibrate(s0)
+        step_matrices = (s0, u[act.size :], reduction, r[act], c[act], h)
+        x, ritz, singular = _inverse_iteration(*step_matrices, block[act])
+        block[act] = x
+        step = np.where(singular, 0.0, _own_step(w, act, ritz, mult[act], lo[act], hi[act]))
         new = wa - step
         size = np.abs(step)
         converged = (size <= rtol * wa) | (
@@ -495,7 +506,7 @@ def _newton(system, omega, lo, hi, mult, rtol, state_keys=()):
             sel = np.flatnonzero(done[act] & (mult[act] == m))
             t = (new[sel] - wa[sel]) / h[sel]  # where the root lies between ω and ω + dω
             scale = c[act[sel], 0, :, None]
-            z = _null_basis(reduction, start[:, :m], product[sel], u, act.size, sel, t, scale)
+            z = _null_basis(reduction, x[sel, :, :m], u, act.size, sel, t, scale)
             for k, j in enumerate(act[sel]):
                 basis[j] = z[k]
             _states_at_roots(walked, act, sel, t, n, at_roots)
@@ -506,36 +517,56 @@ def _newton(system, omega, lo, hi, mult, rtol, state_keys=()):
     return w, ok, basis, at_roots
 
 
-def _aberth_step(s0, s1, r, c, h, w, act, mult):
-    """S⁻¹ dS/dω (rows and columns scaled by r, c) at the active iterates ``w[act]`` (S at
-    ω and ω + h: s0, s1) and the multiplicity-corrected Newton step on det U_all with the
-    other clusters' current roots divided out (Aberth) [rad/s]. Both are overwritten (dS
-    in place of s1: no new array)."""
+def _inverse_iteration(s0, above, reduction, r, c, h, x):
+    """NULL_SPACE_PRODUCTS products of P = S⁻¹ dS/dω (rows and columns scaled by r, c) with
+    the blocks ``x`` (n, m', b), QR after each: S at ω is ``s0`` (n, m', m'), at ω + h
+    (dS/dω a forward difference) only products with it, from U_all arranged ``above``
+    (:meth:`ufmt.mstmm.reduced.ConstantParts.times`). Returns (the last blocks,
+    orthonormal; the Ritz values (n, b) of P on the blocks before the last product; which
+    S are exactly singular: ω is a root of det S there)."""
+    s0 = np.ascontiguousarray(s0)  # a view of the arranged U_all: fast products below
+    lu = factor(s0 * (r * c))
+    column_scale, row_scale = c[:, 0, :, None], r / h[:, None, None]
+    with np.errstate(all="ignore"):
+        for k in range(NULL_SPACE_PRODUCTS):
+            z = column_scale * x
+            y = lu.solve(row_scale * (reduction.times(above, z) - s0 @ z))
+            if k == NULL_SPACE_PRODUCTS - 1:
+                projected = np.swapaxes(x, 1, 2) @ y
+            x = orthonormal(y)
+    projected[~np.isfinite(projected).all(axis=(1, 2))] = 0.0
+    return x, np.linalg.eigvals(projected), lu.singular
+
+
+def _own_step(w, act, ritz, mult, lo, hi):
+    """The Newton step on det S of each active cluster ``act`` (of all clusters' current
+    iterates ``w``) with the other roots divided out [rad/s].
+
+    The Ritz values λ of P (:func:`_inverse_iteration`) put roots at ω - 1/λ. The
+    cluster's own are its ``mult`` = m largest |λ| among those inside its window
+    [lo, hi] and nearer to its own iterate than to any other cluster's (the Aberth idea:
+    a root another cluster is on belongs to that one, e.g. where two tracked roots cross),
+    the others only if too few qualify; the step is m / Σ Re λ over them (an exact
+    repeated root: m equal λ)."""
     wa = w[act]
-    ds = np.subtract(s1, s0, out=s1)
-    ds *= r / h[:, None, None]
-    ds *= c
-    s0 *= r
-    s0 *= c
     with np.errstate(all="ignore"):
-        product = batched_solve(s0, ds)  # S⁻¹ dS/dω, scaled
-        # Aberth: the other clusters' current roots are divided out of det U_all
-        others = mult[None, :] / (wa[:, None] - w[None, :])
-        others[np.arange(act.size), act] = 0.0
-        trace = np.trace(product, axis1=1, axis2=2)
-        step = mult[act] / (trace - others.sum(axis=1))
-    return product, step
+        at = wa[:, None] - 1.0 / ritz.real
+        inside = (at >= lo[:, None]) & (at <= hi[:, None])
+        distance = np.abs(at[:, :, None] - w[None, None, :])  # (active, b, clusters)
+        distance[np.arange(act.size), :, act] = np.inf
+        claimed = distance.min(axis=2) < np.abs(at - wa[:, None])
+        order = np.lexsort((-np.abs(ritz), claimed, ~inside), axis=-1)
+        own = np.arange(ritz.shape[1])[None, :] < mult[:, None]
+        total = np.sum(np.take_along_axis(ritz.real, order, axis=1) * own, axis=1)
+        step = mult / total
+    return np.where(np.isfinite(step), step, 0.0)  # exactly singular: ω is the root
 
 
-def _null_basis(reduction, start, product, u, n_active, sel, t, scale) -> np.ndarray:
-    """U_all's null basis (roots, size, m) at the converged iterates ``sel``: products of
-    S⁻¹ dS/dω (``product``) with the start block (QR after each), completed with U_all's
+def _null_basis(reduction, x, u, n_active, sel, t, scale) -> np.ndarray:
+    """U_all's null basis (roots, size, m) at the converged iterates ``sel`` from S's
+    (``x``, (roots, m', m), scaled by the column scaling ``scale``), completed with U_all's
     pivot rows at the root, not at the iterate (first order in the step from the two
-    evaluations: an O(step²) error instead of O(step)); ``scale``: the column scaling."""
-    x = np.broadcast_to(start, (sel.size, *start.shape))
-    with np.errstate(all="ignore"):
-        for _ in range(NULL_SPACE_PRODUCTS):
-            x = orthonormal(product @ x)
+    evaluations: an O(step²) error instead of O(step))."""
     pivots = reduction.pivot_rows(u)
     at, above = pivots[:n_active], pivots[n_active:]  # at ω and at ω + dω
     if sel.size < n_active:
@@ -543,7 +574,7 @@ def _null_basis(reduction, start, product, u, n_active, sel, t, scale) -> np.nda
     at_root = above - at  # at + t (above - at), in place
     at_root *= t[:, None, None]
     at_root += at
-    return reduction.null_vectors(at_root, scale * np.real(x))
+    return reduction.null_vectors(at_root, scale * x)
 
 
 def _states_at_roots(walked: dict, act, sel, t, n: int, at_roots: dict) -> None:
