@@ -15,17 +15,12 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.linalg.lapack import dgetrf, dgetrs
 
-# an exactly zero pivot becomes this (relative to U's largest entry): a perturbation at the
-# level of rounding, like the one that left the other pivots of a (nearly) repeated root
-# nonzero, so that inverse iteration amplifies every null direction alike
-SINGULAR_PIVOT = np.finfo(float).eps
-
 
 @dataclass(frozen=True)
 class Factors:
     """P L U of each matrix of a stack, stored as LAPACK leaves them for its transpose (the
     stack is C-ordered, LAPACK reads Fortran order); ``singular``: the matrices with an
-    exactly zero pivot (see :func:`factor`)."""
+    exactly zero pivot, whose factors cannot be solved with (see :meth:`refactor`)."""
 
     lu: np.ndarray  # (n, m, m)
     pivots: np.ndarray  # (n, m) int32
@@ -39,13 +34,17 @@ class Factors:
             out[i] = dgetrs(lu.T, piv, b[i], trans=1)[0]
         return out
 
+    def refactor(self, i: int, matrix: np.ndarray) -> None:
+        """Matrix ``i`` of the stack replaced by ``matrix`` (m, m) and factored, in place."""
+        self.lu[i] = matrix
+        _, self.pivots[i], info = dgetrf(self.lu[i].T, overwrite_a=1)
+        self.singular[i] = info > 0
+
 
 def factor(a: np.ndarray) -> Factors:
     """LU factors (partial pivoting) of each matrix of the stack ``a`` (n, m, m), which is
-    overwritten if C-contiguous float64 (else copied). A matrix that is exactly singular (ω
-    on a root to the last bit) gets each exactly zero pivot of U replaced by SINGULAR_PIVOT
-    times U's largest entry (and is flagged ``singular``): its solutions are finite and
-    dominated by the null space, so inverse iteration still finds it."""
+    overwritten if C-contiguous float64 (else copied); matrices with an exactly zero pivot
+    are flagged ``singular``."""
     if not (a.flags.c_contiguous and a.dtype == np.float64):
         a = np.array(a, dtype=float, order="C")
     n, m = a.shape[:2]
@@ -53,10 +52,5 @@ def factor(a: np.ndarray) -> Factors:
     singular = np.zeros(n, dtype=bool)
     for i in range(n):
         _, pivots[i], info = dgetrf(a[i].T, overwrite_a=1)
-        if info > 0:  # U(j, j) = 0 exactly for some j; the factorisation is complete
-            singular[i] = True
-            upper = np.triu(a[i].T)
-            diagonal = a[i].diagonal().copy()
-            diagonal[diagonal == 0.0] = SINGULAR_PIVOT * np.abs(upper).max()
-            np.fill_diagonal(a[i], diagonal)
+        singular[i] = info > 0
     return Factors(a, pivots, singular)

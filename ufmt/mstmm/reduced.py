@@ -144,19 +144,6 @@ class ConstantParts:
         s[:, :, :o2] -= np.matmul(s[:, :, m - k2 :], self.column_combine, out=out)
         return s[:, :, : m - k2]
 
-    def times(self, a: np.ndarray, x: np.ndarray) -> np.ndarray:
-        """S'(ω) x (n, m', q) from U_all(ω) arranged (:meth:`arrange`, left unchanged) and
-        x (n, m', q), without forming S' (matrix-vector products only: the map is linear,
-        S' x is the row elimination of U_all's columns times x completed by -C x_o)."""
-        k2, o2 = self.column_combine.shape
-        n_kept, o = self.kept.size, self.row_combine.shape[0]
-        full = np.concatenate([x, -self.column_combine @ x[:, :o2]], axis=1)
-        y = a @ full
-        n_o = int(np.searchsorted(self.kept, o))  # S's o rows come first
-        combined = self.row_combine @ y[:, n_kept:]
-        y[:, :n_o] -= combined if n_o == o else combined[:, self.kept[:n_o]]
-        return y[:, :n_kept]
-
     def pivot_rows(self, a: np.ndarray) -> np.ndarray:
         """The pivot rows (n, k, columns) of an :meth:`arrange` d U_all (a view): all that
         :meth:`null_vectors` reads of it."""

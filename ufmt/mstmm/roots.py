@@ -486,11 +486,10 @@ def _newton(system, omega, lo, hi, mult, rtol, state_keys=()):
         else:
             blocks, walked = _walk(system, np.concatenate([wa, wa + h]), state_keys)
         u = place(blocks, *reduction.placement(), reduction.arranged_shape)  # U_all arranged
-        s0 = reduction.reduce(u[: act.size])  # S at ω; at ω + dω only products with it
+        s0, s1 = reduction.reduce(u).reshape(2, act.size, reduction.order, reduction.order)
         if r is None:  # row and column maxima: as good at a root as off it
             r, c = equilibrate(s0)
-        step_matrices = (s0, u[act.size :], reduction, r[act], c[act], h)
-        x, ritz, singular = _inverse_iteration(*step_matrices, block[act])
+        x, ritz, singular = _inverse_iteration(s0, s1, r[act], c[act], h, block[act])
         block[act] = x
         step = np.where(singular, 0.0, _own_step(w, act, ritz, mult[act], lo[act], hi[act]))
         new = wa - step
@@ -517,25 +516,27 @@ def _newton(system, omega, lo, hi, mult, rtol, state_keys=()):
     return w, ok, basis, at_roots
 
 
-def _inverse_iteration(s0, above, reduction, r, c, h, x):
-    """NULL_SPACE_PRODUCTS products of P = S⁻¹ dS/dω (rows and columns scaled by r, c) with
-    the blocks ``x`` (n, m', b), QR after each: S at ω is ``s0`` (n, m', m'), at ω + h
-    (dS/dω a forward difference) only products with it, from U_all arranged ``above``
-    (:meth:`ufmt.mstmm.reduced.ConstantParts.times`). Returns (the last blocks,
-    orthonormal; the Ritz values (n, b) of P on the blocks before the last product; which
-    S are exactly singular: ω is a root of det S there)."""
-    s0 = np.ascontiguousarray(s0)  # a view of the arranged U_all: fast products below
-    lu = factor(s0 * (r * c))
-    column_scale, row_scale = c[:, 0, :, None], r / h[:, None, None]
+def _inverse_iteration(s0, s1, r, c, h, x):
+    """NULL_SPACE_PRODUCTS products of P = S⁻¹ dS/dω (rows and columns scaled by r, c; S at
+    ω and ω + h: s0, s1, dS/dω their forward difference) with the blocks ``x`` (n, m', b),
+    QR after each. Returns (the last blocks, orthonormal; the Ritz values (n, b) of P on the
+    blocks before the last product; which S are exactly singular: ω is a root of det S
+    there)."""
+    ds = np.subtract(s1, s0)  # contiguous (s0 and s1 are views): fast products below
+    ds *= r / h[:, None, None]
+    ds *= c
+    lu = factor(np.multiply(s0, r * c))
+    singular = lu.singular.copy()
+    for i in np.flatnonzero(singular):  # ω a root to the last bit: S at ω + h instead,
+        lu.refactor(i, s1[i] * (r[i] * c[i]))  # the same null space to O(h²)
     with np.errstate(all="ignore"):
         for k in range(NULL_SPACE_PRODUCTS):
-            z = column_scale * x
-            y = lu.solve(row_scale * (reduction.times(above, z) - s0 @ z))
+            y = lu.solve(ds @ x)
             if k == NULL_SPACE_PRODUCTS - 1:
                 projected = np.swapaxes(x, 1, 2) @ y
             x = orthonormal(y)
     projected[~np.isfinite(projected).all(axis=(1, 2))] = 0.0
-    return x, np.linalg.eigvals(projected), lu.singular
+    return x, np.linalg.eigvals(projected), singular
 
 
 def _own_step(w, act, ritz, mult, lo, hi):
