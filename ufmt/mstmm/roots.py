@@ -474,21 +474,13 @@ def _newton(system, omega, lo, hi, mult, rtol, state_keys=()):
             break
         wa = w[act]
         h = DERIVATIVE_STEP * wa
-        if reduction is None:
-            # ω-independent parts: bitwise equal at ω_0, ω_0 + dω and a distant 0.61 ω_0
-            omega_q = np.concatenate([wa, wa + h, [0.61 * wa[0]]])
-            blocks, walked = _walk(system, omega_q, state_keys)
-            reduction = ConstantParts.of(assemble(blocks, system.size, [0, act.size, -1]))
-            blocks = [State(b.cols, b.arr[:-1]) for b in blocks]
-            # one column more than the largest cluster: see _own_step
-            start = np.random.default_rng(0).standard_normal((reduction.order, mult.max() + 1))
-            block = np.broadcast_to(start, (n, *start.shape)).copy()
-        else:
-            blocks, walked = _walk(system, np.concatenate([wa, wa + h]), state_keys)
-        u = place(blocks, *reduction.placement(), reduction.arranged_shape)  # U_all arranged
+        reduction, u, walked = _evaluate(system, wa, h, reduction, state_keys)
         s0, s1 = reduction.reduce(u).reshape(2, act.size, reduction.order, reduction.order)
         if r is None:  # row and column maxima: as good at a root as off it
             r, c = equilibrate(s0)
+            # one column more than the largest cluster: see _own_step
+            start = np.random.default_rng(0).standard_normal((reduction.order, mult.max() + 1))
+            block = np.broadcast_to(start, (n, *start.shape)).copy()
         x, ritz, singular = _inverse_iteration(s0, s1, r[act], c[act], h, block[act])
         block[act] = x
         step = np.where(singular, 0.0, _own_step(w, act, ritz, mult[act], lo[act], hi[act]))
@@ -514,6 +506,21 @@ def _newton(system, omega, lo, hi, mult, rtol, state_keys=()):
     close = np.flatnonzero(np.diff(w[order]) <= 1e-9 * w[order][1:])
     ok[order[close]] = ok[order[close + 1]] = False
     return w, ok, basis, at_roots
+
+
+def _evaluate(system, wa, h, reduction, state_keys):
+    """(the reduction, U_all arranged at ω = ``wa`` and ω + ``h`` (2n, rows, columns), the
+    walked state maps): one walk; the first call (``reduction`` None) also finds U_all's
+    ω-independent parts, bitwise equal at ω_0, ω_0 + dω and a distant 0.61 ω_0."""
+    if reduction is None:
+        omega_q = np.concatenate([wa, wa + h, [0.61 * wa[0]]])
+        blocks, walked = _walk(system, omega_q, state_keys)
+        reduction = ConstantParts.of(assemble(blocks, system.size, [0, wa.size, -1]))
+        blocks = [State(b.cols, b.arr[:-1]) for b in blocks]
+    else:
+        blocks, walked = _walk(system, np.concatenate([wa, wa + h]), state_keys)
+    u = place(blocks, *reduction.placement(), reduction.arranged_shape)
+    return reduction, u, walked
 
 
 def _inverse_iteration(s0, s1, r, c, h, x):
