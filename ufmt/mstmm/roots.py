@@ -6,19 +6,21 @@ estimates of the roots instead (any independent model's). The MSTMM then finds e
 
 1. **Newton on det, batched over all roots.** A bracket of m roots (or estimates closer than
    1e-6) is a cluster of multiplicity m (a repeated root of a symmetric structure). From the
-   cluster's start (the bracket's geometric centre, or the estimate),
-   ω_k ← ω_k - m_k / (tr(U_all⁻¹ dU_all/dω) - Σ_j≠k m_j / (ω_k - ω_j)), the
-   multiplicity-corrected Newton step on det U_all (d ln det U/dω = tr(U⁻¹ U')) with the
-   other clusters' current roots divided out (Aberth-Ehrlich), converges at least
-   quadratically for simple and semisimple repeated roots alike and keeps two clusters off
-   one root. dU/dω is a forward difference of U_all (its entries are smooth in ω).
-   A cluster is certified when its steps contract superlinearly (a wrong multiplicity
-   converges linearly or oscillates) inside the cluster's window (its bracket, or half-way,
-   geometrically, to the neighbouring estimates; a step that would leave it goes half-way
-   to its end) and
-   no two clusters meet. A cluster that does not converge as one repeated root may be a
-   pair split by a small asymmetry (multiplicity-2 Newton then 2-cycles): its m roots are
-   solved again as m simple ones, each with its own Aberth iterate (``_split_clusters``).
+   cluster's start (the Wittrick-Williams secant's last point, the bracket's geometric
+   centre, or the estimate), ω_k ← ω_k - m_k / Σ λ: d ln det U_all/dω = tr(U⁻¹ dU/dω) is
+   the sum of the eigenvalues λ of U⁻¹ dU/dω, m_k of which are ≈ 1/(ω_k - root) near the
+   cluster, and the step sums only those (found by inverse iteration with U's LU kept, the
+   Ritz values of the cluster's own roots): the multiplicity-corrected Newton step on det
+   with every other root divided out exactly, quadratically convergent for simple and
+   semisimple repeated roots alike; a root another cluster's iterate is on is left to it,
+   which keeps two clusters off one root. dU/dω is a forward difference of U_all (its
+   entries are smooth in ω). A cluster is certified when its steps contract superlinearly
+   (a wrong multiplicity converges linearly or oscillates) inside the cluster's window (its
+   bracket, or half-way, geometrically, to the neighbouring estimates; a step that would
+   leave it goes half-way to its end) and no two clusters meet. A cluster that does not
+   converge as one repeated root may be a pair split by a small asymmetry
+   (multiplicity-2 Newton then 2-cycles): its m roots are solved again as m simple ones,
+   each with its own iterate (``_split_clusters``).
 2. **Fallback, only for the clusters Newton could not certify:** in a bracket, bisection on
    the count down to 1e-13; from estimates, the sign of det on a grid refined around every
    estimate, Illinois refinement of each sign change, and a golden section on the smallest
@@ -393,11 +395,10 @@ def _split_clusters(system, root_hz, failed, estimates_hz, lo_hz, hi_hz, certifi
     repeated root. Near two simple roots c ± d the multiplicity-2 step maps c + e to
     c + d²/e, a 2-cycle that never contracts. Here each of the cluster's m roots gets its own
     iterate, started around the cluster's last Newton iterate (spread as the estimates are,
-    at least ACCEPT_STEP relative), with the others divided out (Aberth) and all kept in the
+    at least ACCEPT_STEP relative), each taking the root nearest to it and all kept in the
     cluster's window; the cluster counts as solved when all m iterates are certified,
     distinct (checked by ``_newton``) and none of them is a root already certified
-    (``certified_hz``). An exact repeated root cannot pass: its iterates converge only
-    linearly, onto one point.
+    (``certified_hz``). An exact repeated root cannot pass: its iterates meet on one point.
 
     Returns (solved clusters (n,) bool, roots [Hz], null vectors (roots, size)).
     """
