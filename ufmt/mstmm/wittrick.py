@@ -74,10 +74,12 @@ def inertia(k: np.ndarray, overwrite: bool = False) -> tuple[np.ndarray, np.ndar
         _, pivots[i], _ = dsytrf(matrix.T, lower=1, overwrite_a=1)
     diagonal, below = k.diagonal(axis1=1, axis2=2), np.zeros((n_omega, n))
     below[:, :-1] = k.diagonal(offset=1, axis1=1, axis2=2)
-    # a 2x2 block D(j:j+2, j:j+2) has ipiv < 0 at both j and j + 1: pairs of negative pivots
-    start = pivots < 0
-    for j in np.flatnonzero(start[:, 1:].any(axis=0)) + 1:  # ascending, where any pivot < 0
-        start[:, j] &= ~start[:, j - 1]  # the second of each pair starts no block
+    # a 2x2 block D(j:j+2, j:j+2) has ipiv < 0 at both j and j + 1: in a run of negative
+    # pivots the blocks start at its even places (the run's place: since the last ipiv > 0)
+    negative_pivot = pivots < 0
+    places = np.arange(n)
+    last_positive = np.maximum.accumulate(np.where(negative_pivot, -1, places), axis=1)
+    start = negative_pivot & ((places - last_positive) % 2 == 1)
     single = ~start
     single[:, 1:] &= ~start[:, :-1]
     a, c = diagonal, np.roll(diagonal, -1, axis=1)
