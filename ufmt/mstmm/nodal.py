@@ -288,9 +288,13 @@ class CondensationStack:
             inverse = np.where(gap == 0.0, 0.0, 1.0 / gap)
             log_gap = np.sum(np.log(np.abs(gap)), axis=1)
         k = np.empty((w2.size, self.order, self.order))
-        for d in np.unique(design):
-            at = np.flatnonzero(design == d) if len(self.poles) > 1 else np.arange(w2.size)
-            for start in range(0, at.size, CHUNK):  # CHUNK ω at a time: temporaries in cache
+        if len(self.poles) == 1:  # one design: its ω in slices (views, no copies)
+            for start in range(0, w2.size, CHUNK):  # CHUNK ω at a time: temporaries in cache
+                at = slice(start, start + CHUNK)
+                k[at] = self._block(0, w2[at], terms[at], inverse[at])
+        for d in np.unique(design) if len(self.poles) > 1 else ():
+            at = np.flatnonzero(design == d)
+            for start in range(0, at.size, CHUNK):
                 block = at[start : start + CHUNK]
                 k[block] = self._block(d, w2[block], terms[block], inverse[block])
         return k, np.count_nonzero(gap < 0, axis=1), log_gap

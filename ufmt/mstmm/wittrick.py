@@ -82,7 +82,7 @@ def inertia(k: np.ndarray, overwrite: bool = False) -> tuple[np.ndarray, np.ndar
     start = negative_pivot & ((places - last_positive) % 2 == 1)
     single = ~start
     single[:, 1:] &= ~start[:, :-1]
-    a, c = diagonal, np.roll(diagonal, -1, axis=1)
+    a, c = diagonal, np.concatenate([diagonal[:, 1:], diagonal[:, :1]], axis=1)
     det = a * c - below * below
     two = np.where(det < 0, 1, np.where((det > 0) & (a + c < 0), 2, 0))
     negative = np.count_nonzero(single & (diagonal < 0), axis=1) + np.sum(two * start, axis=1)
