@@ -67,27 +67,28 @@ class NodalStiffness:
 
     def matrix(self, omega) -> np.ndarray:
         """K(ω) (len(ω), n, n) at ω [rad/s]."""
-        omega = np.atleast_1d(np.asarray(omega, dtype=float))
+        return self._matrix(np.atleast_1d(np.asarray(omega, dtype=float)), kept=False)
+
+    def _matrix(self, omega: np.ndarray, kept: bool) -> np.ndarray:
+        """K(ω) at ω [rad/s]; ``kept``: the beams' part kept for every design of the
+        structure (the few ω of :meth:`estimates`: the springs are no part of it)."""
         k = np.repeat(self.static[None], omega.size, axis=0)
         rows, cols = self.mass_entries
         k[:, rows, cols] -= (omega**2)[:, None] * self.mass[rows, cols]
-        for columns, block in self._beam_blocks(omega):
-            k[:, columns[:, None], columns] += block
-        return k
 
-    def _beam_blocks(self, omega: np.ndarray) -> list:
-        """(columns, Gᵀ D_beam(ω) G (len(ω), c, c)) per beam at ω [rad/s] (shared by the
-        designs of a structure: the springs are no part of them)."""
-
-        def build():
+        def beam_blocks():  # (columns, Gᵀ D_beam(ω) G (len(ω), c, c)) per beam
             return [
                 (columns, g.T @ member_stiffness(omega, beam) @ g)
                 for beam, columns, g in self.beams
             ]
 
-        if self.shared is None:
-            return build()
-        return self.shared.kept(("beam blocks", omega.tobytes()), build)
+        if kept and self.shared is not None:
+            blocks = self.shared.kept(("beam blocks", omega.tobytes()), beam_blocks)
+        else:
+            blocks = beam_blocks()
+        for columns, block in blocks:
+            k[:, columns[:, None], columns] += block
+        return k
 
     @functools.cached_property
     def mass_entries(self) -> tuple[np.ndarray, np.ndarray]:
@@ -117,7 +118,7 @@ class NodalStiffness:
         rigid bodies, rougher for modes the beams carry. Empty where M₀ is not positive
         definite. Only where to look: the count J certifies every root."""
         omega = 2.0 * np.pi * step_hz
-        k = self.matrix([0.0, omega])
+        k = self._matrix(np.array([0.0, omega]), kept=True)
         mass = (k[0] - k[1]) / omega**2
         try:
             mu = sla.eigh(k[0], 0.5 * (mass + mass.T), eigvals_only=True, check_finite=False)
