@@ -251,7 +251,7 @@ class RootCounter:
             return hz, design, self.below(hz, design)
         est = [self._estimates(d, g[0], top[d], wanted[d]) for d, g in enumerate(grid)]
         near = [
-            np.unique(np.r_[g[0], g[-1], _seeds(e, g[0], g[-1], SEED_RTOLS[:1], middles=False)])
+            np.unique(np.concatenate([g[[0, -1]], _seeds(e, g[0], g[-1], SEED_RTOLS[:1], False)]))
             for e, g in zip(est, grid, strict=True)
         ]
         design = np.repeat(np.arange(n), [p.size for p in near])
@@ -259,7 +259,7 @@ class RootCounter:
         more = []
         for d, g in enumerate(grid):  # the other points, where J rises between the first
             at, c = hz[design == d], counts[design == d]
-            others = np.r_[g, _seeds(est[d], g[0], g[-1], SEED_RTOLS)]
+            others = np.concatenate([g, _seeds(est[d], g[0], g[-1], SEED_RTOLS)])
             i = np.clip(np.searchsorted(at, others), 1, at.size - 1)
             more.append(
                 np.unique(others[(c[i] > c[i - 1]) & (others > at[i - 1]) & (others < at[i])])
@@ -273,9 +273,10 @@ class RootCounter:
     def _added(self, hz, design, counts, new_hz, new_design):
         """(hz, design, J) with J at the points ``new_hz`` [Hz] of ``new_design`` added,
         ascending per design (the new points are none of the old ones)."""
-        order = np.lexsort((np.r_[hz, new_hz], np.r_[design, new_design]))
-        counts = np.r_[counts, self.below(new_hz, new_design)][order]
-        return np.r_[hz, new_hz][order], np.r_[design, new_design][order], counts
+        hz, design = np.concatenate([hz, new_hz]), np.concatenate([design, new_design])
+        order = np.lexsort((hz, design))
+        counts = np.concatenate([counts, self.below(new_hz, new_design)])[order]
+        return hz[order], design[order], counts
 
     def _estimates(self, design: int, lo_hz: float, hi_hz: float, wanted: int) -> np.ndarray:
         """The linearised estimates [Hz] in (lo_hz, hi_hz) of ``design``
@@ -303,7 +304,8 @@ class RootCounter:
         (``retry``) tried once more: a clamped member frequency near a root is left out.
         """
         n, lo_in, hi_in = lo.size, lo, hi
-        count, clamped, log_det, sign = self._recall(np.r_[lo, hi], np.r_[design, design])
+        ends, designs = np.concatenate([lo, hi]), np.concatenate([design, design])
+        count, clamped, log_det, sign = self._recall(ends, designs)
         base, ref = count[:n], np.maximum(log_det[:n], log_det[n:])
         with np.errstate(all="ignore"):
             f_lo, f_hi = sign[:n] * np.exp(log_det[:n] - ref), sign[n:] * np.exp(log_det[n:] - ref)
@@ -417,8 +419,8 @@ def _next_points(state: _Secant, act, last):
     x = np.where(np.isfinite(x) & (x > a) & (x < b), x, secant)
     x = np.where(np.isfinite(x) & (x > a) & (x < b), x, np.sqrt(a * b))
     guard = np.abs(x - last) < GUARD_FROM * x  # NaN (no point yet): no guard
-    points = np.r_[np.where(guard, x * (1 - GUARD), x), x[guard] * (1 + GUARD)]
-    return x, points, np.r_[act, act[guard]]
+    points = np.concatenate([np.where(guard, x * (1 - GUARD), x), x[guard] * (1 + GUARD)])
+    return x, points, np.concatenate([act, act[guard]])
 
 
 def _seeds(est, lo_hz: float, hi_hz: float, rtols, middles: bool = True) -> np.ndarray:
@@ -427,7 +429,7 @@ def _seeds(est, lo_hz: float, hi_hz: float, rtols, middles: bool = True) -> np.n
     rings = np.concatenate([1 - rtols, 1 + rtols])
     seeds = np.outer(est, rings).ravel()
     if middles:
-        seeds = np.r_[seeds, np.sqrt(est[1:] * est[:-1])]
+        seeds = np.concatenate([seeds, np.sqrt(est[1:] * est[:-1])])
     return seeds[(seeds > lo_hz) & (seeds < hi_hz)]
 
 
@@ -438,7 +440,7 @@ def _cuts(lo, hi, levels: int) -> np.ndarray:
     for _ in range(levels):
         middles = np.sqrt(ends[:, :-1] * ends[:, 1:])
         ends = np.stack([ends[:, :-1], middles], axis=2).reshape(lo.size, -1)
-        ends = np.c_[ends, hi]
+        ends = np.concatenate([ends, hi[:, None]], axis=1)
     return ends[:, 1:-1]
 
 
@@ -446,8 +448,8 @@ def _split(lo, hi, lo_c, hi_c, design, wide, cuts, c):
     """Intervals [Hz] (of each its design) and the counts at their ends with the ``wide`` ones
     cut at ``cuts`` (wide, k) (counts ``c`` there); intervals that hold no root dropped;
     ascending per design."""
-    ends = np.c_[lo[wide], cuts, hi[wide]]
-    counts = np.c_[lo_c[wide], c, hi_c[wide]]
+    ends = np.concatenate([lo[wide, None], cuts, hi[wide, None]], axis=1)
+    counts = np.concatenate([lo_c[wide, None], c, hi_c[wide, None]], axis=1)
     lo = np.concatenate([lo[~wide], ends[:, :-1].ravel()])
     hi = np.concatenate([hi[~wide], ends[:, 1:].ravel()])
     lo_c = np.concatenate([lo_c[~wide], counts[:, :-1].ravel()])
