@@ -47,6 +47,7 @@ def _series_table() -> np.ndarray:
 
 
 _SERIES = _series_table()
+_HORNER = np.ascontiguousarray(_SERIES.T[::-1, :, None])  # (terms, 7, 1): highest power first
 
 
 def _bending_functions(lam4: np.ndarray) -> np.ndarray:
@@ -57,21 +58,22 @@ def _bending_functions(lam4: np.ndarray) -> np.ndarray:
     out = np.zeros((7, lam4.size))
     if np.any(small):  # (the series costs as much as a J evaluation's LDLᵀ: only if used)
         x4 = np.where(small, lam4, 0.0)
-        for coefficients in _SERIES.T[::-1]:  # Horner in λ⁴ (in place)
+        for coefficients in _HORNER:  # Horner in λ⁴ (in place)
             out *= x4
-            out += coefficients[:, None]
-    if np.any(~small):
-        x = np.sqrt(np.sqrt(lam4[~small]))
+            out += coefficients
+    if not small.all():
+        large = ~small
+        x = np.sqrt(np.sqrt(lam4[large]))
         c, s, ch, sh = np.cos(x), np.sin(x), np.cosh(x), np.sinh(x)
-        out[:, ~small] = [
-            (1 - c * ch) / x**4,
-            (s * ch + c * sh) / x,
-            (s * ch - c * sh) / x**3,
-            s * sh / x**2,
-            (ch - c) / x**2,
-            (sh + s) / x,
-            (sh - s) / x**3,
-        ]
+        x2 = x**2
+        x3 = x**3
+        out[0, large] = (1 - c * ch) / x**4
+        out[1, large] = (s * ch + c * sh) / x
+        out[2, large] = (s * ch - c * sh) / x3
+        out[3, large] = s * sh / x2
+        out[4, large] = (ch - c) / x2
+        out[5, large] = (sh + s) / x
+        out[6, large] = (sh - s) / x3
     return out
 
 

@@ -19,7 +19,9 @@ is a congruence of it, so its inertia, the count, is the same: Sylvester's law).
 from __future__ import annotations
 
 import functools
-from dataclasses import dataclass
+from collections.abc import Callable, Hashable
+from dataclasses import dataclass, field
+from typing import TypeVar
 
 import numpy as np
 import scipy.linalg as sla
@@ -34,6 +36,7 @@ RANK_RTOL = 1e-9  # rank of geometric (unit-row) matrices, relative to the large
 END_RTOL = 1e-9  # a hinge point within this (relative to the beam length) of a beam end
 COMPONENTS = ("x", "y", "z", "rx", "ry", "rz")
 CHUNK = 32  # frequencies per block of the condensation's products (temporaries stay in cache)
+T = TypeVar("T")
 
 
 @dataclass(frozen=True, eq=False)
@@ -47,12 +50,15 @@ class NodalStiffness:
     beams : (beam, columns (c,), G (12, c)) per beam: G maps the c coordinates v[columns]
         its ends depend on to its local end motions.
     zero_modes : motions that strain nothing (rigid-body and mechanism modes).
+    shared : what every design of its structure shares (:class:`_Structure`: the beams'
+        terms and matrices, the condensation's geometry), or None (built for this one).
     """
 
     static: np.ndarray
     mass: np.ndarray
     beams: tuple
     zero_modes: int
+    shared: _Structure | None = None
 
     @property
     def order(self) -> int:
@@ -61,12 +67,27 @@ class NodalStiffness:
 
     def matrix(self, omega) -> np.ndarray:
         """K(ω) (len(ω), n, n) at ω [rad/s]."""
-        omega = np.atleast_1d(np.asarray(omega, dtype=float))
+        return self._matrix(np.atleast_1d(np.asarray(omega, dtype=float)), kept=False)
+
+    def _matrix(self, omega: np.ndarray, kept: bool) -> np.ndarray:
+        """K(ω) at ω [rad/s]; ``kept``: the beams' part kept for every design of the
+        structure (the few ω of :meth:`estimates`: the springs are no part of it)."""
         k = np.repeat(self.static[None], omega.size, axis=0)
         rows, cols = self.mass_entries
         k[:, rows, cols] -= (omega**2)[:, None] * self.mass[rows, cols]
-        for beam, columns, g in self.beams:
-            k[:, columns[:, None], columns] += g.T @ member_stiffness(omega, beam) @ g
+
+        def beam_blocks():  # (columns, Gᵀ D_beam(ω) G (len(ω), c, c)) per beam
+            return [
+                (columns, g.T @ member_stiffness(omega, beam) @ g)
+                for beam, columns, g in self.beams
+            ]
+
+        if kept and self.shared is not None:
+            blocks = self.shared.kept(("beam blocks", omega.tobytes()), beam_blocks)
+        else:
+            blocks = beam_blocks()
+        for columns, block in blocks:
+            k[:, columns[:, None], columns] += block
         return k
 
     @functools.cached_property
@@ -77,6 +98,8 @@ class NodalStiffness:
     @functools.cached_property
     def members(self) -> Members:
         """The beams' deformations stacked (:class:`ufmt.mstmm.members.Members`)."""
+        if self.shared is not None:
+            return self.shared.kept("members", lambda: Members([b for b, _, _ in self.beams]))
         return Members([beam for beam, _, _ in self.beams])
 
     def clamped(self, omega) -> np.ndarray:
@@ -95,7 +118,7 @@ class NodalStiffness:
         rigid bodies, rougher for modes the beams carry. Empty where M₀ is not positive
         definite. Only where to look: the count J certifies every root."""
         omega = 2.0 * np.pi * step_hz
-        k = self.matrix([0.0, omega])
+        k = self._matrix(np.array([0.0, omega]), kept=True)
         mass = (k[0] - k[1]) / omega**2
         try:
             mu = sla.eigh(k[0], 0.5 * (mass + mass.T), eigvals_only=True, check_finite=False)
@@ -178,11 +201,19 @@ class Condensation:
         static = nodal.static[np.ix_(outer, outer)]
         mass = nodal.mass[np.ix_(outer, outer)]
         coupled = b if b.any() else None  # mass coupling between inner and outer coordinates
-        scatter = _scatter(nodal, outer)
+        scatter = _scatter(nodal, outer)  # the same for every design of the structure
         return cls(inner, outer, poles, static, mass, a, coupled, nodal.members, scatter)
 
 
 def _scatter(nodal: NodalStiffness, outer: np.ndarray) -> tuple:
+    """:attr:`Condensation.scatter` of the beams of ``nodal`` on the ``outer`` coordinates
+    (built once per structure)."""
+    if nodal.shared is None:
+        return _build_scatter(nodal, outer)
+    return nodal.shared.kept(("scatter", outer.tobytes()), lambda: _build_scatter(nodal, outer))
+
+
+def _build_scatter(nodal: NodalStiffness, outer: np.ndarray) -> tuple:
     """:attr:`Condensation.scatter` of the beams of ``nodal`` on the ``outer`` coordinates."""
     position = np.full(nodal.order, -1)
     position[outer] = np.arange(outer.size)
@@ -209,8 +240,14 @@ def _scatter(nodal: NodalStiffness, outer: np.ndarray) -> tuple:
 
 def _same_scatter(a: tuple, b: tuple) -> bool:
     """Whether two :attr:`Condensation.scatter` are the same."""
-    return len(a) == len(b) and all(
-        np.array_equal(x, y) for p, q in zip(a, b, strict=True) for x, y in zip(p, q, strict=True)
+    return (
+        a is b
+        or len(a) == len(b)
+        and all(
+            np.array_equal(x, y)
+            for p, q in zip(a, b, strict=True)
+            for x, y in zip(p, q, strict=True)
+        )
     )
 
 
@@ -252,9 +289,13 @@ class CondensationStack:
             inverse = np.where(gap == 0.0, 0.0, 1.0 / gap)
             log_gap = np.sum(np.log(np.abs(gap)), axis=1)
         k = np.empty((w2.size, self.order, self.order))
-        for d in np.unique(design):
-            at = np.flatnonzero(design == d) if len(self.poles) > 1 else np.arange(w2.size)
-            for start in range(0, at.size, CHUNK):  # CHUNK ω at a time: temporaries in cache
+        if len(self.poles) == 1:  # one design: its ω in slices (views, no copies)
+            for start in range(0, w2.size, CHUNK):  # CHUNK ω at a time: temporaries in cache
+                at = slice(start, start + CHUNK)
+                k[at] = self._block(0, w2[at], terms[at], inverse[at])
+        for d in np.unique(design) if len(self.poles) > 1 else ():
+            at = np.flatnonzero(design == d)
+            for start in range(0, at.size, CHUNK):
                 block = at[start : start + CHUNK]
                 k[block] = self._block(d, w2[block], terms[block], inverse[block])
         return k, np.count_nonzero(gap < 0, axis=1), log_gap
@@ -415,6 +456,14 @@ class _Structure:
     springs: np.ndarray
     mass: np.ndarray
     beams: tuple
+    _kept: dict = field(default_factory=dict, repr=False)
+
+    def kept(self, key: Hashable, build: Callable[[], T]) -> T:
+        """``build()``, once per ``key`` for every design of this structure (what depends
+        on the beams, masses and geometry alone)."""
+        if key not in self._kept:
+            self._kept[key] = build()
+        return self._kept[key]
 
 
 def _structure(model: Model) -> _Structure:
@@ -476,7 +525,7 @@ def nodal_stiffness(model: Model) -> NodalStiffness:
     structure = _structure(model)
     k = np.concatenate([np.zeros(0), *(h.stiffness6 for h in model.hinges)])[structure.elastic]
     static = structure.springs.T @ (k[:, None] * structure.springs)
-    return NodalStiffness(static, structure.mass, structure.beams, structure.zero_modes)
+    return NodalStiffness(static, structure.mass, structure.beams, structure.zero_modes, structure)
 
 
 def _check_stiffness_values(model: Model) -> None:

@@ -20,9 +20,10 @@ Bisection on J brackets every root: an interval [a, b] with J(b) - J(a) = m hold
 roots, and splitting it until each holds one (or is narrower than CLUSTER_RTOL, a repeated
 root of multiplicity m: J jumps by m there) certifies both the count and where each root is.
 Where to look first comes from the linearisation K(0) - ω²M₀ (one symmetric eigenproblem);
-each single root's bracket is then narrowed by a secant on det K (the product of the same
-LDLᵀ's pivots), J deciding every side, so that Newton on det U_all (:mod:`ufmt.mstmm.roots`)
-starts within SECANT_RTOL of the root and certifies it in one step.
+each single root's bracket is then narrowed by a secant (inverse quadratic interpolation)
+on det K (the product of the same LDLᵀ's pivots), J deciding every side, the last step a pair
+of points closely around the secant's point, so that Newton on det U_all
+(:mod:`ufmt.mstmm.roots`) starts within SECANT_RTOL of the root and certifies it in one step.
 """
 
 from __future__ import annotations
@@ -44,7 +45,10 @@ SECANT_RTOL = 1e-9  # the secant on det K narrows brackets to this (relative): N
 # det U_all then certifies the root in one step (ufmt.mstmm.roots.ACCEPT_STEP is 1e-8)
 SEED_RTOLS = np.array([1e-5, 1e-3])  # the first points lie this far (relative) beside
 # each linearised estimate (most are good to 1e-6, those of modes the beams carry to ~1e-2)
-SECANT_ITERATIONS = 12  # Illinois steps at most (3 reach SECANT_RTOL from ±1e-5 mostly)
+SECANT_ITERATIONS = 12  # secant steps at most (2 reach SECANT_RTOL from ±1e-5 mostly)
+GUARD_FROM = 1e-6  # a secant step shorter than this (relative): its point is good to
+# ~1e-10, and the pair at ±GUARD (relative) of it brackets the root to SECANT_RTOL at once
+GUARD = 0.4 * SECANT_RTOL
 GRID_POINTS = 48  # the first, geometric grid of the search below the upper frequency
 GRID_DECADES = 6.0  # ... spanning this many decades below it (extended while roots remain)
 SPLIT_LEVELS = 2  # each wide interval is cut into 2**SPLIT_LEVELS parts per J evaluation
@@ -74,13 +78,15 @@ def inertia(k: np.ndarray, overwrite: bool = False) -> tuple[np.ndarray, np.ndar
         _, pivots[i], _ = dsytrf(matrix.T, lower=1, overwrite_a=1)
     diagonal, below = k.diagonal(axis1=1, axis2=2), np.zeros((n_omega, n))
     below[:, :-1] = k.diagonal(offset=1, axis1=1, axis2=2)
-    # a 2x2 block D(j:j+2, j:j+2) has ipiv < 0 at both j and j + 1: pairs of negative pivots
-    start = pivots < 0
-    for j in np.flatnonzero(start[:, 1:].any(axis=0)) + 1:  # ascending, where any pivot < 0
-        start[:, j] &= ~start[:, j - 1]  # the second of each pair starts no block
+    # a 2x2 block D(j:j+2, j:j+2) has ipiv < 0 at both j and j + 1: in a run of negative
+    # pivots the blocks start at its even places (the run's place: since the last ipiv > 0)
+    negative_pivot = pivots < 0
+    places = np.arange(n)
+    last_positive = np.maximum.accumulate(np.where(negative_pivot, -1, places), axis=1)
+    start = negative_pivot & ((places - last_positive) % 2 == 1)
     single = ~start
     single[:, 1:] &= ~start[:, :-1]
-    a, c = diagonal, np.roll(diagonal, -1, axis=1)
+    a, c = diagonal, np.concatenate([diagonal[:, 1:], diagonal[:, :1]], axis=1)
     det = a * c - below * below
     two = np.where(det < 0, 1, np.where((det > 0) & (a + c < 0), 2, 0))
     negative = np.count_nonzero(single & (diagonal < 0), axis=1) + np.sum(two * start, axis=1)
@@ -245,7 +251,7 @@ class RootCounter:
             return hz, design, self.below(hz, design)
         est = [self._estimates(d, g[0], top[d], wanted[d]) for d, g in enumerate(grid)]
         near = [
-            np.unique(np.r_[g[0], g[-1], _seeds(e, g[0], g[-1], SEED_RTOLS[:1], middles=False)])
+            np.unique(np.concatenate([g[[0, -1]], _seeds(e, g[0], g[-1], SEED_RTOLS[:1], False)]))
             for e, g in zip(est, grid, strict=True)
         ]
         design = np.repeat(np.arange(n), [p.size for p in near])
@@ -253,7 +259,7 @@ class RootCounter:
         more = []
         for d, g in enumerate(grid):  # the other points, where J rises between the first
             at, c = hz[design == d], counts[design == d]
-            others = np.r_[g, _seeds(est[d], g[0], g[-1], SEED_RTOLS)]
+            others = np.concatenate([g, _seeds(est[d], g[0], g[-1], SEED_RTOLS)])
             i = np.clip(np.searchsorted(at, others), 1, at.size - 1)
             more.append(
                 np.unique(others[(c[i] > c[i - 1]) & (others > at[i - 1]) & (others < at[i])])
@@ -267,9 +273,10 @@ class RootCounter:
     def _added(self, hz, design, counts, new_hz, new_design):
         """(hz, design, J) with J at the points ``new_hz`` [Hz] of ``new_design`` added,
         ascending per design (the new points are none of the old ones)."""
-        order = np.lexsort((np.r_[hz, new_hz], np.r_[design, new_design]))
-        counts = np.r_[counts, self.below(new_hz, new_design)][order]
-        return np.r_[hz, new_hz][order], np.r_[design, new_design][order], counts
+        hz, design = np.concatenate([hz, new_hz]), np.concatenate([design, new_design])
+        order = np.lexsort((hz, design))
+        counts = np.concatenate([counts, self.below(new_hz, new_design)])[order]
+        return hz[order], design[order], counts
 
     def _estimates(self, design: int, lo_hz: float, hi_hz: float, wanted: int) -> np.ndarray:
         """The linearised estimates [Hz] in (lo_hz, hi_hz) of ``design``
@@ -279,12 +286,16 @@ class RootCounter:
         return est[(est > lo_hz) & (est < hi_hz)][: min(wanted, est.size) + 1]
 
     def _sharpen(self, lo, hi, design, retry: bool = True):
-        """Newton's start in brackets [Hz] of one root each: regula falsi (Illinois) on
-        det K(ω), every point's side decided by J (the brackets it narrows stay certified),
-        to a width below SECANT_RTOL (bisection on J after SECANT_ITERATIONS steps); returns
-        (lo, hi, start): the brackets as given (the root may sit within rounding of a
-        narrowed end) and the last secant point, or, where the secant does not apply, the
-        brackets bisected to START_RTOL and their centres.
+        """Newton's start in brackets [Hz] of one root each: inverse quadratic interpolation
+        of det K(ω) (the secant while only two points are known; Illinois after a step that
+        kept the same end, :func:`_next_points`), every point's side decided by J (the
+        brackets it narrows stay certified), to a width below SECANT_RTOL (bisection on J
+        after SECANT_ITERATIONS steps); a step that moved less than GUARD_FROM (relative)
+        evaluates the pair at ±GUARD of its point instead of the point: most roots are
+        then certified within SECANT_RTOL one step sooner. Returns (lo, hi, start): the
+        brackets as given (the root may sit within rounding of a narrowed end) and the last
+        point proposed, or, where the secant does not apply, the brackets bisected to
+        START_RTOL and their centres.
 
         Between two of its poles (no clamped member frequency in the bracket: J₀ constant)
         det K = det D of the LDLᵀ that counts J changes sign exactly at the root, smoothly:
@@ -293,35 +304,31 @@ class RootCounter:
         (``retry``) tried once more: a clamped member frequency near a root is left out.
         """
         n, lo_in, hi_in = lo.size, lo, hi
-        lo, hi = lo.copy(), hi.copy()
-        count, clamped, log_det, sign = self._recall(np.r_[lo, hi], np.r_[design, design])
+        ends, designs = np.concatenate([lo, hi]), np.concatenate([design, design])
+        count, clamped, log_det, sign = self._recall(ends, designs)
         base, ref = count[:n], np.maximum(log_det[:n], log_det[n:])
         with np.errstate(all="ignore"):
             f_lo, f_hi = sign[:n] * np.exp(log_det[:n] - ref), sign[n:] * np.exp(log_det[n:] - ref)
         ok = (count[n:] - base == 1) & (clamped[:n] == clamped[n:]) & (sign[:n] != sign[n:])
         ok &= np.isfinite(f_lo) & np.isfinite(f_hi)
-        start = np.sqrt(lo * hi)
-        moved = np.zeros(n, dtype=int)  # which end moved last: -1 lo, +1 hi
+        state = _Secant(lo.copy(), hi.copy(), f_lo, f_hi)
+        start, last = np.sqrt(lo * hi), np.full(n, np.nan)  # last: the last point proposed
         for _ in range(SECANT_ITERATIONS):
-            act = np.flatnonzero(ok & (hi - lo > SECANT_RTOL * hi))
+            act = np.flatnonzero(ok & (state.hi - state.lo > SECANT_RTOL * state.hi))
             if act.size == 0:
                 break
-            a, b, fa, fb = lo[act], hi[act], f_lo[act], f_hi[act]
+            x, points, owner = _next_points(state, act, last[act])
+            c, c0, ld, sg = self._evaluate(points, design[owner])
             with np.errstate(all="ignore"):
-                x = b - fb * (b - a) / (fb - fa)
-            x = np.where(np.isfinite(x) & (x > a) & (x < b), x, np.sqrt(a * b))
-            c, c0, ld, sg = self._evaluate(x, design[act])
-            with np.errstate(all="ignore"):
-                f = sg * np.exp(ld - ref[act])
-            above = c > base[act]  # the root lies below x: x is the new upper end
-            ok[act] = (c0 == clamped[act]) & ((sg == np.sign(fb)) == above) & np.isfinite(f)
-            start[act] = x
-            side = np.where(above, 1, -1)
-            again = side == moved[act]  # the same end moved twice: halve the other's value
-            lo[act], hi[act] = np.where(above, a, x), np.where(above, x, b)
-            f_lo[act] = np.where(above, np.where(again, 0.5 * fa, fa), f)
-            f_hi[act] = np.where(above, f, np.where(again, 0.5 * fb, fb))
-            moved[act] = side
+                f = sg * np.exp(ld - ref[owner])
+            agree = (c0 == clamped[owner]) & np.isfinite(f)
+            agree &= (sg == np.sign(state.f_hi[owner])) == (c > base[owner])
+            ok[owner[: act.size]] &= agree[: act.size]
+            ok[owner[act.size :]] &= agree[act.size :]
+            for part in (slice(0, act.size), slice(act.size, None)):  # a pair's lower one first
+                state.update(points[part], owner[part], f[part], (c > base[owner])[part])
+            start[act], last[act] = x, x
+        lo, hi = state.lo, state.hi
         # a start between two roots 1e-8 apart can pass for a root after one Newton step:
         # brackets the secant has not narrowed enough are bisected to SECANT_RTOL
         slow = ok & (hi - lo > SECANT_RTOL * hi)
@@ -360,13 +367,69 @@ class RootCounter:
         return lo, hi
 
 
+@dataclass
+class _Secant:
+    """The secant's brackets [lo, hi] [Hz] and det K's (scaled) values there, the end each
+    replaced last (``x``, ``f``; NaN before any: the third point of the next inverse
+    quadratic interpolation), which end moved last (``moved``: -1 lo, +1 hi) and whether
+    the same one moved twice (``again``)."""
+
+    lo: np.ndarray
+    hi: np.ndarray
+    f_lo: np.ndarray
+    f_hi: np.ndarray
+
+    def __post_init__(self):
+        self.x, self.f = np.full(self.lo.size, np.nan), np.full(self.lo.size, np.nan)
+        self.moved = np.zeros(self.lo.size, dtype=int)
+        self.again = np.zeros(self.lo.size, dtype=bool)
+
+    def update(self, points, owner, f, above) -> None:
+        """The ``points`` [Hz] of brackets ``owner`` (one each) with det K's values ``f`` as
+        new upper ends (``above``: J counts the root below) or lower ends, where inside."""
+        inside = (points > self.lo[owner]) & (points < self.hi[owner])
+        p, j, up, fp = points[inside], owner[inside], above[inside], f[inside]
+        side = np.where(up, 1, -1)
+        self.again[j] = side == self.moved[j]
+        self.moved[j] = side
+        self.x[j] = np.where(up, self.hi[j], self.lo[j])  # the end replaced
+        self.f[j] = np.where(up, self.f_hi[j], self.f_lo[j])
+        self.hi[j], self.f_hi[j] = np.where(up, p, self.hi[j]), np.where(up, fp, self.f_hi[j])
+        self.lo[j], self.f_lo[j] = np.where(up, self.lo[j], p), np.where(up, self.f_lo[j], fp)
+
+
+def _next_points(state: _Secant, act, last):
+    """(x, points, owner): the next point x [Hz] in each bracket ``act`` of ``state`` (the
+    inverse quadratic interpolation of det K through its ends and the end replaced last,
+    else the secant through its ends, Illinois: the end kept twice in a row at half its
+    value; else the geometric centre), and the points to evaluate with the bracket each
+    belongs to: x itself, or where x lies within GUARD_FROM (relative) of the ``last``
+    point proposed the pair x(1 ∓ GUARD) (the lower ones first, one per bracket)."""
+    a, b, fa, fb = state.lo[act], state.hi[act], state.f_lo[act], state.f_hi[act]
+    c, fc = state.x[act], state.f[act]
+    again, moved = state.again[act], state.moved[act]
+    with np.errstate(all="ignore"):
+        x = a * fb * fc / ((fa - fb) * (fa - fc)) + b * fa * fc / ((fb - fa) * (fb - fc))
+        x += c * fa * fb / ((fc - fa) * (fc - fb))
+        wa, wb = (
+            np.where(again & (moved == 1), 0.5, 1.0) * fa,
+            np.where(again & (moved == -1), 0.5, 1.0) * fb,
+        )
+        secant = b - wb * (b - a) / (wb - wa)
+    x = np.where(np.isfinite(x) & (x > a) & (x < b), x, secant)
+    x = np.where(np.isfinite(x) & (x > a) & (x < b), x, np.sqrt(a * b))
+    guard = np.abs(x - last) < GUARD_FROM * x  # NaN (no point yet): no guard
+    points = np.concatenate([np.where(guard, x * (1 - GUARD), x), x[guard] * (1 + GUARD)])
+    return x, points, np.concatenate([act, act[guard]])
+
+
 def _seeds(est, lo_hz: float, hi_hz: float, rtols, middles: bool = True) -> np.ndarray:
     """Frequencies [Hz] in (lo_hz, hi_hz) ``rtols`` (relative) below and above each estimate
     ``est`` [Hz] and (``middles``) half-way between them."""
     rings = np.concatenate([1 - rtols, 1 + rtols])
     seeds = np.outer(est, rings).ravel()
     if middles:
-        seeds = np.r_[seeds, np.sqrt(est[1:] * est[:-1])]
+        seeds = np.concatenate([seeds, np.sqrt(est[1:] * est[:-1])])
     return seeds[(seeds > lo_hz) & (seeds < hi_hz)]
 
 
@@ -377,7 +440,7 @@ def _cuts(lo, hi, levels: int) -> np.ndarray:
     for _ in range(levels):
         middles = np.sqrt(ends[:, :-1] * ends[:, 1:])
         ends = np.stack([ends[:, :-1], middles], axis=2).reshape(lo.size, -1)
-        ends = np.c_[ends, hi]
+        ends = np.concatenate([ends, hi[:, None]], axis=1)
     return ends[:, 1:-1]
 
 
@@ -385,8 +448,8 @@ def _split(lo, hi, lo_c, hi_c, design, wide, cuts, c):
     """Intervals [Hz] (of each its design) and the counts at their ends with the ``wide`` ones
     cut at ``cuts`` (wide, k) (counts ``c`` there); intervals that hold no root dropped;
     ascending per design."""
-    ends = np.c_[lo[wide], cuts, hi[wide]]
-    counts = np.c_[lo_c[wide], c, hi_c[wide]]
+    ends = np.concatenate([lo[wide, None], cuts, hi[wide, None]], axis=1)
+    counts = np.concatenate([lo_c[wide, None], c, hi_c[wide, None]], axis=1)
     lo = np.concatenate([lo[~wide], ends[:, :-1].ravel()])
     hi = np.concatenate([hi[~wide], ends[:, 1:].ravel()])
     lo_c = np.concatenate([lo_c[~wide], counts[:, :-1].ravel()])
