@@ -18,7 +18,9 @@ cost growth of both with the model's size.
 * The C heap's thresholds raised as in the CLI (:mod:`ufmt.allocator`), for both sides.
 * One BLAS thread on both sides (threadpoolctl), calls interleaved in one run (medians of
   CPU time, ``time.process_time``: both sides run on one thread, and on a shared machine
-  wall time mostly measures the wait for a core).
+  wall time mostly measures the wait for a core); each round a block of MSTMM_BLOCK new
+  designs for the MSTMM (as a study solves them, one after the other) and one call of each
+  baseline (see :func:`interleaved`).
 * Secondary line: the same for the first 30 modes (the former default basis).
 * Batches: the full basis of new designs per design, ``solve_modes_batch`` over batches of 8
   and 32 designs of one structure against ``solve_modes`` one by one, interleaved (target
@@ -51,6 +53,7 @@ TARGETS = (1e-5, 1e-6)
 MESHES = (4, 8, 16, 32, 64, 120, 180, 240)
 SLOWEST_TRIED_S = 15.0  # a solver is not tried on finer meshes once one call takes this long
 ROUNDS = 3
+MSTMM_BLOCK = 8  # MSTMM calls (new designs) in a row per round: see interleaved
 PARAMETER = "head_radial_stiffness_N_m"
 CHAIN_SIZES = (10, 20, 40, 80)
 CHAIN_MODES = 20
@@ -95,14 +98,19 @@ SOLVERS = {
 }
 
 
-def interleaved(calls: dict, rounds: int = ROUNDS) -> dict:
-    """Median CPU time [s] of each callable, called in turn for ``rounds`` rounds."""
+def interleaved(calls: dict, rounds: int = ROUNDS, block: dict | None = None) -> dict:
+    """Median CPU time [s] per call of each callable, the callables taking turns for
+    ``rounds`` rounds, each turn a block of ``block[name]`` calls (default 1) timed one by
+    one: a solver that takes milliseconds runs a few designs in a row, as a study does, not
+    each one straight after a baseline call that took hundreds of milliseconds and evicted
+    its working set from the caches (both sides still see the same machine load)."""
     times: dict = {name: [] for name in calls}
     for _ in range(rounds):
         for name, fn in calls.items():
-            t0 = time.process_time()
-            fn()
-            times[name].append(time.process_time() - t0)
+            for _ in range((block or {}).get(name, 1)):
+                t0 = time.process_time()
+                fn()
+                times[name].append(time.process_time() - t0)
     return {name: statistics.median(t) for name, t in times.items()}
 
 
@@ -154,7 +162,7 @@ def compare(model, count: int | None, label: str, errors: dict) -> None:
     chosen = {target: baselines(errors, n, target) for target in TARGETS}
     for name, elements, _ in {c for cs in chosen.values() for c in cs}:
         calls[(name, elements)] = lambda s=SOLVERS[name], e=elements: s(next(supply), e, n)
-    seconds = interleaved(calls)
+    seconds = interleaved(calls, block={"mstmm": MSTMM_BLOCK})
     print(f"{label}: MSTMM {1e3 * seconds['mstmm']:8.1f} ms CPU per new design (median)")
     for target in TARGETS:
         best = min(chosen[target], key=lambda c: seconds[c[:2]])

@@ -29,6 +29,7 @@ and builds the dense U_all only at the three frequencies that find the constant 
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -127,22 +128,27 @@ class ConstantParts:
         return u[:, self.rows[:, None], self.columns]
 
     def reduce(self, a: np.ndarray) -> np.ndarray:
-        """S'(ω) (n, m', m') from U_all(ω) arranged (:meth:`arrange`), a view of ``a``,
-        whose other rows are changed in place; its pivot rows are kept for
-        :meth:`null_vectors`. dS'/dω from dU_all/dω likewise (the map is linear)."""
-        n_kept, (k2, o2), o = self.kept.size, self.column_combine.shape, self.row_combine.shape[0]
-        n, m = a.shape[0], self.columns.size
-        # one scratch array for both products (fresh memory costs a page fault per page)
-        scratch = np.empty(n * max(o * m, n_kept * o2), dtype=np.result_type(a, self.row_combine))
-        combined = np.matmul(  # G times the pivot rows
-            self.row_combine, a[:, n_kept:], out=scratch[: n * o * m].reshape(n, o, m)
-        )
+        """S'(ω) (n, m', m'), a new C-contiguous array, from U_all(ω) arranged
+        (:meth:`arrange`), ``a``, whose other rows are changed in place; its pivot rows are
+        kept for :meth:`null_vectors`. dS'/dω from dU_all/dω likewise (the map is
+        linear)."""
+        n_kept, k2, o = self.kept.size, self.column_combine.shape[0], self.row_combine.shape[0]
+        m = self.columns.size
+        combined = np.matmul(self.row_combine, a[:, n_kept:])  # G times the pivot rows
         n_o = int(np.searchsorted(self.kept, o))  # S's o rows come first
         a[:, :n_o] -= combined if n_o == o else combined[:, self.kept[:n_o]]
         s = a[:, :n_kept]
-        out = scratch[: n * n_kept * o2].reshape(n, n_kept, o2)
-        s[:, :, :o2] -= np.matmul(s[:, :, m - k2 :], self.column_combine, out=out)
-        return s[:, :, : m - k2]
+        # C padded with zero columns to S's width: the result contiguous in one pass
+        out = np.matmul(s[:, :, m - k2 :], self._padded_column_combine)
+        return np.subtract(s[:, :, : m - k2], out, out=out)
+
+    @functools.cached_property
+    def _padded_column_combine(self) -> np.ndarray:
+        """C (k2, o2) followed by zero columns up to S's order."""
+        k2, o2 = self.column_combine.shape
+        padded = np.zeros((k2, self.columns.size - k2))
+        padded[:, :o2] = self.column_combine
+        return padded
 
     def pivot_rows(self, a: np.ndarray) -> np.ndarray:
         """The pivot rows (n, k, columns) of an :meth:`arrange` d U_all (a view): all that

@@ -530,7 +530,7 @@ def _inverse_iteration(s0, s1, r, c, h, x):
     QR after each. Returns (the last blocks, orthonormal; the Ritz values (n, b) of P on the
     blocks before the last product; which S are exactly singular: ω is a root of det S
     there)."""
-    ds = np.subtract(s1, s0)  # contiguous (s0 and s1 are views): fast products below
+    ds = np.subtract(s1, s0)
     ds *= r / h[:, None, None]
     ds *= c
     lu = factor(np.multiply(s0, r * c))
