@@ -267,11 +267,12 @@ def beam_field(system, beam: Beam, states, z, omega, fractions=None):
         reversed_ = e.input_node.endswith("@end")
         s = (1.0 - f if reversed_ else f) * length
         wts = np.full(s.size, np.nan)
-    n = omega.size  # one batch over every (point, mode) pair
-    local = elements.beam_local(np.tile(omega, s.size), beam, length=np.repeat(s, n))
-    t = system.edge_rotation(index)  # only the displacement rows of the global transfer
-    u = t[None, :6, :6] @ local[:, :6, :] @ t.T[None]
-    motion = np.einsum("gnij,nj->ngi", u.reshape(s.size, n, 6, 12), z_in)
+    n = omega.size  # one batch over every (point, mode) pair, the states in local axes
+    t = system.edge_rotation(index)  # local to global (12, 12): z_in @ t = (t.T z_in)
+    y = np.tile(z_in @ t, (s.size, 1))
+    local = elements.beam_local_displacement(np.tile(omega, s.size), beam, np.repeat(s, n), y)
+    motion = (local @ t[:6, :6].T).reshape(s.size, n, 6).transpose(1, 0, 2)
+    motion = np.ascontiguousarray(motion)
     positions = p_in + np.outer(s / length, p_out - p_in)
     return positions, wts, motion
 

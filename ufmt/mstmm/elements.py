@@ -157,32 +157,59 @@ def beam_local(omega: np.ndarray, beam: Beam, length: float | None = None) -> np
     the two bending planes, are computed together (rows of 2) and scattered at once.
     """
     w2 = np.asarray(omega, dtype=float) ** 2
+    twist, bend = _beam_blocks(w2, beam, length, rows=4)
+    u = np.zeros((w2.size, 12, 12))
+    u[:, _ROWS, _COLS] = np.concatenate([twist.reshape(8, -1), bend.reshape(32, -1)]).T
+    return u
+
+
+def beam_local_displacement(omega: np.ndarray, beam: Beam, length, state: np.ndarray):
+    """Displacement and rotation (n, 6) [m, rad] in the beam's axes at ``length`` [m] (one
+    per ω) from the input end, of the local input states ``state`` (n, 12): the first six
+    rows of :func:`beam_local` applied to them, without the 12 x 12 matrices (mode shapes
+    along a beam need only these)."""
+    w2 = np.asarray(omega, dtype=float) ** 2
+    twist, bend = _beam_blocks(w2, beam, length, rows=2)
+    y = state.T
+    out = np.empty((6, w2.size))
+    # axial x and torsion θx: two entries each
+    out[[0, 3]] = twist[:, 0] * y[[0, 3]] + twist[:, 1] * y[[9, 6]]
+    # per bending plane its displacement and rotation rows, four entries each
+    plane = (bend.reshape(2, 2, 4, -1) * y[np.array(_PLANES)][:, None]).sum(axis=2)
+    out[[1, 5]], out[[2, 4]] = plane
+    return out.T
+
+
+def _beam_blocks(w2: np.ndarray, beam: Beam, length, rows: int):
+    """The nonzero entries of :func:`beam_local` at ω² ``w2`` over ``length`` [m] (None: the
+    whole beam): axial and torsion (2, rows, n)
+    and the two bending planes (2, 4 rows, n), in the order of ``_TWIST`` and ``_PLANES``;
+    ``rows``: of each block the first 4 (all) or 2 (the displacement rows)."""
     L = beam.length if length is None else np.asarray(length, dtype=float)
     rho, E, A = beam.density, beam.youngs_modulus, beam.area
     # axial (EA, ρA) and torsion (GJ, ρI_p)
     k = np.array([[E * A], [beam.shear_modulus * beam.torsion_constant]])
     c, sl, bs = _axial(w2, k, np.array([[rho * A], [rho * beam.polar_moment]]), L)
     sgn = np.array([[-1.0], [1.0]])
-    twist = np.stack([c, sgn * sl / k, -sgn * k * bs, c], axis=1)  # (2, 4, n)
+    twist = [c, sgn * sl / k, -sgn * k * bs, c][:rows]
     # bending with EI_z (x1-y plane, sign +1) and EI_y (x1-z plane, sign -1)
     ei = np.array([[E * beam.second_moment_z], [E * beam.second_moment_y]])
     sgn = np.array([[1.0], [-1.0]])
     lam4 = rho * A * w2 / ei
     s, t, uu, v = _krylov_scaled(lam4 * L**4)
     T_l, U_l2, V_l3 = L * t, L**2 * uu, L**3 * v  # T/λ, U/λ², V/λ³
-    lV, l2U, l3T = lam4 * V_l3, lam4 * U_l2, lam4 * T_l  # λV, λ²U, λ³T
-    bend = np.stack(
-        [
-            *(s, sgn * T_l, sgn * U_l2 / ei, V_l3 / ei),
-            *(sgn * lV, s, T_l / ei, sgn * U_l2 / ei),
+    lV = lam4 * V_l3  # λV
+    bend = [
+        *(s, sgn * T_l, sgn * U_l2 / ei, V_l3 / ei),
+        *(sgn * lV, s, T_l / ei, sgn * U_l2 / ei),
+    ]
+    if rows == 4:
+        l2U, l3T = lam4 * U_l2, lam4 * T_l  # λ²U, λ³T
+        bend += [
             *(sgn * ei * l2U, ei * lV, s, sgn * T_l),
             *(ei * l3T, sgn * ei * l2U, sgn * lV, s),
-        ],
-        axis=1,
-    )  # (2, 16, n)
-    u = np.zeros((w2.size, 12, 12))
-    u[:, _ROWS, _COLS] = np.concatenate([twist.reshape(8, -1), bend.reshape(32, -1)]).T
-    return u
+        ]
+    return np.stack(twist, axis=1), np.stack(bend, axis=1)
 
 
 def beam_rotation(beam: Beam, p_in, p_out) -> np.ndarray:
