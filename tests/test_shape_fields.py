@@ -1,6 +1,8 @@
 """The beam fields of the mode shapes (displacement rows applied to the states, no 12 x 12
 matrices) against the full transfer matrices they replace."""
 
+import math
+
 import numpy as np
 import pytest
 
@@ -87,3 +89,24 @@ def test_beam_fields_at_fractions_follow_the_beam_from_its_start():
         assert np.allclose(pos, gauss_pos, rtol=0, atol=1e-15)
         peak = np.abs(gauss_motion).max()
         assert np.allclose(motion, gauss_motion, rtol=0, atol=1e-13 * peak)
+
+
+def krylov_by_series(x: float) -> np.ndarray:
+    """Oracle: S, T/x, U/x², V/x³ as their power series Σ x⁴ᵏ / (4k + j)!, j = 0..3, summed
+    exactly rounded (every term positive: no cancellation at any x)."""
+    return np.array(
+        [math.fsum(x ** (4 * k) / math.factorial(4 * k + j) for k in range(30)) for j in range(4)]
+    )
+
+
+@pytest.mark.parametrize(
+    "x",
+    [np.float64(1.3), np.array([0.0, 0.4, 1.9]), np.array([2.0, 3.7, 6.5]), np.linspace(0, 6, 13)],
+    ids=["scalar", "series only", "closed forms only", "both"],
+)
+def test_krylov_functions_match_their_power_series(x):
+    """The scaled Krylov-Duncan functions on either side of the series/closed-form switch
+    (x = 2), for a scalar and for arrays on one side or both."""
+    got = np.array(elements._krylov_scaled(np.asarray(x) ** 4))
+    expected = np.array([krylov_by_series(v) for v in np.atleast_1d(x)]).T.reshape(got.shape)
+    assert np.allclose(got, expected, rtol=1e-14, atol=0)

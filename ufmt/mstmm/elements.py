@@ -113,20 +113,23 @@ def _krylov_scaled(x4: np.ndarray):
     A power series in x⁴ is used below x = 2 (no cancellation), closed forms above.
     """
     x4 = np.asarray(x4, dtype=float)
-    small = x4 < 16.0
-    xs = np.where(small, x4, 0.0)[..., None]
-    series = np.full((*x4.shape, 4), _KRYLOV_SERIES[-1])  # Horner in x⁴, all four at once
-    for coefficients in _KRYLOV_SERIES[-2::-1]:
-        series *= xs
-        series += coefficients
-    s, t, u, v = np.moveaxis(series, -1, 0).copy()
-    if np.any(~small):
-        x = np.sqrt(np.sqrt(x4[~small]))
+    big = ~(x4 < 16.0)
+    series = np.empty((4, *x4.shape))
+    if not big.all():  # Horner in x⁴, all four at once (the function first: long loops)
+        terms = _KRYLOV_SERIES.reshape(*_KRYLOV_SERIES.shape, *(1,) * x4.ndim)
+        xs = np.where(big, 0.0, x4)
+        series[:] = terms[-1]
+        for coefficients in terms[-2::-1]:
+            series *= xs
+            series += coefficients
+    s, t, u, v = series
+    if big.any():
+        x = np.sqrt(np.sqrt(x4[big]))
         ch, c, sh, sn = np.cosh(x), np.cos(x), np.sinh(x), np.sin(x)
-        s[~small] = (ch + c) / 2
-        t[~small] = (sh + sn) / 2 / x
-        u[~small] = (ch - c) / 2 / x**2
-        v[~small] = (sh - sn) / 2 / x**3
+        s[big] = (ch + c) / 2
+        t[big] = (sh + sn) / 2 / x
+        u[big] = (ch - c) / 2 / x**2
+        v[big] = (sh - sn) / 2 / x**3
     return s, t, u, v
 
 
