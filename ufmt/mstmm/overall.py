@@ -229,12 +229,15 @@ def segment_designs(systems: list[TransferSystem], fmax_hz: float) -> None:
             products += [stages[name] @ p for p in upstream] or [stages[name]]
         products = np.stack(products, axis=1)  # (designs, paths, 12, 12)
         conds = np.linalg.cond(products)
-        for name, (a, b) in zip(level, spans, strict=True):
-            worst = a + np.argmax(conds[:, a:b], axis=1)  # the first worst path, as alone
-            path[name] = products[np.arange(n), worst]
-            over = conds[np.arange(n), worst] > GROWTH_LIMIT
-            path[name][over] = np.eye(12)
-            chosen.update((int(d), name) for d in np.flatnonzero(over))
+        worst = np.empty((n, len(level)), dtype=int)  # per design and node: its worst path
+        for j, (a, b) in enumerate(spans):  # the first worst, as alone
+            worst[:, j] = a if b == a + 1 else a + np.argmax(conds[:, a:b], axis=1)
+        designs = np.arange(n)[:, None]
+        kept = products[designs, worst]  # (designs, nodes, 12, 12)
+        over = conds[designs, worst] > GROWTH_LIMIT
+        kept[over] = np.eye(12)
+        path.update((name, kept[:, j]) for j, name in enumerate(level))
+        chosen.update((int(d), level[j]) for d, j in zip(*np.nonzero(over), strict=True))
     for d, system in enumerate(systems):
         system.segments = tuple(name for name in topo.order if (d, name) in chosen)
         system._segmented_for = fmax_hz
@@ -244,16 +247,16 @@ def _stages(systems: list[TransferSystem], w: np.ndarray) -> dict[str, np.ndarra
     """Per node, its stage (parent element after body, physically scaled) at the one
     frequency ``w`` [rad/s], stacked over the designs (designs, 12, 12)."""
     topo = systems[0].topology
-    scale = np.array([_physical_scaling(s.model) for s in systems])
-    out = {}
-    for name in topo.order:
-        node = topo.nodes[name]
-        stage = np.array([s._stage_edge(node.parent_edge, float(w[0])) for s in systems])
-        first = systems[0]._first_input(node, w)  # the bodies are the designs' shared ones
-        if first is not None:
-            stage = stage @ first[0]
-        out[name] = scale[:, :, None] * stage / scale[:, None, :]
-    return out
+    nodes = [topo.nodes[name] for name in topo.order]
+    omega = float(w[0])
+    stage = np.array([[s._stage_edge(node.parent_edge, omega) for node in nodes] for s in systems])
+    first = [systems[0]._first_input(node, w) for node in nodes]  # the designs' shared bodies
+    massive = [k for k, f in enumerate(first) if f is not None]
+    if massive:
+        stage[:, massive] = stage[:, massive] @ np.array([first[k][0] for k in massive])
+    scale = np.array([_physical_scaling(s.model) for s in systems])[:, None]
+    stage = scale[:, :, :, None] * stage / scale[:, :, None, :]
+    return {name: stage[:, k] for k, name in enumerate(topo.order)}
 
 
 def _levels(topo: Topology) -> list[list[str]]:
