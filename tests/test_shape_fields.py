@@ -1,15 +1,18 @@
-"""The beam fields of the mode shapes (displacement rows applied to the states, no 12 x 12
-matrices) against the full transfer matrices they replace."""
+"""The body motions of the mode shapes against the computations they replace: beam fields
+(displacement rows applied to the states, no 12 x 12 matrices) against the full transfer
+matrices, rigid bodies against the carried full states, the Krylov-Duncan functions against
+their power series."""
 
 import math
 
 import numpy as np
 import pytest
 
+from ufmt.kinematics import carried_motion
 from ufmt.model.load import load_model
-from ufmt.model.schema import Beam
+from ufmt.model.schema import Beam, RigidBody
 from ufmt.mstmm import elements
-from ufmt.mstmm.bodies import apply_state, beam_field, gauss_points
+from ufmt.mstmm.bodies import ShapeParts, apply_state, beam_field, gauss_points, rules_of
 from ufmt.mstmm.modes import shape_state_keys
 from ufmt.mstmm.overall import TransferSystem
 from ufmt.mstmm.solve import solve_modes
@@ -110,3 +113,23 @@ def test_krylov_functions_match_their_power_series(x):
     got = np.array(elements._krylov_scaled(np.asarray(x) ** 4))
     expected = np.array([krylov_by_series(v) for v in np.atleast_1d(x)]).T.reshape(got.shape)
     assert np.allclose(got, expected, rtol=1e-14, atol=0)
+
+
+def test_rigid_body_motions_are_the_carried_input_states(packaged):
+    """Oracle: the full state at each rigid body's first input (apply_state, 12 rows)
+    carried to its centre of mass by kinematics.carried_motion (eq. 2.5), every mode to
+    5 kHz of the packaged model: equal to rounding."""
+    solution = solve_modes(packaged, fmax_hz=5000.0)
+    system = TransferSystem(packaged, 5000.0)
+    omega, z = solution.shapes.omega, solution.shapes.z_all
+    states = system.states(omega)
+    parts = ShapeParts()
+    rigid = [b for b in packaged.bodies if isinstance(b, RigidBody)]
+    for body in rigid:
+        rules_of(body).shape(system, body, states, z, omega, parts)
+        state = apply_state(states[rules_of(body).state_key(system.topology, body)], z)
+        point = system.topology.first_input_point(body.name)
+        expected = carried_motion(state, point, body.center_of_mass)
+        peak = np.abs(expected).max(axis=1, keepdims=True)
+        assert np.all(np.abs(parts.rigid[body.name] - expected) <= 1e-14 * peak)
+    assert len(parts.rigid) == len(rigid) >= 10
