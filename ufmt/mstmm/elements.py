@@ -185,9 +185,9 @@ def beam_local_displacement(omega: np.ndarray, beam: Beam, length, state: np.nda
 
 def _beam_blocks(w2: np.ndarray, beam: Beam, length, rows: int):
     """The nonzero entries of :func:`beam_local` at ω² ``w2`` over ``length`` [m] (None: the
-    whole beam): axial and torsion (2, rows, n)
-    and the two bending planes (2, 4 rows, n), in the order of ``_TWIST`` and ``_PLANES``;
-    ``rows``: of each block the first 4 (all) or 2 (the displacement rows)."""
+    whole beam): axial and torsion (2, rows, n) and the two bending planes (2, 4 rows, n),
+    in the order of ``_TWIST`` and ``_PLANES``; ``rows``: of each block the first 4 (all
+    of them) or 2 (the displacement rows)."""
     L = beam.length if length is None else np.asarray(length, dtype=float)
     rho, E, A = beam.density, beam.youngs_modulus, beam.area
     # axial (EA, ρA) and torsion (GJ, ρI_p)
