@@ -19,7 +19,7 @@ import numpy as np
 from scipy.special import gammaln
 
 from ufmt.errors import ModelError
-from ufmt.kinematics import carried_motion, skew
+from ufmt.kinematics import skew
 from ufmt.model.schema import Beam, Body, Model, RigidBody, VirtualBody
 from ufmt.mstmm import elements
 from ufmt.mstmm.graph import Edge, Node, NodeTransfer, Topology
@@ -168,8 +168,11 @@ def _rigid_state_key(topology: Topology, body: RigidBody) -> tuple:
 def _rigid_shape(system, body: RigidBody, states, z, omega, parts: ShapeParts) -> None:
     """[r_C; θ] at the centre of mass from the state at the first input end."""
     point = system.topology.first_input_point(body.name)
-    s = apply_state(states[_rigid_state_key(system.topology, body)], z)
-    parts.rigid[body.name] = carried_motion(s, point, body.center_of_mass)
+    state = states[_rigid_state_key(system.topology, body)]
+    s = np.einsum("nik,nk->ni", state.arr[:, :6], z[:, state.cols])  # [r_P; θ] only
+    # r_C = r_P + θ × (C - P) (eq. 2.5), as rows: θ @ skew(C - P)
+    r = s[:, :3] + s[:, 3:] @ skew(body.center_of_mass - point)
+    parts.rigid[body.name] = np.concatenate([r, s[:, 3:]], axis=1)
     parts.centers[body.name] = body.center_of_mass
 
 
@@ -267,11 +270,12 @@ def beam_field(system, beam: Beam, states, z, omega, fractions=None):
         reversed_ = e.input_node.endswith("@end")
         s = (1.0 - f if reversed_ else f) * length
         wts = np.full(s.size, np.nan)
-    n = omega.size  # one batch over every (point, mode) pair
-    local = elements.beam_local(np.tile(omega, s.size), beam, length=np.repeat(s, n))
-    t = system.edge_rotation(index)  # only the displacement rows of the global transfer
-    u = t[None, :6, :6] @ local[:, :6, :] @ t.T[None]
-    motion = np.einsum("gnij,nj->ngi", u.reshape(s.size, n, 6, 12), z_in)
+    n = omega.size  # one batch over every (point, mode) pair, the states in local axes
+    t = system.edge_rotation(index)  # local to global (12, 12): z_in @ t = (t.T z_in)
+    y = np.tile(z_in @ t, (s.size, 1))
+    local = elements.beam_local_displacement(np.tile(omega, s.size), beam, np.repeat(s, n), y)
+    motion = (local @ t[:6, :6].T).reshape(s.size, n, 6).transpose(1, 0, 2)
+    motion = np.ascontiguousarray(motion)
     positions = p_in + np.outer(s / length, p_out - p_in)
     return positions, wts, motion
 

@@ -113,20 +113,23 @@ def _krylov_scaled(x4: np.ndarray):
     A power series in x⁴ is used below x = 2 (no cancellation), closed forms above.
     """
     x4 = np.asarray(x4, dtype=float)
-    small = x4 < 16.0
-    xs = np.where(small, x4, 0.0)[..., None]
-    series = np.full((*x4.shape, 4), _KRYLOV_SERIES[-1])  # Horner in x⁴, all four at once
-    for coefficients in _KRYLOV_SERIES[-2::-1]:
-        series *= xs
-        series += coefficients
-    s, t, u, v = np.moveaxis(series, -1, 0).copy()
-    if np.any(~small):
-        x = np.sqrt(np.sqrt(x4[~small]))
+    big = ~(x4 < 16.0)
+    series = np.empty((4, *x4.shape))
+    if not big.all():  # Horner in x⁴, all four at once (the function first: long loops)
+        terms = _KRYLOV_SERIES.reshape(*_KRYLOV_SERIES.shape, *(1,) * x4.ndim)
+        xs = np.where(big, 0.0, x4)
+        series[:] = terms[-1]
+        for coefficients in terms[-2::-1]:
+            series *= xs
+            series += coefficients
+    s, t, u, v = series
+    if big.any():
+        x = np.sqrt(np.sqrt(x4[big]))
         ch, c, sh, sn = np.cosh(x), np.cos(x), np.sinh(x), np.sin(x)
-        s[~small] = (ch + c) / 2
-        t[~small] = (sh + sn) / 2 / x
-        u[~small] = (ch - c) / 2 / x**2
-        v[~small] = (sh - sn) / 2 / x**3
+        s[big] = (ch + c) / 2
+        t[big] = (sh + sn) / 2 / x
+        u[big] = (ch - c) / 2 / x**2
+        v[big] = (sh - sn) / 2 / x**3
     return s, t, u, v
 
 
@@ -157,32 +160,59 @@ def beam_local(omega: np.ndarray, beam: Beam, length: float | None = None) -> np
     the two bending planes, are computed together (rows of 2) and scattered at once.
     """
     w2 = np.asarray(omega, dtype=float) ** 2
+    twist, bend = _beam_blocks(w2, beam, length, rows=4)
+    u = np.zeros((w2.size, 12, 12))
+    u[:, _ROWS, _COLS] = np.concatenate([twist.reshape(8, -1), bend.reshape(32, -1)]).T
+    return u
+
+
+def beam_local_displacement(omega: np.ndarray, beam: Beam, length, state: np.ndarray):
+    """Displacement and rotation (n, 6) [m, rad] in the beam's axes at ``length`` [m] (one
+    per ω) from the input end, of the local input states ``state`` (n, 12): the first six
+    rows of :func:`beam_local` applied to them, without the 12 x 12 matrices (mode shapes
+    along a beam need only these)."""
+    w2 = np.asarray(omega, dtype=float) ** 2
+    twist, bend = _beam_blocks(w2, beam, length, rows=2)
+    y = state.T
+    out = np.empty((6, w2.size))
+    # axial x and torsion θx: two entries each
+    out[[0, 3]] = twist[:, 0] * y[[0, 3]] + twist[:, 1] * y[[9, 6]]
+    # per bending plane its displacement and rotation rows, four entries each
+    plane = (bend.reshape(2, 2, 4, -1) * y[np.array(_PLANES)][:, None]).sum(axis=2)
+    out[[1, 5]], out[[2, 4]] = plane
+    return out.T
+
+
+def _beam_blocks(w2: np.ndarray, beam: Beam, length, rows: int):
+    """The nonzero entries of :func:`beam_local` at ω² ``w2`` over ``length`` [m] (None: the
+    whole beam): axial and torsion (2, rows, n) and the two bending planes (2, 4 rows, n),
+    in the order of ``_TWIST`` and ``_PLANES``; ``rows``: of each block the first 4 (all
+    of them) or 2 (the displacement rows)."""
     L = beam.length if length is None else np.asarray(length, dtype=float)
     rho, E, A = beam.density, beam.youngs_modulus, beam.area
     # axial (EA, ρA) and torsion (GJ, ρI_p)
     k = np.array([[E * A], [beam.shear_modulus * beam.torsion_constant]])
     c, sl, bs = _axial(w2, k, np.array([[rho * A], [rho * beam.polar_moment]]), L)
     sgn = np.array([[-1.0], [1.0]])
-    twist = np.stack([c, sgn * sl / k, -sgn * k * bs, c], axis=1)  # (2, 4, n)
+    twist = [c, sgn * sl / k, -sgn * k * bs, c][:rows]
     # bending with EI_z (x1-y plane, sign +1) and EI_y (x1-z plane, sign -1)
     ei = np.array([[E * beam.second_moment_z], [E * beam.second_moment_y]])
     sgn = np.array([[1.0], [-1.0]])
     lam4 = rho * A * w2 / ei
     s, t, uu, v = _krylov_scaled(lam4 * L**4)
     T_l, U_l2, V_l3 = L * t, L**2 * uu, L**3 * v  # T/λ, U/λ², V/λ³
-    lV, l2U, l3T = lam4 * V_l3, lam4 * U_l2, lam4 * T_l  # λV, λ²U, λ³T
-    bend = np.stack(
-        [
-            *(s, sgn * T_l, sgn * U_l2 / ei, V_l3 / ei),
-            *(sgn * lV, s, T_l / ei, sgn * U_l2 / ei),
+    lV = lam4 * V_l3  # λV
+    bend = [
+        *(s, sgn * T_l, sgn * U_l2 / ei, V_l3 / ei),
+        *(sgn * lV, s, T_l / ei, sgn * U_l2 / ei),
+    ]
+    if rows == 4:
+        l2U, l3T = lam4 * U_l2, lam4 * T_l  # λ²U, λ³T
+        bend += [
             *(sgn * ei * l2U, ei * lV, s, sgn * T_l),
             *(ei * l3T, sgn * ei * l2U, sgn * lV, s),
-        ],
-        axis=1,
-    )  # (2, 16, n)
-    u = np.zeros((w2.size, 12, 12))
-    u[:, _ROWS, _COLS] = np.concatenate([twist.reshape(8, -1), bend.reshape(32, -1)]).T
-    return u
+        ]
+    return np.stack(twist, axis=1), np.stack(bend, axis=1)
 
 
 def beam_rotation(beam: Beam, p_in, p_out) -> np.ndarray:

@@ -181,8 +181,99 @@ def _other_input(lever: tuple, p_out: tuple) -> np.ndarray:
     return _frozen(elements.rigid_body_other_input(np.array(lever), np.array(p_out)))
 
 
+@functools.lru_cache(maxsize=1024)
+def _edge_rotation(body, p_in: bytes, p_out: bytes) -> np.ndarray:
+    """(12, 12) local-to-global rotation of a body's own edge from ``p_in`` to ``p_out``
+    (float64 bytes), shared by every design with this body."""
+    rotation = rules_of(body).edge_rotation(body, np.frombuffer(p_in), np.frombuffer(p_out))
+    return _frozen(rotation)
+
+
+@functools.lru_cache(maxsize=1024)
+def _body_edge_at(body, p_in: bytes, p_out: bytes, omega: float) -> np.ndarray:
+    """A body edge's transfer matrix (12, 12) at one ω [rad/s], shared by every design with
+    this body (the segmentation's stage at f_max)."""
+    rotation = _edge_rotation(body, p_in, p_out)
+    return _frozen(rules_of(body).edge_matrix(np.array([omega]), body, rotation)[0])
+
+
 FREE_TIP = _frozen(np.eye(12, 6))  # a free tip's state: six unknown displacements, no forces
 REACTION = _frozen(-np.eye(12, 6, -6))  # the ground's reactions enter the root's force rows
+
+
+def segment_designs(systems: list[TransferSystem], fmax_hz: float) -> None:
+    """:meth:`TransferSystem.segment_for` of designs of one structure (one topology) at once.
+
+    The stages of every node are stacked over the designs, and the path products of all
+    nodes of one level of the transfer graph (their upstream paths known) and of all designs
+    go through one batched SVD. Each design gets the segments it gets alone, bitwise: the
+    same products and singular values, matrix by matrix.
+    """
+    topo = systems[0].topology
+    if any(s.topology.nodes is not topo.nodes for s in systems):
+        raise ValueError("segment_designs: the designs must share one structure (topology)")
+    w = np.array([2 * np.pi * fmax_hz])
+    stages = _stages(systems, w)  # node -> (designs, 12, 12)
+    n = len(systems)
+    path: dict[str, np.ndarray] = {}  # product of the stages since the last segment
+    chosen: set[tuple[int, str]] = set()  # (design, node)
+    for level in _levels(topo):
+        products, spans = [], []
+        for name in level:
+            upstream = [
+                path[topo.edges[i].input_node]
+                for i, role in topo.nodes[name].inputs
+                if role == "edge" and topo.edges[i].tree
+            ]
+            spans.append((len(products), len(products) + max(len(upstream), 1)))
+            products += [stages[name] @ p for p in upstream] or [stages[name]]
+        products = np.stack(products, axis=1)  # (designs, paths, 12, 12)
+        conds = np.linalg.cond(products)
+        worst = np.empty((n, len(level)), dtype=int)  # per design and node: its worst path
+        for j, (a, b) in enumerate(spans):  # the first worst, as alone
+            worst[:, j] = a if b == a + 1 else a + np.argmax(conds[:, a:b], axis=1)
+        designs = np.arange(n)[:, None]
+        kept = products[designs, worst]  # (designs, nodes, 12, 12)
+        over = conds[designs, worst] > GROWTH_LIMIT
+        kept[over] = np.eye(12)
+        path.update((name, kept[:, j]) for j, name in enumerate(level))
+        chosen.update((int(d), level[j]) for d, j in zip(*np.nonzero(over), strict=True))
+    for d, system in enumerate(systems):
+        system.segments = tuple(name for name in topo.order if (d, name) in chosen)
+        system._segmented_for = fmax_hz
+
+
+def _stages(systems: list[TransferSystem], w: np.ndarray) -> dict[str, np.ndarray]:
+    """Per node, its stage (parent element after body, physically scaled) at the one
+    frequency ``w`` [rad/s], stacked over the designs (designs, 12, 12)."""
+    topo = systems[0].topology
+    nodes = [topo.nodes[name] for name in topo.order]
+    omega = float(w[0])
+    stage = np.array([[s._stage_edge(node.parent_edge, omega) for node in nodes] for s in systems])
+    first = [systems[0]._first_input(node, w) for node in nodes]  # the designs' shared bodies
+    massive = [k for k, f in enumerate(first) if f is not None]
+    if massive:
+        stage[:, massive] = stage[:, massive] @ np.array([first[k][0] for k in massive])
+    scale = np.array([_physical_scaling(s.model) for s in systems])[:, None]
+    stage = scale[:, :, :, None] * stage / scale[:, :, None, :]
+    return {name: stage[:, k] for k, name in enumerate(topo.order)}
+
+
+def _levels(topo: Topology) -> list[list[str]]:
+    """The nodes in levels, tips first: a node's tree inputs come from earlier levels (in
+    topological order within each level)."""
+    level: dict[str, int] = {}
+    for name in topo.order:
+        upstream = [
+            level[topo.edges[i].input_node]
+            for i, role in topo.nodes[name].inputs
+            if role == "edge" and topo.edges[i].tree
+        ]
+        level[name] = 1 + max(upstream, default=-1)
+    out: list[list[str]] = [[] for _ in range(1 + max(level.values(), default=-1))]
+    for name in topo.order:
+        out[level[name]].append(name)
+    return out
 
 
 class TransferSystem:
@@ -192,6 +283,7 @@ class TransferSystem:
         self.model = model
         self.topology: Topology = transfer_topology(model)
         self.segments: tuple[str, ...] = ()
+        self._segmented_for: float | None = None  # fmax_hz [Hz] the segments are chosen for
         self._edge_rotations: dict[int, np.ndarray] = {}
         self._constant_parts: dict = {}  # hinge edge index or node name -> matrices (or None)
         if fmax_hz is not None:
@@ -202,39 +294,18 @@ class TransferSystem:
 
         Long transfer products lose the small solution components next to the growing ones
         (mω²/k per stage at high frequency). Following each path from the tips, the stages
-        (body then parent element, physically scaled) are multiplied up; where the condition
-        number of the product since the last segment passes GROWTH_LIMIT (the worst path into
-        a multi-input body counts) the node's output state becomes 12 new unknowns S with 12
-        equations Z_out - S = 0. (The product of the stages' own condition numbers, a bound,
-        put up to a third more segments than needed on the packaged model.) The matrix grows,
-        but its determinant is exactly det U_all (Schur complement with an identity block), so
-        roots and null vectors are unchanged.
+        (body then parent element, physically scaled) are multiplied up; where the 2-norm
+        condition number (SVD) of the product since the last segment passes GROWTH_LIMIT
+        (the worst path into a multi-input body counts) the node's output state becomes 12
+        new unknowns S with 12 equations Z_out - S = 0. (The product of the stages' own
+        condition numbers, a bound, put up to a third more segments than needed on the
+        packaged model.) The matrix grows, but its determinant is exactly det U_all (Schur
+        complement with an identity block), so roots and null vectors are unchanged. The
+        choice is kept: asked again for the same ``fmax_hz`` the system returns it
+        (:func:`segment_designs` chooses for several designs at once).
         """
-        topo = self.topology
-        w = np.array([2 * np.pi * fmax_hz])
-        scale = _physical_scaling(self.model)
-        path: dict[str, np.ndarray] = {}  # product of the stages since the last segment
-        chosen = []
-        for name in topo.order:
-            node = topo.nodes[name]
-            stage = np.broadcast_to(self._edge_matrix(node.parent_edge, w), (1, 12, 12))[0]
-            first = self._first_input(node, w)
-            if first is not None:
-                stage = stage @ first[0]
-            stage = scale[:, None] * stage / scale[None, :]
-            upstream = [
-                path[topo.edges[i].input_node]
-                for i, role in node.inputs
-                if role == "edge" and topo.edges[i].tree
-            ]
-            products = np.array([stage @ p for p in upstream] or [stage])
-            conds = np.linalg.cond(products)
-            worst = int(np.argmax(conds))
-            path[name] = products[worst]
-            if conds[worst] > GROWTH_LIMIT:
-                chosen.append(name)
-                path[name] = np.eye(12)
-        self.segments = tuple(chosen)
+        if self._segmented_for != fmax_hz:
+            segment_designs([self], fmax_hz)
         return self.segments
 
     @property
@@ -259,13 +330,23 @@ class TransferSystem:
     def edge_rotation(self, index: int) -> np.ndarray:
         """(12, 12) rotation of body edge ``index`` (a beam) from its local frame (input end
         to output end) to the global frame (e.g. :func:`ufmt.mstmm.elements.beam_rotation`),
-        computed once."""
+        computed once per body and direction (shared by the designs of a study)."""
         if index not in self._edge_rotations:
-            e = self.topology.edges[index]
-            p_in, p_out = e.point_at(e.input_node), e.point_at(e.output_node)
-            rotation = rules_of(e.element).edge_rotation(e.element, p_in, p_out)
-            self._edge_rotations[index] = rotation
+            self._edge_rotations[index] = _edge_rotation(*self._body_edge_key(index))
         return self._edge_rotations[index]
+
+    def _body_edge_key(self, index: int) -> tuple:
+        """(body, input point, output point as float64 bytes) of body edge ``index``."""
+        e = self.topology.edges[index]
+        ends = (e.point_at(e.input_node), e.point_at(e.output_node))
+        return (e.element, *(np.asarray(p, dtype=float).tobytes() for p in ends))
+
+    def _stage_edge(self, index: int, omega: float) -> np.ndarray:
+        """Edge ``index``'s transfer matrix (12, 12) at one ω [rad/s] (a stage of
+        :meth:`segment_for`); a body edge's is computed once per body, direction and ω."""
+        if self.topology.edges[index].kind == "hinge":
+            return self._edge_matrix(index, np.array([omega]))
+        return _body_edge_at(*self._body_edge_key(index), omega)
 
     def _first_input(self, node, omega: np.ndarray) -> np.ndarray | None:
         """U_{i,I1} (eq. 2.8) as (n_omega, 12, 12), or None where it is the identity (a

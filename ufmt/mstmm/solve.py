@@ -24,7 +24,7 @@ from ufmt.errors import UfmtError
 from ufmt.model.load import as_model
 from ufmt.model.schema import Model
 from ufmt.mstmm.modes import ModeShapes, kinetic_terms, mode_shapes, shape_state_keys
-from ufmt.mstmm.overall import State, TransferSystem
+from ufmt.mstmm.overall import State, TransferSystem, segment_designs
 from ufmt.mstmm.roots import RootsLostError, bracketed_roots, continued_roots
 from ufmt.mstmm.wittrick import Brackets, RootCounter
 
@@ -220,11 +220,24 @@ def solve_modes_batch(
             t0 = time.perf_counter()
             counter = RootCounter([models[i] for i in members])
             ranges = _search_ranges(counter, fmax_hz, count, False)
+            systems = _segmented([models[i] for i in members], ranges)
             shared = (time.perf_counter() - t0) / len(members)  # the count's share
             for d, (i, brackets) in enumerate(zip(members, ranges, strict=True)):
-                solution = _solution(counter, d, brackets, count, shapes)[0]
+                solution = _solution(counter, d, brackets, count, shapes, systems[d])[0]
                 out[i] = replace(solution, seconds=solution.seconds + shared)
         return out
+
+
+def _segmented(models: list[Model], ranges: list[Brackets]) -> list[TransferSystem]:
+    """The transfer systems of designs of one structure, segmented for their search ranges
+    together (:func:`ufmt.mstmm.overall.segment_designs`: each as alone, bitwise)."""
+    systems = [TransferSystem(m) for m in models]
+    tops: dict = {}  # designs with the same upper frequency are segmented in one pass
+    for system, brackets in zip(systems, ranges, strict=True):
+        tops.setdefault(brackets.below_hz, []).append(system)
+    for top, group in tops.items():
+        segment_designs(group, top)
+    return systems
 
 
 @functools.cache
@@ -344,12 +357,12 @@ def _solve_modes(model, fmax_hz, count, method, shapes) -> ModalSolution:
     return replace(solution, seconds=time.perf_counter() - t0)
 
 
-def _solution(counter: RootCounter, design: int, brackets: Brackets, count, shapes):
+def _solution(counter: RootCounter, design: int, brackets: Brackets, count, shapes, system=None):
     """(the ModalSolution of design ``design`` of ``counter`` from its brackets, every root
-    found [Hz]) (``seconds`` of this part only)."""
+    found [Hz]) (``seconds`` of this part only); ``system``: its TransferSystem if made."""
     t0 = time.perf_counter()
     model = counter.models[design]
-    system = TransferSystem(model)
+    system = TransferSystem(model) if system is None else system
     keys = shape_state_keys(system) if shapes else ()
 
     def refine(lo_hz, hi_hz):
