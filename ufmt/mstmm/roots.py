@@ -442,16 +442,17 @@ def _newton(system, omega, lo, hi, mult, rtol, state_keys=()):
 
     d ln det S/dω = tr(S⁻¹ dS/dω) is the sum of the eigenvalues of P = S⁻¹ dS/dω; near a
     cluster of m roots, m of them are ≈ 1/(ω - ω_k) and all others O(1/gap) to the other
-    roots. The step takes only the cluster's own: inverse iteration with P on an m-column
-    block (S's LU kept, :mod:`ufmt.mstmm.lu`; QR after each product, the block carried from
-    one iterate to the next) converges to P's dominant invariant subspace by the ratio of
-    the distances to the cluster and to the next root per product, and the trace of P
-    projected on it gives ω_k ← ω_k - m / tr(XᵀPX): Newton on det with every other root
-    divided out exactly (so two clusters are not drawn to one root), at a third of the cost
-    of the whole tr(S⁻¹ dS) (one LU and a few solves with m columns instead of a solve with
-    all of them). The block is also the null space: P x = λ x means S(ω - 1/λ) x = 0 to
-    first order, so after NULL_SPACE_PRODUCTS products it is S's null space at the new
-    iterate to O(δ²) or rounding (δ: the step), completed to U_all's (size, m). A step
+    roots. The step takes only the cluster's own: inverse iteration with P on a block of
+    one column more than the largest cluster (S's LU kept, :mod:`ufmt.mstmm.lu`; QR after
+    each product, the block carried from one iterate to the next) converges to P's dominant
+    invariant subspace by the ratio of the distances to the cluster and to the next root per
+    product, and P's Ritz values on it give ω_k ← ω_k - m / Σ λ over the cluster's own
+    (:func:`_own_step`): Newton on det with every other root divided out exactly, at less
+    than half the cost of the whole tr(S⁻¹ dS) (one LU and a few solves with a few columns
+    instead of a solve with all of them). The block's first m columns are also the null
+    space: P x = λ x means S(ω - 1/λ) x = 0 to first order, so after NULL_SPACE_PRODUCTS
+    products they are S's null space at the new iterate to O(δ²) or rounding (δ: the step),
+    completed to U_all's (size, m). A step
     that would leave the window (a neighbouring root pulls Newton too far) goes half way
     to the window's end instead; such a step never counts as converged.
 
@@ -568,7 +569,7 @@ def _own_step(w, act, ritz, mult, lo, hi):
         own = np.arange(ritz.shape[1])[None, :] < mult[:, None]
         total = np.sum(np.take_along_axis(ritz.real, order, axis=1) * own, axis=1)
         step = mult / total
-    return np.where(np.isfinite(step), step, 0.0)  # exactly singular: ω is the root
+    return np.where(np.isfinite(step), step, 0.0)  # nothing projected (inf or NaN): no step
 
 
 def _null_basis(reduction, x, u, n_active, sel, t, scale) -> np.ndarray:
