@@ -60,3 +60,26 @@ def test_tracking_gives_up_when_a_root_is_not_tracked():
     assert continued_roots(TransferSystem(model), exact, exact, exact) is not None
     missed = np.delete(exact, skip)
     assert continued_roots(TransferSystem(model), missed, missed, missed) is None
+
+
+@pytest.mark.parametrize(("hinge", "kind"), [(9, "rotational_stiffness"), (16, "stiffness")])
+def test_tracked_roots_that_cross_stay_tracked(monkeypatch, hinge, kind):
+    """A sweep of the prior model in 3 % steps up then down (oracle: each design solved on
+    its own): roots of several clusters share one block and cross, and each cluster keeps
+    its own root (a root another cluster only lies near is not given up to it), so only the
+    first design needs the count."""
+    base = load_model(packaged_path("ufmt-prior.toml"))
+    h = base.hinges[hinge]
+    v = np.array(getattr(h, kind), dtype=float)
+    elastic = np.isfinite(v) & (v > 0)
+    steps = np.cumprod([1.0] + [1.03] * 5 + [0.97] * 3)
+    designs = [base.with_hinge(h.name, **{kind: np.where(elastic, v * s, v)}) for s in steps]
+    independent = [solve_modes(m, count=40, shapes=False).frequencies_hz for m in designs]
+    calls = []
+    real = solve_module.RootCounter
+    monkeypatch.setattr(solve_module, "RootCounter", lambda m: calls.append(1) or real(m))
+    with continuation(("crossing", hinge, kind)):
+        tracked = [solve_modes(m, count=40, shapes=False).frequencies_hz for m in designs]
+    assert len(calls) == 1
+    for a, b in zip(independent, tracked, strict=True):
+        np.testing.assert_allclose(b, a, rtol=1e-10)

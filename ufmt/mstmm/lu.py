@@ -37,8 +37,16 @@ class Factors:
     def refactor(self, i: int, matrix: np.ndarray) -> None:
         """Matrix ``i`` of the stack replaced by ``matrix`` (m, m) and factored, in place."""
         self.lu[i] = matrix
-        _, self.pivots[i], info = dgetrf(self.lu[i].T, overwrite_a=1)
-        self.singular[i] = info > 0
+        self.pivots[i], self.singular[i] = _factor_in_place(self.lu[i])
+
+
+def _factor_in_place(matrix: np.ndarray) -> tuple[np.ndarray, bool]:
+    """LU of the C-ordered ``matrix`` (m, m) in place (LAPACK factors its transpose, the
+    Fortran-ordered view of the same memory); returns (pivots, exactly singular)."""
+    lu, pivots, info = dgetrf(matrix.T, overwrite_a=1)
+    if not np.shares_memory(lu, matrix):  # f2py copied after all: keep its factors
+        matrix.T[...] = lu
+    return pivots, info > 0
 
 
 def factor(a: np.ndarray) -> Factors:
@@ -51,6 +59,5 @@ def factor(a: np.ndarray) -> Factors:
     pivots = np.empty((n, m), dtype=np.int32)
     singular = np.zeros(n, dtype=bool)
     for i in range(n):
-        _, pivots[i], info = dgetrf(a[i].T, overwrite_a=1)
-        singular[i] = info > 0
+        pivots[i], singular[i] = _factor_in_place(a[i])
     return Factors(a, pivots, singular)

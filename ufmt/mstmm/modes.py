@@ -15,8 +15,9 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ufmt.mstmm.bodies import ShapeParts, beam_field, rules_of
+from ufmt.mstmm.newton_step import orthonormal
 from ufmt.mstmm.overall import TransferSystem, equilibrate
-from ufmt.mstmm.roots import OFF_ROOT, batched_solve, orthonormal
+from ufmt.mstmm.roots import OFF_ROOT, batched_solve
 
 
 @dataclass(frozen=True, eq=False)

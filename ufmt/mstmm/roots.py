@@ -40,7 +40,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ufmt.errors import UfmtError
-from ufmt.mstmm.lu import factor
+from ufmt.mstmm.newton_step import inverse_iteration, own_step
 from ufmt.mstmm.overall import State, TransferSystem, assemble, equilibrate, place
 from ufmt.mstmm.reduced import ConstantParts
 
@@ -53,7 +53,6 @@ DERIVATIVE_STEP = 1e-7  # relative forward-difference step for dU/dω
 ACCEPT_STEP = 1e-8  # a contracting Newton step this small (relative) ends the iteration
 CONTRACTION = 0.1  # |step_k| <= CONTRACTION |step_k-1|: superlinear, right multiplicity
 CLUSTER_RTOL = 1e-6  # estimates closer than this (relative) are one repeated root
-NULL_SPACE_PRODUCTS = 3  # products of S⁻¹ dS with the start block (see _newton)
 
 
 @dataclass(frozen=True)
@@ -447,14 +446,14 @@ def _newton(system, omega, lo, hi, mult, rtol, state_keys=()):
     each product, the block carried from one iterate to the next) converges to P's dominant
     invariant subspace by the ratio of the distances to the cluster and to the next root per
     product, and P's Ritz values on it give ω_k ← ω_k - m / Σ λ over the cluster's own
-    (:func:`_own_step`): Newton on det with every other root divided out exactly, at less
-    than half the cost of the whole tr(S⁻¹ dS) (one LU and a few solves with a few columns
-    instead of a solve with all of them). The block's first m columns are also the null
-    space: P x = λ x means S(ω - 1/λ) x = 0 to first order, so after NULL_SPACE_PRODUCTS
-    products they are S's null space at the new iterate to O(δ²) or rounding (δ: the step),
-    completed to U_all's (size, m). A step
-    that would leave the window (a neighbouring root pulls Newton too far) goes half way
-    to the window's end instead; such a step never counts as converged.
+    (:mod:`ufmt.mstmm.newton_step`): Newton on det with every other root divided out
+    exactly, at less than half the cost of the whole tr(S⁻¹ dS) (one LU and a few solves
+    with a few columns instead of a solve with all of them). The block's first m columns
+    are also the null space: P x = λ x means S(ω - 1/λ) x = 0 to first order, so after
+    NULL_SPACE_PRODUCTS products they are S's null space at the new iterate to O(δ²) or
+    rounding (δ: the step), completed to U_all's (size, m). A step that would leave the
+    window (a neighbouring root pulls Newton too far) goes half way to the window's end
+    instead; such a step never counts as converged, nor does one where S held a NaN.
 
     The state maps of ``state_keys`` come at the roots for free as well ({key: State
     (clusters, 12, k)}): the walks that evaluate U_all keep them, and each is interpolated
@@ -480,16 +479,17 @@ def _newton(system, omega, lo, hi, mult, rtol, state_keys=()):
         s0, s1 = reduction.reduce(u).reshape(2, act.size, reduction.order, reduction.order)
         if r is None:  # row and column maxima: as good at a root as off it
             r, c = equilibrate(s0)
-            # one column more than the largest cluster: see _own_step
+            # one column more than the largest cluster: see own_step
             start = np.random.default_rng(0).standard_normal((reduction.order, mult.max() + 1))
             block = np.broadcast_to(start, (n, *start.shape)).copy()
-        x, ritz, singular = _inverse_iteration(s0, s1, r[act], c[act], h, block[act])
+        x, ritz, singular = inverse_iteration(s0, s1, r[act], c[act], h, block[act], start)
         block[act] = x
-        step = np.where(singular, 0.0, _own_step(w, act, ritz, mult[act], lo[act], hi[act]))
+        step, finite = own_step(w, act, ritz, mult[act], lo[act], hi[act], singular)
         new = wa - step
         size = np.abs(step)
-        converged = (size <= rtol * wa) | (
-            (size <= ACCEPT_STEP * wa) & (size <= CONTRACTION * previous[act])
+        converged = finite & (
+            (size <= rtol * wa)
+            | ((size <= ACCEPT_STEP * wa) & (size <= CONTRACTION * previous[act]))
         )
         inside = (new >= lo[act]) & (new <= hi[act])
         w[act] = np.where(inside, new, 0.5 * (wa + np.where(new < lo[act], lo[act], hi[act])))
@@ -525,53 +525,6 @@ def _evaluate(system, wa, h, reduction, state_keys):
     return reduction, u, walked
 
 
-def _inverse_iteration(s0, s1, r, c, h, x):
-    """NULL_SPACE_PRODUCTS products of P = S⁻¹ dS/dω (rows and columns scaled by r, c; S at
-    ω and ω + h: s0, s1, dS/dω their forward difference) with the blocks ``x`` (n, m', b),
-    QR after each. Returns (the last blocks, orthonormal; the Ritz values (n, b) of P on the
-    blocks before the last product; which S are exactly singular: ω is a root of det S
-    there)."""
-    ds = np.subtract(s1, s0)
-    ds *= r / h[:, None, None]
-    ds *= c
-    lu = factor(np.multiply(s0, r * c))
-    singular = lu.singular.copy()
-    for i in np.flatnonzero(singular):  # ω a root to the last bit: S at ω + h instead,
-        lu.refactor(i, s1[i] * (r[i] * c[i]))  # the same null space to O(h²)
-    with np.errstate(all="ignore"):
-        for k in range(NULL_SPACE_PRODUCTS):
-            y = lu.solve(ds @ x)
-            if k == NULL_SPACE_PRODUCTS - 1:
-                projected = np.swapaxes(x, 1, 2) @ y
-            x = orthonormal(y)
-    projected[~np.isfinite(projected).all(axis=(1, 2))] = 0.0
-    return x, np.linalg.eigvals(projected), singular
-
-
-def _own_step(w, act, ritz, mult, lo, hi):
-    """The Newton step on det S of each active cluster ``act`` (of all clusters' current
-    iterates ``w``) with the other roots divided out [rad/s].
-
-    The Ritz values λ of P (:func:`_inverse_iteration`) put roots at ω - 1/λ. The
-    cluster's own are its ``mult`` = m largest |λ| among those inside its window
-    [lo, hi] and nearer to its own iterate than to any other cluster's (the Aberth idea:
-    a root another cluster is on belongs to that one, e.g. where two tracked roots cross),
-    the others only if too few qualify; the step is m / Σ Re λ over them (an exact
-    repeated root: m equal λ)."""
-    wa = w[act]
-    with np.errstate(all="ignore"):
-        at = wa[:, None] - 1.0 / ritz.real
-        inside = (at >= lo[:, None]) & (at <= hi[:, None])
-        distance = np.abs(at[:, :, None] - w[None, None, :])  # (active, b, clusters)
-        distance[np.arange(act.size), :, act] = np.inf
-        claimed = distance.min(axis=2) < np.abs(at - wa[:, None])
-        order = np.lexsort((-np.abs(ritz), claimed, ~inside), axis=-1)
-        own = np.arange(ritz.shape[1])[None, :] < mult[:, None]
-        total = np.sum(np.take_along_axis(ritz.real, order, axis=1) * own, axis=1)
-        step = mult / total
-    return np.where(np.isfinite(step), step, 0.0)  # nothing projected (inf or NaN): no step
-
-
 def _null_basis(reduction, x, u, n_active, sel, t, scale) -> np.ndarray:
     """U_all's null basis (roots, size, m) at the converged iterates ``sel`` from S's
     (``x``, (roots, m', m), scaled by the column scaling ``scale``), completed with U_all's
@@ -602,16 +555,6 @@ def _walk(system: TransferSystem, omega: np.ndarray, state_keys) -> tuple[list, 
     walk only)."""
     blocks, states = system.equation_blocks(omega, bool(state_keys))
     return blocks, {key: states[key] for key in state_keys}
-
-
-def orthonormal(x: np.ndarray) -> np.ndarray:
-    """Orthonormal basis (…, n, m) of each block's columns: the Q of a QR. One column (most
-    roots are simple) is normalised with LAPACK's sign, R's diagonal -sign(x_0)·|x| (Q differs
-    in sign from LAPACK's only when x is a multiple of e_1, which a random start never is)."""
-    if x.shape[-1] > 1:
-        return np.linalg.qr(x)[0]
-    first = x[..., :1, :]
-    return x / (np.where(np.signbit(first), 1.0, -1.0) * np.linalg.norm(x, axis=-2, keepdims=True))
 
 
 def batched_solve(a: np.ndarray, b: np.ndarray) -> np.ndarray:

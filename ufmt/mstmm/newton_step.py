@@ -1,0 +1,80 @@
+"""One Newton step on det S (:mod:`ufmt.mstmm.roots`): inverse iteration with
+P = S⁻¹ dS/dω on a block per cluster (S's LU kept, :mod:`ufmt.mstmm.lu`) and the step from
+the Ritz values of each cluster's own roots, every other root divided out exactly."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ufmt.mstmm.lu import factor
+
+NULL_SPACE_PRODUCTS = 3  # products of S⁻¹ dS with the block per Newton step
+
+
+def inverse_iteration(s0, s1, r, c, h, x, start):
+    """NULL_SPACE_PRODUCTS products of P = S⁻¹ dS/dω (rows and columns scaled by r, c; S at
+    ω and ω + h: s0, s1, dS/dω their forward difference) with the blocks ``x`` (n, m', b),
+    QR after each (a block that a NaN or inf in S spoiled starts again from ``start``).
+    Returns (the last blocks, orthonormal; the Ritz values (n, b) of P on the blocks before
+    the last product; which S are exactly singular: ω is a root of det S there)."""
+    ds = np.subtract(s1, s0)
+    ds *= r / h[:, None, None]
+    ds *= c
+    lu = factor(np.multiply(s0, r * c))
+    singular = lu.singular.copy()
+    for i in np.flatnonzero(singular):  # ω a root to the last bit: S at ω + h instead,
+        lu.refactor(i, s1[i] * (r[i] * c[i]))  # the same null space to O(h²)
+    with np.errstate(all="ignore"):
+        for k in range(NULL_SPACE_PRODUCTS):
+            y = lu.solve(ds @ x)
+            if k == NULL_SPACE_PRODUCTS - 1:
+                projected = np.swapaxes(x, 1, 2) @ y
+            x = orthonormal(y)
+    projected[~np.isfinite(projected).all(axis=(1, 2))] = 0.0
+    x[~np.isfinite(x).all(axis=(1, 2))] = start
+    return x, np.linalg.eigvals(projected), singular
+
+
+def own_step(w, act, ritz, mult, lo, hi, singular):
+    """The Newton step on det S of each active cluster ``act`` (of all clusters' current
+    iterates ``w``) with the other roots divided out [rad/s].
+
+    The Ritz values λ of P (:func:`inverse_iteration`) put roots at ω - 1/λ. The
+    cluster's own are its ``mult`` = m largest |λ| among those inside its window
+    [lo, hi] and not claimed by another cluster (the Aberth idea: a root another cluster
+    is on belongs to that one, e.g. where two tracked roots cross): claimed means another
+    cluster's iterate is nearer to it and either sits on it (converged) or aims at it
+    this iteration (its own first choice, the largest |λ| in its window); the others only
+    if too few qualify. The step is m / Σ Re λ over them (an exact repeated root: m equal
+    λ); 0 where S is exactly ``singular`` (ω is the root). Returns (the steps, finite):
+    where nothing was projected (a NaN in S) the step is 0 and not finite (never converged)."""
+    wa = w[act]
+    with np.errstate(all="ignore"):
+        at = wa[:, None] - 1.0 / ritz.real
+        inside = (at >= lo[:, None]) & (at <= hi[:, None])
+        own_distance = np.abs(at - wa[:, None])
+        # each active cluster's first choice: the largest |λ| inside its window
+        first = np.take_along_axis(at, np.lexsort((-np.abs(ritz), ~inside), axis=-1)[:, :1], 1)
+        target = w.copy()  # done clusters sit on their roots; active ones aim at `first`
+        target[act] = first[:, 0]
+        distance = np.abs(at[:, :, None] - w[None, None, :])  # (active, b, clusters)
+        aimed = np.abs(at[:, :, None] - target[None, None, :]) < 1e-3 * own_distance[:, :, None]
+        distance = np.where(aimed, distance, np.inf)
+        distance[np.arange(act.size), :, act] = np.inf
+        claimed = distance.min(axis=2) < own_distance
+        order = np.lexsort((-np.abs(ritz), claimed, ~inside), axis=-1)
+        own = np.arange(ritz.shape[1])[None, :] < mult[:, None]
+        total = np.sum(np.take_along_axis(ritz.real, order, axis=1) * own, axis=1)
+        step = np.where(singular, 0.0, mult / total)
+    finite = np.isfinite(step)
+    return np.where(finite, step, 0.0), finite
+
+
+def orthonormal(x: np.ndarray) -> np.ndarray:
+    """Orthonormal basis (…, n, m) of each block's columns: the Q of a QR. One column (most
+    roots are simple) is normalised with LAPACK's sign, R's diagonal -sign(x_0)·|x| (Q differs
+    in sign from LAPACK's only when x is a multiple of e_1, which a random start never is)."""
+    if x.shape[-1] > 1:
+        return np.linalg.qr(x)[0]
+    first = x[..., :1, :]
+    return x / (np.where(np.signbit(first), 1.0, -1.0) * np.linalg.norm(x, axis=-2, keepdims=True))
