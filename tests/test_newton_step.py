@@ -16,6 +16,12 @@ def linear_pencil(roots, omega, h, seed=0):
     return s[0][None], s[1][None]
 
 
+def one_cluster_step(w, ritz, singular, lo=5.0, hi=11.5):
+    """own_step of a single cluster of multiplicity 1 at ``w`` in the window [lo, hi]."""
+    w, lo, hi = (np.array([v]) for v in (w, lo, hi))
+    return own_step(w, np.array([0]), ritz, np.array([1]), lo, hi, singular)
+
+
 def test_steps_on_a_linear_pencil_converge_to_the_nearest_root():
     """Oracle: the roots of det S = det(ω I - diag(roots)) up to constant factors. From
     ω = 10.3, steps re-evaluating S at each iterate with the block carried over contract at
@@ -28,15 +34,7 @@ def test_steps_on_a_linear_pencil_converge_to_the_nearest_root():
     for _ in range(4):
         s0, s1 = linear_pencil(roots, w, h)
         x, ritz, singular = inverse_iteration(s0, s1, ones, ones, np.array([h]), x, start)
-        step, finite = own_step(
-            np.array([w]),
-            np.array([0]),
-            ritz,
-            np.array([1]),
-            np.array([5.0]),
-            np.array([11.5]),
-            singular,
-        )
+        step, finite = one_cluster_step(w, ritz, singular)
         assert finite.all()
         w, sizes = w - step[0], [*sizes, abs(step[0])]
     assert all(b <= 0.1 * a for a, b in zip(sizes[:2], sizes[1:3], strict=True))
@@ -55,15 +53,7 @@ def test_a_root_another_cluster_sits_on_is_left_to_it():
     )
     assert finite.all()
     np.testing.assert_allclose(10.2 - step, 11.0, rtol=1e-14)
-    alone, _ = own_step(
-        w[1:],
-        np.array([0]),
-        ritz,
-        np.array([1]),
-        np.array([9.0]),
-        np.array([12.0]),
-        np.array([False]),
-    )
+    alone, _ = one_cluster_step(10.2, ritz, np.array([False]), 9.0, 12.0)
     np.testing.assert_allclose(10.2 - alone, 10.0, rtol=1e-14)  # without it: the nearer
 
 
@@ -75,14 +65,6 @@ def test_nothing_projected_is_no_step_and_never_converged():
     ones = np.ones((1, 1, 1))
     start = np.random.default_rng(2).standard_normal((3, 2))
     x, ritz, singular = inverse_iteration(s0, s1, ones, ones, np.array([1e-6]), start[None], start)
-    step, finite = own_step(
-        np.array([10.3]),
-        np.array([0]),
-        ritz,
-        np.array([1]),
-        np.array([5.0]),
-        np.array([11.5]),
-        singular,
-    )
+    step, finite = one_cluster_step(10.3, ritz, singular)
     assert not finite.any() and step[0] == 0.0
     np.testing.assert_array_equal(x[0], start)

@@ -220,11 +220,7 @@ def segment_designs(systems: list[TransferSystem], fmax_hz: float) -> None:
     for level in _levels(topo):
         products, spans = [], []
         for name in level:
-            upstream = [
-                path[topo.edges[i].input_node]
-                for i, role in topo.nodes[name].inputs
-                if role == "edge" and topo.edges[i].tree
-            ]
+            upstream = [path[node] for node in _tree_inputs(topo, name)]
             spans.append((len(products), len(products) + max(len(upstream), 1)))
             products += [stages[name] @ p for p in upstream] or [stages[name]]
         products = np.stack(products, axis=1)  # (designs, paths, 12, 12)
@@ -259,17 +255,21 @@ def _stages(systems: list[TransferSystem], w: np.ndarray) -> dict[str, np.ndarra
     return {name: stage[:, k] for k, name in enumerate(topo.order)}
 
 
+def _tree_inputs(topo: Topology, name: str) -> list[str]:
+    """The nodes whose output enters node ``name`` through a tree edge, in input order."""
+    return [
+        topo.edges[i].input_node
+        for i, role in topo.nodes[name].inputs
+        if role == "edge" and topo.edges[i].tree
+    ]
+
+
 def _levels(topo: Topology) -> list[list[str]]:
     """The nodes in levels, tips first: a node's tree inputs come from earlier levels (in
     topological order within each level)."""
     level: dict[str, int] = {}
     for name in topo.order:
-        upstream = [
-            level[topo.edges[i].input_node]
-            for i, role in topo.nodes[name].inputs
-            if role == "edge" and topo.edges[i].tree
-        ]
-        level[name] = 1 + max(upstream, default=-1)
+        level[name] = 1 + max((level[node] for node in _tree_inputs(topo, name)), default=-1)
     out: list[list[str]] = [[] for _ in range(1 + max(level.values(), default=-1))]
     for name in topo.order:
         out[level[name]].append(name)
