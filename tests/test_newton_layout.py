@@ -1,6 +1,6 @@
-"""The Newton iteration's U_all, placed straight into the reduced layout (ufmt.mstmm.overall
-.place, ufmt.mstmm.reduced.ConstantParts), against U_all assembled in full and cut (oracle:
-the dense matrix of the same walk; the Schur-complement property of the elimination)."""
+"""The Newton iteration's S', mapped from U_all's nonzero entries (ufmt.mstmm.reduced
+.SparseReduction), against U_all assembled in full, cut and reduced densely (oracle: the
+dense matrices of the same walk; the Schur-complement property of the elimination)."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import pytest
 from synthetic import axisymmetric_chain
 
 from ufmt.model.load import load_model, model_from_dict, packaged_path
-from ufmt.mstmm.overall import TransferSystem, assemble, place
+from ufmt.mstmm.overall import TransferSystem, assemble, block_layout
 from ufmt.mstmm.reduced import ConstantParts
 
 
@@ -20,10 +20,12 @@ def _model(name: str):
 
 
 @pytest.mark.parametrize("name", ["ufmt.toml", "chain"])
-def test_placed_matrix_is_the_assembled_one_cut_to_the_reduced_layout_bitwise(name):
-    """Oracle: U_all assembled densely and gathered to the reduction's rows and columns. The
-    placement moves the same numbers, so it must agree to the last bit, at every ω of a
-    batch (the reduction found, as Newton finds it, from three of them)."""
+def test_sparse_map_gives_the_reduction_of_the_assembled_matrix(name):
+    """Oracle: U_all assembled densely, cut to the reduction's rows and columns and reduced
+    densely (ConstantParts.reduce). The entries the map takes are every nonzero of the cut
+    U_all at every ω of a batch (the structural zeros found, as Newton finds them, from
+    three of them); S' and the pivot rows' products from them agree with the dense ones to
+    rounding, and S' has no nonzero outside the map's pattern."""
     system = TransferSystem(_model(name), fmax_hz=3000.0)
     omega = 2 * np.pi * np.geomspace(20.0, 3000.0, 9)
     omega = np.concatenate([omega, omega * (1 + 1e-7), [0.61 * omega[0]]])
@@ -32,9 +34,44 @@ def test_placed_matrix_is_the_assembled_one_cut_to_the_reduced_layout_bitwise(na
     at = [0, 9, -1]
     assert np.array_equal(assemble(blocks, system.size, at), dense[at])
     reduction = ConstantParts.of(dense[at])
-    placed = place(blocks, *reduction.placement(), reduction.arranged_shape)
-    assert placed.shape == (omega.size, *reduction.arranged_shape)
-    assert np.array_equal(placed, reduction.arrange(dense))
+    sparse = reduction.sparse(block_layout(blocks))
+    values = sparse.values(blocks)
+    arranged = reduction.arrange(dense)
+    rows, columns = reduction.placement()
+    taken = np.zeros(reduction.arranged_shape, dtype=bool)
+    for k, i, j in sparse.plan.gather:
+        r0 = sum(b.arr.shape[1] for b in blocks[:k])
+        taken[rows[r0 + i], columns[blocks[k].cols[j]]] = True
+    assert np.count_nonzero(taken) == values.shape[1]
+    assert not np.any(arranged[:, ~taken])  # every nonzero is taken
+    s_dense = reduction.reduce(arranged.copy())
+    s_sparse = sparse.pattern.dense(sparse.s_values(values))
+    # both sum the terms of S' = L A R in different orders: within rounding of their sizes
+    left, right = _left_right(reduction)
+    terms = np.abs(left) @ np.abs(arranged) @ np.abs(right)
+    assert np.all(np.abs(s_sparse - s_dense) <= 1e-14 * terms)
+    z = np.random.default_rng(0).standard_normal((omega.size, reduction.order, 2))
+    np.testing.assert_allclose(
+        sparse.null_vectors(values, z),
+        reduction.null_vectors(reduction.pivot_rows(arranged), z),
+        rtol=1e-12,
+        atol=1e-12 * np.abs(reduction.null_vectors(reduction.pivot_rows(arranged), z)).max(),
+    )
+
+
+def _left_right(reduction: ConstantParts):
+    """L (m', rows) and R (columns, m') with S' = L A R for the arranged U_all A (the
+    module docstring of ufmt.mstmm.reduced, written out densely)."""
+    n_kept, (rows, columns) = reduction.kept.size, reduction.arranged_shape
+    order, g, c = reduction.order, reduction.row_combine, reduction.column_combine
+    left = np.zeros((n_kept, rows))
+    left[:, :n_kept] = np.eye(n_kept)
+    o_rows = np.flatnonzero(reduction.kept < g.shape[0])
+    left[o_rows, n_kept:] = -g[reduction.kept[o_rows]]
+    right = np.zeros((columns, order))
+    right[:order] = np.eye(order)
+    right[order:, : c.shape[1]] = -c
+    return left, right
 
 
 def _synthetic(omega: float) -> np.ndarray:

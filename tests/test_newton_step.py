@@ -4,6 +4,7 @@ known in closed form, and its rules for roots other clusters hold."""
 import numpy as np
 
 from ufmt.mstmm.newton_step import inverse_iteration, own_step
+from ufmt.mstmm.sparse import SparseRows
 
 
 def linear_pencil(roots, omega, h, seed=0):
@@ -14,6 +15,16 @@ def linear_pencil(roots, omega, h, seed=0):
     a, b = rng.standard_normal((n, n)) + 3 * np.eye(n), rng.standard_normal((n, n)) + 3 * np.eye(n)
     s = [a @ np.diag(w - np.asarray(roots)) @ b for w in (omega, omega + h)]
     return s[0][None], s[1][None]
+
+
+def dense_step(s0, s1, h, x, start):
+    """inverse_iteration of dense matrices S (1, n, n) (every entry in the pattern, no
+    scaling)."""
+    n = s0.shape[-1]
+    every = SparseRows((n, n), np.repeat(np.arange(n), n), np.tile(np.arange(n), n))
+    ones = np.ones((1, n))
+    values = (s.reshape(1, -1) for s in (s0, s1))
+    return inverse_iteration(every, *values, ones, ones, np.array([h]), x, start)
 
 
 def one_cluster_step(w, ritz, singular, lo=5.0, hi=11.5):
@@ -28,12 +39,11 @@ def test_steps_on_a_linear_pencil_converge_to_the_nearest_root():
     least tenfold each and end on the root 10 to 1e-13, the block's first column S's null
     vector there."""
     roots, w, h = [10.0, 13.0, 17.0, 25.0], 10.3, 1e-6
-    ones = np.ones((1, 1, 1))
     start = np.random.default_rng(1).standard_normal((4, 2))
     x, sizes = start[None], []
     for _ in range(4):
         s0, s1 = linear_pencil(roots, w, h)
-        x, ritz, singular = inverse_iteration(s0, s1, ones, ones, np.array([h]), x, start)
+        x, ritz, singular = dense_step(s0, s1, h, x, start)
         step, finite = one_cluster_step(w, ritz, singular)
         assert finite.all()
         w, sizes = w - step[0], [*sizes, abs(step[0])]
@@ -62,9 +72,8 @@ def test_nothing_projected_is_no_step_and_never_converged():
     never certifies it), and the block starts again."""
     s0, s1 = linear_pencil([10.0, 13.0, 17.0], 10.3, 1e-6)
     s0[0, 1, 2] = np.nan
-    ones = np.ones((1, 1, 1))
     start = np.random.default_rng(2).standard_normal((3, 2))
-    x, ritz, singular = inverse_iteration(s0, s1, ones, ones, np.array([1e-6]), start[None], start)
+    x, ritz, singular = dense_step(s0, s1, 1e-6, start[None], start)
     step, finite = one_cluster_step(10.3, ritz, singular)
     assert not finite.any() and step[0] == 0.0
     np.testing.assert_array_equal(x[0], start)

@@ -11,19 +11,24 @@ from ufmt.mstmm.lu import factor
 NULL_SPACE_PRODUCTS = 3  # products of S⁻¹ dS with the block per Newton step
 
 
-def inverse_iteration(s0, s1, r, c, h, x, start):
-    """NULL_SPACE_PRODUCTS products of P = S⁻¹ dS/dω (rows and columns scaled by r, c; S at
-    ω and ω + h: s0, s1, dS/dω their forward difference) with the blocks ``x`` (n, m', b),
-    QR after each (a block that a NaN or inf in S spoiled starts again from ``start``).
-    Returns (the last blocks, orthonormal; the Ritz values (n, b) of P on the blocks before
-    the last product; which S are exactly singular: ω is a root of det S there)."""
+def inverse_iteration(pattern, s0, s1, r, c, h, x, start):
+    """NULL_SPACE_PRODUCTS products of P = S⁻¹ dS/dω (rows and columns scaled by r, c (n, m');
+    S at ω and ω + h: its entries s0, s1 (n, q) at ``pattern``'s positions
+    (:class:`ufmt.mstmm.sparse.SparseRows`), dS/dω their forward difference) with the blocks
+    ``x`` (n, m', b), QR after each (a block that a NaN or inf in S spoiled starts again
+    from ``start``). Returns (the last blocks, orthonormal; the Ritz values (n, b) of P on
+    the blocks before the last product; which S are exactly singular: ω is a root of det S
+    there)."""
+    row_scale, column_scale = r[:, pattern.rows], c[:, pattern.columns]
     ds = np.subtract(s1, s0)
-    ds *= r / h[:, None, None]
-    ds *= c
-    lu = factor(np.multiply(s0, r * c))
+    ds *= row_scale / h[:, None]
+    ds *= column_scale
+    ds = pattern.dense(ds)  # three products: dense matmuls beat sparse gathers here
+    scale = np.multiply(row_scale, column_scale, out=row_scale)
+    lu = factor(pattern.dense(np.multiply(s0, scale)))
     singular = lu.singular.copy()
     for i in np.flatnonzero(singular):  # ω a root to the last bit: S at ω + h instead,
-        lu.refactor(i, s1[i] * (r[i] * c[i]))  # the same null space to O(h²)
+        lu.refactor(i, pattern.dense(s1[i : i + 1] * scale[i])[0])  # same null space to O(h²)
     with np.errstate(all="ignore"):
         for k in range(NULL_SPACE_PRODUCTS):
             y = lu.solve(ds @ x)

@@ -118,39 +118,10 @@ def assemble(blocks: list[State], n: int, at=slice(None)) -> np.ndarray:
     return u
 
 
-def place(blocks: list[State], row_to: np.ndarray, col_to: np.ndarray, shape) -> np.ndarray:
-    """U_all's entries scattered straight into an (n_omega, *shape) matrix: row i of U_all
-    to row ``row_to[i]``, column j to ``col_to[j]`` (-1: left out), the rest zero.
-
-    The same numbers as ``assemble`` followed by a gather (pure data movement), without
-    building U_all; one flat scatter per block, its index plan cached per structure.
-    """
-    n_omega = blocks[0].arr.shape[0]
-    out = np.empty((n_omega, *shape), dtype=np.result_type(*[b.arr for b in blocks]))
-    out.fill(0.0)  # every page written once now (np.zeros would fault each twice later)
-    flat = out.reshape(n_omega, -1)
-    key = tuple((b.arr.shape[1], _key(b.cols)) for b in blocks)
-    plan = _place_plan(_key(row_to), _key(col_to), shape[1], key)
-    for b, (dst, src) in zip(blocks, plan, strict=True):
-        flat[:, dst] = b.arr.reshape(n_omega, -1)[:, src]
-    return out
-
-
-@functools.lru_cache(maxsize=256)
-def _place_plan(row_to: bytes, col_to: bytes, width: int, blocks: tuple) -> tuple:
-    """Per equation block (its row count, its columns as int64 bytes): the flat destination
-    in an output of ``width`` columns and the flat source of every entry :func:`place` keeps."""
-    row_to, col_to = np.frombuffer(row_to, dtype=np.int64), np.frombuffer(col_to, dtype=np.int64)
-    plan, r0 = [], 0
-    for r, cols in blocks:
-        cols = np.frombuffer(cols, dtype=np.int64)
-        rows, columns = row_to[r0 : r0 + r], col_to[cols]
-        i, j = np.flatnonzero(rows >= 0), np.flatnonzero(columns >= 0)
-        dst = (rows[i, None] * width + columns[None, j]).ravel()
-        src = (i[:, None] * cols.size + j[None, :]).ravel()
-        plan.append((_frozen(dst), _frozen(src)))
-        r0 += r
-    return tuple(plan)
+def block_layout(blocks: list[State]) -> tuple:
+    """Per equation block its row count and its columns (int64 bytes): what the Newton
+    iteration's map to S' depends on (:meth:`ufmt.mstmm.reduced.ConstantParts.sparse`)."""
+    return tuple((b.arr.shape[1], _key(b.cols)) for b in blocks)
 
 
 @functools.lru_cache(maxsize=4096)

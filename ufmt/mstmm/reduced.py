@@ -22,9 +22,12 @@ tr(S'⁻¹ dS'/dω) = tr(U_all⁻¹ dU_all/dω). On the packaged model the order
 to 64, so each LU and solve of the Newton iteration costs about a third.
 
 Only S's non-constant rows, the pivot rows and the ω-dependent columns are read (the
-arranged layout, :meth:`ConstantParts.arrange`); the Newton iteration places its walk's
-entries straight there (:meth:`ConstantParts.placement`, :func:`ufmt.mstmm.overall.place`)
-and builds the dense U_all only at the three frequencies that find the constant parts.
+arranged layout, :meth:`ConstantParts.arrange`). The Newton iteration builds the dense U_all
+only at the three frequencies that find the constant parts; at the others it takes the walk's
+nonzero entries in that layout (a twentieth of U_all's on the packaged model) and maps them
+linearly to S''s nonzero entries (:class:`SparseReduction`: S' = L A R with A the arranged
+U_all, L = [I, -G] and R = [I; -C], so each entry of A adds L[i, a] R[b, j] times itself to
+S'[i, j]).
 """
 
 from __future__ import annotations
@@ -34,6 +37,9 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg as sla
+import scipy.sparse as sp
+
+from ufmt.mstmm.sparse import SparseRows
 
 
 def _pivots(block: np.ndarray, scale: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -56,7 +62,9 @@ class ConstantParts:
     its order (S's non-constant rows of step 1's o and r rows, then its k pivot rows; o, r, p
     columns of step 2); constant: the eliminated columns; row_combine (o, k): G;
     pivot_block (k, k): B_p; kept: positions of S's non-constant rows among the o and r
-    rows; column_combine (k2, o2): C.
+    rows; column_combine (k2, o2): C; nonzero (size, size): U_all's entries that are not
+    exactly zero in every sample (structurally zero otherwise, as a column bitwise equal at
+    frequencies 1e-7 and 40 % apart is constant).
     """
 
     rows: np.ndarray
@@ -66,6 +74,7 @@ class ConstantParts:
     pivot_block: np.ndarray
     kept: np.ndarray
     column_combine: np.ndarray
+    nonzero: np.ndarray
 
     @classmethod
     def of(cls, samples: np.ndarray) -> ConstantParts:
@@ -102,7 +111,8 @@ class ConstantParts:
         columns = moving[np.concatenate([touched2[order2[k2:]], rest2, touched2[order2[:k2]]])]
         pivot_block = u0[np.ix_(rows[size - k :], constant)]
         read = np.concatenate([rows[kept], rows[size - k :]])  # S's constant rows: unread
-        return cls(read, columns, constant, g, pivot_block, kept, g2.T)
+        nonzero = np.any(samples != 0.0, axis=0)
+        return cls(read, columns, constant, g, pivot_block, kept, g2.T, nonzero)
 
     @property
     def order(self) -> int:
@@ -158,6 +168,12 @@ class ConstantParts:
     def null_vectors(self, pivot_rows: np.ndarray, z_reduced: np.ndarray) -> np.ndarray:
         """U_all's null vectors (n, size, q) from S''s (n, m', q), with ``pivot_rows`` those
         (:meth:`pivot_rows`) of U_all at the same ω."""
+        return self.completed(z_reduced, lambda z_m: pivot_rows @ z_m)
+
+    def completed(self, z_reduced: np.ndarray, pivot_times) -> np.ndarray:
+        """U_all's null vectors (n, size, q) from S''s (n, m', q); ``pivot_times(z_m)``: U_all's
+        pivot rows (at the same ω) times z_m (n, columns, q), the null vectors' ω-dependent
+        part in the order of :attr:`columns`."""
         o2 = self.column_combine.shape[1]
         z_p = -self.column_combine @ z_reduced[:, :o2]
         z_m = np.concatenate([z_reduced, z_p], axis=1)  # in the order of ``columns``
@@ -165,5 +181,168 @@ class ConstantParts:
         z = np.empty((z_m.shape[0], size, z_m.shape[-1]), dtype=z_reduced.dtype)
         z[:, self.columns] = z_m
         if self.constant.size:
-            z[:, self.constant] = -np.linalg.solve(self.pivot_block, pivot_rows @ z_m)
+            z[:, self.constant] = -np.linalg.solve(self.pivot_block, pivot_times(z_m))
         return z
+
+    def sparse(self, layout: tuple) -> SparseReduction:
+        """The map from equation blocks of this ``layout`` (per block its row count and its
+        columns as int64 bytes, :meth:`ufmt.mstmm.overall.TransferSystem.equation_blocks`) to
+        S''s nonzero entries, made once per layout."""
+        if layout not in self._maps:
+            self._maps[layout] = SparseReduction.of(self, layout)
+        return self._maps[layout]
+
+    @functools.cached_property
+    def _maps(self) -> dict:
+        return {}
+
+
+@dataclass(frozen=True, eq=False)
+class SparseReduction:
+    """S' and U_all's pivot rows from the nonzero entries of U_all's arranged rows and
+    columns (module docstring): the structure (:class:`_Plan`, shared by every design of a
+    structure) and this design's G and C in it.
+
+    to_s (S''s entries, entries taken): S' = L A R entry by entry, with coefficients
+    ``coefficients``."""
+
+    reduction: ConstantParts
+    plan: _Plan
+    to_s: object  # scipy.sparse.csr_matrix
+
+    @classmethod
+    def of(cls, reduction: ConstantParts, layout: tuple) -> SparseReduction:
+        """The map for equation blocks of ``layout`` (see :meth:`ConstantParts.sparse`)."""
+        g_rows = reduction.kept[reduction.kept < reduction.row_combine.shape[0]]
+        g, c = reduction.row_combine[g_rows], reduction.column_combine
+        plan = _plan(
+            layout,
+            np.packbits(reduction.nonzero).tobytes(),
+            reduction.nonzero.shape[0],
+            _bytes(reduction.rows),
+            _bytes(reduction.columns),
+            reduction.kept.size,
+            np.packbits(g != 0).tobytes(),
+            g.shape,
+            np.packbits(c != 0).tobytes(),
+            c.shape,
+        )
+        left, right = np.r_[1.0, -g[g != 0]], np.r_[1.0, -c[c != 0]]
+        coefficients = left[plan.left] * right[plan.right]
+        to_s = sp.csr_matrix((coefficients, plan.entries, plan.starts), shape=plan.to_s_shape)
+        return cls(reduction, plan, to_s)
+
+    @property
+    def pattern(self) -> SparseRows:
+        """S''s entries."""
+        return self.plan.pattern
+
+    def values(self, blocks: list) -> np.ndarray:
+        """The taken entries (n, q) of equation blocks of this map's layout."""
+        return np.concatenate([blocks[k].arr[:, i, j] for k, i, j in self.plan.gather], axis=1)
+
+    def s_values(self, values: np.ndarray) -> np.ndarray:
+        """S''s entries (n, :attr:`pattern`) from the taken entries (n, q) (:meth:`values`)."""
+        return (self.to_s @ np.ascontiguousarray(values.T)).T
+
+    def null_vectors(self, values: np.ndarray, z_reduced: np.ndarray) -> np.ndarray:
+        """U_all's null vectors (n, size, q) from S''s (n, m', q), with ``values`` the taken
+        entries (:meth:`values`) of U_all at the same ω."""
+        pivot_values = values[:, self.plan.pivot_entries]
+        pivots = self.plan.pivots
+        return self.reduction.completed(z_reduced, lambda z_m: pivots.times(pivot_values, z_m))
+
+
+@dataclass(frozen=True, eq=False)
+class _Plan:
+    """The structure of a :class:`SparseReduction`: gather, per equation block (index, rows,
+    columns) of the entries taken (U_all's arranged nonzeros); S''s entry k is the sum over
+    ``entries[starts[k]:starts[k + 1]]`` (indices of the taken ones) times L's value
+    ``left`` and R's value ``right`` (indices into [1, -G's nonzeros] and [1, -C's]);
+    pattern: S''s entries; pivots: the pivot rows' entries, ``pivot_entries`` where they
+    are among the taken ones."""
+
+    gather: tuple
+    entries: np.ndarray
+    starts: np.ndarray
+    left: np.ndarray
+    right: np.ndarray
+    to_s_shape: tuple
+    pattern: SparseRows
+    pivots: SparseRows
+    pivot_entries: np.ndarray
+
+
+@functools.lru_cache(maxsize=64)
+def _plan(layout, nonzero, size, rows, columns, n_kept, g_mask, g_shape, c_mask, c_shape):
+    """The :class:`_Plan` of a reduction with these (bytes) structural parts: the equation
+    blocks' ``layout``, U_all's ``nonzero`` mask (packed bits, ``size`` square), the arranged
+    ``rows`` and ``columns``, S''s ``n_kept`` rows, and where G (on the kept o rows) and C
+    are nonzero (packed bits of arrays of shapes ``g_shape``, ``c_shape``)."""
+    nonzero = np.unpackbits(np.frombuffer(nonzero, np.uint8), count=size * size).reshape(size, -1)
+    rows, columns = np.frombuffer(rows, np.int64), np.frombuffer(columns, np.int64)
+    row_to, col_to = np.full(size, -1), np.full(size, -1)
+    row_to[rows], col_to[columns] = np.arange(rows.size), np.arange(columns.size)
+    gather, a, b, r0 = [], [], [], 0
+    for k, (r, cols) in enumerate(layout):
+        cols = np.frombuffer(cols, dtype=np.int64)
+        block_rows = np.arange(r0, r0 + r)
+        take = nonzero[np.ix_(block_rows, cols)].astype(bool)
+        take &= (row_to[block_rows] >= 0)[:, None] & (col_to[cols] >= 0)[None, :]
+        i, j = np.nonzero(take)
+        if i.size:
+            gather.append((k, i, j))
+            a.append(row_to[block_rows[i]])
+            b.append(col_to[cols[j]])
+        r0 += r
+    a, b = np.concatenate(a), np.concatenate(b)
+    n_rows, n_columns = rows.size, columns.size
+    order = n_columns - c_shape[0]  # S''s order
+    g_mask = np.unpackbits(np.frombuffer(g_mask, np.uint8), count=np.prod(g_shape))
+    c_mask = np.unpackbits(np.frombuffer(c_mask, np.uint8), count=np.prod(c_shape))
+    gi, gp = np.nonzero(g_mask.reshape(g_shape))
+    cq, cj = np.nonzero(c_mask.reshape(c_shape))
+    # L's columns: S's kept rows as they are (value 1, index 0); pivot row p: -G on the
+    # kept o rows; R's rows: S's first `order` columns as they are; p column q: -C
+    left = _by_source(n_rows, np.r_[np.arange(n_kept), n_kept + gp], np.r_[np.arange(n_kept), gi])
+    left_value = np.r_[np.zeros(n_kept, int), 1 + np.arange(gi.size)][left[2]]
+    right = _by_source(n_columns, np.r_[np.arange(order), order + cq], np.r_[np.arange(order), cj])
+    right_value = np.r_[np.zeros(order, int), 1 + np.arange(cq.size)][right[2]]
+    # every entry e of A adds L[i, a_e] R[b_e, j] A_e to S'[i, j]
+    n_left, n_right = np.diff(left[0])[a], np.diff(right[0])[b]
+    count = n_left * n_right
+    entry = np.repeat(np.arange(a.size), count)
+    k = np.arange(entry.size) - np.repeat(np.cumsum(count) - count, count)
+    at_left = left[0][a[entry]] + k // n_right[entry]
+    at_right = right[0][b[entry]] + k % n_right[entry]
+    target = left[1][at_left] * order + right[1][at_right]
+    flat, slot = np.unique(target, return_inverse=True)
+    by_slot = np.argsort(slot, kind="stable")
+    starts = np.searchsorted(slot[by_slot], np.arange(flat.size + 1))
+    pattern = SparseRows((order, order), flat // order, flat % order)  # rows ascending
+    pivot = np.flatnonzero(a >= n_kept)
+    pivots, by_row = SparseRows.of((n_rows - n_kept, n_columns), a[pivot] - n_kept, b[pivot])
+    return _Plan(
+        tuple(gather),
+        entry[by_slot],
+        starts,
+        left_value[at_left][by_slot],
+        right_value[at_right][by_slot],
+        (flat.size, a.size),
+        pattern,
+        pivots,
+        pivot[by_row],
+    )
+
+
+def _bytes(a: np.ndarray) -> bytes:
+    """Integer indices as int64 bytes (a cache key)."""
+    return a.astype(np.int64, copy=False).tobytes()
+
+
+def _by_source(n: int, source: np.ndarray, target: np.ndarray):
+    """A sparse map's entries grouped by source (0..n-1): (start of each source's entries
+    (n + 1,), their targets, the order that sorts entries given in this order)."""
+    order = np.argsort(source, kind="stable")
+    starts = np.searchsorted(source[order], np.arange(n + 1))
+    return starts, target[order], order

@@ -41,7 +41,7 @@ import numpy as np
 
 from ufmt.errors import UfmtError
 from ufmt.mstmm.newton_step import inverse_iteration, own_step
-from ufmt.mstmm.overall import State, TransferSystem, assemble, equilibrate, place
+from ufmt.mstmm.overall import State, TransferSystem, assemble, block_layout, equilibrate
 from ufmt.mstmm.reduced import ConstantParts
 
 TWO_PI = 2.0 * np.pi
@@ -435,9 +435,8 @@ def _newton(system, omega, lo, hi, mult, rtol, state_keys=()):
     Returns (roots, certified, null bases, state maps): a cluster is certified when its last
     step is below ``rtol`` or, being below ACCEPT_STEP, contracted superlinearly from the
     previous one, inside [lo, hi]. The iteration works on S(ω), U_all with its ω-independent
-    columns and rows eliminated (:mod:`ufmt.mstmm.reduced`: det U_all = const · det S, the
-    same roots at about a third of the LU cost). Rows and columns are scaled once per
-    cluster (at its first iterate), so that the LU solves see O(1) entries.
+    columns and rows eliminated (:mod:`ufmt.mstmm.reduced`: det U_all = const · det S, from
+    U_all's nonzeros; a third of the LU cost), its rows and columns scaled to O(1) once.
 
     d ln det S/dω = tr(S⁻¹ dS/dω) is the sum of the eigenvalues of P = S⁻¹ dS/dω; near a
     cluster of m roots, m of them are ≈ 1/(ω - ω_k) and all others O(1/gap) to the other
@@ -463,7 +462,7 @@ def _newton(system, omega, lo, hi, mult, rtol, state_keys=()):
     w = omega.astype(float).copy()
     n = w.size
     r = c = None  # the scaling, from the first evaluation (one walk of the transfer graph)
-    reduction = None  # U_all's ω-independent columns and rows eliminated (ufmt.mstmm.reduced)
+    sparse = None  # S' from U_all's nonzero entries (ufmt.mstmm.reduced.SparseReduction)
     block = None  # each cluster's current block of the inverse iteration
     previous = np.full(n, np.inf)
     basis: dict[int, np.ndarray] = {}
@@ -475,14 +474,16 @@ def _newton(system, omega, lo, hi, mult, rtol, state_keys=()):
             break
         wa = w[act]
         h = DERIVATIVE_STEP * wa
-        reduction, u, walked = _evaluate(system, wa, h, reduction, state_keys)
-        s0, s1 = reduction.reduce(u).reshape(2, act.size, reduction.order, reduction.order)
+        sparse, u, walked = _evaluate(system, wa, h, sparse, state_keys)
+        s0, s1 = sparse.s_values(u).reshape(2, act.size, -1)
         if r is None:  # row and column maxima: as good at a root as off it
-            r, c = equilibrate(s0)
+            r, c = sparse.pattern.equilibrate(s0)
             # one column more than the largest cluster: see own_step
-            start = np.random.default_rng(0).standard_normal((reduction.order, mult.max() + 1))
+            start = np.random.default_rng(0).standard_normal((r.shape[1], mult.max() + 1))
             block = np.broadcast_to(start, (n, *start.shape)).copy()
-        x, ritz, singular = inverse_iteration(s0, s1, r[act], c[act], h, block[act], start)
+        x, ritz, singular = inverse_iteration(
+            sparse.pattern, s0, s1, r[act], c[act], h, block[act], start
+        )
         block[act] = x
         step, finite = own_step(w, act, ritz, mult[act], lo[act], hi[act], singular)
         new = wa - step
@@ -498,8 +499,8 @@ def _newton(system, omega, lo, hi, mult, rtol, state_keys=()):
         for m in np.unique(mult[act[done[act]]]):
             sel = np.flatnonzero(done[act] & (mult[act] == m))
             t = (new[sel] - wa[sel]) / h[sel]  # where the root lies between ω and ω + dω
-            scale = c[act[sel], 0, :, None]
-            z = _null_basis(reduction, x[sel, :, :m], u, act.size, sel, t, scale)
+            scale = c[act[sel], :, None]
+            z = _null_basis(sparse, x[sel, :, :m], u, act.size, sel, t, scale)
             for k, j in enumerate(act[sel]):
                 basis[j] = z[k]
             _states_at_roots(walked, act, sel, t, n, at_roots)
@@ -510,34 +511,33 @@ def _newton(system, omega, lo, hi, mult, rtol, state_keys=()):
     return w, ok, basis, at_roots
 
 
-def _evaluate(system, wa, h, reduction, state_keys):
-    """(the reduction, U_all arranged at ω = ``wa`` and ω + ``h`` (2n, rows, columns), the
-    walked state maps): one walk; the first call (``reduction`` None) also finds U_all's
-    ω-independent parts, bitwise equal at ω_0, ω_0 + dω and a distant 0.61 ω_0."""
-    if reduction is None:
+def _evaluate(system, wa, h, sparse, state_keys):
+    """(the map to S' (:class:`ufmt.mstmm.reduced.SparseReduction`), U_all's entries it takes
+    at ω = ``wa`` and ω + ``h`` (2n, entries), the walked state maps): one walk; the first
+    call (``sparse`` None) also finds U_all's ω-independent parts and its structural zeros,
+    bitwise equal (zero) at ω_0, ω_0 + dω and a distant 0.61 ω_0."""
+    if sparse is None:
         omega_q = np.concatenate([wa, wa + h, [0.61 * wa[0]]])
         blocks, walked = _walk(system, omega_q, state_keys)
         reduction = ConstantParts.of(assemble(blocks, system.size, [0, wa.size, -1]))
-        blocks = [State(b.cols, b.arr[:-1]) for b in blocks]
-    else:
-        blocks, walked = _walk(system, np.concatenate([wa, wa + h]), state_keys)
-    u = place(blocks, *reduction.placement(), reduction.arranged_shape)
-    return reduction, u, walked
+        sparse = reduction.sparse(block_layout(blocks))
+        return sparse, sparse.values(blocks)[:-1], walked
+    blocks, walked = _walk(system, np.concatenate([wa, wa + h]), state_keys)
+    return sparse, sparse.values(blocks), walked
 
 
-def _null_basis(reduction, x, u, n_active, sel, t, scale) -> np.ndarray:
-    """U_all's null basis (roots, size, m) at the converged iterates ``sel`` from S's
+def _null_basis(sparse, x, u, n_active, sel, t, scale) -> np.ndarray:
+    """U_all's null basis (roots, size, m) at the converged iterates ``sel`` from S''s
     (``x``, (roots, m', m), scaled by the column scaling ``scale``), completed with U_all's
-    pivot rows at the root, not at the iterate (first order in the step from the two
-    evaluations: an O(step²) error instead of O(step))."""
-    pivots = reduction.pivot_rows(u)
-    at, above = pivots[:n_active], pivots[n_active:]  # at ω and at ω + dω
+    pivot rows at the root, not at the iterate (first order in the step from U_all's entries
+    ``u`` at ω and at ω + dω: an O(step²) error instead of O(step))."""
+    at, above = u[:n_active], u[n_active:]
     if sel.size < n_active:
         at, above = at[sel], above[sel]
-    at_root = above - at  # at + t (above - at), in place
-    at_root *= t[:, None, None]
+    at_root = above - at  # at + t (above - at)
+    at_root *= t[:, None]
     at_root += at
-    return reduction.null_vectors(at_root, scale * x)
+    return sparse.null_vectors(at_root, scale * x)
 
 
 def _states_at_roots(walked: dict, act, sel, t, n: int, at_roots: dict) -> None:
