@@ -76,10 +76,13 @@ def own_step(w, act, ritz, mult, lo, hi, singular):
 
 
 def orthonormal(x: np.ndarray) -> np.ndarray:
-    """Orthonormal basis (…, n, m) of each block's columns: the Q of a QR. One column (most
-    roots are simple) is normalised with LAPACK's sign, R's diagonal -sign(x_0)·|x| (Q differs
-    in sign from LAPACK's only when x is a multiple of e_1, which a random start never is)."""
-    if x.shape[-1] > 1:
-        return np.linalg.qr(x)[0]
-    first = x[..., :1, :]
-    return x / (np.where(np.signbit(first), 1.0, -1.0) * np.linalg.norm(x, axis=-2, keepdims=True))
+    """Orthonormal basis (…, n, m) of each block's columns: Gram-Schmidt, each column
+    orthogonalised twice against the ones before (CGS2: orthonormal to rounding however
+    close the columns; the blocks have a few), then normalised."""
+    q = np.empty_like(x)
+    for j in range(x.shape[-1]):
+        v = x[..., j : j + 1]
+        for _ in range(2 if j else 0):
+            v = v - q[..., :j] @ (np.swapaxes(q[..., :j], -1, -2) @ v)
+        q[..., j : j + 1] = v / np.linalg.norm(v, axis=-2, keepdims=True)
+    return q

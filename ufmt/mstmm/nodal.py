@@ -314,12 +314,18 @@ class CondensationStack:
             k -= self._coupled(design, w2, inverse)
         return k
 
+    @functools.cached_property
+    def _outer(self) -> np.ndarray:
+        """Each design's w_i w_iᵀ (designs, r, o²), W's rows w_i."""
+        w = self.coupling
+        return (w[:, :, :, None] * w[:, :, None, :]).reshape(*w.shape[:2], -1)
+
     def _coupled(self, design: int, w2: np.ndarray, inverse: np.ndarray) -> np.ndarray:
         """Wᵀ diag(1/(λ_i - ω²)) W (len(ω), o, o) of one design at ω² [rad²/s²] (len(ω),),
         ``inverse`` 1/(λ_i - ω²) (len(ω), r): one (o, r) @ (r, o) product per ω."""
+        if self.mass_coupling is None:  # Σ_i w_i w_iᵀ / (λ_i - ω²): one product for all ω
+            return (inverse @ self._outer[design]).reshape(w2.size, self.order, self.order)
         a = self.coupling[design]
-        if self.mass_coupling is None:
-            return a.T @ (inverse[:, :, None] * a)
         w = a - w2[:, None, None] * self.mass_coupling[design]
         return np.swapaxes(w, 1, 2) @ (inverse[:, :, None] * w)
 

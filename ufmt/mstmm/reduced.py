@@ -181,8 +181,17 @@ class ConstantParts:
         z = np.empty((z_m.shape[0], size, z_m.shape[-1]), dtype=z_reduced.dtype)
         z[:, self.columns] = z_m
         if self.constant.size:
-            z[:, self.constant] = -np.linalg.solve(self.pivot_block, pivot_times(z_m))
+            rhs = pivot_times(z_m)  # (n, k, q): one solve with B_p for all of them
+            n, k, q = rhs.shape
+            flat = np.ascontiguousarray(rhs.transpose(1, 0, 2)).reshape(k, n * q)
+            solved = sla.lu_solve(self._pivot_factors, flat, check_finite=False)
+            z[:, self.constant] = -solved.reshape(k, n, q).transpose(1, 0, 2)
         return z
+
+    @functools.cached_property
+    def _pivot_factors(self):
+        """B_p's LU factors (scipy.linalg.lu_factor)."""
+        return sla.lu_factor(self.pivot_block, check_finite=False)
 
     def sparse(self, layout: tuple) -> SparseReduction:
         """The map from equation blocks of this ``layout`` (per block its row count and its
@@ -215,19 +224,27 @@ class SparseReduction:
         """The map for equation blocks of ``layout`` (see :meth:`ConstantParts.sparse`)."""
         g_rows = reduction.kept[reduction.kept < reduction.row_combine.shape[0]]
         g, c = reduction.row_combine[g_rows], reduction.column_combine
-        plan = _plan(
+        key = (
             layout,
             np.packbits(reduction.nonzero).tobytes(),
-            reduction.nonzero.shape[0],
             _bytes(reduction.rows),
             _bytes(reduction.columns),
             reduction.kept.size,
-            np.packbits(g != 0).tobytes(),
             g.shape,
-            np.packbits(c != 0).tobytes(),
             c.shape,
         )
-        left, right = np.r_[1.0, -g[g != 0]], np.r_[1.0, -c[c != 0]]
+        plan = _PLANS.get(key)
+        if plan is None or np.any((g != 0) & ~plan.g_mask) or np.any((c != 0) & ~plan.c_mask):
+            # G's and C's entries of rounding size are zero in some designs, not in others:
+            # one plan for every pattern seen (a zero coefficient adds an exact zero)
+            g_mask, c_mask = g != 0, c != 0
+            if plan is not None:
+                g_mask, c_mask = g_mask | plan.g_mask, c_mask | plan.c_mask
+            plan = _plan(layout, reduction, g_mask, c_mask)
+            _PLANS[key] = plan
+            if len(_PLANS) > PLANS_KEPT:
+                del _PLANS[next(iter(_PLANS))]
+        left, right = np.r_[1.0, -g[plan.g_mask]], np.r_[1.0, -c[plan.c_mask]]
         coefficients = left[plan.left] * right[plan.right]
         to_s = sp.csr_matrix((coefficients, plan.entries, plan.starts), shape=plan.to_s_shape)
         return cls(reduction, plan, to_s)
@@ -258,7 +275,7 @@ class _Plan:
     """The structure of a :class:`SparseReduction`: gather, per equation block (index, rows,
     columns) of the entries taken (U_all's arranged nonzeros); S''s entry k is the sum over
     ``entries[starts[k]:starts[k + 1]]`` (indices of the taken ones) times L's value
-    ``left`` and R's value ``right`` (indices into [1, -G's nonzeros] and [1, -C's]);
+    ``left`` and R's value ``right`` (indices into [1, -G at g_mask] and [1, -C at c_mask]);
     pattern: S''s entries; pivots: the pivot rows' entries, ``pivot_entries`` where they
     are among the taken ones."""
 
@@ -271,23 +288,26 @@ class _Plan:
     pattern: SparseRows
     pivots: SparseRows
     pivot_entries: np.ndarray
+    g_mask: np.ndarray
+    c_mask: np.ndarray
 
 
-@functools.lru_cache(maxsize=64)
-def _plan(layout, nonzero, size, rows, columns, n_kept, g_mask, g_shape, c_mask, c_shape):
-    """The :class:`_Plan` of a reduction with these (bytes) structural parts: the equation
-    blocks' ``layout``, U_all's ``nonzero`` mask (packed bits, ``size`` square), the arranged
-    ``rows`` and ``columns``, S''s ``n_kept`` rows, and where G (on the kept o rows) and C
-    are nonzero (packed bits of arrays of shapes ``g_shape``, ``c_shape``)."""
-    nonzero = np.unpackbits(np.frombuffer(nonzero, np.uint8), count=size * size).reshape(size, -1)
-    rows, columns = np.frombuffer(rows, np.int64), np.frombuffer(columns, np.int64)
+_PLANS: dict = {}  # a reduction's structure (SparseReduction.of) -> its plan
+PLANS_KEPT = 64
+
+
+def _plan(layout: tuple, reduction: ConstantParts, g_mask, c_mask) -> _Plan:
+    """The :class:`_Plan` of ``reduction`` for equation blocks of ``layout``, with G (on
+    the kept o rows) and C taken as nonzero at ``g_mask`` and ``c_mask``."""
+    nonzero, size = reduction.nonzero, reduction.nonzero.shape[0]
+    rows, columns, n_kept = reduction.rows, reduction.columns, reduction.kept.size
     row_to, col_to = np.full(size, -1), np.full(size, -1)
     row_to[rows], col_to[columns] = np.arange(rows.size), np.arange(columns.size)
     gather, a, b, r0 = [], [], [], 0
     for k, (r, cols) in enumerate(layout):
         cols = np.frombuffer(cols, dtype=np.int64)
         block_rows = np.arange(r0, r0 + r)
-        take = nonzero[np.ix_(block_rows, cols)].astype(bool)
+        take = nonzero[np.ix_(block_rows, cols)]
         take &= (row_to[block_rows] >= 0)[:, None] & (col_to[cols] >= 0)[None, :]
         i, j = np.nonzero(take)
         if i.size:
@@ -297,11 +317,9 @@ def _plan(layout, nonzero, size, rows, columns, n_kept, g_mask, g_shape, c_mask,
         r0 += r
     a, b = np.concatenate(a), np.concatenate(b)
     n_rows, n_columns = rows.size, columns.size
-    order = n_columns - c_shape[0]  # S''s order
-    g_mask = np.unpackbits(np.frombuffer(g_mask, np.uint8), count=np.prod(g_shape))
-    c_mask = np.unpackbits(np.frombuffer(c_mask, np.uint8), count=np.prod(c_shape))
-    gi, gp = np.nonzero(g_mask.reshape(g_shape))
-    cq, cj = np.nonzero(c_mask.reshape(c_shape))
+    order = n_columns - c_mask.shape[0]  # S''s order
+    gi, gp = np.nonzero(g_mask)
+    cq, cj = np.nonzero(c_mask)
     # L's columns: S's kept rows as they are (value 1, index 0); pivot row p: -G on the
     # kept o rows; R's rows: S's first `order` columns as they are; p column q: -C
     left = _by_source(n_rows, np.r_[np.arange(n_kept), n_kept + gp], np.r_[np.arange(n_kept), gi])
@@ -332,6 +350,8 @@ def _plan(layout, nonzero, size, rows, columns, n_kept, g_mask, g_shape, c_mask,
         pattern,
         pivots,
         pivot[by_row],
+        g_mask,
+        c_mask,
     )
 
 

@@ -543,8 +543,15 @@ def _null_basis(sparse, x, u, n_active, sel, t, scale) -> np.ndarray:
 def _states_at_roots(walked: dict, act, sel, t, n: int, at_roots: dict) -> None:
     """The walked state maps interpolated to the roots of the converged iterates ``sel`` (of
     the active ``act``; maps at ω, then at ω + dω), into ``at_roots`` (n clusters) in place."""
+    every = sel.size == act.size == n  # every cluster converged at once (the usual case)
     for key, walked_map in walked.items():
         arr = walked_map.arr
+        if every:  # slices, no gathers
+            at = arr[n : 2 * n] - arr[:n]
+            at *= t[:, None, None]
+            at += arr[:n]
+            at_roots[key] = State(walked_map.cols, at)
+            continue
         if key not in at_roots:
             at_roots[key] = State(walked_map.cols, np.empty((n, *arr.shape[1:])))
         at_roots[key].arr[act[sel]] = arr[sel] + t[:, None, None] * (arr[act.size + sel] - arr[sel])
