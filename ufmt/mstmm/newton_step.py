@@ -9,6 +9,10 @@ import numpy as np
 from ufmt.mstmm.lu import factor
 
 NULL_SPACE_PRODUCTS = 3  # products of S⁻¹ dS with the block per Newton step
+# a Ritz root within this fraction of its distance from the iterate of another cluster's
+# target is that root (Ritz roots far from the iterate are off by O(distance²): S is not
+# linear in ω)
+AIMED = 1e-2
 
 
 def inverse_iteration(pattern, s0, s1, r, c, h, x, start):
@@ -16,19 +20,43 @@ def inverse_iteration(pattern, s0, s1, r, c, h, x, start):
     S at ω and ω + h: its entries s0, s1 (n, q) at ``pattern``'s positions
     (:class:`ufmt.mstmm.sparse.SparseRows`), dS/dω their forward difference) with the blocks
     ``x`` (n, m', b), QR after each (a block that a NaN or inf in S spoiled starts again
-    from ``start``). Returns (the last blocks, orthonormal; the Ritz values (n, b) of P on
-    the blocks before the last product; which S are exactly singular: ω is a root of det S
-    there)."""
+    from ``start``). P is block diagonal as S is (:attr:`SparseRows.diagonal_blocks`): each
+    diagonal block is factored and iterated on its own, with the rows of ``x`` at its columns.
+    Returns (the last blocks, each diagonal block's orthonormal; the Ritz values (n, blocks · b)
+    of P on them before the last product, diagonal block by block, b per block (0: none, a
+    block of order below b); which S are exactly singular: ω is a root of det S there)."""
     row_scale, column_scale = r[:, pattern.rows], c[:, pattern.columns]
     ds = np.subtract(s1, s0)
     ds *= row_scale / h[:, None]
     ds *= column_scale
-    ds = pattern.dense(ds)  # three products: dense matmuls beat sparse gathers here
     scale = np.multiply(row_scale, column_scale, out=row_scale)
-    lu = factor(pattern.dense(np.multiply(s0, scale)))
+    n, b = s0.shape[0], x.shape[2]
+    x, ritz, singular = x.copy(), np.zeros((n, 0), complex), np.zeros(n, dtype=bool)
+    for block in pattern.diagonal_blocks:
+        on, width = block.entries, min(b, block.columns.size)  # a block of order < b: all of it
+        at = np.ix_(np.arange(n), block.columns, np.arange(width))
+        x[at], block_ritz, block_singular = _block_iteration(
+            block.local,
+            s0[:, on] * scale[:, on],
+            ds[:, on],
+            lambda i, on=on: s1[i : i + 1, on] * scale[i, on],
+            x[at],
+            start[block.columns, :width],
+        )
+        ritz = np.concatenate([ritz, block_ritz, np.zeros((n, b - width))], axis=1)
+        singular |= block_singular
+    return x, ritz, singular
+
+
+def _block_iteration(local, s0, ds, s1, x, start):
+    """:func:`inverse_iteration` on one diagonal block: its scaled S at ω and dS/dω (entries
+    at ``local``'s positions), ``s1(i)``: matrix i's scaled S at ω + h (1, entries), its
+    rows of the blocks and of the start."""
+    ds = local.dense(ds)  # three products: dense matmuls beat sparse gathers here
+    lu = factor(local.dense(s0))
     singular = lu.singular.copy()
     for i in np.flatnonzero(singular):  # ω a root to the last bit: S at ω + h instead,
-        lu.refactor(i, pattern.dense(s1[i : i + 1] * scale[i])[0])  # same null space to O(h²)
+        lu.refactor(i, local.dense(s1(i))[0])  # the same null space to O(h²)
     with np.errstate(all="ignore"):
         for k in range(NULL_SPACE_PRODUCTS):
             y = lu.solve(ds @ x)
@@ -51,8 +79,9 @@ def own_step(w, act, ritz, mult, lo, hi, singular):
     cluster's iterate is nearer to it and either sits on it (converged) or aims at it
     this iteration (its own first choice, the largest |λ| in its window); the others only
     if too few qualify. The step is m / Σ Re λ over them (an exact repeated root: m equal
-    λ); 0 where S is exactly ``singular`` (ω is the root). Returns (the steps, finite):
-    where nothing was projected (a NaN in S) the step is 0 and not finite (never converged)."""
+    λ); 0 where S is exactly ``singular`` (ω is the root). Returns (the steps, finite, own):
+    where nothing was projected (a NaN in S) the step is 0 and not finite (never converged);
+    own (n, columns of ``ritz``): the Ritz values in order of choice, the first m taken."""
     wa = w[act]
     with np.errstate(all="ignore"):
         at = wa[:, None] - 1.0 / ritz.real
@@ -63,7 +92,7 @@ def own_step(w, act, ritz, mult, lo, hi, singular):
         target = w.copy()  # done clusters sit on their roots; active ones aim at `first`
         target[act] = first[:, 0]
         distance = np.abs(at[:, :, None] - w[None, None, :])  # (active, b, clusters)
-        aimed = np.abs(at[:, :, None] - target[None, None, :]) < 1e-3 * own_distance[:, :, None]
+        aimed = np.abs(at[:, :, None] - target[None, None, :]) < AIMED * own_distance[:, :, None]
         distance = np.where(aimed, distance, np.inf)
         distance[np.arange(act.size), :, act] = np.inf
         claimed = distance.min(axis=2) < own_distance
@@ -72,17 +101,22 @@ def own_step(w, act, ritz, mult, lo, hi, singular):
         total = np.sum(np.take_along_axis(ritz.real, order, axis=1) * own, axis=1)
         step = np.where(singular, 0.0, mult / total)
     finite = np.isfinite(step)
-    return np.where(finite, step, 0.0), finite
+    return np.where(finite, step, 0.0), finite, order
 
 
 def orthonormal(x: np.ndarray) -> np.ndarray:
     """Orthonormal basis (…, n, m) of each block's columns: Gram-Schmidt, each column
     orthogonalised twice against the ones before (CGS2: orthonormal to rounding however
-    close the columns; the blocks have a few), then normalised."""
+    close the columns; the blocks have a few), then normalised. A block whose columns are
+    dependent to the last bit (Gram-Schmidt leaves a zero column) gets LAPACK's QR."""
     q = np.empty_like(x)
-    for j in range(x.shape[-1]):
-        v = x[..., j : j + 1]
-        for _ in range(2 if j else 0):
-            v = v - q[..., :j] @ (np.swapaxes(q[..., :j], -1, -2) @ v)
-        q[..., j : j + 1] = v / np.linalg.norm(v, axis=-2, keepdims=True)
+    with np.errstate(all="ignore"):
+        for j in range(x.shape[-1]):
+            v = x[..., j : j + 1]
+            for _ in range(2 if j else 0):
+                v = v - q[..., :j] @ (np.swapaxes(q[..., :j], -1, -2) @ v)
+            q[..., j : j + 1] = v / np.linalg.norm(v, axis=-2, keepdims=True)
+    dependent = ~np.isfinite(q).all(axis=(-2, -1)) & np.isfinite(x).all(axis=(-2, -1))
+    if dependent.any():
+        q[dependent] = np.linalg.qr(x[dependent])[0]
     return q

@@ -323,8 +323,9 @@ class CondensationStack:
     def _coupled(self, design: int, w2: np.ndarray, inverse: np.ndarray) -> np.ndarray:
         """Wᵀ diag(1/(λ_i - ω²)) W (len(ω), o, o) of one design at ω² [rad²/s²] (len(ω),),
         ``inverse`` 1/(λ_i - ω²) (len(ω), r): one (o, r) @ (r, o) product per ω."""
-        if self.mass_coupling is None:  # Σ_i w_i w_iᵀ / (λ_i - ω²): one product for all ω
-            return (inverse @ self._outer[design]).reshape(w2.size, self.order, self.order)
+        if self.mass_coupling is None:  # Σ_i w_i w_iᵀ / (λ_i - ω²), one row product per ω
+            product = inverse[:, None, :] @ self._outer[design]  # (not one for all ω: its
+            return product.reshape(w2.size, self.order, self.order)  # rounding would vary)
         a = self.coupling[design]
         w = a - w2[:, None, None] * self.mass_coupling[design]
         return np.swapaxes(w, 1, 2) @ (inverse[:, :, None] * w)

@@ -485,7 +485,7 @@ def _newton(system, omega, lo, hi, mult, rtol, state_keys=()):
             sparse.pattern, s0, s1, r[act], c[act], h, block[act], start
         )
         block[act] = x
-        step, finite = own_step(w, act, ritz, mult[act], lo[act], hi[act], singular)
+        step, finite, own = own_step(w, act, ritz, mult[act], lo[act], hi[act], singular)
         new = wa - step
         size = np.abs(step)
         converged = finite & (
@@ -499,8 +499,8 @@ def _newton(system, omega, lo, hi, mult, rtol, state_keys=()):
         for m in np.unique(mult[act[done[act]]]):
             sel = np.flatnonzero(done[act] & (mult[act] == m))
             t = (new[sel] - wa[sel]) / h[sel]  # where the root lies between ω and ω + dω
-            scale = c[act[sel], :, None]
-            z = _null_basis(sparse, x[sel, :, :m], u, act.size, sel, t, scale)
+            z = _own_vectors(sparse.pattern, x[sel], own[sel, :m], start.shape[1])
+            z = _null_basis(sparse, z * c[act[sel], :, None], u, act.size, sel, t)
             for k, j in enumerate(act[sel]):
                 basis[j] = z[k]
             _states_at_roots(walked, act, sel, t, n, at_roots)
@@ -526,9 +526,29 @@ def _evaluate(system, wa, h, sparse, state_keys):
     return sparse, sparse.values(blocks), walked
 
 
-def _null_basis(sparse, x, u, n_active, sel, t, scale) -> np.ndarray:
+def _own_vectors(pattern, x, own, b: int) -> np.ndarray:
+    """S''s null basis (roots, m', m) from the inverse iteration's blocks ``x`` (roots, m', b
+    per diagonal block of S's ``pattern``) and the m Ritz values each cluster took (``own``,
+    indices into b per diagonal block): for c_k taken from diagonal block k, that block's
+    first c_k columns (its dominant subspace), zero outside its columns, after the c_l of the
+    blocks before."""
+    z = np.zeros((*x.shape[:2], own.shape[1]))
+    block_of = own // b
+    offset = np.zeros(own.shape[0], dtype=int)
+    for k, block in enumerate(pattern.diagonal_blocks):
+        taken = np.count_nonzero(block_of == k, axis=1)
+        for count, start in set(zip(taken[taken > 0], offset[taken > 0], strict=True)):
+            at = np.flatnonzero((taken == count) & (offset == start))
+            z[np.ix_(at, block.columns, np.arange(start, start + count))] = x[
+                np.ix_(at, block.columns, np.arange(count))
+            ]
+        offset += taken
+    return z
+
+
+def _null_basis(sparse, x, u, n_active, sel, t) -> np.ndarray:
     """U_all's null basis (roots, size, m) at the converged iterates ``sel`` from S''s
-    (``x``, (roots, m', m), scaled by the column scaling ``scale``), completed with U_all's
+    (``x``, (roots, m', m), column-scaled back), completed with U_all's
     pivot rows at the root, not at the iterate (first order in the step from U_all's entries
     ``u`` at ω and at ω + dω: an O(step²) error instead of O(step))."""
     at, above = u[:n_active], u[n_active:]
@@ -537,7 +557,7 @@ def _null_basis(sparse, x, u, n_active, sel, t, scale) -> np.ndarray:
     at_root = above - at  # at + t (above - at)
     at_root *= t[:, None]
     at_root += at
-    return sparse.null_vectors(at_root, scale * x)
+    return sparse.null_vectors(at_root, x)
 
 
 def _states_at_roots(walked: dict, act, sel, t, n: int, at_roots: dict) -> None:

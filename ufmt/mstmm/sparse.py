@@ -1,7 +1,8 @@
 """Stacks of sparse matrices that share one pattern of entries, for the Newton iteration's S'
 (:mod:`ufmt.mstmm.reduced`): on the packaged model an eighth of S''s entries are nonzero and
-a twentieth of U_all's, so products, scalings and the dense matrix for LAPACK are built from
-the nonzero entries alone."""
+a twentieth of U_all's, so products, scalings and the dense matrices for LAPACK are built
+from the nonzero entries alone, one per diagonal block (:meth:`SparseRows.diagonal_blocks`:
+a structure with a plane of symmetry has two, its in-plane and out-of-plane motions)."""
 
 from __future__ import annotations
 
@@ -9,6 +10,8 @@ import functools
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.sparse import coo_array
+from scipy.sparse.csgraph import connected_components
 
 
 @dataclass(frozen=True, eq=False)
@@ -88,3 +91,45 @@ class SparseRows:
             c[:, columns] = np.maximum.reduceat(a[:, by_column], column_starts, axis=1)
         c[c == 0] = 1.0
         return 1.0 / r, 1.0 / c
+
+    @functools.cached_property
+    def diagonal_blocks(self) -> tuple[Block, ...]:
+        """The square diagonal blocks the rows and columns can be permuted into (components
+        of the graph joining each entry's row and column): det = ± Π det(block) and each
+        block solves on its own. One block, the whole matrix, unless every component is
+        square."""
+        n_rows, n_columns = self.shape
+        graph = coo_array(
+            (np.ones(self.size), (self.rows, n_rows + self.columns)),
+            shape=(n_rows + n_columns,) * 2,
+        )
+        _, label = connected_components(graph, directed=False)
+        row_label, column_label = label[:n_rows], label[n_rows:]
+        groups = np.unique(row_label)
+        square = all(
+            np.count_nonzero(row_label == g) == np.count_nonzero(column_label == g) for g in groups
+        )
+        if not square or groups.size == 1:
+            groups, row_label = np.zeros(1), np.zeros(n_rows)
+            column_label = np.zeros(n_columns)
+        blocks = []
+        for g in groups:
+            rows, columns = np.flatnonzero(row_label == g), np.flatnonzero(column_label == g)
+            entries = np.flatnonzero(row_label[self.rows] == g)
+            local_row = np.searchsorted(rows, self.rows[entries])
+            local_column = np.searchsorted(columns, self.columns[entries])
+            local = SparseRows((rows.size, columns.size), local_row, local_column)
+            blocks.append(Block(rows, columns, entries, local))
+        return tuple(blocks)
+
+
+@dataclass(frozen=True, eq=False)
+class Block:
+    """A diagonal block of a :class:`SparseRows` pattern: its ``rows`` and ``columns`` in
+    the whole matrix, its ``entries`` among the pattern's, and ``local``: their positions in
+    the block (rows ascending, as the pattern's)."""
+
+    rows: np.ndarray
+    columns: np.ndarray
+    entries: np.ndarray
+    local: SparseRows
