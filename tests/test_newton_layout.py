@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from dense_reduction import arranged, left_right, null_vectors, reduced
 from synthetic import axisymmetric_chain
 
 from ufmt.model.load import load_model, model_from_dict, packaged_path
@@ -36,42 +37,25 @@ def test_sparse_map_gives_the_reduction_of_the_assembled_matrix(name):
     reduction = ConstantParts.of(dense[at])
     sparse = reduction.sparse(block_layout(blocks))
     values = sparse.values(blocks)
-    arranged = reduction.arrange(dense)
+    cut = arranged(reduction, dense)
     rows, columns = reduction.placement()
     taken = np.zeros(reduction.arranged_shape, dtype=bool)
     for k, i, j in sparse.plan.gather:
         r0 = sum(b.arr.shape[1] for b in blocks[:k])
         taken[rows[r0 + i], columns[blocks[k].cols[j]]] = True
     assert np.count_nonzero(taken) == values.shape[1]
-    assert not np.any(arranged[:, ~taken])  # every nonzero is taken
-    s_dense = reduction.reduce(arranged.copy())
+    assert not np.any(cut[:, ~taken])  # every nonzero is taken
+    s_dense = reduced(reduction, dense)
     s_sparse = sparse.pattern.dense(sparse.s_values(values))
     # both sum the terms of S' = L A R in different orders: within rounding of their sizes
-    left, right = _left_right(reduction)
-    terms = np.abs(left) @ np.abs(arranged) @ np.abs(right)
+    left, right = left_right(reduction)
+    terms = np.abs(left) @ np.abs(cut) @ np.abs(right)
     assert np.all(np.abs(s_sparse - s_dense) <= 1e-14 * terms)
     z = np.random.default_rng(0).standard_normal((omega.size, reduction.order, 2))
+    expected = null_vectors(reduction, dense, z)
     np.testing.assert_allclose(
-        sparse.null_vectors(values, z),
-        reduction.null_vectors(reduction.pivot_rows(arranged), z),
-        rtol=1e-12,
-        atol=1e-12 * np.abs(reduction.null_vectors(reduction.pivot_rows(arranged), z)).max(),
+        sparse.null_vectors(values, z), expected, rtol=1e-12, atol=1e-12 * np.abs(expected).max()
     )
-
-
-def _left_right(reduction: ConstantParts):
-    """L (m', rows) and R (columns, m') with S' = L A R for the arranged U_all A (the
-    module docstring of ufmt.mstmm.reduced, written out densely)."""
-    n_kept, (rows, columns) = reduction.kept.size, reduction.arranged_shape
-    order, g, c = reduction.order, reduction.row_combine, reduction.column_combine
-    left = np.zeros((n_kept, rows))
-    left[:, :n_kept] = np.eye(n_kept)
-    o_rows = np.flatnonzero(reduction.kept < g.shape[0])
-    left[o_rows, n_kept:] = -g[reduction.kept[o_rows]]
-    right = np.zeros((columns, order))
-    right[:order] = np.eye(order)
-    right[order:, : c.shape[1]] = -c
-    return left, right
 
 
 def _synthetic(omega: float) -> np.ndarray:
@@ -101,6 +85,6 @@ def test_reduction_whose_first_o_row_becomes_constant_keeps_det_up_to_a_constant
     reduction = ConstantParts.of(np.array([_synthetic(w) for w in (1.1, 1.1 * (1 + 1e-7), 0.67)]))
     assert reduction.row_combine.shape[0] == 2  # two o rows ...
     assert reduction.kept.size == 4 and reduction.kept[0] == 1  # ... the first not kept
-    s = reduction.reduce(reduction.arrange(u))
+    s = reduced(reduction, u)
     ratio = np.linalg.det(u) / np.linalg.det(s)
     np.testing.assert_allclose(ratio, ratio[0], rtol=1e-12)

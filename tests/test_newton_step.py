@@ -77,3 +77,17 @@ def test_nothing_projected_is_no_step_and_never_converged():
     step, finite = one_cluster_step(10.3, ritz, singular)
     assert not finite.any() and step[0] == 0.0
     np.testing.assert_array_equal(x[0], start)
+
+
+def test_an_iterate_exactly_on_a_root_is_flagged_and_takes_no_step():
+    """S = diag(ω - roots) at ω = 13 exactly: a zero pivot. The factors are taken at ω + h
+    instead (the null vector e_2 to O(h)), but the matrix is reported singular, so the
+    step is 0 (the iterate is the root), finite, and the block's first column is e_2."""
+    roots, h = np.array([10.0, 13.0, 17.0]), 1e-6
+    s0, s1 = (np.diag(w - roots)[None] for w in (13.0, 13.0 + h))
+    start = np.random.default_rng(3).standard_normal((3, 2))
+    x, ritz, singular = dense_step(s0, s1, h, start[None], start)
+    assert singular.all()
+    step, finite = one_cluster_step(13.0, ritz, singular, 11.0, 15.0)
+    assert finite.all() and step[0] == 0.0
+    np.testing.assert_allclose(np.abs(x[0, :, 0]), [0.0, 1.0, 0.0], atol=1e-9)

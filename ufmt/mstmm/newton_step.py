@@ -31,19 +31,20 @@ def inverse_iteration(pattern, s0, s1, r, c, h, x, start):
     ds *= column_scale
     scale = np.multiply(row_scale, column_scale, out=row_scale)
     n, b = s0.shape[0], x.shape[2]
-    x, ritz, singular = x.copy(), np.zeros((n, 0), complex), np.zeros(n, dtype=bool)
-    for block in pattern.diagonal_blocks:
+    blocks = pattern.diagonal_blocks
+    x, ritz, singular = x.copy(), np.zeros((n, len(blocks) * b), complex), np.zeros(n, bool)
+    for k, block in enumerate(blocks):
         on, width = block.entries, min(b, block.columns.size)  # a block of order < b: all of it
-        at = np.ix_(np.arange(n), block.columns, np.arange(width))
-        x[at], block_ritz, block_singular = _block_iteration(
-            block.local,
-            s0[:, on] * scale[:, on],
-            ds[:, on],
-            lambda i, on=on: s1[i : i + 1, on] * scale[i, on],
-            x[at],
-            start[block.columns, :width],
+        x[:, block.columns, :width], ritz[:, k * b : k * b + width], block_singular = (
+            _block_iteration(
+                block.local,
+                s0[:, on] * scale[:, on],
+                ds[:, on],
+                lambda i, on=on: s1[i : i + 1, on] * scale[i, on],
+                x[:, block.columns, :width],
+                start[block.columns, :width],
+            )
         )
-        ritz = np.concatenate([ritz, block_ritz, np.zeros((n, b - width))], axis=1)
         singular |= block_singular
     return x, ritz, singular
 

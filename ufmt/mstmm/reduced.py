@@ -18,16 +18,17 @@ constant factors, chosen once per solve by scaled partial pivoting:
    and a null vector [z_o; z_r] of S' completes to S's with z_p = -C z_o.
 
 det B_p and det R_p are constants: S' has the same roots as U_all and
-tr(S'⁻¹ dS'/dω) = tr(U_all⁻¹ dU_all/dω). On the packaged model the order drops from 102
-to 64, so each LU and solve of the Newton iteration costs about a third.
+tr(S'⁻¹ dS'/dω) = tr(U_all⁻¹ dU_all/dω). On the packaged model the order drops from 138
+to 72, so each LU and solve of the Newton iteration costs about a sixth.
 
 Only S's non-constant rows, the pivot rows and the ω-dependent columns are read (the
-arranged layout, :meth:`ConstantParts.arrange`). The Newton iteration builds the dense U_all
-only at the three frequencies that find the constant parts; at the others it takes the walk's
-nonzero entries in that layout (a twentieth of U_all's on the packaged model) and maps them
-linearly to S''s nonzero entries (:class:`SparseReduction`: S' = L A R with A the arranged
-U_all, L = [I, -G] and R = [I; -C], so each entry of A adds L[i, a] R[b, j] times itself to
-S'[i, j]).
+arranged U_all: U_all[rows][:, columns] of :class:`ConstantParts`). The Newton iteration
+builds the dense U_all only at the three frequencies that find the constant parts; at the
+others it takes the walk's nonzero entries in that layout (a twentieth of U_all's on the
+packaged model) and maps them linearly to S''s nonzero entries (:class:`SparseReduction`:
+S' = L A R with A the arranged U_all, L = [I, -G] and R = [I; -C], so each entry of A adds
+L[i, a] R[b, j] times itself to S'[i, j]). S' is then solved per diagonal block
+(:attr:`ufmt.mstmm.sparse.SparseRows.diagonal_blocks`).
 """
 
 from __future__ import annotations
@@ -58,13 +59,13 @@ def _pivots(block: np.ndarray, scale: np.ndarray) -> tuple[np.ndarray, np.ndarra
 class ConstantParts:
     """The elimination of U_all's ω-independent columns and rows (module docstring).
 
-    rows, columns: the rows and ω-dependent columns of U_all that :meth:`reduce` reads, in
-    its order (S's non-constant rows of step 1's o and r rows, then its k pivot rows; o, r, p
-    columns of step 2); constant: the eliminated columns; row_combine (o, k): G;
-    pivot_block (k, k): B_p; kept: positions of S's non-constant rows among the o and r
-    rows; column_combine (k2, o2): C; nonzero (size, size): U_all's entries that are not
-    exactly zero in every sample (structurally zero otherwise, as a column bitwise equal at
-    frequencies 1e-7 and 40 % apart is constant).
+    rows, columns: the rows and ω-dependent columns of U_all that S' is made of (the
+    arranged U_all), in its order (S's non-constant rows of step 1's o and r rows, then its
+    k pivot rows; o, r, p columns of step 2); constant: the eliminated columns;
+    row_combine (o, k): G; pivot_block (k, k): B_p; kept: positions of S's non-constant
+    rows among the o and r rows; column_combine (k2, o2): C; nonzero (size, size): U_all's
+    entries that are not exactly zero in every sample (structurally zero otherwise, as a
+    column bitwise equal at frequencies 1e-7 and 40 % apart is constant).
     """
 
     rows: np.ndarray
@@ -121,54 +122,16 @@ class ConstantParts:
 
     @property
     def arranged_shape(self) -> tuple[int, int]:
-        """Rows and columns of an arranged U_all (:meth:`arrange`)."""
+        """Rows and columns of the arranged U_all."""
         return self.rows.size, self.columns.size
 
     def placement(self) -> tuple[np.ndarray, np.ndarray]:
-        """Where U_all's rows and columns go in the arranged matrix (-1: left out), for
-        :func:`ufmt.mstmm.overall.place`, which builds it without U_all."""
+        """Where U_all's rows and columns go in the arranged matrix (-1: left out)."""
         size = self.constant.size + self.columns.size
         row_to, col_to = np.full(size, -1), np.full(size, -1)
         row_to[self.rows] = np.arange(self.rows.size)
         col_to[self.columns] = np.arange(self.columns.size)
         return row_to, col_to
-
-    def arrange(self, u: np.ndarray) -> np.ndarray:
-        """U_all (n, size, size) cut to :attr:`rows` and :attr:`columns`, one gather."""
-        return u[:, self.rows[:, None], self.columns]
-
-    def reduce(self, a: np.ndarray) -> np.ndarray:
-        """S'(ω) (n, m', m'), a new C-contiguous array, from U_all(ω) arranged
-        (:meth:`arrange`), ``a``, whose other rows are changed in place; its pivot rows are
-        kept for :meth:`null_vectors`. dS'/dω from dU_all/dω likewise (the map is
-        linear)."""
-        n_kept, k2, o = self.kept.size, self.column_combine.shape[0], self.row_combine.shape[0]
-        m = self.columns.size
-        combined = np.matmul(self.row_combine, a[:, n_kept:])  # G times the pivot rows
-        n_o = int(np.searchsorted(self.kept, o))  # S's o rows come first
-        a[:, :n_o] -= combined if n_o == o else combined[:, self.kept[:n_o]]
-        s = a[:, :n_kept]
-        # C padded with zero columns to S's width: the result contiguous in one pass
-        out = np.matmul(s[:, :, m - k2 :], self._padded_column_combine)
-        return np.subtract(s[:, :, : m - k2], out, out=out)
-
-    @functools.cached_property
-    def _padded_column_combine(self) -> np.ndarray:
-        """C (k2, o2) followed by zero columns up to S's order."""
-        k2, o2 = self.column_combine.shape
-        padded = np.zeros((k2, self.columns.size - k2))
-        padded[:, :o2] = self.column_combine
-        return padded
-
-    def pivot_rows(self, a: np.ndarray) -> np.ndarray:
-        """The pivot rows (n, k, columns) of an :meth:`arrange` d U_all (a view): all that
-        :meth:`null_vectors` reads of it."""
-        return a[:, self.kept.size :]
-
-    def null_vectors(self, pivot_rows: np.ndarray, z_reduced: np.ndarray) -> np.ndarray:
-        """U_all's null vectors (n, size, q) from S''s (n, m', q), with ``pivot_rows`` those
-        (:meth:`pivot_rows`) of U_all at the same ω."""
-        return self.completed(z_reduced, lambda z_m: pivot_rows @ z_m)
 
     def completed(self, z_reduced: np.ndarray, pivot_times) -> np.ndarray:
         """U_all's null vectors (n, size, q) from S''s (n, m', q); ``pivot_times(z_m)``: U_all's
@@ -299,10 +262,8 @@ PLANS_KEPT = 64
 def _plan(layout: tuple, reduction: ConstantParts, g_mask, c_mask) -> _Plan:
     """The :class:`_Plan` of ``reduction`` for equation blocks of ``layout``, with G (on
     the kept o rows) and C taken as nonzero at ``g_mask`` and ``c_mask``."""
-    nonzero, size = reduction.nonzero, reduction.nonzero.shape[0]
-    rows, columns, n_kept = reduction.rows, reduction.columns, reduction.kept.size
-    row_to, col_to = np.full(size, -1), np.full(size, -1)
-    row_to[rows], col_to[columns] = np.arange(rows.size), np.arange(columns.size)
+    nonzero, n_kept = reduction.nonzero, reduction.kept.size
+    row_to, col_to = reduction.placement()
     gather, a, b, r0 = [], [], [], 0
     for k, (r, cols) in enumerate(layout):
         cols = np.frombuffer(cols, dtype=np.int64)
@@ -316,7 +277,7 @@ def _plan(layout: tuple, reduction: ConstantParts, g_mask, c_mask) -> _Plan:
             b.append(col_to[cols[j]])
         r0 += r
     a, b = np.concatenate(a), np.concatenate(b)
-    n_rows, n_columns = rows.size, columns.size
+    n_rows, n_columns = reduction.arranged_shape
     order = n_columns - c_mask.shape[0]  # S''s order
     gi, gp = np.nonzero(g_mask)
     cq, cj = np.nonzero(c_mask)
