@@ -314,30 +314,12 @@ class CondensationStack:
             k -= self._coupled(design, w2, inverse)
         return k
 
-    @functools.cached_property
-    def _outer(self) -> tuple[np.ndarray, np.ndarray]:
-        """(each design's w_i w_iᵀ on and above the diagonal (designs, r, o(o + 1)/2), W's
-        rows w_i; where each entry of an o x o matrix is among them)."""
-        w, o = self.coupling, self.order
-        i, j = np.triu_indices(o)
-        position = np.zeros((o, o), dtype=int)
-        position[i, j] = position[j, i] = np.arange(i.size)
-        return w[:, :, i] * w[:, :, j], position.ravel()
-
     def _coupled(self, design: int, w2: np.ndarray, inverse: np.ndarray) -> np.ndarray:
-        """Wᵀ diag(1/(λ_i - ω²)) W (len(ω) <= CHUNK, o, o) of one design at ω² [rad²/s²]
-        (len(ω),), ``inverse`` 1/(λ_i - ω²) (len(ω), r). Without mass coupling it is
-        Σ_i w_i w_iᵀ / (λ_i - ω²): one (CHUNK, r) @ (r, o(o + 1)/2) product, the ω padded
-        with zero rows to CHUNK (a product of the same shape every time: an ω's row is
-        summed alike in every call, which a product of len(ω) rows, whose kernels BLAS
-        chooses by size, does not promise); else one (o, r) @ (r, o) product per ω."""
-        if self.mass_coupling is None:
-            upper, mirror = self._outer
-            padded = np.zeros((CHUNK, inverse.shape[1]))
-            padded[: w2.size] = inverse
-            product = (padded @ upper[design])[: w2.size]
-            return product[:, mirror].reshape(w2.size, self.order, self.order)
+        """Wᵀ diag(1/(λ_i - ω²)) W (len(ω), o, o) of one design at ω² [rad²/s²] (len(ω),),
+        ``inverse`` 1/(λ_i - ω²) (len(ω), r): one (o, r) @ (r, o) product per ω."""
         a = self.coupling[design]
+        if self.mass_coupling is None:
+            return a.T @ (inverse[:, :, None] * a)
         w = a - w2[:, None, None] * self.mass_coupling[design]
         return np.swapaxes(w, 1, 2) @ (inverse[:, :, None] * w)
 
