@@ -19,7 +19,7 @@ constant factors, chosen once per solve by scaled partial pivoting:
 
 det B_p and det R_p are constants: S' has the same roots as U_all and
 tr(S'⁻¹ dS'/dω) = tr(U_all⁻¹ dU_all/dω). On the packaged model the order drops from 138
-to 72, so each LU and solve of the Newton iteration costs about a sixth.
+to 72, so each LU and solve of the Newton iteration costs about a seventh.
 
 Only S's non-constant rows, the pivot rows and the ω-dependent columns are read (the
 arranged U_all: U_all[rows][:, columns] of :class:`ConstantParts`). The Newton iteration
@@ -166,6 +166,7 @@ class ConstantParts:
 
     @functools.cached_property
     def _maps(self) -> dict:
+        """layout -> :class:`SparseReduction` made for it."""
         return {}
 
 

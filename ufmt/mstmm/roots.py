@@ -435,8 +435,8 @@ def _newton(system, omega, lo, hi, mult, rtol, state_keys=()):
     Returns (roots, certified, null bases, state maps): a cluster is certified when its last
     step is below ``rtol`` or, being below ACCEPT_STEP, contracted superlinearly from the
     previous one, inside [lo, hi]. The iteration works on S(ω), U_all with its ω-independent
-    columns and rows eliminated (:mod:`ufmt.mstmm.reduced`: det U_all = const · det S, from
-    U_all's nonzeros; a third of the LU cost), its rows and columns scaled to O(1) once.
+    columns and rows eliminated (:mod:`ufmt.mstmm.reduced`: det U_all = const · det S, S
+    built from U_all's nonzeros and solved per diagonal block), scaled to O(1) once.
 
     d ln det S/dω = tr(S⁻¹ dS/dω) is the sum of the eigenvalues of P = S⁻¹ dS/dω; near a
     cluster of m roots, m of them are ≈ 1/(ω - ω_k) and all others O(1/gap) to the other
@@ -548,9 +548,9 @@ def _own_vectors(pattern, x, own, b: int) -> np.ndarray:
 
 def _null_basis(sparse, x, u, n_active, sel, t) -> np.ndarray:
     """U_all's null basis (roots, size, m) at the converged iterates ``sel`` from S''s
-    (``x``, (roots, m', m), column-scaled back), completed with U_all's
-    pivot rows at the root, not at the iterate (first order in the step from U_all's entries
-    ``u`` at ω and at ω + dω: an O(step²) error instead of O(step))."""
+    (``x``, (roots, m', m), column scaling undone), completed with U_all's pivot rows at the
+    root, not at the iterate (first order in the step from U_all's entries ``u`` at ω and
+    at ω + dω: an O(step²) error instead of O(step))."""
     at, above = u[:n_active], u[n_active:]
     if sel.size < n_active:
         at, above = at[sel], above[sel]

@@ -1,7 +1,7 @@
 """Stacks of sparse matrices that share one pattern of entries, for the Newton iteration's S'
 (:mod:`ufmt.mstmm.reduced`): on the packaged model an eighth of S''s entries are nonzero and
 a twentieth of U_all's, so products, scalings and the dense matrices for LAPACK are built
-from the nonzero entries alone, one per diagonal block (:meth:`SparseRows.diagonal_blocks`:
+from the nonzero entries alone, one per diagonal block (:attr:`SparseRows.diagonal_blocks`:
 a structure with a plane of symmetry has two, its in-plane and out-of-plane motions)."""
 
 from __future__ import annotations
