@@ -11,7 +11,7 @@ from synthetic import axisymmetric_chain
 
 from ufmt.model.load import load_model, model_from_dict, packaged_path
 from ufmt.mstmm.overall import TransferSystem, assemble, block_layout
-from ufmt.mstmm.reduced import ConstantParts
+from ufmt.mstmm.reduced import ConstantParts, SparseReduction
 
 
 def _model(name: str):
@@ -35,7 +35,7 @@ def test_sparse_map_gives_the_reduction_of_the_assembled_matrix(name):
     at = [0, 9, -1]
     assert np.array_equal(assemble(blocks, system.size, at), dense[at])
     reduction = ConstantParts.of(dense[at])
-    sparse = reduction.sparse(block_layout(blocks))
+    sparse = SparseReduction.of(reduction, block_layout(blocks))
     values = sparse.values(blocks)
     cut = arranged(reduction, dense)
     rows, columns = reduction.placement()

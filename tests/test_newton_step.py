@@ -91,3 +91,24 @@ def test_an_iterate_exactly_on_a_root_is_flagged_and_takes_no_step():
     step, finite = one_cluster_step(13.0, ritz, singular, 11.0, 15.0)
     assert finite.all() and step[0] == 0.0
     np.testing.assert_allclose(np.abs(x[0, :, 0]), [0.0, 1.0, 0.0], atol=1e-9)
+
+
+def test_a_nan_in_one_diagonal_block_spoils_the_whole_step():
+    """S = diag(S_a, S_b), two diagonal blocks of the pattern, a NaN in S_a only: S_b's
+    Ritz values alone would give a finite step to its own root, but S holds a NaN, so
+    there is no step and it is flagged not finite (as for a NaN in a single block)."""
+    a0, a1 = linear_pencil([10.0, 13.0], 10.3, 1e-6, seed=4)
+    b0, b1 = linear_pencil([10.2, 17.0], 10.3, 1e-6, seed=5)
+    a0[0, 0, 1] = np.nan
+    rows, columns = np.r_[np.repeat([0, 1], 2), np.repeat([2, 3], 2)], np.r_[0, 1, 0, 1, 2, 3, 2, 3]
+    pattern = SparseRows((4, 4), rows, columns)
+    assert len(pattern.diagonal_blocks) == 2
+    s0 = np.concatenate([a0.reshape(1, -1), b0.reshape(1, -1)], axis=1)
+    s1 = np.concatenate([a1.reshape(1, -1), b1.reshape(1, -1)], axis=1)
+    start = np.random.default_rng(6).standard_normal((4, 2))
+    ones = np.ones((1, 4))
+    x, ritz, singular = inverse_iteration(
+        pattern, s0, s1, ones, ones, np.array([1e-6]), start[None], start
+    )
+    step, finite = one_cluster_step(10.3, ritz, singular, 10.1, 10.5)
+    assert not finite.any() and step[0] == 0.0

@@ -19,8 +19,9 @@ def inverse_iteration(pattern, s0, s1, r, c, h, x, start):
     """NULL_SPACE_PRODUCTS products of P = S⁻¹ dS/dω (rows and columns scaled by r, c (n, m');
     S at ω and ω + h: its entries s0, s1 (n, q) at ``pattern``'s positions
     (:class:`ufmt.mstmm.sparse.SparseRows`), dS/dω their forward difference) with the blocks
-    ``x`` (n, m', b), QR after each (a block that a NaN or inf in S spoiled starts again
-    from ``start``). P is block diagonal as S is (:attr:`SparseRows.diagonal_blocks`): each
+    ``x`` (n, m', b), orthonormalised after each (a block that a NaN or inf in S spoiled
+    starts again from ``start``, and that S gives no Ritz values at all: no step, never
+    converged). P is block diagonal as S is (:attr:`SparseRows.diagonal_blocks`): each
     diagonal block is factored and iterated on its own, with the rows of ``x`` at its columns.
     Returns (the last blocks, each diagonal block's orthonormal; the Ritz values (n, blocks · b)
     of P on them before the last product, diagonal block by block, b per block (0: none, a
@@ -32,27 +33,29 @@ def inverse_iteration(pattern, s0, s1, r, c, h, x, start):
     scale = np.multiply(row_scale, column_scale, out=row_scale)
     n, b = s0.shape[0], x.shape[2]
     blocks = pattern.diagonal_blocks
-    x, ritz, singular = x.copy(), np.zeros((n, len(blocks) * b), complex), np.zeros(n, bool)
+    x, ritz = x.copy(), np.zeros((n, len(blocks) * b), complex)
+    singular, spoiled = np.zeros(n, dtype=bool), np.zeros(n, dtype=bool)
     for k, block in enumerate(blocks):
         on, width = block.entries, min(b, block.columns.size)  # a block of order < b: all of it
-        x[:, block.columns, :width], ritz[:, k * b : k * b + width], block_singular = (
-            _block_iteration(
-                block.local,
-                s0[:, on] * scale[:, on],
-                ds[:, on],
-                lambda i, on=on: s1[i : i + 1, on] * scale[i, on],
-                x[:, block.columns, :width],
-                start[block.columns, :width],
-            )
+        x[:, block.columns, :width], ritz[:, k * b : k * b + width], *flags = _block_iteration(
+            block.local,
+            s0[:, on] * scale[:, on],
+            ds[:, on],
+            lambda i, on=on: s1[i : i + 1, on] * scale[i, on],
+            x[:, block.columns, :width],
+            start[block.columns, :width],
         )
-        singular |= block_singular
+        singular |= flags[0]
+        spoiled |= flags[1]
+    ritz[spoiled] = 0.0
     return x, ritz, singular
 
 
 def _block_iteration(local, s0, ds, s1, x, start):
     """:func:`inverse_iteration` on one diagonal block: its scaled S at ω and dS/dω (entries
     at ``local``'s positions), ``s1(i)``: matrix i's scaled S at ω + h (1, entries), its
-    rows of the blocks and of the start."""
+    rows of the blocks and of the start. Returns (blocks, Ritz values, exactly singular,
+    spoiled by a NaN or inf)."""
     ds = local.dense(ds)  # three products: dense matmuls beat sparse gathers here
     lu = factor(local.dense(s0))
     singular = lu.singular.copy()
@@ -64,9 +67,10 @@ def _block_iteration(local, s0, ds, s1, x, start):
             if k == NULL_SPACE_PRODUCTS - 1:
                 projected = np.swapaxes(x, 1, 2) @ y
             x = orthonormal(y)
-    projected[~np.isfinite(projected).all(axis=(1, 2))] = 0.0
+    spoiled = ~np.isfinite(projected).all(axis=(1, 2))
+    projected[spoiled] = 0.0
     x[~np.isfinite(x).all(axis=(1, 2))] = start
-    return x, np.linalg.eigvals(projected), singular
+    return x, np.linalg.eigvals(projected), singular, spoiled
 
 
 def own_step(w, act, ritz, mult, lo, hi, singular):

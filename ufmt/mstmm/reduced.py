@@ -42,6 +42,12 @@ import scipy.sparse as sp
 
 from ufmt.mstmm.sparse import SparseRows
 
+# G's and C's multipliers (of the rows or columns scaled to O(1)) this small are rounding
+# noise of an exact zero (e.g. a lever arm across the plane of symmetry computed as 1e-17):
+# kept, they would couple S''s diagonal blocks and make the sparse structure of a design
+# depend on its rounding
+ROUNDING_MULTIPLIER = 1e-13
+
 
 def _pivots(block: np.ndarray, scale: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Rows of ``block`` (t, k) (rank k) in pivot order, and G (t - k, k) with
@@ -52,6 +58,7 @@ def _pivots(block: np.ndarray, scale: np.ndarray) -> tuple[np.ndarray, np.ndarra
     perm, lower, _ = sla.lu(block / scale[:, None], p_indices=True)
     order = np.argsort(perm)  # block / scale = lower[perm] @ upper
     g = sla.solve_triangular(lower[:k], lower[k:].T, trans="T", lower=True, unit_diagonal=True)
+    g[np.abs(g) <= ROUNDING_MULTIPLIER] = 0.0  # an exact zero's rounding, not a coupling
     return order, scale[order[k:], None] * g.T / scale[order[:k]][None, :]
 
 
@@ -156,19 +163,6 @@ class ConstantParts:
         """B_p's LU factors (scipy.linalg.lu_factor)."""
         return sla.lu_factor(self.pivot_block, check_finite=False)
 
-    def sparse(self, layout: tuple) -> SparseReduction:
-        """The map from equation blocks of this ``layout`` (per block its row count and its
-        columns as int64 bytes, :meth:`ufmt.mstmm.overall.TransferSystem.equation_blocks`) to
-        S''s nonzero entries, made once per layout."""
-        if layout not in self._maps:
-            self._maps[layout] = SparseReduction.of(self, layout)
-        return self._maps[layout]
-
-    @functools.cached_property
-    def _maps(self) -> dict:
-        """layout -> :class:`SparseReduction` made for it."""
-        return {}
-
 
 @dataclass(frozen=True, eq=False)
 class SparseReduction:
@@ -176,8 +170,8 @@ class SparseReduction:
     columns (module docstring): the structure (:class:`_Plan`, shared by every design of a
     structure) and this design's G and C in it.
 
-    to_s (S''s entries, entries taken): S' = L A R entry by entry, with coefficients
-    ``coefficients``."""
+    to_s (S''s entries, entries taken): S' = L A R entry by entry, this design's L and R
+    values in the plan's structure."""
 
     reduction: ConstantParts
     plan: _Plan
@@ -185,9 +179,12 @@ class SparseReduction:
 
     @classmethod
     def of(cls, reduction: ConstantParts, layout: tuple) -> SparseReduction:
-        """The map for equation blocks of ``layout`` (see :meth:`ConstantParts.sparse`)."""
+        """The map for equation blocks of ``layout`` (per block its row count and its columns
+        as int64 bytes, :func:`ufmt.mstmm.overall.block_layout`); the plan is kept per
+        structure and pattern of G and C."""
         g_rows = reduction.kept[reduction.kept < reduction.row_combine.shape[0]]
         g, c = reduction.row_combine[g_rows], reduction.column_combine
+        g_mask, c_mask = g != 0, c != 0
         key = (
             layout,
             np.packbits(reduction.nonzero).tobytes(),
@@ -195,17 +192,13 @@ class SparseReduction:
             _bytes(reduction.columns),
             reduction.kept.size,
             g.shape,
+            np.packbits(g_mask).tobytes(),
             c.shape,
+            np.packbits(c_mask).tobytes(),
         )
         plan = _PLANS.get(key)
-        if plan is None or np.any((g != 0) & ~plan.g_mask) or np.any((c != 0) & ~plan.c_mask):
-            # G's and C's entries of rounding size are zero in some designs, not in others:
-            # one plan for every pattern seen (a zero coefficient adds an exact zero)
-            g_mask, c_mask = g != 0, c != 0
-            if plan is not None:
-                g_mask, c_mask = g_mask | plan.g_mask, c_mask | plan.c_mask
-            plan = _plan(layout, reduction, g_mask, c_mask)
-            _PLANS[key] = plan
+        if plan is None:
+            plan = _PLANS[key] = _plan(layout, reduction, g_mask, c_mask)
             if len(_PLANS) > PLANS_KEPT:
                 del _PLANS[next(iter(_PLANS))]
         left, right = np.r_[1.0, -g[plan.g_mask]], np.r_[1.0, -c[plan.c_mask]]

@@ -42,7 +42,7 @@ import numpy as np
 from ufmt.errors import UfmtError
 from ufmt.mstmm.newton_step import inverse_iteration, own_step
 from ufmt.mstmm.overall import State, TransferSystem, assemble, block_layout, equilibrate
-from ufmt.mstmm.reduced import ConstantParts
+from ufmt.mstmm.reduced import ConstantParts, SparseReduction
 
 TWO_PI = 2.0 * np.pi
 STEPS = np.array([3e-2, 1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7])
@@ -520,7 +520,7 @@ def _evaluate(system, wa, h, sparse, state_keys):
         omega_q = np.concatenate([wa, wa + h, [0.61 * wa[0]]])
         blocks, walked = _walk(system, omega_q, state_keys)
         reduction = ConstantParts.of(assemble(blocks, system.size, [0, wa.size, -1]))
-        sparse = reduction.sparse(block_layout(blocks))
+        sparse = SparseReduction.of(reduction, block_layout(blocks))
         return sparse, sparse.values(blocks)[:-1], walked
     blocks, walked = _walk(system, np.concatenate([wa, wa + h]), state_keys)
     return sparse, sparse.values(blocks), walked
