@@ -88,3 +88,27 @@ def test_reduction_whose_first_o_row_becomes_constant_keeps_det_up_to_a_constant
     s = reduced(reduction, u)
     ratio = np.linalg.det(u) / np.linalg.det(s)
     np.testing.assert_allclose(ratio, ratio[0], rtol=1e-12)
+
+
+@pytest.mark.parametrize("threshold", [0.0, 1e-11])
+def test_rounding_size_multipliers_taken_as_zeros_change_nothing_but_rounding(
+    monkeypatch, threshold
+):
+    """Oracle: the same solve with G's and C's rounding-size multipliers kept (threshold 0)
+    or dropped up to 100 times the default. Frequencies agree to 1e-13 and every mode
+    shape's U_all null vector to 1e-9 of its size: the default sits where the choice does
+    not matter."""
+    import ufmt.mstmm.reduced as reduced_module
+    from ufmt.mstmm.solve import solve_modes
+
+    model = load_model(packaged_path("ufmt.toml"))
+    default = solve_modes(model, fmax_hz=5000.0)
+    monkeypatch.setattr(reduced_module, "ROUNDING_MULTIPLIER", threshold)
+    reduced_module._PLANS.clear()
+    other = solve_modes(model, fmax_hz=5000.0)
+    reduced_module._PLANS.clear()
+    np.testing.assert_allclose(other.frequencies_hz, default.frequencies_hz, rtol=1e-13, atol=0)
+    a, b = default.shapes.z_all, other.shapes.z_all
+    sign = np.sign(np.sum(a * b, axis=1))[:, None]  # a shape's sign is a convention
+    scale = np.linalg.norm(a, axis=1)[:, None]
+    assert np.all(np.abs(a - sign * b) <= 1e-9 * scale)

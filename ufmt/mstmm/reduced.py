@@ -188,8 +188,8 @@ class SparseReduction:
         key = (
             layout,
             np.packbits(reduction.nonzero).tobytes(),
-            _bytes(reduction.rows),
-            _bytes(reduction.columns),
+            reduction.rows.tobytes(),  # int64 indices
+            reduction.columns.tobytes(),
             reduction.kept.size,
             g.shape,
             np.packbits(g_mask).tobytes(),
@@ -201,7 +201,7 @@ class SparseReduction:
             plan = _PLANS[key] = _plan(layout, reduction, g_mask, c_mask)
             if len(_PLANS) > PLANS_KEPT:
                 del _PLANS[next(iter(_PLANS))]
-        left, right = np.r_[1.0, -g[plan.g_mask]], np.r_[1.0, -c[plan.c_mask]]
+        left, right = np.r_[1.0, -g[g_mask]], np.r_[1.0, -c[c_mask]]
         coefficients = left[plan.left] * right[plan.right]
         to_s = sp.csr_matrix((coefficients, plan.entries, plan.starts), shape=plan.to_s_shape)
         return cls(reduction, plan, to_s)
@@ -232,9 +232,9 @@ class _Plan:
     """The structure of a :class:`SparseReduction`: gather, per equation block (index, rows,
     columns) of the entries taken (U_all's arranged nonzeros); S''s entry k is the sum over
     ``entries[starts[k]:starts[k + 1]]`` (indices of the taken ones) times L's value
-    ``left`` and R's value ``right`` (indices into [1, -G at g_mask] and [1, -C at c_mask]);
-    pattern: S''s entries; pivots: the pivot rows' entries, ``pivot_entries`` where they
-    are among the taken ones."""
+    ``left`` and R's value ``right`` (indices into [1, -G] and [1, -C] at the nonzeros of the
+    plan's pattern of G and C); pattern: S''s entries; pivots: the pivot rows' entries,
+    ``pivot_entries`` where they are among the taken ones."""
 
     gather: tuple
     entries: np.ndarray
@@ -245,8 +245,6 @@ class _Plan:
     pattern: SparseRows
     pivots: SparseRows
     pivot_entries: np.ndarray
-    g_mask: np.ndarray
-    c_mask: np.ndarray
 
 
 _PLANS: dict = {}  # a reduction's structure (SparseReduction.of) -> its plan
@@ -305,14 +303,7 @@ def _plan(layout: tuple, reduction: ConstantParts, g_mask, c_mask) -> _Plan:
         pattern,
         pivots,
         pivot[by_row],
-        g_mask,
-        c_mask,
     )
-
-
-def _bytes(a: np.ndarray) -> bytes:
-    """Integer indices as int64 bytes (a cache key)."""
-    return a.astype(np.int64, copy=False).tobytes()
 
 
 def _by_source(n: int, source: np.ndarray, target: np.ndarray):
