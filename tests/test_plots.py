@@ -177,7 +177,9 @@ def test_pareto_log_axis_reads_plain_numbers_and_points_carry_their_recipe():
     assert [t.get_text() for t in fig.axes[0].texts] == ["1", "2", "3"]
     legend = [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
     assert any("1: 300 rpm, 16 mm/min, 2 µm" in t for t in legend)  # shortest time first
-    assert not any("min-pv" in t for t in legend) and any("minimum PV" in t for t in legend)
+    assert not any("min-pv" in t for t in legend) and any(
+        "minimum whole-plate PV" in t for t in legend
+    )
     assert "Table 1" not in fig.axes[0].get_title()  # no bounds given: no claim about them
     table1 = [
         {"parameter": "rpm", "range": [200.0, 400.0]},

@@ -3,10 +3,10 @@
 * sweeps: PV against each swept parameter (log axis for stiffnesses, the calibrated value
   marked, the region outside the paper's Table 1 shaded for process parameters), as the
   paper's Fig. 15 (bearing stiffness) and Fig. 16 (rpm, feed, depth); PV maps over 2-D grids
-  with the lowest point and the calibrated design / base recipe marked. The PV drawn is the
-  interferometer's (``pv_measured_nm``, what a shop reads and Table 4 reports) where the
-  table has it, the whole-plate PV (``pv_nm``) beside it: with the straightness at its band
-  edge the whole-plate PV is dominated by a wedge the interferometer removes as tilt;
+  with the lowest point and the calibrated design / base recipe marked. The metric drawn and
+  ranked is the study's (``metric``, :mod:`ufmt.studies.metric`; by default the
+  interferometer's PV, ``pv_measured_nm``, what a shop reads and Table 4 reports), the
+  whole-plate PV (``pv_nm``) beside it on its own axis;
 * optimisers: convergence (best objective against evaluations, per stage); for cutting
   recipes the Pareto front of PV against cutting time with the PV target, each front point
   labelled with its recipe; for designs the trade-off of PV against stiffness cost;
@@ -28,6 +28,7 @@ from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
 from ufmt.design import SOURCE_METRICS
 from ufmt.machining.process import TABLE1_RANGE
 from ufmt.plots import new_axes, new_figure
+from ufmt.studies.metric import metric_label, metric_unit, metric_words
 
 PANEL = (4.2, 3.2)  # inches per panel
 DENSE_TICK_SPAN = 30.0  # log axes spanning less than this ratio label every 1-9 x 10^k
@@ -35,14 +36,9 @@ MAX_LABELLED_CELLS = 64  # PV maps print each cell's value up to this many cells
 MAX_RECIPE_LABELS = 10  # Pareto points labelled with their recipe (evenly picked)
 OUTSIDE_TABLE1 = {"color": "0.85", "hatch": "//", "alpha": 0.5, "lw": 0}
 CONSTANT_SHARE = 1e-3  # a source whose PV moves less than this share is drawn as constant
-METRIC_SHORT = {"pv_measured_nm": "interferometer PV", "pv_nm": "whole-plate PV"}
-METRIC_LABELS = {
-    "pv_measured_nm": "interferometer PV (clear aperture, piston and tilt removed)",
-    "pv_nm": "whole-plate PV (every point of the cut, right axis)",
-}
 OPTIMUM_LABELS = {
-    "min-pv": "minimum PV",
-    "fastest-under-target": "fastest recipe under the PV target",
+    "min-pv": "minimum",
+    "fastest-under-target": "fastest recipe under the target",
     "calibrated": "calibrated design",
     "optimum": "optimum design",
 }
@@ -126,21 +122,27 @@ def _shade_outside_table1(ax, name: str, values, axis: str = "x") -> bool:
 
 
 def sweep_figures(points: pd.DataFrame, meta: dict) -> dict[str, Figure]:
-    """PV against each one-at-a-time axis (one figure) and a PV map per 2-D grid."""
+    """The study's metric against each one-at-a-time axis (one figure) and a map of it per
+    2-D grid (the metric of ``meta["options"]``, else :func:`_main_metric`)."""
     figures = {}
+    metric = meta.get("options", {}).get("metric") or _main_metric(points)
     lines = [g for g in meta["groups"] if len(g["axes"]) == 1]
     if lines:
-        figures["pv_vs_parameters.png"] = plot_pv_lines(points, lines, meta["baseline"])
+        figures["pv_vs_parameters.png"] = plot_pv_lines(points, lines, meta["baseline"], metric)
     for group in meta["groups"]:
         if len(group["axes"]) == 2:
-            figures[f"pv_map_{group['name']}.png"] = plot_pv_map(points, group, meta["baseline"])
+            figures[f"pv_map_{group['name']}.png"] = plot_pv_map(
+                points, group, meta["baseline"], metric=metric
+            )
     return figures
 
 
-def plot_pv_lines(points: pd.DataFrame, groups: list[dict], baseline: dict, ax=None) -> Figure:
-    """Two panels per swept parameter. Above: the interferometer's PV (``pv_measured_nm``:
-    clear aperture, piston and tilt removed; what a shop reads) with the whole-plate PV
-    (``pv_nm``) on its own right-hand axis. Below: the PV of each error source alone that
+def plot_pv_lines(
+    points: pd.DataFrame, groups: list[dict], baseline: dict, metric: str | None = None, ax=None
+) -> Figure:
+    """Two panels per swept parameter. Above: ``metric`` (default :func:`_main_metric`: the
+    interferometer's PV where the table has it) with the whole-plate PV (``pv_nm``) on its own
+    right-hand axis. Below: the PV of each error source alone that
     changes over the sweep (the cutting-force vibration first); sources that are zero, or
     constant over every axis, are named in the legend instead of drawn. One legend for all.
 
@@ -163,15 +165,16 @@ def plot_pv_lines(points: pd.DataFrame, groups: list[dict], baseline: dict, ax=N
         panels = [tuple(ax[2 * i : 2 * i + 2]) for i in range(n)]
         fig = panels[0][0].figure
     ok = _ok(points)
+    metric = metric or _main_metric(ok)
     sources, constant = _varying_sources(ok)
     for (top, bottom), group in zip(panels, groups, strict=True):
-        _pv_panels(top, bottom, ok, group, baseline, sources)
+        _pv_panels(top, bottom, ok, group, baseline, sources, metric)
     handles, labels = _unique_legend(fig)
     for column, value in constant.items():
         handles.append(Line2D([], [], ls="none"))
         labels.append(f"{_source(column)} alone: {value:.3g} nm at every point (not drawn)")
     fig.legend(handles, labels, loc="outside lower center", ncols=3, fontsize="small")
-    fig.suptitle("Surface PV against each swept parameter (others at the base design)")
+    fig.suptitle(f"{metric_words(metric)} against each swept parameter (others at the base design)")
     return fig
 
 
@@ -199,18 +202,17 @@ def _varying_sources(ok: pd.DataFrame) -> tuple[list[str], dict[str, float]]:
     return varying, constant
 
 
-def _pv_panels(top, bottom, ok, group, baseline, sources) -> None:
+def _pv_panels(top, bottom, ok, group, baseline, sources, metric) -> None:
     """One parameter's two panels (see :func:`plot_pv_lines`)."""
     axis = group["axes"][0]
     name = axis["parameter"]
     data = ok[ok["group"] == group["name"]].sort_values(name)
     x = data[name]
-    main = _main_metric(data)
-    measured = main == "pv_measured_nm"
-    top.plot(x, data[main], "o-", color="C0", label=METRIC_LABELS[main])
-    if measured:
+    top.plot(x, data[metric], "o-", color="C0", label=metric_label(metric))
+    if metric != "pv_nm" and "pv_nm" in data:
         whole = top.twinx()
-        whole.plot(x, data["pv_nm"], "s--", ms=3, color="0.45", label=METRIC_LABELS["pv_nm"])
+        label = "whole-plate PV (every point of the cut, right axis)"
+        whole.plot(x, data["pv_nm"], "s--", ms=3, color="0.45", label=label)
         whole.set_ylabel("whole-plate PV [nm]", color="0.45", fontsize="small")
         whole.tick_params(axis="y", colors="0.45", labelsize="small")
     others = [c for c in sources if c != "pv_dynamic_nm"]
@@ -240,7 +242,7 @@ def _pv_panels(top, bottom, ok, group, baseline, sources) -> None:
         right.set_ylabel("other sources alone [nm]", fontsize="small", color="C4")
         right.tick_params(axis="y", labelsize="small")
         right.margins(y=0.15)
-    top.set_ylabel(f"{'interferometer' if measured else 'surface'} PV [nm]", color="C0")
+    top.set_ylabel(metric_label(metric).split(" (")[0], color="C0")
     bottom.set_xlabel(parameter_label(name))
     for a in (top, bottom):
         if axis["log"]:
@@ -264,21 +266,29 @@ def _unique_legend(fig) -> tuple[list, list[str]]:
     return list(seen.values()), list(seen)
 
 
-def plot_pv_map(points: pd.DataFrame, group: dict, baseline: dict | None = None, ax=None) -> Figure:
-    """PV [nm] over a 2-D grid (log axes for log-spaced parameters), the lowest point and the
-    calibrated design / base recipe marked: the interferometer's PV where the table has it
-    (the whole-plate PV's range in the title), else the whole-plate PV."""
+def plot_pv_map(
+    points: pd.DataFrame,
+    group: dict,
+    baseline: dict | None = None,
+    ax=None,
+    metric: str | None = None,
+) -> Figure:
+    """``metric`` over a 2-D grid (log axes for log-spaced parameters), its lowest point and
+    the calibrated design / base recipe marked (default :func:`_main_metric`: the
+    interferometer's PV where the table has it; the whole-plate PV's range in the title)."""
     x_axis, y_axis = group["axes"]
     x_name, y_name = x_axis["parameter"], y_axis["parameter"]
     data = points[points["group"] == group["name"]]
-    metric = _main_metric(data)
+    metric = metric or _main_metric(data)
+    words = metric_words(metric)
+    label = metric_label(metric).split(" (")[0]
     table = data.pivot_table(index=y_name, columns=x_name, values=metric, aggfunc="first")
     fig, ax = new_axes(ax, (1.5 * PANEL[0], 1.35 * PANEL[1]))
     pv = table.to_numpy(float)
     norm = LogNorm() if np.nanmin(pv) > 0 and np.nanmax(pv) > 10 * np.nanmin(pv) else None
     x, y = table.columns.to_numpy(float), table.index.to_numpy(float)
     mesh = ax.pcolormesh(_edges(x, x_axis["log"]), _edges(y, y_axis["log"]), pv, norm=norm)
-    fig.colorbar(mesh, ax=ax, label=f"{METRIC_SHORT[metric]} [nm]")
+    fig.colorbar(mesh, ax=ax, label=label)
     if pv.size <= MAX_LABELLED_CELLS:
         for (i, j), value in np.ndenumerate(pv):
             colour = "w" if mesh.norm(value) < 0.5 else "k"  # viridis is dark at the low end
@@ -295,7 +305,14 @@ def plot_pv_map(points: pd.DataFrame, group: dict, baseline: dict | None = None,
     if not ok.empty:
         best = ok.iloc[int(np.argmin(ok[metric].to_numpy(float)))]
         ax.plot(
-            best[x_name], best[y_name], "o", ms=22, mfc="none", mec="r", mew=1.5, label="lowest PV"
+            best[x_name],
+            best[y_name],
+            "o",
+            ms=22,
+            mfc="none",
+            mec="r",
+            mew=1.5,
+            label=f"lowest {words}",
         )
     base = baseline or {}
     if x_name in base and y_name in base:
@@ -316,8 +333,8 @@ def plot_pv_map(points: pd.DataFrame, group: dict, baseline: dict | None = None,
         markerscale=0.5,
     )
     short = [parameter_label(n).split(" [")[0] for n in (y_name, x_name)]
-    title = f"{METRIC_SHORT[metric]} [nm]: {short[0]} against {short[1]}"
-    if metric != "pv_nm" and not ok.empty:
+    title = f"{label}: {short[0]} against {short[1]}"
+    if metric != "pv_nm" and "pv_nm" in ok and not ok.empty:
         title += f"\n(whole-plate PV {ok['pv_nm'].min():.0f}-{ok['pv_nm'].max():.0f} nm)"
     ax.set_title(title, fontsize="medium")
     return fig
@@ -383,63 +400,69 @@ def plot_pareto(
     ax=None,
     bounds: list[dict] | None = None,
 ) -> Figure:
-    """Every evaluated recipe, the non-dominated front and the optima: PV (the optimiser's
-    objective, the whole-plate PV) against cutting time, with the interferometer's PV of the
-    front's recipes beside it. Front points are numbered and their recipes listed beside the
+    """Every evaluated recipe, the non-dominated front and the optima: the study's objective
+    (``optima["objective"]``, a record metric; ``pv_nm`` for tables that predate it) against
+    cutting time, with the interferometer's PV of the front's recipes beside it where the
+    objective is another metric. Front points are numbered and their recipes listed beside the
     axes (no label sits on a marker). ``bounds`` (meta.json's): the title says "Table 1
     ranges" only when they are the paper's Table 1 ranges."""
+    metric = optima["objective"].iloc[0] if "objective" in optima else "pv_nm"
+    target = optima["target"].iloc[0] if "target" in optima else optima["target_pv_nm"].iloc[0]
+    words, unit = metric_words(metric), metric_label(metric).split(" (")[0]
     fig, ax = new_axes(ax, (2.4 * PANEL[0], 1.6 * PANEL[1]))
     ok = _ok(points)
     travel = optima["travel_mm"].iloc[0]
-    ax.scatter(travel / ok["feed_mm_min"], ok["pv_nm"], s=4, c="0.75", label="evaluated recipes")
+    ax.scatter(travel / ok["feed_mm_min"], ok[metric], s=4, c="0.75", label="evaluated recipes")
     front = front.sort_values("cutting_time_min")
     ax.step(
         front["cutting_time_min"],
-        front["pv_nm"],
+        front[metric],
         "o-",
         where="post",
         ms=3,
-        label="Pareto front (whole-plate PV)",
+        label=f"Pareto front ({words})",
     )
-    shown = [front["pv_nm"]]
-    if "pv_measured_nm" in front and front["pv_measured_nm"].notna().any():
-        ax.plot(
-            front["cutting_time_min"],
-            front["pv_measured_nm"],
-            "o",
-            mfc="none",
-            ms=5,
-            color="C2",
-            label="interferometer PV of the front's recipes",
-        )
-        shown.append(front["pv_measured_nm"])
-    recipes = _number_front(ax, front)
+    shown = [front[metric]]
+    if metric != "pv_measured_nm" and "pv_measured_nm" in front:
+        if front["pv_measured_nm"].notna().any():
+            ax.plot(
+                front["cutting_time_min"],
+                front["pv_measured_nm"],
+                "o",
+                mfc="none",
+                ms=5,
+                color="C2",
+                label="interferometer PV of the front's recipes",
+            )
+            shown.append(front["pv_measured_nm"])
+    recipes = _number_front(ax, front, metric)
     for row in optima.itertuples():
+        value = getattr(row, metric)
+        name = f"minimum {words}" if row.optimum == "min-pv" else _label(row.optimum)
         ax.plot(
             row.cutting_time_min,
-            row.pv_nm,
+            value,
             "*",
             ms=13,
-            label=f"{_label(row.optimum)}: PV {row.pv_nm:.3g} nm, {_recipe(row)}",
+            label=f"{name}: {value:.3g} {metric_unit(metric)}, {_recipe(row)}",
         )
-        shown.append(pd.Series([row.pv_nm]))
-    target = optima["target_pv_nm"].iloc[0]
-    ax.axhline(target, color="r", lw=0.8, ls="--", label=f"PV target {target:g} nm")
+        shown.append(pd.Series([value]))
+    ax.axhline(target, color="r", lw=0.8, ls="--", label=f"target {target:g}")
     ax.set_yscale("log")
     _plain_log(ax.yaxis, pd.concat([*shown, pd.Series([target])]))
     ax.set_xlabel("cutting time of one pass [min]")
-    ax.set_ylabel("PV [nm] (front: whole-plate PV, the objective)")
+    ax.set_ylabel(f"{unit} (the objective)")
     ax.grid(True, which="both", alpha=0.3)
     handles, labels = ax.get_legend_handles_labels()
     handles.append(Line2D([], [], ls="none"))
     labels.append("front recipes:\n" + "\n".join(recipes))
     ax.legend(handles, labels, fontsize="x-small", loc="upper left", bbox_to_anchor=(1.02, 1.0))
     ranges = " (Table 1 ranges)" if _table1_bounds(bounds) else ""
-    ax.set_title(f"Cutting recipes: surface PV against cutting time{ranges}")
+    ax.set_title(f"Cutting recipes: {words} against cutting time{ranges}")
     return fig
 
 
-def _number_front(ax, front: pd.DataFrame) -> list[str]:
+def _number_front(ax, front: pd.DataFrame, metric: str = "pv_nm") -> list[str]:
     """Number up to MAX_RECIPE_LABELS front points, evenly over the cutting time, above their
     markers; returns the "k: recipe" lines."""
     gap = np.ptp(front["cutting_time_min"].to_numpy(float)) / MAX_RECIPE_LABELS
@@ -449,16 +472,17 @@ def _number_front(ax, front: pd.DataFrame) -> list[str]:
             continue
         last = row.cutting_time_min
         k = len(lines) + 1
+        value = getattr(row, metric)
         ax.annotate(
             str(k),
-            (row.cutting_time_min, row.pv_nm),
+            (row.cutting_time_min, value),
             xytext=(0, 6),
             textcoords="offset points",
             ha="center",
             fontsize=7,
             color="C0",
         )
-        lines.append(f"{k}: {_recipe(row)}, {row.cutting_time_min:.3g} min, PV {row.pv_nm:.3g} nm")
+        lines.append(f"{k}: {_recipe(row)}, {row.cutting_time_min:.3g} min, {value:.3g}")
     return lines
 
 
@@ -480,29 +504,36 @@ def design_cost(points: pd.DataFrame, meta: dict) -> np.ndarray:
 
 
 def plot_design_tradeoff(points: pd.DataFrame, optima: pd.DataFrame, meta: dict, ax=None) -> Figure:
-    """PV against stiffness cost of every evaluated bearing design, lines of equal objective
-    (PV + cost), the calibrated design and the optimum."""
+    """The study's objective metric (``optima["objective"]``; ``pv_nm`` for tables that
+    predate it) against stiffness cost of every evaluated bearing design, lines of equal
+    objective (metric + cost), the calibrated design and the optimum."""
+    metric = optima["objective"].iloc[0] if "objective" in optima else "pv_nm"
+    words, label = metric_words(metric), metric_label(metric).split(" (")[0]
+    unit = label[label.index("[") :] if "[" in label else ""
     fig, ax = new_axes(ax, (1.6 * PANEL[0], 1.4 * PANEL[1]))
     ok = _ok(points)
-    cost, pv = design_cost(ok, meta), ok["pv_nm"].to_numpy(float)
-    ax.scatter(cost, pv, s=6, c="0.6", label="evaluated designs")
+    cost, value = design_cost(ok, meta), ok[metric].to_numpy(float)
+    ax.scatter(cost, value, s=6, c="0.6", label="evaluated designs")
     order = np.argsort(cost)
-    front = order[pv[order] <= np.minimum.accumulate(pv[order])]
-    ax.step(cost[front], pv[front], where="post", color="C0", label="lowest PV for its cost")
+    front = order[value[order] <= np.minimum.accumulate(value[order])]
+    ax.step(
+        cost[front], value[front], where="post", color="C0", label=f"lowest {words} for its cost"
+    )
     best = optima.loc[optima["objective_nm"].idxmin()]
     span = np.array([cost.min(), cost.max()])
     for level in best["objective_nm"] * np.array([1.0, 1.25, 1.5]):
         ax.plot(span, level - span, color="0.4", ls=":", lw=0.8)
-    ax.plot([], [], color="0.4", ls=":", lw=0.8, label="equal PV + cost")
+    ax.plot([], [], color="0.4", ls=":", lw=0.8, label=f"equal {words} + cost")
     for row in optima.itertuples():
-        label = f"{_label(row.design)}: PV {row.pv_nm:.0f} + cost {row.cost_nm:.0f} nm"
-        ax.plot(row.cost_nm, row.pv_nm, "*", ms=13, label=label)
-    ax.set_ylim(0.9 * pv.min(), 1.05 * pv.max())
-    ax.set_xlabel("stiffness cost [nm] (weights x stiffness / calibrated)")
-    ax.set_ylabel("whole-plate PV [nm] (the objective)")
+        mark = getattr(row, metric)
+        text = f"{_label(row.design)}: {mark:.3g} + cost {row.cost_nm:.3g}"
+        ax.plot(row.cost_nm, mark, "*", ms=13, label=text)
+    ax.set_ylim(0.9 * np.nanmin(value), 1.05 * np.nanmax(value))
+    ax.set_xlabel(f"stiffness cost {unit} (weights x stiffness / calibrated)")
+    ax.set_ylabel(f"{label} (the objective)")
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize="x-small")
-    ax.set_title("Bearing design: surface PV against stiffness cost", fontsize="medium")
+    ax.set_title(f"Bearing design: {words} against stiffness cost", fontsize="medium")
     return fig
 
 

@@ -318,14 +318,15 @@ def read_optimiser(where: Where, data: Mapping) -> dict[str, Any]:
 
 
 def batch_objective(
-    evaluator, group: str, space: Space, fixed: Mapping, cost=None
+    evaluator, group: str, space: Space, fixed: Mapping, cost=None, metric: str = "pv_nm"
 ) -> BatchObjective:
-    """Batch objective: PV [nm] (+ ``cost(values)``) of points of ``space`` with ``fixed``."""
+    """Batch objective: the record ``metric`` (+ ``cost(values)``) of points of ``space``
+    with ``fixed``."""
 
     def objective(u: np.ndarray) -> np.ndarray:
         points = [{**fixed, **p} for p in space.points(u)]
-        pv = evaluator.values(group, points)
-        return pv if cost is None else pv + cost(space.values(u))
+        value = evaluator.values(group, points, metric)
+        return value if cost is None else value + cost(space.values(u))
 
     return objective
 

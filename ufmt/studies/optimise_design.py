@@ -1,14 +1,16 @@
 """Study kind ``optimise-design``: bearing stiffnesses that buy their price in PV.
 
 Fields: ``[[bound]]`` over design parameters (the head air bearing's radial, axial and angular
-stiffness in the packaged study), ``[cost]`` (parameter -> weight [nm per multiple of the
-calibrated stiffness]), ``[optimiser]`` (:mod:`ufmt.studies.optimise`). The study minimises
-``PV + cost``, with ``cost = sum_i w_i k_i / k_i,calibrated`` [nm]: each weight ``w_i`` [nm]
-is what one calibrated stiffness's worth of bearing costs, so a stiffer bearing must buy its
-price in PV.
+stiffness in the packaged study), ``objective`` (a record metric, default the interferometer's
+PV, :mod:`ufmt.studies.metric`), ``[cost]`` (parameter -> weight [the objective's unit per
+multiple of the calibrated stiffness]), ``[optimiser]`` (:mod:`ufmt.studies.optimise`). The
+study minimises ``objective + cost``, with ``cost = sum_i w_i k_i / k_i,calibrated``: each
+weight ``w_i`` is what one calibrated stiffness's worth of bearing costs, so a stiffer bearing
+must buy its price in the objective.
 
-Tables: ``optima.csv`` (the calibrated design and the optimum), ``convergence.csv``; figures:
-the convergence and the trade-off of PV against stiffness cost.
+Tables: ``optima.csv`` (the calibrated design and the optimum; ``objective`` names the metric,
+``objective_nm`` is its value plus the cost), ``convergence.csv``; figures: the convergence and
+the trade-off of the objective against stiffness cost.
 """
 
 from __future__ import annotations
@@ -26,6 +28,7 @@ from ufmt.errors import StudyError
 from ufmt.plots.studies import plot_convergence, plot_design_tradeoff
 from ufmt.studies import outputs
 from ufmt.studies.fields import Parameters, read_bounds
+from ufmt.studies.metric import metric_unit, metric_words, read_metric
 from ufmt.studies.optimise import (
     CONVERGENCE,
     OPTIMA,
@@ -59,7 +62,11 @@ def parse(where: Where, data: Mapping, parameters: Parameters) -> dict:
         key: at.number(key, value, sign="nonnegative", unit="[nm per calibrated multiple]")
         for key, value in cost.items()
     }
-    options = {"cost": weights, "optimiser": read_optimiser(where, data)}
+    options = {
+        "objective": read_metric(where, data, "objective"),
+        "cost": weights,
+        "optimiser": read_optimiser(where, data),
+    }
     return {"bounds": bounds, "options": options}
 
 
@@ -69,8 +76,10 @@ def planned_points(study) -> int:
 
 
 def analyse(study, evaluator, baseline: Mapping, out_dir: Path) -> str:
-    """Bearing stiffnesses minimising PV + stiffness cost; returns the headline."""
+    """Bearing stiffnesses minimising objective + stiffness cost; returns the headline."""
     options = study.options["optimiser"]
+    metric = study.options.get("objective", "pv_nm")
+    words, unit = metric_words(metric), metric_unit(metric)
     space = Space.from_bounds(study.bounds, baseline)
     reference = np.array([baseline.get(name, math.nan) for name in space.names])
     weights = np.array([study.options["cost"].get(name, 0.0) for name in space.names])
@@ -88,7 +97,7 @@ def analyse(study, evaluator, baseline: Mapping, out_dir: Path) -> str:
     def cost(values: np.ndarray) -> np.ndarray:
         return (weights * values / safe_reference).sum(axis=-1)
 
-    objective = batch_objective(evaluator, "search", space, {}, cost)
+    objective = batch_objective(evaluator, "search", space, {}, cost, metric=metric)
     found = minimise(objective, space.dim, options, start_point(space, baseline))
     candidates = {"optimum": space.points(found.u[None])[0]}
     if np.all(np.isfinite(reference)):
@@ -98,7 +107,8 @@ def analyse(study, evaluator, baseline: Mapping, out_dir: Path) -> str:
         [{"design": name, **row} for name, row in zip(candidates, rows, strict=True)]
     ).drop(columns=["group", "index"])
     optima["cost_nm"] = cost(optima[list(space.names)].to_numpy(float))
-    optima["objective_nm"] = optima["pv_nm"] + optima["cost_nm"]
+    optima["objective"] = metric
+    optima["objective_nm"] = optima[metric] + optima["cost_nm"]
     outputs.write_table(optima, out_dir / OPTIMA)
     outputs.write_table(convergence_table([("search", found)]), out_dir / CONVERGENCE)
 
@@ -108,14 +118,15 @@ def analyse(study, evaluator, baseline: Mapping, out_dir: Path) -> str:
         ratio = f" ({short(best[name] / ref)}x calibrated)" if ref > 0 else ""
         parts.append(f"{name} = {short(best[name])}{ratio}")
     text = (
-        f"Optimum {', '.join(parts)}: PV {short(best['pv_nm'])} nm, cost"
-        f" {short(best['cost_nm'])} nm, objective {short(best['objective_nm'])} nm"
+        f"Objective {words} ({metric}) + stiffness cost: optimum {', '.join(parts)}:"
+        f" {metric} {short(best[metric])} {unit}, cost {short(best['cost_nm'])} {unit},"
+        f" objective {short(best['objective_nm'])} {unit}"
     )
     if "calibrated" in candidates:
         cal = optima[optima["design"] == "calibrated"].iloc[0]
         text += (
-            f" (calibrated design: PV {short(cal['pv_nm'])} nm,"
-            f" objective {short(cal['objective_nm'])} nm)"
+            f" (calibrated design: {metric} {short(cal[metric])} {unit},"
+            f" objective {short(cal['objective_nm'])} {unit})"
         )
     return text + "."
 
@@ -133,7 +144,7 @@ def figures(out_dir: Path) -> dict[str, Figure]:
 
 OPTIMISE_DESIGN = StudyKind(
     name="optimise-design",
-    fields=("bound", "cost", "optimiser"),
+    fields=("bound", "objective", "cost", "optimiser"),
     tables=(OPTIMA, CONVERGENCE),
     parse=parse,
     planned_points=planned_points,

@@ -1,24 +1,28 @@
 """Study kind ``optimise-process``: cutting recipes (rpm, feed, depth) within Table 1's bounds.
 
-Fields: ``[[bound]]`` over rpm, feed and depth (default: Table 1's ranges), ``target_pv_nm``
-(default 100), ``workpiece_length_mm`` and ``tool_radius_mm`` (both or neither; default: the
-model's ``[machine]``), ``pareto_levels`` (default 7), ``[optimiser]``
+Fields: ``[[bound]]`` over rpm, feed and depth (default: Table 1's ranges), ``objective``
+(a record metric, default the interferometer's PV, :mod:`ufmt.studies.metric`), ``target``
+(in the objective's unit, default 100; ``target_pv_nm`` is its older name),
+``workpiece_length_mm`` and ``tool_radius_mm`` (both or neither; default: the model's
+``[machine]``), ``pareto_levels`` (default 7), ``[optimiser]``
 (:mod:`ufmt.studies.optimise`). The study finds
 
-* (a) the **minimum-PV recipe**: :func:`~ufmt.studies.optimise.minimise` over all three;
-* (b) the **fastest recipe** whose PV stays under ``target_pv_nm``. The cutting time of one
+* (a) the **minimum recipe** (lowest objective; its row is named ``min-pv``):
+  :func:`~ufmt.studies.optimise.minimise` over all three;
+* (b) the **fastest recipe** whose objective stays under ``target``. The cutting time of one
   finishing pass over the workpiece is :func:`cutting_time_min`: the slide travels the
   workpiece length along the feed (y) plus the tool-circle diameter 2R (the tool circle enters
   before the leading edge and clears the trailing edge), at the feed speed. Time depends on
   feed alone, so the fastest recipe is the largest feed ``v`` with
-  ``min over (rpm, depth) of PV(rpm, v, depth) <= target`` (an epsilon-constraint problem):
+  ``min over (rpm, depth) of objective(rpm, v, depth) <= target`` (an epsilon-constraint problem):
   that minimum is found at ``pareto_levels`` feeds across the bounds, then by bisection on the
   feed between the last feasible and the first infeasible level;
-* the **Pareto front** of PV against cutting time: the non-dominated points among every
-  recipe evaluated in the study.
+* the **Pareto front** of the objective against cutting time: the non-dominated points among
+  every recipe evaluated in the study.
 
-Tables: ``optima.csv``, ``pareto.csv``, ``convergence.csv``; figures: the convergence and the
-Pareto front.
+Tables: ``optima.csv`` (with the ``objective`` metric's name and the ``target``),
+``pareto.csv``, ``convergence.csv``; figures: the convergence and the Pareto front. The
+headline names the objective.
 """
 
 from __future__ import annotations
@@ -40,6 +44,7 @@ from ufmt.model.machine import machine_of
 from ufmt.plots.studies import plot_convergence, plot_pareto
 from ufmt.studies import outputs
 from ufmt.studies.fields import Parameters, read_bounds
+from ufmt.studies.metric import metric_unit, metric_words, read_metric
 from ufmt.studies.optimise import (
     CONVERGENCE,
     OPTIMA,
@@ -75,10 +80,12 @@ def parse(where: Where, data: Mapping, parameters: Parameters) -> dict:
     for b in bounds:
         if b.parameter in parameters.base:
             where.sub("base").fail(b.parameter, "is searched by optimise-process; remove it")
+    if "target" in data and "target_pv_nm" in data:
+        where.fail("target_pv_nm", "is the older name of 'target': give one of them")
+    target_field = "target_pv_nm" if "target_pv_nm" in data else "target"
     options = {
-        "target_pv_nm": where.number(
-            "target_pv_nm", data.get("target_pv_nm", 100.0), sign="positive"
-        ),
+        "objective": read_metric(where, data, "objective"),
+        "target": where.number(target_field, data.get(target_field, 100.0), sign="positive"),
         "workpiece_length_mm": _optional_positive(where, data, "workpiece_length_mm"),
         "tool_radius_mm": _optional_positive(where, data, "tool_radius_mm"),
         "pareto_levels": where.integer("pareto_levels", data.get("pareto_levels", 7), 2),
@@ -129,16 +136,17 @@ def _travel_mm(study, evaluator) -> float:
 
 
 def analyse(study, evaluator, baseline: Mapping, out_dir: Path) -> str:
-    """Minimum-PV recipe, fastest recipe under the PV target, Pareto front; returns headline.
+    """Minimum recipe, fastest recipe under the target, Pareto front; returns the headline.
 
     The searches (module docstring) propose recipes; the reported ones are the best of every
-    evaluated recipe: the lowest PV, and the shortest time with PV <= target.
+    evaluated recipe: the lowest objective, and the shortest time with objective <= target.
     """
     options = study.options["optimiser"]
-    target = study.options["target_pv_nm"]
+    target, metric = study.options["target"], study.options["objective"]
+    words, unit = metric_words(metric), metric_unit(metric)
     travel = _travel_mm(study, evaluator)
     space = Space.from_bounds(study.bounds, baseline)
-    objective = batch_objective(evaluator, "min-pv", space, {})
+    objective = batch_objective(evaluator, "min-pv", space, {}, metric=metric)
     stages = [("min-pv", minimise(objective, space.dim, options, start_point(space, baseline)))]
 
     feed_i = space.names.index("feed_mm_min")
@@ -146,9 +154,10 @@ def analyse(study, evaluator, baseline: Mapping, out_dir: Path) -> str:
     level_feeds = np.linspace(space.low[feed_i], space.high[feed_i], study.options["pareto_levels"])
 
     def feasible_at(feed: float, stage: str) -> bool:
-        """Whether min over (rpm, depth) of PV at this feed is <= target."""
+        """Whether min over (rpm, depth) of the objective at this feed is <= target."""
         fixed = {"feed_mm_min": float(feed)}
-        result = minimise(batch_objective(evaluator, stage, others, fixed), others.dim, options)
+        stage_objective = batch_objective(evaluator, stage, others, fixed, metric=metric)
+        result = minimise(stage_objective, others.dim, options)
         stages.append((stage, result))
         return result.value <= target
 
@@ -162,10 +171,12 @@ def analyse(study, evaluator, baseline: Mapping, out_dir: Path) -> str:
                 lo, hi = (mid, hi) if feasible_at(mid, f"bisect-{step + 1}") else (lo, mid)
 
     table = evaluator.table()
-    ok = table[table["status"] == "ok"].copy()
+    ok = table[(table["status"] == "ok") & table[metric].notna()].copy()
+    if ok.empty:
+        raise StudyError(f"{study.name}: no point has a finite {metric} (see points.csv)")
     ok["cutting_time_min"] = cutting_time_min(ok["feed_mm_min"], travel)
-    recipes = {"min-pv": ok.loc[ok["pv_nm"].idxmin()]}
-    under = ok[ok["pv_nm"] <= target].sort_values(["cutting_time_min", "pv_nm"], kind="stable")
+    recipes = {"min-pv": ok.loc[ok[metric].idxmin()]}
+    under = ok[ok[metric] <= target].sort_values(["cutting_time_min", metric], kind="stable")
     if not under.empty:
         recipes["fastest-under-target"] = under.iloc[0]
     points = [{n: float(r[n]) for n in space.names} for r in recipes.values()]
@@ -175,27 +186,29 @@ def analyse(study, evaluator, baseline: Mapping, out_dir: Path) -> str:
     ).drop(columns=["group", "index"])
     optima["travel_mm"] = travel
     optima["cutting_time_min"] = cutting_time_min(optima["feed_mm_min"], travel)
-    optima["target_pv_nm"] = target
+    optima["objective"] = metric
+    optima["target"] = target
     outputs.write_table(optima, out_dir / OPTIMA)
 
-    front = ok[pareto_mask(ok["cutting_time_min"], ok["pv_nm"])]
-    front = front.sort_values("cutting_time_min").drop_duplicates(["cutting_time_min", "pv_nm"])
+    front = ok[pareto_mask(ok["cutting_time_min"], ok[metric])]
+    front = front.sort_values("cutting_time_min").drop_duplicates(["cutting_time_min", metric])
     outputs.write_table(front.reset_index(drop=True), out_dir / PARETO)
     outputs.write_table(convergence_table(stages), out_dir / CONVERGENCE)
 
     best = optima.iloc[0]
     text = (
-        f"Minimum PV {short(best['pv_nm'])} nm at {short(best['rpm'])} rpm,"
-        f" {short(best['feed_mm_min'])} mm/min, {short(best['depth_um'])} um"
-        f" ({short(best['cutting_time_min'])} min per pass)"
+        f"Objective {words} ({metric}): minimum {short(best[metric])} {unit} at"
+        f" {short(best['rpm'])} rpm, {short(best['feed_mm_min'])} mm/min,"
+        f" {short(best['depth_um'])} um ({short(best['cutting_time_min'])} min per pass)"
     )
     if under.empty:
-        return text + f"; no recipe within the bounds keeps PV under {short(target)} nm."
+        return text + f"; no recipe within the bounds keeps it under {short(target)} {unit}."
     fast = optima.iloc[1]
     return text + (
-        f"; fastest recipe with PV <= {short(target)} nm: {short(fast['feed_mm_min'])} mm/min"
-        f" at {short(fast['rpm'])} rpm, {short(fast['depth_um'])} um,"
-        f" {short(fast['cutting_time_min'])} min per pass (PV {short(fast['pv_nm'])} nm)."
+        f"; fastest recipe with {metric} <= {short(target)} {unit}:"
+        f" {short(fast['feed_mm_min'])} mm/min at {short(fast['rpm'])} rpm,"
+        f" {short(fast['depth_um'])} um, {short(fast['cutting_time_min'])} min per pass"
+        f" ({short(fast[metric])} {unit})."
     )
 
 
@@ -217,6 +230,8 @@ OPTIMISE_PROCESS = StudyKind(
     name="optimise-process",
     fields=(
         "bound",
+        "objective",
+        "target",
         "target_pv_nm",
         "workpiece_length_mm",
         "tool_radius_mm",

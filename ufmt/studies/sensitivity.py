@@ -1,19 +1,20 @@
-"""Study kind ``sensitivity``: global sensitivity of PV to bearing stiffnesses and process
+"""Study kind ``sensitivity``: global sensitivity of a record metric (default the
+interferometer's PV, :mod:`ufmt.studies.metric`) to bearing stiffnesses and process
 parameters (SALib).
 
-Fields: ``[[bound]]`` over any parameters (at least two), ``method`` (morris | sobol),
+Fields: ``[[bound]]`` over any parameters (at least two), ``metric``, ``method`` (morris | sobol),
 ``samples`` (Morris trajectories or Sobol base samples, default 16), ``levels`` (Morris,
 default 4), ``seed`` (default 1). Each ``[[bound]]`` is a factor sampled uniformly in its
 value, or in log10 of it for ``spacing = "log"`` (stiffnesses spanning decades). Methods:
 
 * ``morris`` (default): elementary effects on ``levels``-level trajectories (Morris 1991; the
   radial-free design of Campolongo et al. 2007 as SALib samples it), ``samples`` trajectories,
-  ``samples * (factors + 1)`` evaluations. ``mu_star_nm`` is the mean absolute change of PV
-  [nm] per full range of the factor (SALib's unit-hypercube effect), ``sigma_nm`` its spread
-  (interactions and non-linearity).
+  ``samples * (factors + 1)`` evaluations. ``mu_star_nm`` is the mean absolute change of the
+  metric (in its unit: nm for the PV and RMS metrics) per full range of the factor (SALib's
+  unit-hypercube effect), ``sigma_nm`` its spread (interactions and non-linearity).
 * ``sobol``: Saltelli's estimator on a scrambled Sobol sequence, ``samples * (factors + 2)``
-  evaluations; first-order ``S1`` and total ``ST`` shares of PV variance with bootstrap 95 %
-  confidence half-widths.
+  evaluations; first-order ``S1`` and total ``ST`` shares of the metric's variance with
+  bootstrap 95 % confidence half-widths.
 
 The whole sample is one request to the runner: its workers evaluate it in chunks, each as one
 batch (:mod:`ufmt.studies.parallel`).
@@ -35,6 +36,7 @@ from ufmt.errors import StudyError
 from ufmt.plots.studies import plot_sensitivity
 from ufmt.studies import outputs
 from ufmt.studies.fields import MAX_POINTS, Parameters, read_bounds
+from ufmt.studies.metric import metric_words, read_metric
 from ufmt.studies.optimise import Space
 from ufmt.studies.outputs import short
 from ufmt.studies.spec import StudyKind
@@ -53,6 +55,7 @@ def parse(where: Where, data: Mapping, parameters: Parameters) -> dict:
         if b.parameter in parameters.base:
             where.sub("base").fail(b.parameter, "is sampled by the sensitivity study; remove it")
     options = {
+        "metric": read_metric(where, data, "metric"),
         "method": where.choice("method", data.get("method", "morris"), METHODS, "method"),
         "samples": where.integer("samples", data.get("samples", 16), 2, MAX_POINTS),
         "levels": where.integer("levels", data.get("levels", 4), 2),
@@ -129,7 +132,8 @@ def analyse(study, evaluator, baseline: Mapping, out_dir: Path) -> str:
     space = Space.from_bounds(study.bounds, baseline)
     problem = sensitivity_problem(space)
     X = sample(problem, method, options["samples"], options["levels"], options["seed"])
-    Y = evaluator.values(method, space.points(X))
+    metric = options.get("metric", "pv_nm")
+    Y = evaluator.values(method, space.points(X), metric)
     failed = int(np.count_nonzero(~np.isfinite(Y)))
     if failed:
         raise StudyError(
@@ -147,7 +151,7 @@ def analyse(study, evaluator, baseline: Mapping, out_dir: Path) -> str:
         f"{r.parameter} ({short(getattr(r, key))}{unit})" for r in table.itertuples()
     )
     what = "mean |elementary effect| per full range" if method == "morris" else "total Sobol index"
-    return f"PV sensitivity ranking ({method}, {what}): {ranked}."
+    return f"{metric_words(metric)} ({metric}) sensitivity ranking ({method}, {what}): {ranked}."
 
 
 def figures(out_dir: Path) -> dict[str, Figure]:
@@ -157,7 +161,7 @@ def figures(out_dir: Path) -> dict[str, Figure]:
 
 SENSITIVITY = StudyKind(
     name="sensitivity",
-    fields=("bound", "method", "samples", "levels", "seed"),
+    fields=("bound", "metric", "method", "samples", "levels", "seed"),
     tables=(INDICES,),
     parse=parse,
     planned_points=sample_count,

@@ -4,8 +4,10 @@
   ``[[grid]]`` (``name`` plus its own ``[[grid.axis]]`` list) adds a full-factorial grid.
 * ``grid``: the ``[[axis]]`` entries are crossed into one full-factorial grid.
 
-The headline says how PV responds along each axis and over each grid; the figures are PV
-against each one-at-a-time axis and a PV map per 2-D grid.
+Field ``metric`` (default the interferometer's PV, :mod:`ufmt.studies.metric`): the record
+metric the headline and the figures rank. The headline says how it responds along each axis
+and over each grid; the figures draw it against each one-at-a-time axis and map it over each
+2-D grid; the PSD figure's best and worst points are its lowest and highest.
 """
 
 from __future__ import annotations
@@ -28,6 +30,7 @@ from ufmt.plots.studies import sweep_figures
 from ufmt.simulate import Process, simulate
 from ufmt.studies import outputs
 from ufmt.studies.fields import DEFAULT_FUNCTION, Parameters, read_axes, read_grids
+from ufmt.studies.metric import metric_unit, metric_words, read_metric
 from ufmt.studies.outputs import short
 from ufmt.studies.spec import Group, StudyKind
 from ufmt.tables import Where
@@ -41,13 +44,14 @@ def parse_sweep(where: Where, data: Mapping, parameters: Parameters) -> dict:
     if not groups:
         where.fail("axis", "a sweep needs at least one [[axis]] or [[grid]]")
     where.unique("axis", [g.name for g in groups])
-    return {"groups": tuple(groups)}
+    return {"groups": tuple(groups), "options": {"metric": read_metric(where, data, "metric")}}
 
 
 def parse_grid(where: Where, data: Mapping, parameters: Parameters) -> dict:
     """The axes of a grid, crossed into one group."""
     axes = read_axes(where, data, parameters, required=True)
-    return {"groups": (Group("grid", tuple(axes)),)}
+    options = {"metric": read_metric(where, data, "metric")}
+    return {"groups": (Group("grid", tuple(axes)),), "options": options}
 
 
 def planned_points(study) -> int:
@@ -66,15 +70,12 @@ def figures(out_dir: Path) -> dict[str, Figure]:
     return sweep_figures(outputs.read_table(out_dir / outputs.POINTS), outputs.read_meta(out_dir))
 
 
-#: Metric that ranks a sweep's designs for the PSD figure: the interferometer's PV [nm], the
-#: one the sweep plots draw.
-RANKING_METRIC = "pv_measured_nm"
 EXTREMES_FIGURE = "psd_best_worst.png"
 
 
 def extreme_psd_figures(study, out_dir: Path) -> dict[str, Figure]:
-    """PSDs of the sweep's best and worst points (lowest and highest :data:`RANKING_METRIC`
-    in points.csv) in one figure (:func:`ufmt.plots.psd.plot_psd_extremes`).
+    """PSDs of the sweep's best and worst points (lowest and highest value of the study's
+    ``metric`` in points.csv) in one figure (:func:`ufmt.plots.psd.plot_psd_extremes`).
 
     The surfaces are not in the tables, so the two points are simulated again here, through
     :func:`ufmt.simulate` on the study's model with the point's design applied: two
@@ -84,8 +85,9 @@ def extreme_psd_figures(study, out_dir: Path) -> dict[str, Figure]:
     """
     if study.function != DEFAULT_FUNCTION:
         return {}
+    metric = study.options["metric"]
     table = outputs.read_table(out_dir / outputs.POINTS)
-    values = pd.to_numeric(table.get(RANKING_METRIC), errors="coerce")
+    values = pd.to_numeric(table.get(metric), errors="coerce")
     ok = table[(table["status"] == "ok") & np.isfinite(values)]
     if len(ok) < 2:
         return {}
@@ -96,7 +98,7 @@ def extreme_psd_figures(study, out_dir: Path) -> dict[str, Figure]:
     except UfmtError as exc:  # the points are saved; only this figure is missing
         warnings.warn(f"{study.name}: no {EXTREMES_FIGURE}: {exc}", stacklevel=2)
         return {}
-    return {EXTREMES_FIGURE: plot_psd_extremes(results, RANKING_METRIC)}
+    return {EXTREMES_FIGURE: plot_psd_extremes(results, metric)}
 
 
 def simulate_point(study, row: Mapping):
@@ -122,16 +124,20 @@ def trend(x, y) -> str:
 
 
 def sweep_headline(table: pd.DataFrame, study) -> str:
-    """One sentence per sweep axis or grid: how PV responds, with its range [nm] (and, where
-    the table has it, the PV of the cutting-force vibration alone at the axis ends)."""
+    """One sentence per sweep axis or grid: how the study's metric responds, with its range
+    (and, where the table has it, the PV of the cutting-force vibration alone at the axis
+    ends); the metric is named once, first."""
+    metric = study.options.get("metric", "pv_nm")
+    words, unit = metric_words(metric), metric_unit(metric)
     ok = table[table["status"] == "ok"] if "status" in table else table
     parts = []
     for group in study.groups:
         rows = ok[ok["group"] == group.name]
-        if rows.empty or "pv_nm" not in rows:
+        if rows.empty or metric not in rows or not rows[metric].notna().any():
             parts.append(f"{group.name}: no successful points")
             continue
-        pv = rows["pv_nm"].to_numpy(float)
+        rows = rows[rows[metric].notna()]
+        pv = rows[metric].to_numpy(float)
         if len(group.axes) == 1:
             name = group.axes[0].parameter
             x = rows[name].to_numpy(float)
@@ -144,24 +150,24 @@ def sweep_headline(table: pd.DataFrame, study) -> str:
                     f" {short(dyn[np.argmax(x)])} nm"
                 )
             if lo == hi:  # one value: nothing rises or falls
-                parts.append(f"PV {short(pv.min())} nm at {name} = {short(lo)} (one point)")
+                parts.append(f"{short(pv.min())} {unit} at {name} = {short(lo)} (one point)")
                 continue
             parts.append(
-                f"PV {trend(x, pv)} as {name} rises from {short(lo)} to {short(hi)}"
-                f" (PV {short(pv[np.argmin(x)])} -> {short(pv[np.argmax(x)])} nm,"
-                f" range {short(pv.min())}-{short(pv.max())} nm{vibration})"
+                f"{trend(x, pv)} as {name} rises from {short(lo)} to {short(hi)}"
+                f" ({short(pv[np.argmin(x)])} -> {short(pv[np.argmax(x)])} {unit},"
+                f" range {short(pv.min())}-{short(pv.max())} {unit}{vibration})"
             )
         else:
             best = rows.iloc[int(np.argmin(pv))]
             at = ", ".join(f"{a.parameter} = {short(best[a.parameter])}" for a in group.axes)
             label = "grid" if group.name == "grid" else f"grid {group.name}"
-            parts.append(f"{label}: PV {short(pv.min())}-{short(pv.max())} nm, lowest at {at}")
-    return "; ".join(parts) + "."
+            parts.append(f"{label}: {short(pv.min())}-{short(pv.max())} {unit}, lowest at {at}")
+    return f"{words} ({metric}): " + "; ".join(parts) + "."
 
 
 SWEEP = StudyKind(
     name="sweep",
-    fields=("axis", "grid"),
+    fields=("axis", "grid", "metric"),
     tables=(),
     parse=parse_sweep,
     planned_points=planned_points,
@@ -171,7 +177,7 @@ SWEEP = StudyKind(
 )
 GRID = StudyKind(
     name="grid",
-    fields=("axis",),
+    fields=("axis", "metric"),
     tables=(),
     parse=parse_grid,
     planned_points=planned_points,
