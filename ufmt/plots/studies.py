@@ -565,3 +565,87 @@ def plot_sensitivity(indices: pd.DataFrame, ax=None) -> Figure:
     ax.legend(fontsize="x-small", loc="lower right")
     ax.set_title("Sensitivity of surface PV" + (" (Morris)" if morris else " (Sobol)"))
     return fig
+
+
+#: Tracks named in the legend of a tracked-modes panel: those whose frequency moves most.
+NAMED_TRACKS = 8
+#: Distinct colours of the named tracks (tab10 without its grey, which marks the others).
+TRACK_COLOURS = ("C0", "C1", "C2", "C3", "C4", "C5", "C6", "C9")
+
+
+def plot_tracked_modes(modes: pd.DataFrame, meta: dict | None = None, ax=None) -> Figure:
+    """Natural frequencies along each stiffness or speed axis, each mode followed by MAC
+    (``modes.csv``, :mod:`ufmt.studies.tracking`): one panel per axis, a line per track, the
+    tracks that move most named, the others grey; a pairing with MAC < 0.5 ringed. Along the
+    spindle speed the modes are flat and the spindle harmonics k rpm / 60 fan out over them (a
+    Campbell diagram): where a harmonic crosses a mode the cut drives it at resonance."""
+    from ufmt.studies.tracking import WEAK_MAC, moved
+
+    names = list(dict.fromkeys(modes["parameter"]))
+    baseline = (meta or {}).get("baseline", {})
+    if ax is None:
+        fig = new_figure((PANEL[0] * 1.25 * len(names), PANEL[1] * 1.45))
+        axes = fig.subplots(1, len(names), squeeze=False)[0]
+    else:
+        axes = np.atleast_1d(ax)
+        fig = axes[0].figure
+    for a, name in zip(axes, names, strict=True):
+        table = modes[modes["parameter"] == name]
+        named = list(moved(table, top=NAMED_TRACKS)) if name != "rpm" else []
+        for track, rows in table.groupby("track_name", sort=False):
+            rows = rows.sort_values("value")
+            k = named.index(track) if track in named else -1
+            a.plot(
+                rows["value"],
+                rows["frequency_hz"],
+                "-",
+                color=TRACK_COLOURS[k] if k >= 0 else "0.75",
+                lw=1.6 if k >= 0 else 0.7,
+                label=track if k >= 0 else None,
+                zorder=2 if k >= 0 else 1,
+            )
+            weak = rows[rows["mac_previous"] < WEAK_MAC]
+            a.plot(weak["value"], weak["frequency_hz"], "o", mfc="none", mec="r", ms=6)
+        if name == "rpm":
+            _spindle_harmonics(a, table)
+        else:
+            a.set_xscale("log")
+        reference = baseline.get(name)
+        if reference is not None and np.isfinite(reference):
+            a.axvline(reference, color="0.5", lw=0.8, ls=":")
+        a.set_yscale("log")
+        a.set_xlabel(parameter_label(name))
+        a.set_ylabel("natural frequency [Hz]")
+        a.grid(True, which="both", alpha=0.3)
+        if named:
+            a.legend(
+                fontsize="x-small",
+                loc="upper center",
+                bbox_to_anchor=(0.5, -0.16),
+                title="moves most",
+                ncols=4,
+            )
+    fig.suptitle(
+        "Modes followed by MAC along each axis (grey: tracks that move little;"
+        " red rings: MAC < 0.5 to the previous point)",
+        fontsize="medium",
+    )
+    return fig
+
+
+def _spindle_harmonics(ax, table: pd.DataFrame) -> None:
+    """The spindle harmonics k rpm / 60 [Hz] across the speed axis, every tenth labelled."""
+    rpm = np.linspace(table["value"].min(), table["value"].max(), 2)
+    top = table["frequency_hz"].max()
+    count = int(np.ceil(top / (rpm.min() / 60.0)))
+    for k in range(1, count + 1):
+        f = k * rpm / 60.0
+        if f[0] > top:
+            break
+        labelled = k == 1 or k % 10 == 0
+        ax.plot(rpm, f, color="k" if labelled else "0.85", lw=0.6 if labelled else 0.4, zorder=0)
+        if labelled and f[-1] <= top:
+            ax.annotate(
+                f"{k}x", (rpm[-1], f[-1]), fontsize=6, xytext=(2, 0), textcoords="offset points"
+            )
+    ax.set_ylim(table["frequency_hz"].min() * 0.8, top * 1.2)

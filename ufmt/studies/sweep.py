@@ -7,7 +7,9 @@
 Field ``metric`` (default the interferometer's PV, :mod:`ufmt.studies.metric`): the record
 metric the headline and the figures rank. The headline says how it responds along each axis
 and over each grid; the figures draw it against each one-at-a-time axis and map it over each
-2-D grid; the PSD figure's best and worst points are its lowest and highest.
+2-D grid; the PSD figure's best and worst points are its lowest and highest. Along each
+one-at-a-time stiffness or speed axis the modes are followed by MAC (``modes.csv``,
+:mod:`ufmt.studies.tracking`).
 """
 
 from __future__ import annotations
@@ -26,13 +28,14 @@ from ufmt.design import PROCESS_PARAMETERS, apply_design
 from ufmt.errors import UfmtError
 from ufmt.evaluate import resolve_model
 from ufmt.plots.psd import plot_psd_extremes
-from ufmt.plots.studies import sweep_figures
+from ufmt.plots.studies import plot_tracked_modes, sweep_figures
 from ufmt.simulate import Process, simulate
 from ufmt.studies import outputs
 from ufmt.studies.fields import DEFAULT_FUNCTION, Parameters, read_axes, read_grids
 from ufmt.studies.metric import metric_unit, metric_words, read_metric
 from ufmt.studies.outputs import short
 from ufmt.studies.spec import Group, StudyKind
+from ufmt.studies.tracking import moved, tracked_modes
 from ufmt.tables import Where
 
 
@@ -60,14 +63,79 @@ def planned_points(study) -> int:
 
 
 def analyse(study, evaluator, baseline: Mapping[str, float], out_dir: Path) -> str:
-    """Evaluate every point of every group; returns the headline."""
+    """Evaluate every point of every group, follow the modes along the stiffness and speed
+    axes (``modes.csv``); returns the headline."""
     evaluator.evaluate([(g.name, p) for g in study.groups for p in g.points(baseline)])
-    return sweep_headline(evaluator.table(), study)
+    headline = sweep_headline(evaluator.table(), study)
+    modes = mode_tracks(study, baseline)
+    if modes is not None:
+        outputs.write_table(modes, out_dir / MODES)
+        headline += modes_headline(modes)
+    return headline
+
+
+#: Modes followed by MAC along each stiffness or speed axis (:mod:`ufmt.studies.tracking`).
+MODES = "modes.csv"
+
+
+def _tracked_axis(name: str) -> bool:
+    """Whether the modes are followed along an axis of ``name``: a design parameter (a
+    stiffness) or the spindle speed (a Campbell diagram); not feed, depth or machine keys,
+    which change no mode."""
+    return name == "rpm" or not (name in PROCESS_PARAMETERS or name.startswith("machine."))
+
+
+def mode_tracks(study, baseline: Mapping[str, float]) -> pd.DataFrame | None:
+    """The modes along every one-at-a-time stiffness or speed axis, followed by MAC
+    (:func:`ufmt.studies.tracking.tracked_modes`), as one table; None when the study's
+    function is not ``ufmt.evaluate`` or no axis changes or drives the modes."""
+    if study.function != DEFAULT_FUNCTION:
+        return None
+    base, _ = resolve_model(study.model)
+    fixed = {k: v for k, v in study.base.items() if not _not_design(k)}
+    frames = []
+    for group in study.groups:
+        if len(group.axes) != 1 or not _tracked_axis(group.axes[0].parameter):
+            continue
+        axis = group.axes[0]
+        name = axis.parameter
+
+        def model_at(value, name=name):
+            design = fixed if name == "rpm" else {**fixed, name: value}
+            return apply_design(base, design, study.design)
+
+        frames.append(tracked_modes(model_at, axis.resolved(baseline), name))
+    return pd.concat(frames, ignore_index=True) if frames else None
+
+
+def _not_design(name: str) -> bool:
+    """A process parameter or a ``machine.`` key (applied elsewhere than the hinges)."""
+    return name in PROCESS_PARAMETERS or name.startswith("machine.")
+
+
+def modes_headline(modes: pd.DataFrame) -> str:
+    """ " Modes: ..." naming, per stiffness axis, the mode whose frequency moves most."""
+    parts = []
+    for name, table in modes.groupby("parameter", sort=False):
+        if name == "rpm":
+            continue
+        track, ratio = next(iter(moved(table, top=1).items()))
+        first = table[table["track_name"] == track]["frequency_hz"]
+        parts.append(
+            f"{name}: the {track} mode moves most ({short(first.iloc[0])} ->"
+            f" {short(first.iloc[-1])} Hz)"
+        )
+    return f" Modes followed by MAC: {'; '.join(parts)}." if parts else ""
 
 
 def figures(out_dir: Path) -> dict[str, Figure]:
-    """PV against each one-at-a-time axis and a PV map per 2-D grid."""
-    return sweep_figures(outputs.read_table(out_dir / outputs.POINTS), outputs.read_meta(out_dir))
+    """The metric against each one-at-a-time axis, a map of it per 2-D grid, and the modes
+    followed along the stiffness and speed axes (where ``modes.csv`` was written)."""
+    meta = outputs.read_meta(out_dir)
+    out = sweep_figures(outputs.read_table(out_dir / outputs.POINTS), meta)
+    if (out_dir / MODES).is_file():
+        out["modes_tracked.png"] = plot_tracked_modes(outputs.read_table(out_dir / MODES), meta)
+    return out
 
 
 EXTREMES_FIGURE = "psd_best_worst.png"
@@ -168,7 +236,7 @@ def sweep_headline(table: pd.DataFrame, study) -> str:
 SWEEP = StudyKind(
     name="sweep",
     fields=("axis", "grid", "metric"),
-    tables=(),
+    tables=(MODES,),
     parse=parse_sweep,
     planned_points=planned_points,
     analyse=analyse,
@@ -178,7 +246,7 @@ SWEEP = StudyKind(
 GRID = StudyKind(
     name="grid",
     fields=("axis", "metric"),
-    tables=(),
+    tables=(MODES,),
     parse=parse_grid,
     planned_points=planned_points,
     analyse=analyse,
