@@ -218,10 +218,35 @@ def test_report_puts_the_intervals_beside_the_reference_cut_and_the_sweep_findin
     }
     pd.DataFrame([contrast]).to_csv(study / "contrast.csv", index=False)
     page = build_report(tmp_path, load_model(EXAMPLE))
-    row = re.search(r"<td[^>]*>pv_measured_nm</td>(.*?)</tr>", page, flags=re.S).group(1)
+    # the summary opens the page: the point value beside its interval, the metric named
+    assert re.search(r'<h2 id="([^"]+)"', page).group(1) == "summary"
+    summary = page[page.index('id="summary"') : page.index('id="model"')]
+    row = re.search(r"<td[^>]*>pv_measured_nm</td>(.*?)</tr>", summary, flags=re.S).group(1)
+    assert re.findall(r"<td[^>]*>(.*?)</td>", row) == ["65.53", "27.04 – 390.4"]
+    assert "PV falls as rpm rises" in summary  # each study's answer
+    reference = page[page.index('id="reference-cut"') :]
+    row = re.search(r"<td[^>]*>pv_measured_nm</td>(.*?)</tr>", reference, flags=re.S).group(1)
     cells = re.findall(r"<td[^>]*>(.*?)</td>", row)
     assert cells[:4] == ["65.53", "27.04", "102.5", "390.4"]
     assert "P(≤ 100) = 0.50 [0.37, 0.63]" in cells[-1]
     assert "not resolved" in page and "time path" in page
     sweep = page[page.index('id="sweep-x"') :]
     assert "rpm 150 -&gt; 350: pv_nm 3 -&gt; 1, -66.7 % [-71.2, -12.5] (5-95 % over 32" in sweep
+
+
+def test_the_repository_report_is_short_enough_to_forward(tmp_path):
+    """The page of the committed results inlines at most 150 table rows and 5,000 words
+    (figures aside); longer tables are links to their CSV files beside the page."""
+    import pytest
+
+    from ufmt.report import build_report
+
+    results = Path(__file__).resolve().parents[1] / "results"
+    if not (results / "validation").is_dir():
+        pytest.skip("no committed results")
+    page = build_report(results)
+    text = re.sub(r"<style>.*?</style>|<img[^>]*>", "", page, flags=re.S)
+    words = len(re.sub(r"<[^>]+>", " ", text).split())
+    assert page.count("<tr") <= 150 and words <= 5000, (page.count("<tr"), words)
+    for href in re.findall(r'<a href="([^"#]+)"', page):
+        assert (results / href).is_file(), href

@@ -1,11 +1,15 @@
 """One self-contained HTML page of everything in ``results/``: ``ufmt report`` / ``make report``.
 
-The page holds the model summary, the validation tables and figures (``results/validation/``),
+The page opens with a "Summary" (:mod:`ufmt.report_summary`: the machine, the reference cut's
+headline numbers with their intervals, the comparison with the paper like for like, each
+study's answer), then holds the model, the validation tables and figures (``results/validation/``),
 the reference cut and the FRF, each study's finding, tables and plots (``results/<study>/``,
 read from ``meta.json``), and the provenance of every study (model and code hashes, git
 revision, package versions, timings). Figures are embedded as base64 PNG and the style sheet
-is inline, so the file opens anywhere without a network. It reads existing results only: a
-missing part is listed as missing, never recomputed.
+is inline, so the file opens anywhere without a network. Tables show numbers to four
+significant digits under headers in words with units; a table longer than
+:data:`MAX_TABLE_ROWS` rows is linked as its CSV file (relative to the page), not inlined. It
+reads existing results only: a missing part is listed as missing, never recomputed.
 """
 
 from __future__ import annotations
@@ -13,6 +17,7 @@ from __future__ import annotations
 import base64
 import html
 import json
+import os
 from pathlib import Path
 
 import numpy as np
@@ -22,6 +27,7 @@ from ufmt import files
 from ufmt.machining.process import TABLE1_RANGE
 from ufmt.model.machine import MACHINE_FIELDS, OPTIONAL_FIELDS
 from ufmt.model.schema import Model
+from ufmt.report_summary import summary_parts
 
 REPORT = "report.html"
 VALIDATION = "validation"
@@ -41,7 +47,7 @@ STUDY_TABLES = (
     "interval.csv",
     "tradeoff.csv",
 )
-MAX_TABLE_ROWS = 40  # longer tables are shown in full behind a <details> toggle
+MAX_TABLE_ROWS = 16  # longer tables are linked as their CSV file, not inlined
 COLUMN_CHARS = 40  # a column's width follows its longest cell up to this many characters
 
 _STYLE = """
@@ -79,11 +85,12 @@ def write_report(results: str | Path = "results", model: Model | None = None, ou
     """
     results = Path(results)
     path = Path(output) if output is not None else results / REPORT
-    return files.write_text(path, build_report(results, model))
+    return files.write_text(path, build_report(results, model, page_dir=path.parent))
 
 
-def build_report(results: str | Path = "results", model: Model | None = None) -> str:
-    """The report as one HTML string (see :func:`write_report`)."""
+def build_report(results: str | Path = "results", model: Model | None = None, page_dir=None) -> str:
+    """The report as one HTML string (see :func:`write_report`); ``page_dir`` is the folder
+    the page is written to (links to long tables are relative to it; default ``results``)."""
     from ufmt import __version__
 
     if model is None:
@@ -91,15 +98,22 @@ def build_report(results: str | Path = "results", model: Model | None = None) ->
 
         model = load_model(packaged_path())
     results = Path(results)
+    page_dir = Path(page_dir) if page_dir is not None else results
     studies = _studies(results)
     sections = [
+        ("summary", "Summary", _summary_section(results, model, studies)),
         ("model", "Model", _model_section(model)),
-        ("validation", "Validation against the paper", _validation_section(results / VALIDATION)),
+        (
+            "validation",
+            "Validation against the paper",
+            _validation_section(results / VALIDATION, page_dir),
+        ),
         ("reference-cut", "Reference cut and FRF", _reference_section(results)),
     ]
     contrasts = _contrasts(results / UNCERTAINTY)
     sections += [
-        (name, f"Study: {name}", _study_section(d, meta, contrasts)) for name, d, meta in studies
+        (name, f"Study: {name}", _study_section(d, meta, page_dir, contrasts))
+        for name, d, meta in studies
     ]
     nav = " ".join(f'<a href="#{key}">{html.escape(title)}</a>' for key, title, _ in sections)
     body = "\n".join(
@@ -113,6 +127,26 @@ def build_report(results: str | Path = "results", model: Model | None = None) ->
         f"<code>{html.escape(str(results))}/</code> (nothing recomputed).</p>"
         f"<nav>{nav}</nav>\n{body}\n</body></html>\n"
     )
+
+
+def _summary_section(results: Path, model: Model, studies) -> str:
+    """The Summary (:func:`ufmt.report_summary.summary_parts`) as HTML."""
+    parts = []
+    for kind, content in summary_parts(results, model, studies):
+        if kind == "text":
+            parts.append(f"<p>{html.escape(content)}</p>")
+        elif kind == "heading":
+            parts.append(f"<h3>{html.escape(content)}</h3>")
+        elif kind == "table":
+            parts.append(_table(content))
+        else:
+            items = "".join(
+                f'<li><a href="#{html.escape(name)}">{html.escape(name)}</a>: '
+                f"{html.escape(text)}</li>"
+                for name, text in content
+            )
+            parts.append(f'<ul class="finding">{items}</ul>')
+    return "\n".join(parts)
 
 
 def _studies(results: Path) -> list[tuple[str, Path, dict]]:
@@ -132,29 +166,32 @@ def _studies(results: Path) -> list[tuple[str, Path, dict]]:
 
 
 def _model_section(model: Model) -> str:
-    rows = []
-    for body in model.bodies:
-        rows.append(
-            {"body": body.name, "number": body.number, "kind": body.kind, "mass_kg": body.mass}
-        )
+    """The bodies in one sentence, the hinges' stiffnesses in a table, then every
+    ``[machine]`` and ``[design]`` value."""
+    bodies = ", ".join(
+        f"{b.number}. {b.name} ({b.kind}{f', {b.mass:.3g} kg' if b.mass else ''})"
+        for b in model.bodies
+    )
     hinges = pd.DataFrame(
         [
             {
                 "hinge": h.name,
                 "between": " – ".join(h.between),
-                "stiffness_N_m": " ".join(f"{v:.3g}" for v in h.stiffness),
-                "rotational_stiffness_Nm_rad": " ".join(f"{v:.3g}" for v in h.rotational_stiffness),
+                "stiffness x, y, z [N/m]": " ".join(f"{v:.3g}" for v in h.stiffness),
+                "rotational stiffness x, y, z [N m/rad]": " ".join(
+                    f"{v:.3g}" for v in h.rotational_stiffness
+                ),
             }
             for h in model.hinges
         ]
     )
     parts = [
         f"<p><b>{html.escape(model.name)}</b> ({html.escape(_shown_path(model.source))}): "
-        f"{len(model.bodies)} bodies, {len(model.hinges)} hinges.</p>",
-        _table(pd.DataFrame(rows)),
-        _details("hinges", _table(hinges)),
+        f"{len(model.bodies)} bodies, {len(model.hinges)} hinges. Bodies: "
+        f"{html.escape(bodies)}.</p>",
+        _table(hinges),
+        _parameter_tables(model),
     ]
-    parts.append(_parameter_tables(model))
     return "\n".join(parts)
 
 
@@ -296,7 +333,7 @@ def _band(band) -> str:
     return f"[{band[0]:.3g}, {band[1]:.3g}]"
 
 
-def _validation_section(folder: Path) -> str:
+def _validation_section(folder: Path, page_dir: Path) -> str:
     if not folder.is_dir():
         return _missing(f"{folder}/ (run make validate)")
     parts = [
@@ -311,7 +348,7 @@ def _validation_section(folder: Path) -> str:
         "identification-log.csv": "Identification log (identification-log.csv)",
     }
     for name, title in titles.items():
-        parts.append(f"<h3>{title}</h3>" + _csv(folder / name))
+        parts.append(f"<h3>{title}</h3>" + _csv(folder / name, page_dir))
     modes = sorted(folder.glob("mode-*.png"), key=lambda p: int(p.stem.split("-")[1]))
     if modes:
         parts.append("<h3>Mode shapes</h3>" + "".join(_figure(p) for p in modes))
@@ -429,7 +466,9 @@ def _finding_intervals(name: str, contrasts: pd.DataFrame | None) -> str:
     )
 
 
-def _study_section(folder: Path, meta: dict, contrasts: pd.DataFrame | None = None) -> str:
+def _study_section(
+    folder: Path, meta: dict, page_dir: Path, contrasts: pd.DataFrame | None = None
+) -> str:
     parts = []
     if meta.get("description"):
         parts.append(f"<p>{html.escape(meta['description'])}</p>")
@@ -443,7 +482,7 @@ def _study_section(folder: Path, meta: dict, contrasts: pd.DataFrame | None = No
         parts.append(_figure(folder / name))
     for name in STUDY_TABLES:
         if (folder / name).is_file():
-            parts.append(f"<h3>{name}</h3>" + _csv(folder / name))
+            parts.append(f"<h3>{name}</h3>" + _csv(folder / name, page_dir))
     parts.append(_details("provenance", _provenance(meta)))
     return "\n".join(parts)
 
@@ -468,9 +507,11 @@ def _range_warning(points_csv: Path) -> str:
 
 
 def _provenance(meta: dict) -> str:
+    """Where the study's numbers come from, in one paragraph (meta.json has it all)."""
     run = meta.get("run", {})
     git = meta.get("git", {})
-    rows = {
+    versions = ", ".join(f"{k} {v}" for k, v in meta.get("versions", {}).items())
+    items = {
         "study file": meta.get("study_file"),
         "function": meta.get("function"),
         "model": meta.get("model"),
@@ -485,11 +526,10 @@ def _provenance(meta: dict) -> str:
         ),
         "wall time [s]": run.get("wall_s"),
         "jobs, backend": f"{run.get('jobs')}, {run.get('backend')}",
-        "versions": ", ".join(f"{k} {v}" for k, v in meta.get("versions", {}).items()),
+        "versions": versions,
     }
-    table = _table(pd.DataFrame({"item": list(rows), "value": [str(v) for v in rows.values()]}))
-    study = html.escape(meta.get("study_text", ""))
-    return table + (f"<pre>{study}</pre>" if study else "")
+    text = "; ".join(f"{k}: {v}" for k, v in items.items() if v not in (None, "", "None"))
+    return f"<p><small>{html.escape(text)}.</small></p>"
 
 
 # ---------------------------------------------------------------------------------------------
@@ -517,20 +557,54 @@ def _figure(png: Path) -> str:
     )
 
 
-def _csv(path: Path) -> str:
+def _csv(path: Path, page_dir: Path) -> str:
+    """A CSV table inline, or a link to it (relative to ``page_dir``, the page's folder) when
+    it is longer than MAX_TABLE_ROWS rows."""
     if not path.is_file():
         return _missing(str(path))
     table = pd.read_csv(path)
     if len(table) > MAX_TABLE_ROWS:
-        return _details(f"{path.name}: {len(table)} rows", _table(table))
-    return _table(table)
+        href = Path(os.path.relpath(path.resolve(), page_dir.resolve())).as_posix()
+        return (
+            f'<p>{len(table)} rows, {len(table.columns)} columns: <a href="{html.escape(href)}">'
+            f"{html.escape(path.name)}</a> (CSV, beside this page).</p>"
+        )
+    return _table(table.rename(columns=column_header))
+
+
+#: Column-name suffix -> unit, for headers in words.
+HEADER_UNITS = (
+    ("_percent", "%"),
+    ("_mm_s2", "mm/s²"),
+    ("_mm_min", "mm/min"),
+    ("_Nm_rad", "N m/rad"),
+    ("_N_m", "N/m"),
+    ("_hz", "Hz"),
+    ("_nm", "nm"),
+    ("_um", "µm"),
+    ("_mm", "mm"),
+    ("_min", "min"),
+    ("_n", "N"),
+    ("_s", "s"),
+)
+
+
+def column_header(name: str) -> str:
+    """A CSV column's header in words with its unit: ``pv_measured_nm`` -> "pv measured [nm]",
+    ``frequency_hz`` -> "frequency [Hz]" (dotted parameter names are kept as they are)."""
+    if "." in name or "[" in name:
+        return name
+    for suffix, unit in HEADER_UNITS:
+        if name.endswith(suffix) and len(name) > len(suffix):
+            return f"{name[: -len(suffix)].replace('_', ' ')} [{unit}]"
+    return name.replace("_", " ")
 
 
 def _table(table: pd.DataFrame) -> str:
-    """The table as HTML in the page's fixed layout: each column's share of the width follows
-    its longest cell (capped at COLUMN_CHARS characters), so long text wraps in wide columns
-    and numbers keep narrow ones."""
-    text = table.to_html(index=False, na_rep="", float_format=lambda v: f"{v:.6g}", border=0)
+    """The table as HTML in the page's fixed layout (numbers to four significant digits): each
+    column's share of the width follows its longest cell (capped at COLUMN_CHARS characters),
+    so long text wraps in wide columns and numbers keep narrow ones."""
+    text = table.to_html(index=False, na_rep="", float_format=lambda v: f"{v:.4g}", border=0)
     lengths = [
         min(
             COLUMN_CHARS,
@@ -545,7 +619,7 @@ def _table(table: pd.DataFrame) -> str:
 
 
 def _shown(value) -> str:
-    return f"{value:.6g}" if isinstance(value, float) else str(value)
+    return f"{value:.4g}" if isinstance(value, float) else str(value)
 
 
 def _details(summary: str, content: str) -> str:
