@@ -57,7 +57,7 @@ table { border-collapse: collapse; font-size: 0.8em; margin: 0.5em 0; width: 100
         table-layout: fixed; }
 th, td { border: 1px solid #ccc; padding: 2px 6px; text-align: right; vertical-align: top;
          overflow-wrap: anywhere; word-break: break-word; }
-td.text, th.text { text-align: left; }
+td.text, th.text, td:first-child, th:first-child { text-align: left; }
 pre { white-space: pre-wrap; overflow-wrap: anywhere; }
 figure { margin: 0.5em 0; }
 th { background: #eee; }
@@ -142,11 +142,24 @@ def _summary_section(results: Path, model: Model, studies) -> str:
         else:
             items = "".join(
                 f'<li><a href="#{html.escape(name)}">{html.escape(name)}</a>: '
-                f"{html.escape(text)}</li>"
+                f"{html.escape(_first_clauses(text))}</li>"
                 for name, text in content
             )
             parts.append(f'<ul class="finding">{items}</ul>')
     return "\n".join(parts)
+
+
+#: A study's answer in the summary is cut at a clause boundary after this many characters (the
+#: whole finding is in the study's section).
+SUMMARY_ANSWER_CHARS = 400
+
+
+def _first_clauses(text: str) -> str:
+    """``text`` up to the last "; " before SUMMARY_ANSWER_CHARS, with "…" where cut."""
+    if len(text) <= SUMMARY_ANSWER_CHARS:
+        return text
+    cut = text.rfind("; ", 0, SUMMARY_ANSWER_CHARS)
+    return (text[:cut] if cut > 0 else text[:SUMMARY_ANSWER_CHARS]) + " … (the whole finding below)"
 
 
 def _studies(results: Path) -> list[tuple[str, Path, dict]]:
