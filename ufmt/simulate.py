@@ -26,6 +26,7 @@ from ufmt.machining.basis import ModalBasis
 from ufmt.machining.cut_geometry import DEFAULT_TABLE_ROWS, cut_geometry, samples_per_rev
 from ufmt.machining.cutting import DEFAULT_COEFFICIENTS, FORCE_PARTS, ForceCoefficients
 from ufmt.machining.instruments import (
+    AccelerometerChain,
     Interferometer,
     accelerometer_peak,
     interferometer_metrics,
@@ -54,6 +55,9 @@ from ufmt.model.machine import Machine, machine_of
 ACCELEROMETER_TABLE_ROWS = 8
 
 METHODS = ("periodic", "time")
+#: The cutting-force vibration's source and the metrics of its surface alone.
+DYNAMIC = "dynamic"
+DYNAMIC_METRICS = ("pv_dynamic_nm", "pv_dynamic_steady_nm", "edge_runout_nm")
 
 
 @dataclass(frozen=True, eq=False)
@@ -407,7 +411,8 @@ def _run(
     if options.psd2_patch is not None:
         metrics.update(_psd2_band_rms(response, machine, process, acting, options))
     pv_by_source = _pv_by_source(sources, passes, terms, metrics["pv_nm"])
-    metrics.update(_record_metrics(response, force_scale))
+    metrics.update(_dynamic_metrics(passes, terms, machine))
+    metrics.update(_record_metrics(response, machine, force_scale))
     metrics["tip_acc_measured_mm_s2"] = _extrapolated_acceleration(
         metrics["tip_acc_measured_mm_s2"], basis, machine, process, zeta, options
     )
@@ -529,29 +534,41 @@ def _pv_by_source(
     return pv_by_source
 
 
-def _record_metrics(response: Response, force_scale: float) -> dict[str, float]:
+def _dynamic_metrics(passes: Passes, terms: dict, machine: Machine) -> dict[str, float]:
+    """PV [nm] of the surface of the cutting-force vibration alone (eq. 4.1): pv_dynamic_nm
+    over the whole plate (the paper's definition), pv_dynamic_steady_nm over the points cut
+    while the leading arc crosses the whole plate (:meth:`~ufmt.machining.surface.Passes.
+    steady`: the chip pattern repeats every revolution), edge_runout_nm what the entry and
+    exit strips add; NaN where the source is off (or no point is steady)."""
+    if DYNAMIC not in terms:
+        return dict.fromkeys(DYNAMIC_METRICS, math.nan)
+    surface = passes.lower([terms[DYNAMIC]])
+    whole = float(np.ptp(surface.z)) * 1e9
+    steady = surface.z[passes.steady(machine)]
+    inside = float(np.ptp(steady)) * 1e9 if steady.size else math.nan
+    return dict(zip(DYNAMIC_METRICS, (whole, inside, whole - inside), strict=True))
+
+
+def _record_metrics(response: Response, machine: Machine, force_scale: float) -> dict[str, float]:
     """The record window's metrics: zre_peak_nm, tip_acc_peak_mm_s2 (raw),
-    tip_acc_measured_mm_s2 (as the accelerometer reports it), force_peak_n, and the
+    tip_acc_measured_mm_s2 (as the accelerometer chain reports it), force_peak_n, and the
     force_scale used."""
     per = response.periods
     return {
         "zre_peak_nm": _mean_peak(response.z_re, per) * 1e9,
         "tip_acc_peak_mm_s2": _mean_peak(response.tip_acc[:, 2], per) * 1e3,
-        "tip_acc_measured_mm_s2": _measured_peak(response),
+        "tip_acc_measured_mm_s2": _accelerometer_peak(
+            machine, response.t, response.tip_acc[:, 2], per
+        ),
         "force_peak_n": float(np.linalg.norm(response.force, axis=1).max()),
         "force_scale": float(force_scale),
     }
 
 
-def _measured_peak(response: Response) -> float:
-    """The accelerometer's peak [mm/s^2] of a response's record window."""
-    return _accelerometer_peak(response.t, response.tip_acc[:, 2], response.periods)
-
-
-def _accelerometer_peak(t: np.ndarray, acc: np.ndarray, periods: int) -> float:
-    """The accelerometer's peak [mm/s^2] of the tool tip's z acceleration ``acc`` [m/s^2] at
-    times ``t`` [s] over ``periods`` spindle periods."""
-    return accelerometer_peak(acc, float(t[1] - t[0]), periods) * 1e3
+def _accelerometer_peak(machine: Machine, t: np.ndarray, acc: np.ndarray, periods: int) -> float:
+    """The accelerometer chain's average peak [mm/s^2] of the tool tip's z acceleration
+    ``acc`` [m/s^2] at times ``t`` [s] over ``periods`` spindle periods."""
+    return accelerometer_peak(t, acc, periods, AccelerometerChain.of(machine)) * 1e3
 
 
 def _extrapolated_acceleration(
@@ -596,7 +613,7 @@ def _periodic_acceleration(
     record = replace(options, table_rows=ACCELEROMETER_TABLE_ROWS)
     geos = _geometries(basis, machine, None, record)
     t, acc = record_tip_acceleration(geos, process, zeta, options.force_scale)
-    return _accelerometer_peak(t, acc, 1)
+    return _accelerometer_peak(machine, t, acc, 1)
 
 
 def _mean_peak(signal: np.ndarray, periods: int) -> float:

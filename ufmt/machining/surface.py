@@ -186,6 +186,14 @@ class Passes:
             pv.append(float(z.max() - z.min()))
         return pv
 
+    def steady(self, machine: Machine) -> np.ndarray:
+        """Points (Ny, Nx) both of whose leading-arc passes ran while the arc crossed the whole
+        plate (:attr:`Machine.steady_span`): the chip pattern behind them repeats every
+        revolution; the others form the entry and exit strips."""
+        y_a, y_b = machine.steady_span
+        slide = self.slide[:, :, 0, :]
+        return np.all((slide >= y_a) & (slide <= y_b), axis=0)
+
     def _lower_pass(self, z):
         """The lower of a term's heights at the two passes (stacked on its first axis); a term
         without that axis is the same at both passes and is returned as is."""
