@@ -41,9 +41,11 @@ from ufmt.machining.sources import SCALLOP, SOURCES, ErrorSource, acting_sources
 from ufmt.machining.static import ResidualFlexibility, residual_flexibility
 from ufmt.machining.surface import (
     DEFAULT_APERTURE_MARGIN,
+    DYNAMIC_METRICS,
     PSD2_PATCH_SPACING,
     Passes,
     Surface,
+    dynamic_metrics,
     surface_metrics,
     surface_passes,
 )
@@ -55,9 +57,8 @@ from ufmt.model.machine import Machine, machine_of
 ACCELEROMETER_TABLE_ROWS = 8
 
 METHODS = ("periodic", "time")
-#: The cutting-force vibration's source and the metrics of its surface alone.
+#: The source of the cutting-force vibration (:mod:`ufmt.machining.sources`).
 DYNAMIC = "dynamic"
-DYNAMIC_METRICS = ("pv_dynamic_nm", "pv_dynamic_steady_nm", "edge_runout_nm")
 
 
 @dataclass(frozen=True, eq=False)
@@ -535,18 +536,11 @@ def _pv_by_source(
 
 
 def _dynamic_metrics(passes: Passes, terms: dict, machine: Machine) -> dict[str, float]:
-    """PV [nm] of the surface of the cutting-force vibration alone (eq. 4.1): pv_dynamic_nm
-    over the whole plate (the paper's definition), pv_dynamic_steady_nm over the points cut
-    while the leading arc crosses the whole plate (:meth:`~ufmt.machining.surface.Passes.
-    steady`: the chip pattern repeats every revolution), edge_runout_nm what the entry and
-    exit strips add; NaN where the source is off (or no point is steady)."""
+    """The metrics of the cutting-force vibration's surface alone
+    (:func:`~ufmt.machining.surface.dynamic_metrics`; NaN where that source is off)."""
     if DYNAMIC not in terms:
         return dict.fromkeys(DYNAMIC_METRICS, math.nan)
-    surface = passes.lower([terms[DYNAMIC]])
-    whole = float(np.ptp(surface.z)) * 1e9
-    steady = surface.z[passes.steady(machine)]
-    inside = float(np.ptp(steady)) * 1e9 if steady.size else math.nan
-    return dict(zip(DYNAMIC_METRICS, (whole, inside, whole - inside), strict=True))
+    return dynamic_metrics(passes, terms[DYNAMIC], machine)
 
 
 def _record_metrics(response: Response, machine: Machine, force_scale: float) -> dict[str, float]:

@@ -339,6 +339,22 @@ def legendre_fit(x: np.ndarray, y: np.ndarray, z: np.ndarray) -> tuple[np.ndarra
     return fit, form
 
 
+#: Keys of :func:`dynamic_metrics` [nm].
+DYNAMIC_METRICS = ("pv_dynamic_nm", "pv_dynamic_steady_nm", "edge_runout_nm")
+
+
+def dynamic_metrics(passes: Passes, term, machine: Machine) -> dict[str, float]:
+    """PV [nm] of the surface of one term alone (the cutting-force vibration's z_re at both
+    passes, :meth:`Passes.dynamic`), eq. 4.1: ``pv_dynamic_nm`` over the whole plate (the
+    paper's definition), ``pv_dynamic_steady_nm`` over the steady cut (:meth:`Passes.steady`;
+    NaN if no point is steady) and ``edge_runout_nm``, what the entry and exit strips add."""
+    z = passes.lower([term]).z
+    steady = z[np.broadcast_to(passes.steady(machine), z.shape)]
+    whole = _pv(z) * 1e9
+    inside = _pv(steady) * 1e9 if steady.size else float("nan")
+    return dict(zip(DYNAMIC_METRICS, (whole, inside, whole - inside), strict=True))
+
+
 def _pv(z: np.ndarray) -> float:
     """Peak to valley of z [its unit] (np.ptp without its dispatch)."""
     return float(z.max() - z.min())
