@@ -15,7 +15,15 @@ from ufmt.model.load import load_model
 from ufmt.simulate import simulate
 
 REFERENCE = Process(300.0, 15.0, 4.0)
-SURFACE_METRICS = ("pv_nm", "pv_aperture_nm", "pv_measured_nm", "rms_measured_nm", "zre_peak_nm")
+SURFACE_METRICS = (
+    "pv_nm",
+    "pv_aperture_nm",
+    "pv_measured_nm",
+    "rms_measured_nm",
+    "zre_peak_nm",
+    "pv_dynamic_nm",
+    "pv_dynamic_steady_nm",
+)
 
 
 @lru_cache(maxsize=1)

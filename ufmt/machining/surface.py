@@ -187,12 +187,16 @@ class Passes:
         return pv
 
     def steady(self, machine: Machine) -> np.ndarray:
-        """Points (Ny, Nx) both of whose leading-arc passes ran while the arc crossed the whole
-        plate (:attr:`Machine.steady_span`): the chip pattern behind them repeats every
-        revolution; the others form the entry and exit strips."""
+        """Points (Ny, Nx) of the steady cut: both of their leading-arc passes ran while the arc
+        crossed the whole plate (:attr:`Machine.steady_span`: the chip pattern behind them
+        repeats every revolution; the others form the entry and exit strips), off the plate's
+        side edges x = +-lx/2, where every revolution's force steps on and off (there eq. 4.1
+        reads the sampled step itself, a value of the discretisation; the real step is spread
+        over the nose's engaged edge, ~0.2 mm, less than a grid step)."""
         y_a, y_b = machine.steady_span
         slide = self.slide[:, :, 0, :]
-        return np.all((slide >= y_a) & (slide <= y_b), axis=0)
+        periodic = np.all((slide >= y_a) & (slide <= y_b), axis=0)
+        return periodic & (np.abs(self.x) < machine.workpiece_size[0] / 2)[None, :]
 
     def _lower_pass(self, z):
         """The lower of a term's heights at the two passes (stacked on its first axis); a term
