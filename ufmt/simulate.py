@@ -72,7 +72,11 @@ class SimulationResult:
     resolved; PSD2 on the ``psd2_patch``), zre_peak_nm (mean over
     the record window's spindle periods of the largest |z_re| in each; the window sits mid-cut,
     at :func:`ufmt.machining.response.record_slide`), tip_acc_peak_mm_s2 (the same for the
-    tool-tip z acceleration), force_peak_n (largest cutting-force magnitude in the window),
+    tool-tip z acceleration; tip_acc_measured_mm_s2 as the paper's accelerometer chain reports
+    it, :class:`ufmt.machining.instruments.AccelerometerChain`), pv_dynamic_nm,
+    pv_dynamic_steady_nm and edge_runout_nm (the cutting-force vibration's surface alone:
+    whole plate, steady cut, what the edges add; :func:`ufmt.machining.surface.
+    dynamic_metrics`), force_peak_n (largest cutting-force magnitude in the window),
     force_scale; pv_measured_nm and rms_measured_nm (flatness as the interferometer reports it:
     clear aperture, piston and tilt removed, scallops seen as their mean) and roughness_pv_nm,
     roughness_rq_nm (the feed marks), :mod:`ufmt.machining.instruments`. n_modes: modes in the

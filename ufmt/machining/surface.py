@@ -32,6 +32,11 @@ fit leaves (PV, RMS). The plane, the fits and the RMS use the evenly spaced rows
 :mod:`ufmt.machining.psd`'s; PSD2 needs steps <= 0.06 mm, given by a patch
 (``DEFAULT_PSD2_PATCH`` = 20 mm square at 0.05 mm, ``ufmt.simulate(..., psd2_patch=...)``), as
 a shop measures PSD2 on sub-apertures.
+
+Dynamic metrics [nm] (:func:`dynamic_metrics`): the PV of the cutting-force vibration's
+surface alone over the whole plate (the paper's definition, eq. 4.1) and over the steady cut
+(:meth:`Passes.steady`: the chip pattern repeats every revolution, off the side edges where
+each revolution's force steps), and the edge run-out, what the edges add.
 """
 
 from __future__ import annotations
