@@ -37,7 +37,7 @@ import ufmt  # noqa: E402
 from ufmt.machining.cut_geometry import cut_geometry  # noqa: E402
 from ufmt.machining.cutting import DEFAULT_COEFFICIENTS, FORCE_PARTS  # noqa: E402
 from ufmt.machining.damping import damped_modes  # noqa: E402
-from ufmt.machining.instruments import accelerometer_peak  # noqa: E402
+from ufmt.machining.instruments import AccelerometerChain, accelerometer_peak  # noqa: E402
 from ufmt.machining.modal import modal_basis  # noqa: E402
 from ufmt.machining.periodic_path import (  # noqa: E402
     periodic_coordinates,
@@ -140,7 +140,7 @@ def step_peak(basis, machine, n, zeta, process, residual, alone: bool) -> float:
     else:
         response = periodic_response(geos, process, zeta, machine.force_scale)
         t, acc = response.t, response.tip_acc[:, 2]
-    return accelerometer_peak(acc, float(t[1] - t[0]), 1)
+    return accelerometer_peak(t, acc, 1, AccelerometerChain.of(machine))
 
 
 def accelerometer_step_ms(designs, bases, reference) -> tuple[int, float, float]:

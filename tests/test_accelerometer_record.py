@@ -17,7 +17,7 @@ from ufmt.defaults import DEFAULT_BASIS_CUTOFF_HZ
 from ufmt.machining.cut_geometry import cut_geometry
 from ufmt.machining.cutting import FORCE_PARTS
 from ufmt.machining.damping import damped_modes
-from ufmt.machining.instruments import accelerometer_peak
+from ufmt.machining.instruments import AccelerometerChain, accelerometer_peak
 from ufmt.machining.periodic_path import periodic_response, record_tip_acceleration
 from ufmt.machining.process import Process
 from ufmt.machining.recurrence import modal_damping
@@ -29,10 +29,10 @@ simulation = importlib.import_module("ufmt.simulate")
 REFERENCE = Process(300.0, 15.0, 4.0)
 
 
-def full_peak(response) -> float:
-    """The accelerometer's peak [mm/s^2] of a full response's record window."""
-    dt = float(response.t[1] - response.t[0])
-    return accelerometer_peak(response.tip_acc[:, 2], dt, response.periods) * 1e3
+def full_peak(response, machine) -> float:
+    """The accelerometer chain's peak [mm/s^2] of a full response's record window."""
+    chain = AccelerometerChain.of(machine)
+    return accelerometer_peak(response.t, response.tip_acc[:, 2], response.periods, chain) * 1e3
 
 
 def assert_same_record(geos, process, zeta, force_scale):
@@ -104,11 +104,13 @@ def assert_the_step_on_full_responses(packaged, packaged_basis, process, method)
         psd2_patch=None,
         basis_cutoff_hz=DEFAULT_BASIS_CUTOFF_HZ,
     )
-    a_fine = full_peak(simulation._response(basis, machine, process, residual, zeta, fine))
-    measured = a_coarse = full_peak(result.response)
+    a_fine = full_peak(simulation._response(basis, machine, process, residual, zeta, fine), machine)
+    measured = a_coarse = full_peak(result.response, machine)
     if method == "time":
         coarse = replace(fine, n_phi=result.samples_per_rev)
-        a_coarse = full_peak(simulation._response(basis, machine, process, residual, zeta, coarse))
+        a_coarse = full_peak(
+            simulation._response(basis, machine, process, residual, zeta, coarse), machine
+        )
     expected = measured + (a_fine - a_coarse) * 4.0 / 3.0
     assert abs(a_fine - a_coarse) > 1e-6 * abs(a_coarse)  # the step does move the value
     assert result.metrics["tip_acc_measured_mm_s2"] == pytest.approx(expected, rel=1e-10)

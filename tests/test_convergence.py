@@ -15,7 +15,15 @@ from ufmt.model.load import load_model
 from ufmt.simulate import simulate
 
 REFERENCE = Process(300.0, 15.0, 4.0)
-SURFACE_METRICS = ("pv_nm", "pv_aperture_nm", "pv_measured_nm", "rms_measured_nm", "zre_peak_nm")
+SURFACE_METRICS = (
+    "pv_nm",
+    "pv_aperture_nm",
+    "pv_measured_nm",
+    "rms_measured_nm",
+    "zre_peak_nm",
+    "pv_dynamic_nm",
+    "pv_dynamic_steady_nm",
+)
 
 
 @lru_cache(maxsize=1)
@@ -55,11 +63,11 @@ def test_default_sampling_is_within_half_a_percent_of_four_times_it(metric):
 def raw_measured_peak(n_phi):
     """The accelerometer's peak [mm/s^2] of the record at ``n_phi`` samples per revolution,
     before the extrapolation (the periodic path's record)."""
-    from ufmt.machining.instruments import accelerometer_peak
+    from ufmt.machining.instruments import AccelerometerChain, accelerometer_peak
 
-    response = run(n_phi=n_phi).response
-    dt = float(response.t[1] - response.t[0])
-    return accelerometer_peak(response.tip_acc[:, 2], dt, response.periods) * 1e3
+    result = run(n_phi=n_phi)
+    response, chain = result.response, AccelerometerChain.of(result.machine)
+    return accelerometer_peak(response.t, response.tip_acc[:, 2], response.periods, chain) * 1e3
 
 
 @pytest.mark.slow

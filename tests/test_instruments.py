@@ -12,7 +12,6 @@ import pytest
 import ufmt
 from ufmt.machining.instruments import (
     Interferometer,
-    accelerometer_peak,
     interferometer_metrics,
     scallop_height,
     scallop_roughness,
@@ -116,18 +115,3 @@ def test_simulate_reports_the_instruments_and_its_basis(packaged):
     assert d["basis_cutoff_hz"] == d["basis_highest_hz"] > 0  # a basis chosen by count
     assert d["roughness_pv_nm"] == pytest.approx(d["pv_by_source_nm"]["feed_marks"], rel=0.02)
     assert d["pv_measured_nm"] < d["pv_aperture_nm"]
-
-
-@pytest.mark.parametrize("frequency_hz", [50.0, 2000.0, 8000.0])
-def test_accelerometer_passes_a_sinusoid_with_the_butterworth_magnitude(frequency_hz):
-    """|H(f)| = 1 / sqrt(1 + (f / f_c)^4) for a 2nd-order Butterworth low-pass."""
-    periods, n, spindle_hz = 2, 2**17, 5.0  # >= 80 samples per cycle: peak sampled to 1e-3
-    dt = 1.0 / (spindle_hz * n)
-    t = np.arange(periods * n) * dt
-    signal = 3.0 * np.sin(2 * np.pi * frequency_hz * t)  # whole cycles in the record
-    expected = 3.0 / math.sqrt(1 + (frequency_hz / 2000.0) ** 4)
-    assert accelerometer_peak(signal, dt, periods) == pytest.approx(expected, rel=1e-3)
-
-
-def test_accelerometer_keeps_a_constant():
-    assert accelerometer_peak(np.full(512, 2.5), 1e-4, 1) == pytest.approx(2.5, rel=1e-12)

@@ -50,10 +50,20 @@ def scaled_hinge(name, translation=(1, 1, 1), rotation=(1, 1, 1)):
     )
 
 
+@pytest.mark.xfail(
+    strict=True,
+    reason=(
+        "the packaged model was fitted in the former band 0.3-3 and sits at 3 (specific "
+        "thrust 9.6 GPa); the band from the specific forces of diamond on KDP is 0.5-5/3 "
+        "until the model is recalibrated in it"
+    ),
+)
 def test_force_scale_lies_in_its_physical_band():
-    """Specific cutting forces of diamond on KDP allow a factor 0.3-3 on the
-    literature coefficients (docs/ufmt-model.md, response calibration)."""
-    assert 0.3 <= packaged().machine.force_scale <= 3.0
+    """Specific cutting forces >= 1 GPa and specific thrust <= 5 GPa for diamond on KDP
+    (docs/ufmt-model.md, 'Cutting force'): the calibration band of force_scale."""
+    fits = read_toml(packaged_path("calibration.toml"))["response"]["parameter"]
+    low, high = next(p["band"] for p in fits if p["key"] == "force_scale")
+    assert low <= packaged().machine.force_scale <= high
 
 
 @pytest.mark.xfail(

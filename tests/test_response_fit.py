@@ -20,6 +20,7 @@ from ufmt.calibration.response_fit import (
 )
 from ufmt.calibration.settings import read_response_settings
 from ufmt.errors import StudyError
+from ufmt.machining.cutting import DEFAULT_COEFFICIENTS
 from ufmt.machining.modal import modal_basis
 from ufmt.machining.process import Process
 from ufmt.machining.surface import Surface
@@ -147,9 +148,11 @@ def test_packaged_response_targets_read_the_paper():
     assert paper["pv_measured_nm"] == 142.91 and paper["zre_peak_nm"] == 34.0
     assert paper["tip_acc_measured_mm_s2"] == pytest.approx(66.0)  # 0.066 read as m/s^2
     assert {p.key for p in settings.parameters} >= {"force_scale", "workpiece_size"}
-    for p in settings.parameters:
-        if p.key == "force_scale":
-            assert p.band == (0.3, 3.0)
+    # the force band from the specific forces of diamond on KDP, 1-5 GPa (docs/ufmt-model.md,
+    # 'Cutting force'): specific cutting force >= 1 GPa, specific thrust <= 5 GPa
+    band = {p.key: p.band for p in settings.parameters}["force_scale"]
+    expected = (1e9 / DEFAULT_COEFFICIENTS.cutting, 5e9 / DEFAULT_COEFFICIENTS.thrust)
+    assert band == pytest.approx(expected, rel=1e-15)
 
 
 def test_implied_forces_are_coefficients_times_chip(model):

@@ -258,7 +258,8 @@ def test_documented_bands_reach_the_study_function(tmp_path):
     for name in ("machine.straightness_m", "machine.force_scale"):
         assert bands[name].low <= samples[name].min() < samples[name].max() <= bands[name].high
     # Latin hypercube: exactly one sample per stratum of each input's (log) band
-    fs = np.log(samples["machine.force_scale"] / 0.3) / np.log(10.0)
+    low, high = bands["machine.force_scale"].low, bands["machine.force_scale"].high
+    fs = np.log(samples["machine.force_scale"] / low) / np.log(high / low)
     assert sorted(np.floor(fs * 64).astype(int)) == list(range(64))
 
 

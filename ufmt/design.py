@@ -66,6 +66,9 @@ _METRICS_FINITE = (
     ("waviness_rms_nm", False),
     ("zre_peak_nm", False),
     ("tip_acc_measured_mm_s2", False),
+    ("pv_dynamic_nm", False),
+    ("pv_dynamic_steady_nm", False),
+    ("edge_runout_nm", False),
 )
 METRICS = tuple(name for name, _ in _METRICS_FINITE)
 #: Metrics the physics always gives as a finite number.

@@ -199,7 +199,10 @@ def evaluate(
         (surface of paper eq. 4.1; NaN where a band is not resolved), ``force_peak_n`` [N],
         ``pv_<source>_nm`` [nm] for each error source of :mod:`ufmt.machining.sources` alone,
         ``waviness_rms_nm`` [nm], ``zre_peak_nm`` [nm] (z_re average peak) and
-        ``tip_acc_measured_mm_s2`` [mm/s^2] (as the accelerometer reports it), ``f1_hz`` ..
+        ``tip_acc_measured_mm_s2`` [mm/s^2] (as the accelerometer chain reports it),
+        ``pv_dynamic_nm``, ``pv_dynamic_steady_nm`` and ``edge_runout_nm`` [nm] (the
+        cutting-force vibration's surface alone: whole plate, steady cut, what the entry and
+        exit strips add, :func:`ufmt.machining.surface.dynamic_metrics`), ``f1_hz`` ..
         ``f6_hz`` (first natural frequencies [Hz]), ``status`` ("ok" or "error") and ``message``
         (warnings or the error, one line; empty if none). On error the metrics are NaN.
 

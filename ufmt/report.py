@@ -400,6 +400,8 @@ def _error_budget(cut: Path) -> str:
     for key, label in (
         ("pv_nm", "every source, whole plate"),
         ("pv_measured_nm", "every source, as the interferometer measures it"),
+        ("pv_dynamic_steady_nm", "cutting-force vibration alone, steady cut (edges apart)"),
+        ("edge_runout_nm", "cutting-force vibration alone, what the plate's edges add"),
     ):
         if data.get(key) is not None:
             rows.append({"source": label, "PV alone [nm]": f"{data[key]:.4g}"})

@@ -26,6 +26,7 @@ from ufmt.machining.basis import ModalBasis
 from ufmt.machining.cut_geometry import DEFAULT_TABLE_ROWS, cut_geometry, samples_per_rev
 from ufmt.machining.cutting import DEFAULT_COEFFICIENTS, FORCE_PARTS, ForceCoefficients
 from ufmt.machining.instruments import (
+    AccelerometerChain,
     Interferometer,
     accelerometer_peak,
     interferometer_metrics,
@@ -40,9 +41,11 @@ from ufmt.machining.sources import SCALLOP, SOURCES, ErrorSource, acting_sources
 from ufmt.machining.static import ResidualFlexibility, residual_flexibility
 from ufmt.machining.surface import (
     DEFAULT_APERTURE_MARGIN,
+    DYNAMIC_METRICS,
     PSD2_PATCH_SPACING,
     Passes,
     Surface,
+    dynamic_metrics,
     surface_metrics,
     surface_passes,
 )
@@ -54,6 +57,8 @@ from ufmt.model.machine import Machine, machine_of
 ACCELEROMETER_TABLE_ROWS = 8
 
 METHODS = ("periodic", "time")
+#: The source of the cutting-force vibration (:mod:`ufmt.machining.sources`).
+DYNAMIC = "dynamic"
 
 
 @dataclass(frozen=True, eq=False)
@@ -67,7 +72,11 @@ class SimulationResult:
     resolved; PSD2 on the ``psd2_patch``), zre_peak_nm (mean over
     the record window's spindle periods of the largest |z_re| in each; the window sits mid-cut,
     at :func:`ufmt.machining.response.record_slide`), tip_acc_peak_mm_s2 (the same for the
-    tool-tip z acceleration), force_peak_n (largest cutting-force magnitude in the window),
+    tool-tip z acceleration; tip_acc_measured_mm_s2 as the paper's accelerometer chain reports
+    it, :class:`ufmt.machining.instruments.AccelerometerChain`), pv_dynamic_nm,
+    pv_dynamic_steady_nm and edge_runout_nm (the cutting-force vibration's surface alone:
+    whole plate, steady cut, what the edges add; :func:`ufmt.machining.surface.
+    dynamic_metrics`), force_peak_n (largest cutting-force magnitude in the window),
     force_scale; pv_measured_nm and rms_measured_nm (flatness as the interferometer reports it:
     clear aperture, piston and tilt removed, scallops seen as their mean) and roughness_pv_nm,
     roughness_rq_nm (the feed marks), :mod:`ufmt.machining.instruments`. n_modes: modes in the
@@ -407,7 +416,8 @@ def _run(
     if options.psd2_patch is not None:
         metrics.update(_psd2_band_rms(response, machine, process, acting, options))
     pv_by_source = _pv_by_source(sources, passes, terms, metrics["pv_nm"])
-    metrics.update(_record_metrics(response, force_scale))
+    metrics.update(_dynamic_metrics(passes, terms, machine))
+    metrics.update(_record_metrics(response, machine, force_scale))
     metrics["tip_acc_measured_mm_s2"] = _extrapolated_acceleration(
         metrics["tip_acc_measured_mm_s2"], basis, machine, process, zeta, options
     )
@@ -529,29 +539,34 @@ def _pv_by_source(
     return pv_by_source
 
 
-def _record_metrics(response: Response, force_scale: float) -> dict[str, float]:
+def _dynamic_metrics(passes: Passes, terms: dict, machine: Machine) -> dict[str, float]:
+    """The metrics of the cutting-force vibration's surface alone
+    (:func:`~ufmt.machining.surface.dynamic_metrics`; NaN where that source is off)."""
+    if DYNAMIC not in terms:
+        return dict.fromkeys(DYNAMIC_METRICS, math.nan)
+    return dynamic_metrics(passes, terms[DYNAMIC], machine)
+
+
+def _record_metrics(response: Response, machine: Machine, force_scale: float) -> dict[str, float]:
     """The record window's metrics: zre_peak_nm, tip_acc_peak_mm_s2 (raw),
-    tip_acc_measured_mm_s2 (as the accelerometer reports it), force_peak_n, and the
+    tip_acc_measured_mm_s2 (as the accelerometer chain reports it), force_peak_n, and the
     force_scale used."""
     per = response.periods
     return {
         "zre_peak_nm": _mean_peak(response.z_re, per) * 1e9,
         "tip_acc_peak_mm_s2": _mean_peak(response.tip_acc[:, 2], per) * 1e3,
-        "tip_acc_measured_mm_s2": _measured_peak(response),
+        "tip_acc_measured_mm_s2": _accelerometer_peak(
+            machine, response.t, response.tip_acc[:, 2], per
+        ),
         "force_peak_n": float(np.linalg.norm(response.force, axis=1).max()),
         "force_scale": float(force_scale),
     }
 
 
-def _measured_peak(response: Response) -> float:
-    """The accelerometer's peak [mm/s^2] of a response's record window."""
-    return _accelerometer_peak(response.t, response.tip_acc[:, 2], response.periods)
-
-
-def _accelerometer_peak(t: np.ndarray, acc: np.ndarray, periods: int) -> float:
-    """The accelerometer's peak [mm/s^2] of the tool tip's z acceleration ``acc`` [m/s^2] at
-    times ``t`` [s] over ``periods`` spindle periods."""
-    return accelerometer_peak(acc, float(t[1] - t[0]), periods) * 1e3
+def _accelerometer_peak(machine: Machine, t: np.ndarray, acc: np.ndarray, periods: int) -> float:
+    """The accelerometer chain's average peak [mm/s^2] of the tool tip's z acceleration
+    ``acc`` [m/s^2] at times ``t`` [s] over ``periods`` spindle periods."""
+    return accelerometer_peak(t, acc, periods, AccelerometerChain.of(machine)) * 1e3
 
 
 def _extrapolated_acceleration(
@@ -596,7 +611,7 @@ def _periodic_acceleration(
     record = replace(options, table_rows=ACCELEROMETER_TABLE_ROWS)
     geos = _geometries(basis, machine, None, record)
     t, acc = record_tip_acceleration(geos, process, zeta, options.force_scale)
-    return _accelerometer_peak(t, acc, 1)
+    return _accelerometer_peak(machine, t, acc, 1)
 
 
 def _mean_peak(signal: np.ndarray, periods: int) -> float:

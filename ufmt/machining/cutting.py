@@ -49,16 +49,20 @@ FORCE_PARTS = ("area", "edge")
 class ForceCoefficients:
     """Specific cutting forces [N/m^2] and edge (ploughing) forces per unit edge length [N/m].
 
-    Cutting: specific cutting energy of diamond cutting of KDP 1-5 GPa (docs/ufmt-model.md,
-    'Cutting force'); K_c = 2 GPa, with thrust 1.5 K_c (a few-micrometre chip under a
-    rounded edge: thrust exceeds the cutting force in diamond cutting of KDP) and feed 0.3 K_c.
-    At the reference process (300 rpm, 15 mm/min, 4 um: chip 4 um x 50 um) the peak forces are
-    0.4 N cutting and 0.6 N thrust, the order of the 0.15-0.19 N measured in diamond turning of
-    KDP (Wang et al., Key Eng. Mater. 339, doi:10.4028/www.scientific.net/kem.339.78).
+    Cutting: K_c = 2 GPa, with thrust K_t = 1.5 K_c (a few-micrometre chip under a rounded
+    edge: thrust exceeds the cutting force in diamond cutting of KDP) and feed 0.3 K_c.
+    Band of the specific forces of diamond on KDP, cutting and thrust alike: 1-5 GPa
+    (docs/ufmt-model.md, 'Cutting force': of the order of KDP's Vickers hardness, 1.5-2 GPa,
+    Fang and Lambropoulos, J. Am. Ceram. Soc. 85 (2002) 174, rising with the size effect at
+    micrometre chips). ``force_scale`` ([machine]) scales both parts; its calibration band
+    [1 GPa / K_c, 5 GPa / K_t] = [0.5, 5/3] keeps the specific cutting force >= 1 GPa and the
+    specific thrust <= 5 GPa (``ufmt/data/calibration.toml``). At the reference process (300
+    rpm, 15 mm/min, 4 um: chip 4 um x 50 um) force_scale 1 gives peak forces of 0.41 N
+    cutting and 0.64 N thrust, the order of the 0.15-0.19 N measured in diamond turning of KDP
+    (Wang et al., Key Eng. Mater. 339, doi:10.4028/www.scientific.net/kem.339.78).
     Edge: the pressure under the rounded edge is about the hardness of KDP (H ~ 1.5-2 GPa) over
     a contact width of about the edge radius (~0.1 um for a sharp diamond tool): K_et = 200
     N/m in thrust, K_ec = mu K_et = 60 N/m with mu ~ 0.3 (diamond on KDP), no feed component.
-    ``force_scale`` ([machine], band 0.3-3) scales both parts.
     """
 
     cutting: float = 2.0e9

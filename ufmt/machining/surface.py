@@ -32,6 +32,11 @@ fit leaves (PV, RMS). The plane, the fits and the RMS use the evenly spaced rows
 :mod:`ufmt.machining.psd`'s; PSD2 needs steps <= 0.06 mm, given by a patch
 (``DEFAULT_PSD2_PATCH`` = 20 mm square at 0.05 mm, ``ufmt.simulate(..., psd2_patch=...)``), as
 a shop measures PSD2 on sub-apertures.
+
+Dynamic metrics [nm] (:func:`dynamic_metrics`): the PV of the cutting-force vibration's
+surface alone over the whole plate (the paper's definition, eq. 4.1) and over the steady cut
+(:meth:`Passes.steady`: the chip pattern repeats every revolution, off the side edges where
+each revolution's force steps), and the edge run-out, what the edges add.
 """
 
 from __future__ import annotations
@@ -186,6 +191,18 @@ class Passes:
             pv.append(float(z.max() - z.min()))
         return pv
 
+    def steady(self, machine: Machine) -> np.ndarray:
+        """Points (Ny, Nx) of the steady cut: both of their leading-arc passes ran while the arc
+        crossed the whole plate (:attr:`Machine.steady_span`: the chip pattern behind them
+        repeats every revolution; the others form the entry and exit strips), off the plate's
+        side edges x = +-lx/2, where every revolution's force steps on and off (there eq. 4.1
+        reads the sampled step itself, a value of the discretisation; the real step is spread
+        over the nose's engaged edge, ~0.2 mm, less than a grid step)."""
+        y_a, y_b = machine.steady_span
+        slide = self.slide[:, :, 0, :]
+        periodic = np.all((slide >= y_a) & (slide <= y_b), axis=0)
+        return periodic & (np.abs(self.x) < machine.workpiece_size[0] / 2)[None, :]
+
     def _lower_pass(self, z):
         """The lower of a term's heights at the two passes (stacked on its first axis); a term
         without that axis is the same at both passes and is returned as is."""
@@ -329,6 +346,22 @@ def legendre_fit(x: np.ndarray, y: np.ndarray, z: np.ndarray) -> tuple[np.ndarra
     fit = (g.gv.T * coef) @ g.fu
     form = (g.gv[3:].T * coef[3:]) @ g.fu[3:]
     return fit, form
+
+
+#: Keys of :func:`dynamic_metrics` [nm].
+DYNAMIC_METRICS = ("pv_dynamic_nm", "pv_dynamic_steady_nm", "edge_runout_nm")
+
+
+def dynamic_metrics(passes: Passes, term, machine: Machine) -> dict[str, float]:
+    """PV [nm] of the surface of one term alone (the cutting-force vibration's z_re at both
+    passes, :meth:`Passes.dynamic`), eq. 4.1: ``pv_dynamic_nm`` over the whole plate (the
+    paper's definition), ``pv_dynamic_steady_nm`` over the steady cut (:meth:`Passes.steady`;
+    NaN if no point is steady) and ``edge_runout_nm``, what the entry and exit strips add."""
+    z = passes.lower([term]).z
+    steady = z[np.broadcast_to(passes.steady(machine), z.shape)]
+    whole = _pv(z) * 1e9
+    inside = _pv(steady) * 1e9 if steady.size else float("nan")
+    return dict(zip(DYNAMIC_METRICS, (whole, inside, whole - inside), strict=True))
 
 
 def _pv(z: np.ndarray) -> float:

@@ -53,6 +53,9 @@ class Machine:
         non-synchronous source, :mod:`ufmt.machining.sources`).
     modal_damping_ratio : structural damping ratio of every mode [-] (the bodies' own
         damping; the hinge dampers act on top of it, :mod:`ufmt.machining.damping`).
+    accelerometer_resonance_hz, accelerometer_damping_ratio : mounted resonance [Hz] and
+        damping ratio [-] of the accelerometer; recorder_sampling_hz : the recorder's
+        sampling rate [Hz] (:class:`ufmt.machining.instruments.AccelerometerChain`).
     table : the ``[machine]`` table as it was read (its keys in their order, their TOML
         types), which :func:`ufmt.model.write.model_to_toml` writes back.
     Defaults and bands: :data:`OPTIONAL_FIELDS`.
@@ -79,6 +82,9 @@ class Machine:
     pressure_ripple_m: float = 0.0
     pressure_ripple_hz: float = 0.0096
     modal_damping_ratio: float = 0.01
+    accelerometer_resonance_hz: float = 10e3
+    accelerometer_damping_ratio: float = 0.03
+    recorder_sampling_hz: float = 10e3
     table: Mapping = dataclasses.field(default_factory=dict, compare=False, repr=False)
 
     @property
@@ -153,6 +159,9 @@ OPTIONAL_FIELDS = {
     "pressure_ripple_m": (0.0, 0.0, 1e-7, "m"),
     "pressure_ripple_hz": (0.0096, 1e-4, 100.0, "Hz"),
     "modal_damping_ratio": (0.01, 1e-4, 0.2, "-"),
+    "accelerometer_resonance_hz": (10e3, 3e3, 30e3, "Hz"),
+    "accelerometer_damping_ratio": (0.03, 0.005, 0.1, "-"),
+    "recorder_sampling_hz": (10e3, 5e3, 20e3, "Hz"),
 }
 
 
