@@ -66,7 +66,7 @@ _METRICS_FINITE = (
     ("waviness_rms_nm", False),
     ("zre_peak_nm", False),
     ("tip_acc_measured_mm_s2", False),
-    ("pv_dynamic_nm", False),
+    # pv_dynamic_nm, the dynamic surface's whole-plate PV, is the dynamic source's (above)
     ("pv_dynamic_steady_nm", False),
     ("edge_runout_nm", False),
 )

@@ -38,6 +38,9 @@ WORDS = {
     "force_peak_n": "peak cutting force",
     "waviness_rms_nm": "waviness RMS",
     "zre_peak_nm": "z_re average peak",
+    "pv_dynamic_nm": "PV of the cutting-force vibration alone (whole plate, eq. 4.1)",
+    "pv_dynamic_steady_nm": "PV of the cutting-force vibration alone in the steady cut",
+    "edge_runout_nm": "edge run-out of the cutting-force vibration",
     "tip_acc_measured_mm_s2": "accelerometer peak",
 }
 UNITS = {"nm": "nm", "n": "N", "mm_s2": "mm/s²", "hz": "Hz"}
