@@ -5,8 +5,8 @@
   paper's Fig. 15 (bearing stiffness) and Fig. 16 (rpm, feed, depth); PV maps over 2-D grids
   with the lowest point and the calibrated design / base recipe marked. The PV drawn is the
   interferometer's (``pv_measured_nm``, what a shop reads and Table 4 reports) where the
-  table has it, the whole-plate PV (``pv_nm``) beside it: with the straightness at its band
-  edge the whole-plate PV is dominated by a wedge the interferometer removes as tilt;
+  table has it, the whole-plate PV (``pv_nm``) beside it: the whole-plate PV carries
+  slopes (the guideway's pitch, the entry and exit edges) that the interferometer removes;
 * optimisers: convergence (best objective against evaluations, per stage); for cutting
   recipes the Pareto front of PV against cutting time with the PV target, each front point
   labelled with its recipe; for designs the trade-off of PV against stiffness cost;
