@@ -7,6 +7,7 @@ from scipy.integrate import quad
 from synthetic import MACHINE, synthetic_basis
 
 from ufmt.errors import ModelError
+from ufmt.fingerprint import model_sha256
 from ufmt.machining.carriage import carriage_pose, pad_centre, travel_window, workpiece_rise
 from ufmt.machining.process import Process
 from ufmt.machining.sources import error_motion_z
@@ -219,3 +220,19 @@ def test_pads_longer_than_their_span_and_a_profile_with_a_harmonic_are_refused(t
     write_profile(tmp_path / "g.csv", s, 0 * s)
     with pytest.raises(ModelError, match="straightness_m.*one of them"):
         machine(straightness_profile=str(tmp_path / "g.csv"), straightness_m=1e-8)
+
+
+def test_the_model_key_of_the_evaluation_cache_follows_the_profile_content(tmp_path):
+    """Two models of the same text whose profile files differ have different content keys;
+    the same profile content under another name has the same key."""
+    m = machine()
+    s = np.linspace(travel_window(m)[0] - 0.01, travel_window(m)[1] + 0.01, 11)
+    keys = []
+    for name, height in (("a", 0 * s), ("b", 1e-8 + 0 * s), ("c", 0 * s)):
+        folder = tmp_path / name
+        folder.mkdir()
+        write_profile(folder / "g.csv", s, height)
+        machine_ = read_machine({**PLATE, "straightness_profile": "g.csv"}, str(folder / "m.toml"))
+        keys.append(model_sha256(Model("syn", (), (), machine=machine_)))
+    assert keys[0] != keys[1]
+    assert keys[0] == keys[2]

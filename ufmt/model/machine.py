@@ -343,7 +343,7 @@ def _profile(where: Where, machine: Mapping, source: str) -> GuidewayProfile | N
     ``source``), or None."""
     if "straightness_profile" not in machine:
         return None
-    base = Path(source).parent if Path(source).is_file() else Path.cwd()
+    base = Path.cwd() if source.startswith("<") else Path(source).parent  # "<memory>": no file
     return read_guideway_profile(
         machine["straightness_profile"], where, "straightness_profile", base
     )
