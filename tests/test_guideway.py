@@ -8,7 +8,7 @@ from synthetic import MACHINE, synthetic_basis
 
 from ufmt.errors import ModelError
 from ufmt.fingerprint import model_sha256
-from ufmt.machining.carriage import carriage_pose, pad_centre, travel_window, workpiece_rise
+from ufmt.machining.carriage import carriage_pose, pad_centre, workpiece_rise
 from ufmt.machining.process import Process
 from ufmt.machining.sources import error_motion_z
 from ufmt.model.machine import read_machine
@@ -53,7 +53,7 @@ def pads_line(m, c, span, length):
 def reference(m):
     """The guideway's least-squares line (intercept at s = 0, slope) over the travel window,
     from its moments by adaptive quadrature."""
-    lo, hi = travel_window(m)
+    lo, hi = m.guideway_span
     mid = (lo + hi) / 2
     zero = quad(lambda s: harmonic(s, m), lo, hi, limit=500)[0]
     first = quad(lambda s: (s - mid) * harmonic(s, m), lo, hi, limit=500)[0]
@@ -131,7 +131,7 @@ def test_the_pitch_reaches_the_cut_point_through_its_abbe_arm():
 def test_a_straight_inclined_guideway_leaves_no_mark(tmp_path):
     """Straightness is the deviation from the reference line: a linear profile gives zero."""
     m = machine()
-    s = np.linspace(travel_window(m)[0] - 0.01, travel_window(m)[1] + 0.01, 50)
+    s = np.linspace(m.guideway_span[0] - 0.01, m.guideway_span[1] + 0.01, 50)
     write_profile(tmp_path / "line.csv", s, 3e-7 + 2e-6 * s)
     r = run({"straightness_profile": str(tmp_path / "line.csv")})
     assert r.metrics["pv_nm"] < 1e-6
@@ -139,7 +139,7 @@ def test_a_straight_inclined_guideway_leaves_no_mark(tmp_path):
 
 def test_a_profile_sampled_from_the_harmonic_gives_the_harmonic(tmp_path):
     m = machine(**HARMONIC)
-    s = np.linspace(travel_window(m)[0] - 0.01, travel_window(m)[1] + 0.01, 20001)
+    s = np.linspace(m.guideway_span[0] - 0.01, m.guideway_span[1] + 0.01, 20001)
     write_profile(tmp_path / "g.csv", s, harmonic(s, m))
     sampled = run({"straightness_profile": str(tmp_path / "g.csv")})
     closed = run(HARMONIC)
@@ -153,7 +153,7 @@ def test_a_rigid_translation_of_the_whole_model_changes_no_metric(tmp_path):
     positions): the same surface, the same metrics."""
     d = np.array([0.37, -1.9])
     m = machine()
-    s = np.linspace(travel_window(m)[0] - 0.02, travel_window(m)[1] + 0.02, 3001)
+    s = np.linspace(m.guideway_span[0] - 0.02, m.guideway_span[1] + 0.02, 3001)
     z = 40e-9 * np.sin(2 * np.pi * s / 0.23) + 25e-9 * np.cos(2 * np.pi * s / 0.61)
     write_profile(tmp_path / "a.csv", s, z)
     write_profile(tmp_path / "b.csv", s + d[1], z)
@@ -226,7 +226,7 @@ def test_the_model_key_of_the_evaluation_cache_follows_the_profile_content(tmp_p
     """Two models of the same text whose profile files differ have different content keys;
     the same profile content under another name has the same key."""
     m = machine()
-    s = np.linspace(travel_window(m)[0] - 0.01, travel_window(m)[1] + 0.01, 11)
+    s = np.linspace(m.guideway_span[0] - 0.01, m.guideway_span[1] + 0.01, 11)
     keys = []
     for name, height in (("a", 0 * s), ("b", 1e-8 + 0 * s), ("c", 0 * s)):
         folder = tmp_path / name

@@ -16,14 +16,15 @@ sine a sin(k s + psi) of wavelength L gives
     h = a sin(k c + psi) cos(pi S / L) sinc(l / L),
 
 zero at S = (2 n + 1) L / 2 (and l = n L); with l = 0 (points) theta = (z_g(c + S/2) -
-z_g(c - S/2)) / S, zero at S = n L. A straight but inclined profile gives pure pitch.
+z_g(c - S/2)) / S, zero at S = n L. A straight but inclined profile z_g = g s moves the
+carriage along that line: heave g c, pitch g.
 
 Straightness is the deviation from a reference straight line (ISO 230-1): the least-squares
-line of z_g over the guideway the pads touch during the cut (:func:`travel_window`) is removed
-first. The spindle is aligned against the slide's actual travel (``spindle_tilt_rad`` is the
-tilt against it), so an inclined but straight guideway leaves no mark; without the removal it
-would act as a spindle tilt of its slope (the plate tilts with the carriage while the tool's
-circle does not).
+line of z_g over the guideway the pads touch during the cut (``Machine.guideway_span``) is
+removed first. The spindle is aligned against the slide's actual travel (``spindle_tilt_rad``
+is the tilt against it), so an inclined but straight guideway leaves no mark; without the
+removal it would act as a spindle tilt of its slope (the plate tilts with the carriage while
+the tool's circle does not).
 
 Slide position Y (0 halfway, :mod:`ufmt.machining.cutting`): the carriage sits at -Y from the
 file's position, so the pads' centre is at the global y c(Y) = y_s + offset - Y (y_s the
@@ -53,13 +54,6 @@ def pad_centre(slide_y, machine: Machine) -> np.ndarray:
     return machine.spindle_axis_xy[1] + machine.carriage_pad_offset_m - y
 
 
-def travel_window(machine: Machine) -> tuple[float, float]:
-    """Global y range [m] of the guideway under the pads over the cut (``Machine.cut_span``)."""
-    reach = machine.carriage_pad_span_m / 2 + machine.carriage_pad_length_m / 2
-    centre = machine.spindle_axis_xy[1] + machine.carriage_pad_offset_m
-    return centre - machine.cut_span[1] - reach, centre - machine.cut_span[0] + reach
-
-
 def _harmonic_integrals(s, machine: Machine):
     """(int z_g, int (s - c(0)) z_g) of the harmonic guideway from c(0) to ``s`` [m]."""
     a, k = machine.straightness_m, 2 * np.pi / machine.straightness_wavelength_m
@@ -73,8 +67,8 @@ def _harmonic_integrals(s, machine: Machine):
 @lru_cache(maxsize=64)
 def reference_line(machine: Machine) -> tuple[float, float, float]:
     """(m, z_m, beta): the least-squares line z_m + beta (s - m) [m] of the guideway over
-    :func:`travel_window`, m its middle [m]."""
-    lo, hi = travel_window(machine)
+    ``Machine.guideway_span``, m its middle [m]."""
+    lo, hi = machine.guideway_span
     mid, width = (lo + hi) / 2, hi - lo
     if machine.straightness_profile is not None:
         (a0, a1), (b0, b1) = (machine.straightness_profile.integrals(v) for v in (lo, hi))

@@ -123,6 +123,14 @@ class Machine:
         return -half, half
 
     @property
+    def guideway_span(self) -> tuple[float, float]:
+        """Global y [m] of the guideway under the carriage's pads over the cut (the pads'
+        centre at spindle y + ``carriage_pad_offset_m`` - Y, :mod:`ufmt.machining.carriage`)."""
+        reach = self.carriage_pad_span_m / 2 + self.carriage_pad_length_m / 2
+        centre = self.spindle_axis_xy[1] + self.carriage_pad_offset_m
+        return centre - self.cut_span[1] - reach, centre - self.cut_span[0] + reach
+
+    @property
     def cutting_span(self) -> tuple[float, float]:
         """Slide positions Y [m] over which the leading arc cuts (force is zero outside)."""
         far = self.workpiece_size[0] / 2 + abs(self.offset_x)
@@ -368,9 +376,7 @@ def _check_pads(where: Where, m: Machine) -> None:
             f"{m.straightness_m!r} is given with straightness_profile (allowed: one of them; the "
             "measured profile replaces the harmonic)",
         )
-    reach = m.carriage_pad_span_m / 2 + m.carriage_pad_length_m / 2
-    centre = m.spindle_axis_xy[1] + m.carriage_pad_offset_m
-    need = (centre - m.cut_span[1] - reach, centre - m.cut_span[0] + reach)
+    need = m.guideway_span
     have = (float(profile.position[0]), float(profile.position[-1]))
     if have[0] > need[0] + 1e-12 or have[1] < need[1] - 1e-12:
         where.fail(
