@@ -6,14 +6,17 @@ import pytest
 from scipy.integrate import quad
 from synthetic import MACHINE, synthetic_basis
 
+from ufmt.calibration.settings import load_calibration
 from ufmt.errors import ModelError
 from ufmt.fingerprint import model_sha256
 from ufmt.machining.carriage import carriage_pose, pad_centre, workpiece_rise
 from ufmt.machining.process import Process
 from ufmt.machining.sources import error_motion_z
+from ufmt.model.load import packaged_path
 from ufmt.model.machine import read_machine
 from ufmt.model.schema import Model
 from ufmt.simulate import simulate
+from ufmt.studies.bands import CALIBRATION, documented_bands
 
 P = Process(300, 13.7, 4)
 PLATE = {**MACHINE, "workpiece_size": [0.1, 0.1]}  # a 0.1 m plate: R = 0.25 m over +-12 deg
@@ -236,3 +239,30 @@ def test_the_model_key_of_the_evaluation_cache_follows_the_profile_content(tmp_p
         keys.append(model_sha256(Model("syn", (), (), machine=machine_)))
     assert keys[0] != keys[1]
     assert keys[0] == keys[2]
+
+
+GEOMETRIC_KEYS = (
+    "straightness_m",
+    "straightness_wavelength_m",
+    "straightness_phase_deg",
+    "error_motion_m",
+    "error_motion_phase_deg",
+    "error_motion_harmonics_m",
+    "error_motion_harmonics_phase_deg",
+    "workholding_power_m",
+    "workholding_astigmatism_m",
+)
+
+
+def test_geometric_errors_are_held_uncertain_inputs_never_fitted():
+    """Every geometric key has a documented band in the calibration file, is held there
+    (fit = false) at a start inside its band, and is an input of the uncertainty study
+    (ufmt.studies.bands)."""
+    settings, _, _ = load_calibration(packaged_path(CALIBRATION))
+    entries = {p.key: p for p in settings.response.parameters}
+    bands = documented_bands()
+    for key in GEOMETRIC_KEYS:
+        entry = entries[key]
+        assert not entry.fit, key
+        assert entry.band[0] <= entry.start <= entry.band[1], key
+        assert f"machine.{key}" in bands, key
