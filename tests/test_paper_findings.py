@@ -69,14 +69,11 @@ def test_force_scale_lies_in_its_physical_band():
 @pytest.mark.xfail(
     strict=True,
     reason=(
-        "not reproduced: the interferometer's PV is 65.5 nm against 142.91 nm (-54 %) with "
-        "force_scale and straightness_m at the upper ends of their bands (3 and 200 nm); the "
-        "cutting-force vibration, z_re fitted to Fig. 13 through the tool's compliance, adds "
-        "almost nothing to it (65.47 nm with the tool rigid): piston and tilt removal take "
-        "most of it. Reaching Table 4 "
-        "needs ~80 nm more form or waviness inside the aperture than the documented sources "
-        "give: e.g. a slide straightness beyond 200 nm, or the plate's clamping distortion on "
-        "the vacuum chuck, which the model does not have"
+        "not reproduced: the interferometer's PV is 6.5 nm against 142.91 nm with the "
+        "geometric sources as physics (the guideway carried by the carriage's pads prints "
+        "< 1 nm on the 52.4 mm plate; at their typical values every geometric source together "
+        "adds < 2 nm); the workholding form (band +-150 nm, held at 0) is the one documented "
+        "source that reaches Table 4's size: 150 nm of bowl gives 93.9 nm inside the aperture"
     ),
 )
 def test_packaged_model_reproduces_the_measured_pv():
@@ -89,7 +86,7 @@ def test_packaged_model_reproduces_the_measured_pv():
 @pytest.mark.parametrize("metric", METRICS)
 def test_stiffer_angular_head_bearing_lowers_pv(metric):
     """Fig. 15: the higher the head's angular air-bearing stiffness, the better (0.5x/1x/2x;
-    this commit: measured 65.77/65.52/64.62 nm, whole plate 495.9/495.7/493.7 nm)."""
+    this commit: measured 6.80/6.55/5.79 nm, whole plate 97.90/96.80/95.06 nm)."""
     values = [pv(scaled_hinge("h31", rotation=(f, f, 1)), metric=metric) for f in (0.5, 1, 2)]
     assert values[0] > values[1] > values[2]
 
@@ -131,10 +128,28 @@ def spindle_bearing_changes(measure) -> list[float]:
     ]
 
 
-@pytest.mark.parametrize("metric", METRICS)
+@pytest.mark.parametrize(
+    "metric",
+    [
+        "pv_nm",
+        pytest.param(
+            "pv_measured_nm",
+            marks=pytest.mark.xfail(
+                strict=True,
+                reason=(
+                    "not reproduced on the interferometer's PV once the geometric sources are "
+                    "physics (the guideway carried by the pads prints < 1 nm on the 52.4 mm "
+                    "plate): it is then the vibration inside the aperture, 6.55 nm, which h25 "
+                    "x0.5 / x2 moves by +6.3 / -12.8 % (it diluted the bearing's effect when a "
+                    "fitted 200 nm straightness wave made it 65.5 nm)"
+                ),
+            ),
+        ),
+    ],
+)
 def test_spindle_air_bearing_changes_pv_little(metric):
     """Section 4.2: the spindle air-bearing stiffness has little influence (here: < 5 % for a
-    factor 2 either way; this commit: measured +0.6 / -1.5 %, whole plate +0.1 / -0.3 %)."""
+    factor 2 either way; this commit: whole plate +0.2 / -1.1 %)."""
     changes = spindle_bearing_changes(lambda model: pv(model, metric=metric))
     assert max(abs(c) for c in changes) < 0.05
 

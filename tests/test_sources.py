@@ -5,9 +5,10 @@ import pytest
 from synthetic import MACHINE, SMALL, synthetic_basis
 
 from ufmt.errors import ModelError
+from ufmt.machining.carriage import reference_line
 from ufmt.machining.process import Process
 from ufmt.machining.sources import HEIGHT, REGISTRY, SOURCES
-from ufmt.model.machine import OPTIONAL_FIELDS, read_machine
+from ufmt.model.machine import OPTIONAL_FIELDS, PATH_FIELDS, read_machine
 from ufmt.model.schema import Model
 from ufmt.simulate import simulate
 
@@ -19,6 +20,8 @@ GEOMETRY = {
     "straightness_wavelength_m": 0.15,
     "pressure_ripple_m": 20e-9,
     "pressure_ripple_hz": 0.02,
+    "workholding_power_m": 25e-9,
+    "workholding_astigmatism_m": -10e-9,
 }
 P = Process(300, 13.7, 4)  # feed per revolution incommensurate with the grid
 
@@ -56,17 +59,29 @@ def test_error_motion_alone_is_the_once_per_revolution_cosine():
     np.testing.assert_allclose(r.surface.z, np.broadcast_to(wave, r.surface.z.shape), atol=1e-18)
 
 
-def test_straightness_alone_follows_the_slide_position_of_the_pass():
-    """z = -s sin(2 pi Y / L) at the pass's slide Y = y - R cos(phi_f), to within the slope
-    times one feed step (the deeper of the two bracketing passes is kept)."""
-    r = run(sources=("straightness",))
+def test_straightness_alone_follows_the_carriage_at_the_slide_position_of_the_pass():
+    """Point pads S apart (length 0): the point cut rises h + theta (Y + R cos(phi_f)) with
+    h, theta the two-point mean and slope of the guideway (the reference line over the
+    travel removed), Y = y - R cos(phi_f); to within the slope in Y times one feed step (the
+    deeper of the two bracketing passes is kept)."""
+    pads = {"carriage_pad_length_m": 0.0, "carriage_pad_span_m": 0.4}
+    r = run(pads, sources=("straightness",))
+    machine = read_machine({**MACHINE, **GEOMETRY, **pads})
+    mid, z_mid, beta = reference_line(machine)
     s, wavelength = GEOMETRY["straightness_m"], GEOMETRY["straightness_wavelength_m"]
     phi = lead_angle(r.surface)
     slide = r.surface.y[:, None] - MACHINE["tool_radius"] * np.cos(phi)[None, :]
-    exact = -s * np.sin(2 * np.pi * slide / wavelength)
-    step = 2 * np.pi * s / wavelength * P.feed_per_rev_m
-    assert np.abs(r.surface.z - exact).max() <= step
-    assert r.surface.z.max() - r.surface.z.min() > 1.9 * s  # both crests lie on the plate
+
+    def guideway(g):
+        line = z_mid + beta * (g - mid)
+        return s * np.sin(2 * np.pi * g / wavelength) - line  # pads' centre at g = -Y
+
+    heave = (guideway(-slide + 0.2) + guideway(-slide - 0.2)) / 2
+    pitch = (guideway(-slide + 0.2) - guideway(-slide - 0.2)) / 0.4
+    exact = -(heave + pitch * (slide + MACHINE["tool_radius"] * np.cos(phi)[None, :]))
+    rate = np.abs(np.gradient(exact, r.surface.y, axis=0)).max()
+    assert np.abs(r.surface.z - exact).max() <= rate * P.feed_per_rev_m
+    assert np.ptp(r.surface.z) > 0.5 * s
 
 
 def test_feed_marks_alone_are_the_nose_scallop():
@@ -153,8 +168,10 @@ def test_registry_names_declared_machine_fields_in_the_output_order():
         "error_motion",
         "straightness",
         "pressure_ripple",
+        "workholding",
     )
     assert tuple(s.name for s in REGISTRY) == SOURCES
     for source in REGISTRY:
-        assert all(field in OPTIONAL_FIELDS for field in source.fields), source.name
+        known = (*OPTIONAL_FIELDS, *PATH_FIELDS)
+        assert all(field in known for field in source.fields), source.name
         assert (source.height is not None) == (source.enters == HEIGHT), source.name

@@ -706,11 +706,10 @@ def test_paper_trends_hold_in_a_small_sweep_of_the_model(tmp_path, monkeypatch):
         return rows["pv_nm"].to_numpy()
 
     # paper section 4.3: faster spindle, lower feed, smaller depth of cut each give a smoother
-    # surface. (Its stiffer angular head bearing is not reproduced on the calibrated model: the
-    # total PV moves by ~1 %, not monotonically over 0.3x-3x, through the geometric sources;
-    # the vibration part rises: tests/test_paper_findings.py, a strict expected failure.)
-    angular = pv("head_angular_stiffness_Nm_rad")
-    assert np.ptp(angular) < 0.02 * angular.mean()  # the finding reported in the README
+    # surface; and Fig. 15: a stiffer angular head bearing too (0.3x/1x/3x: 99.1/96.8/94.1 nm
+    # whole plate, now that no fitted straightness wave dilutes the vibration; its vibration
+    # part alone does not fall: tests/test_paper_findings.py, a strict expected failure).
+    assert np.all(np.diff(pv("head_angular_stiffness_Nm_rad")) < 0)
     assert np.all(np.diff(pv("rpm")) < 0)
     assert np.all(np.diff(pv("feed_mm_min")) > 0)
     assert np.all(np.diff(pv("depth_um")) > 0)

@@ -47,9 +47,13 @@ def file_sha256(path: str | os.PathLike) -> str:
 
 
 def model_sha256(model: Model) -> str:
-    """SHA-256 of a model's content (its canonical TOML): comments, layout and the file's
-    location do not change it."""
-    return hashlib.sha256(model_to_toml(model).encode()).hexdigest()
+    """SHA-256 of a model's content (its canonical TOML and the content of the files it names,
+    the guideway's profile): comments, layout and the file's location do not change it."""
+    text = model_to_toml(model)
+    profile = model.machine.straightness_profile if model.machine is not None else None
+    if profile is not None:
+        text += f"\n# straightness_profile sha256 {profile.digest}\n"
+    return hashlib.sha256(text.encode()).hexdigest()
 
 
 def source_sha256(path: str | os.PathLike) -> str:

@@ -12,21 +12,26 @@ feed_marks     tool-nose scallops: between two passes a normal distance d apart 
 spindle_tilt   spindle axis tilted by beta against the feed (about x): the tip circle is tilted
                and the tip height along the arc is beta R cos(phi), a sag
                -beta R (1 - cos phi) against the middle of the plate (beta > 0: middle high).
-error_motion   once-per-revolution axial error motion of the head at the tool radius,
-               e cos(phi - phi_0) (unbalance, air-film tilt synchronous with rotation: a
-               synchronous tilt error gamma gives the same term with e = gamma R).
-straightness   slide straightness in z along the feed: the workpiece rides s sin(2 pi Y / L)
-               high, so the tool cuts -s sin(2 pi Y / L) relative to it (Y the slide position
-               of the pass, 0 halfway).
+error_motion   synchronous axial error motion of the head at the tool radius: the once-per-
+               revolution e cos(phi - phi_0) (unbalance, air-film tilt synchronous with
+               rotation: a synchronous tilt gamma gives e = gamma R) plus the 2nd-5th
+               harmonics of the air bearing's thrust faces, e_2 (2/k) cos(k (phi - psi)).
+straightness   the guideway's straightness carried to the workpiece by the carriage's air pads
+               (heave and pitch, :mod:`ufmt.machining.carriage`): the cut point rides
+               h + theta (Y + R cos(phi) - offset) high, so the tool cuts that much low.
 pressure_ripple  fluctuation of the air supply pressure of the head's bearings: the head (and
                the tool) moves axially by a sin(2 pi f_p t), t the time of the pass since the
                first touch of the cut; not synchronous with the spindle or the slide, it prints
                waviness along the feed of wavelength v / f_p.
+workholding    the plate's spring-back off the vacuum chuck: a bowl c_p (1 - (u^2 + v^2) / 2)
+               and an astigmatism c_a (u^2 - v^2) / 2 of the plate's material coordinates
+               u = 2 x / l_x, v = 2 y / l_y (each of PV |c| on the plate; power and
+               astigmatism are not tilt, the interferometer keeps them).
 
-Each geometric term (the last four) is a height function z(phi, Y, machine, process) of the
+Each geometric term (the last five) is a height function z(phi, Y, machine, process) of the
 spindle angle and the slide position of the pass (the process gives the feed speed, hence the
 time of the pass, t = (Y - Y_first_touch) / v), added to z_re before the minimum over passes;
-all are linear in their amplitude, and a source whose amplitude is zero on a machine is
+all are linear in their amplitudes, and a source whose amplitudes are all zero on a machine is
 inactive there.
 
 :data:`REGISTRY` holds one :class:`ErrorSource` per source, in the order of :data:`SOURCES`
@@ -42,6 +47,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ufmt.errors import ModelError, closest_name
+from ufmt.machining.carriage import workpiece_rise
 from ufmt.machining.process import Process
 from ufmt.model.machine import Machine
 
@@ -57,28 +63,31 @@ class ErrorSource:
     """One error source of the surface.
 
     name: the source's name (``sources`` option, ``pv_by_source_nm`` key); enters: how it
-    enters the surface (:data:`VIBRATION`, :data:`SCALLOP` or :data:`HEIGHT`); amplitude: the
-    ``[machine]`` field of its amplitude (the source is inactive where it is zero; None: always
-    active); parameters: the other ``[machine]`` fields it reads; height: for :data:`HEIGHT`,
-    its tool height relative to the workpiece z(phi [rad], slide_y [m], machine, process) [m]
-    (``process`` a :class:`~ufmt.machining.process.Process`: the feed speed and spindle speed
-    that give the time of the pass).
+    enters the surface (:data:`VIBRATION`, :data:`SCALLOP` or :data:`HEIGHT`); amplitudes: the
+    ``[machine]`` fields of its amplitudes (the source is inactive where all are zero or unset;
+    none: always active); parameters: the other ``[machine]`` fields it reads; height: for
+    :data:`HEIGHT`, its tool height relative to the workpiece z(phi [rad], slide_y [m],
+    machine, process) [m] (``process`` a :class:`~ufmt.machining.process.Process`: the feed
+    speed and spindle speed that give the time of the pass).
     """
 
     name: str
     enters: str = HEIGHT
-    amplitude: str | None = None
+    amplitudes: tuple[str, ...] = ()
     parameters: tuple[str, ...] = ()
     height: Callable[[np.ndarray, np.ndarray, Machine, Process], np.ndarray] | None = None
 
     @property
     def fields(self) -> tuple[str, ...]:
-        """The ``[machine]`` fields the source reads (amplitude first)."""
-        return ((self.amplitude,) if self.amplitude else ()) + self.parameters
+        """The ``[machine]`` fields the source reads (amplitudes first)."""
+        return self.amplitudes + self.parameters
 
     def is_active(self, machine: Machine) -> bool:
-        """False where the source's amplitude is zero on ``machine`` (its term is 0)."""
-        return self.amplitude is None or getattr(machine, self.amplitude) != 0.0
+        """False where every amplitude of the source is zero or unset on ``machine`` (its term
+        is 0)."""
+        if not self.amplitudes:
+            return True
+        return any(getattr(machine, a) not in (0.0, None) for a in self.amplitudes)
 
     def heights(self, passes, table, machine: Machine, process: Process) -> np.ndarray:
         """Heights [m] of the source at both passes over every grid point of ``passes`` (a
@@ -96,18 +105,44 @@ def spindle_tilt_z(phi, slide_y, machine: Machine, process: Process) -> np.ndarr
     return -machine.spindle_tilt_rad * machine.tool_radius * (1.0 - np.cos(phi))
 
 
+#: Harmonics (per revolution) of the synchronous error motion above the first.
+ERROR_MOTION_HARMONICS = (2, 3, 4, 5)
+
+
 def error_motion_z(phi, slide_y, machine: Machine, process: Process) -> np.ndarray:
-    """Tool height from the once-per-revolution axial error motion, e cos(phi - phi_0) [m]
-    (independent of Y)."""
+    """Tool height from the synchronous axial error motion [m]: e cos(phi - phi_0) plus
+    e_2 (2/k) cos(k (phi - psi)) for k = 2-5 (independent of Y)."""
     phi = np.asarray(phi, dtype=float)
-    return machine.error_motion_m * np.cos(phi - np.radians(machine.error_motion_phase_deg))
+    z = machine.error_motion_m * np.cos(phi - np.radians(machine.error_motion_phase_deg))
+    if machine.error_motion_harmonics_m:
+        psi = np.radians(machine.error_motion_harmonics_phase_deg)
+        for k in ERROR_MOTION_HARMONICS:
+            z = z + machine.error_motion_harmonics_m * (2 / k) * np.cos(k * (phi - psi))
+    return z
 
 
 def straightness_z(phi, slide_y, machine: Machine, process: Process) -> np.ndarray:
-    """Tool height relative to the workpiece from the slide's straightness [m] (independent
-    of phi)."""
-    y = np.asarray(slide_y, dtype=float)
-    return -machine.straightness_m * np.sin(2 * np.pi * y / machine.straightness_wavelength_m)
+    """Tool height relative to the workpiece from the guideway's straightness [m]: minus the
+    rise of the point cut (:func:`ufmt.machining.carriage.workpiece_rise`)."""
+    return -workpiece_rise(phi, slide_y, machine)
+
+
+def material_uv(phi, slide_y, machine: Machine) -> tuple[np.ndarray, np.ndarray]:
+    """Material coordinates (u, v) in [-1, 1] of the plate point cut at (phi, Y): the point
+    (s_x + sigma R sin(phi), Y + R cos(phi)) [m] over the half sides (eq. 4.1)."""
+    phi = np.asarray(phi, dtype=float)
+    x = machine.offset_x + machine.sense * machine.tool_radius * np.sin(phi)
+    y = np.asarray(slide_y, dtype=float) + machine.tool_radius * np.cos(phi)
+    lx, ly = machine.workpiece_size
+    return 2 * x / lx, 2 * y / ly
+
+
+def workholding_z(phi, slide_y, machine: Machine, process: Process) -> np.ndarray:
+    """Height [m] of the plate's spring-back form at the point cut:
+    c_p (1 - (u^2 + v^2) / 2) + c_a (u^2 - v^2) / 2."""
+    u, v = material_uv(phi, slide_y, machine)
+    power = machine.workholding_power_m * (1 - (u * u + v * v) / 2)
+    return power + machine.workholding_astigmatism_m * (u * u - v * v) / 2
 
 
 def pass_time(slide_y, machine: Machine, process: Process) -> np.ndarray:
@@ -128,24 +163,35 @@ def pressure_ripple_z(phi, slide_y, machine: Machine, process: Process) -> np.nd
 REGISTRY = (
     ErrorSource("dynamic", enters=VIBRATION),
     ErrorSource("feed_marks", enters=SCALLOP, parameters=("nose_radius",)),
-    ErrorSource("spindle_tilt", amplitude="spindle_tilt_rad", height=spindle_tilt_z),
+    ErrorSource("spindle_tilt", amplitudes=("spindle_tilt_rad",), height=spindle_tilt_z),
     ErrorSource(
         "error_motion",
-        amplitude="error_motion_m",
-        parameters=("error_motion_phase_deg",),
+        amplitudes=("error_motion_m", "error_motion_harmonics_m"),
+        parameters=("error_motion_phase_deg", "error_motion_harmonics_phase_deg"),
         height=error_motion_z,
     ),
     ErrorSource(
         "straightness",
-        amplitude="straightness_m",
-        parameters=("straightness_wavelength_m",),
+        amplitudes=("straightness_m", "straightness_profile"),
+        parameters=(
+            "straightness_wavelength_m",
+            "straightness_phase_deg",
+            "carriage_pad_span_m",
+            "carriage_pad_length_m",
+            "carriage_pad_offset_m",
+        ),
         height=straightness_z,
     ),
     ErrorSource(
         "pressure_ripple",
-        amplitude="pressure_ripple_m",
+        amplitudes=("pressure_ripple_m",),
         parameters=("pressure_ripple_hz",),
         height=pressure_ripple_z,
+    ),
+    ErrorSource(
+        "workholding",
+        amplitudes=("workholding_power_m", "workholding_astigmatism_m"),
+        height=workholding_z,
     ),
 )
 SOURCES = tuple(source.name for source in REGISTRY)

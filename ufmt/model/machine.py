@@ -13,10 +13,12 @@ import dataclasses
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
 from ufmt.errors import ModelError
+from ufmt.model.guideway import GuidewayProfile, read_guideway_profile
 from ufmt.tables import Where
 
 
@@ -42,8 +44,22 @@ class Machine:
         beta R (1 - cos phi)).
     error_motion_m, error_motion_phase_deg : amplitude [m] and phase [deg] of the
         once-per-revolution axial error motion of the fly-cutting head at the tool radius.
-    straightness_m, straightness_wavelength_m : amplitude [m] and wavelength [m] of the slide's
-        straightness error in z along the feed.
+    error_motion_harmonics_m, error_motion_harmonics_phase_deg : amplitude [m] of the 2nd
+        harmonic of the synchronous axial error motion (the 3rd-5th fall as 2/k) and the
+        orientation [deg] of that profile against the tool.
+    straightness_m, straightness_wavelength_m, straightness_phase_deg : amplitude [m],
+        wavelength [m] and phase [deg] (at the pads' centre halfway through the cut) of the
+        guideway's straightness in z along y, when no measured profile is given.
+    straightness_profile : the guideway's measured height profile
+        (:class:`~ufmt.model.guideway.GuidewayProfile`, the ``[machine]`` key holds the CSV's
+        path, relative to the model file), or None.
+    carriage_pad_span_m, carriage_pad_length_m, carriage_pad_offset_m : distance [m] between
+        the carriage's front and rear vertical pad lines along y, each line's contact length
+        [m], and the y [m] of their centre from the workpiece's centre
+        (:mod:`ufmt.machining.carriage`).
+    workholding_power_m, workholding_astigmatism_m : signed PV [m] over the plate of the
+        workholding's bowl (centre high if > 0) and astigmatism (x edges high if > 0) left by
+        the plate's spring-back off the vacuum chuck (:mod:`ufmt.machining.sources`).
     tool_compliance_m_per_N : z compliance of the tool and its holder between the tool body
         and the tip [m/N] (a cantilevered shank; 0: rigid). Its own mode lies far above the
         basis, so it acts quasi-statically, with the static correction
@@ -78,6 +94,14 @@ class Machine:
     error_motion_phase_deg: float = 0.0
     straightness_m: float = 0.0
     straightness_wavelength_m: float = 0.1
+    straightness_phase_deg: float = 0.0
+    carriage_pad_span_m: float = 0.7
+    carriage_pad_length_m: float = 0.2
+    carriage_pad_offset_m: float = 0.0
+    error_motion_harmonics_m: float = 0.0
+    error_motion_harmonics_phase_deg: float = 0.0
+    workholding_power_m: float = 0.0
+    workholding_astigmatism_m: float = 0.0
     tool_compliance_m_per_N: float = 0.0
     pressure_ripple_m: float = 0.0
     pressure_ripple_hz: float = 0.0096
@@ -85,6 +109,7 @@ class Machine:
     accelerometer_resonance_hz: float = 10e3
     accelerometer_damping_ratio: float = 0.03
     recorder_sampling_hz: float = 10e3
+    straightness_profile: GuidewayProfile | None = None
     table: Mapping = dataclasses.field(default_factory=dict, compare=False, repr=False)
 
     @property
@@ -102,6 +127,14 @@ class Machine:
         """Slide positions Y [m]: first touch of the leading arc, exit of the trailing arc."""
         half = self.workpiece_size[1] / 2 + self.tool_radius
         return -half, half
+
+    @property
+    def guideway_span(self) -> tuple[float, float]:
+        """Global y [m] of the guideway under the carriage's pads over the cut (the pads'
+        centre at spindle y + ``carriage_pad_offset_m`` - Y, :mod:`ufmt.machining.carriage`)."""
+        reach = self.carriage_pad_span_m / 2 + self.carriage_pad_length_m / 2
+        centre = self.spindle_axis_xy[1] + self.carriage_pad_offset_m
+        return centre - self.cut_span[1] - reach, centre - self.cut_span[0] + reach
 
     @property
     def cutting_span(self) -> tuple[float, float]:
@@ -155,6 +188,14 @@ OPTIONAL_FIELDS = {
     "error_motion_phase_deg": (0.0, -360.0, 360.0, "deg"),
     "straightness_m": (0.0, 0.0, 2e-6, "m"),
     "straightness_wavelength_m": (0.1, 1e-3, 10.0, "m"),
+    "straightness_phase_deg": (0.0, -360.0, 360.0, "deg"),
+    "carriage_pad_span_m": (0.7, 1e-3, 20.0, "m"),
+    "carriage_pad_length_m": (0.2, 0.0, 20.0, "m"),
+    "carriage_pad_offset_m": (0.0, -20.0, 20.0, "m"),
+    "error_motion_harmonics_m": (0.0, 0.0, 1e-6, "m"),
+    "error_motion_harmonics_phase_deg": (0.0, -360.0, 360.0, "deg"),
+    "workholding_power_m": (0.0, -2e-6, 2e-6, "m"),
+    "workholding_astigmatism_m": (0.0, -2e-6, 2e-6, "m"),
     "tool_compliance_m_per_N": (0.0, 0.0, 2e-7, "m/N"),
     "pressure_ripple_m": (0.0, 0.0, 1e-7, "m"),
     "pressure_ripple_hz": (0.0096, 1e-4, 100.0, "Hz"),
@@ -163,6 +204,9 @@ OPTIONAL_FIELDS = {
     "accelerometer_damping_ratio": (0.03, 0.005, 0.1, "-"),
     "recorder_sampling_hz": (10e3, 5e3, 20e3, "Hz"),
 }
+#: Optional ``[machine]`` keys that name a file (relative to the model file): the guideway's
+#: measured straightness profile (:mod:`ufmt.model.guideway`).
+PATH_FIELDS = ("straightness_profile",)
 
 
 def read_machine(machine: Mapping, source: str = "<memory>") -> Machine:
@@ -172,7 +216,7 @@ def read_machine(machine: Mapping, source: str = "<memory>") -> Machine:
     ``ufmt.toml: machine: field 'tool_radius': -0.2 is not positive (allowed: > 0 [m])``.
     """
     where = Where(source, "machine", error=ModelError)
-    where.keys(machine, (*MACHINE_FIELDS, *OPTIONAL_FIELDS), MACHINE_FIELDS)
+    where.keys(machine, (*MACHINE_FIELDS, *OPTIONAL_FIELDS, *PATH_FIELDS), MACHINE_FIELDS)
     rotation = where.choice("rotation", machine["rotation"], ROTATIONS, "rotation")
     m = Machine(
         tool_body=where.string("tool_body", machine["tool_body"]),
@@ -186,8 +230,10 @@ def read_machine(machine: Mapping, source: str = "<memory>") -> Machine:
         workpiece_center_xy=_pair(where, machine, "workpiece_center_xy"),
         rotation=rotation,
         **{field: _optional(where, machine, field) for field in OPTIONAL_FIELDS},
+        straightness_profile=_profile(where, machine, source),
         table=copy.deepcopy(dict(machine)),
     )
+    _check_pads(where, m)
     if abs(m.workpiece_center_xy[1] - m.spindle_axis_xy[1]) > 1e-9:
         where.fail(
             "workpiece_center_xy",
@@ -306,6 +352,47 @@ def _plane_near_tool(where: Where, machine: Machine, tool, extent: float) -> Non
             + ("" if high == low else f" to {high:.4g}")
             + f" m; allowed within {allowed:.3g} m: its size, the tool radius and a quarter of "
             f"the machine): {hint}",
+        )
+
+
+def _profile(where: Where, machine: Mapping, source: str) -> GuidewayProfile | None:
+    """The guideway profile of ``straightness_profile`` (a path relative to the model file
+    ``source``), or None."""
+    if "straightness_profile" not in machine:
+        return None
+    base = Path.cwd() if source.startswith("<") else Path(source).parent  # "<memory>": no file
+    return read_guideway_profile(
+        machine["straightness_profile"], where, "straightness_profile", base
+    )
+
+
+def _check_pads(where: Where, m: Machine) -> None:
+    """The pads must not overlap, and a measured profile must cover the guideway under them
+    over the whole cut (:mod:`ufmt.machining.carriage`)."""
+    if m.carriage_pad_length_m > m.carriage_pad_span_m:
+        where.fail(
+            "carriage_pad_length_m",
+            f"{m.carriage_pad_length_m!r} exceeds carriage_pad_span_m = "
+            f"{m.carriage_pad_span_m!r} (allowed: 0 to the span [m]: the two pad lines must not "
+            "overlap)",
+        )
+    profile = m.straightness_profile
+    if profile is None:
+        return
+    if m.straightness_m != 0.0:
+        where.fail(
+            "straightness_m",
+            f"{m.straightness_m!r} is given with straightness_profile (allowed: one of them; the "
+            "measured profile replaces the harmonic)",
+        )
+    need = m.guideway_span
+    have = (float(profile.position[0]), float(profile.position[-1]))
+    if have[0] > need[0] + 1e-12 or have[1] < need[1] - 1e-12:
+        where.fail(
+            "straightness_profile",
+            f"{profile.path}: positions {have[0]:.6g} to {have[1]:.6g} m do not cover the "
+            f"guideway under the pads over the cut, {need[0]:.6g} to {need[1]:.6g} m (allowed: "
+            "a profile covering the slide's travel over the cut plus the pad span, global y)",
         )
 
 
