@@ -81,7 +81,8 @@ class _Structure:
     reduced finite spring directions d (s, r), their hinge and direction (s,) indices into the
     hinges' ``stiffness6``, the map (r -> listed dofs) ``loads`` (r, 6B); the zero-frequency
     modes, mass-normalised, ``rigid`` (r, m), their inertia loads ``relief`` = M rigid (r, m)
-    and the trace of the reduced mass ``mass_trace`` [kg...] (m = 0: none)."""
+    and the trace of the reduced mass ``mass_trace`` [kg...] (m = 0: none); ``weight`` (r,)
+    [N, N m] the reduced load of gravity on every mass (:data:`GRAVITY`)."""
 
     k_beams: np.ndarray
     directions: np.ndarray
@@ -91,9 +92,13 @@ class _Structure:
     rigid: np.ndarray
     relief: np.ndarray
     mass_trace: float
+    weight: np.ndarray
 
 
-STRUCTURE_CACHE = 4
+#: Standard acceleration of gravity, along -z [m/s^2].
+GRAVITY = 9.81
+
+STRUCTURE_CACHE = 16  # the residual's slide position and the carriage-load profile's knots
 #: Structures of the last few models (key: bodies, hinge geometry and which directions are
 #: rigid or released), so that a design change (hinge stiffnesses only) costs one small solve.
 _STRUCTURES = Recent(STRUCTURE_CACHE)
@@ -167,7 +172,16 @@ def _build_structure(model, bodies: tuple[str, ...]) -> _Structure:
         rigid=zero,
         relief=mass @ zero,
         mass_trace=float(np.trace(mass)),
+        weight=basis.T @ (springs.M @ _fall(springs)),
     )
+
+
+def _fall(am) -> np.ndarray:
+    """Every node of ``am`` translated by -GRAVITY along z [m/s^2]: M times it is the weight
+    of every mass (for a beam the consistent load of its distributed weight)."""
+    fall = np.zeros(len(am.dof_labels))
+    fall[[label[2] == "z" for label in am.dof_labels]] = -GRAVITY
+    return fall
 
 
 def static_flexibility(model, bodies: tuple[str, ...]) -> np.ndarray:
@@ -187,15 +201,28 @@ def static_flexibility(model, bodies: tuple[str, ...]) -> np.ndarray:
     G = (K + sigma M Phi Phi^T M)^-1 - Phi Phi^T / sigma, sigma = tr K / tr M.
     """
     st = _structure(model, tuple(bodies))
+    return st.loads.T @ _elastic_solve(model, st, st.loads)
+
+
+def gravity_deflection(model, bodies: tuple[str, ...]) -> np.ndarray:
+    """Static deflection (6B,) [m, rad] of the listed bodies' coordinates (translation of the
+    centre of mass, rotation) under the weight of every mass of ``model`` (GRAVITY along -z),
+    solved as :func:`static_flexibility` (elastic modes only where zero modes exist)."""
+    st = _structure(model, tuple(bodies))
+    return st.loads.T @ _elastic_solve(model, st, st.weight)
+
+
+def _elastic_solve(model, st: _Structure, rhs: np.ndarray) -> np.ndarray:
+    """sum_elastic v v^T rhs / (M w^2) on the reduced coordinates of ``st`` for ``model``'s
+    stiffnesses (see :func:`static_flexibility`)."""
     k = np.array([h.stiffness6 for h in model.hinges]).reshape(-1, 6)
     k = k[st.spring_hinge, st.spring_direction]
     k_red = st.k_beams + (st.directions.T * k) @ st.directions
     if not st.rigid.shape[1]:
-        return st.loads.T @ _cholesky_solve(k_red, st.loads, model.source)
+        return _cholesky_solve(k_red, rhs, model.source)
     sigma = np.trace(k_red) / st.mass_trace
     shifted = k_red + sigma * (st.relief @ st.relief.T)
-    rigid = st.loads.T @ st.rigid
-    return st.loads.T @ _cholesky_solve(shifted, st.loads, model.source) - rigid @ rigid.T / sigma
+    return _cholesky_solve(shifted, rhs, model.source) - st.rigid @ (st.rigid.T @ rhs) / sigma
 
 
 def _cholesky_solve(k: np.ndarray, loads: np.ndarray, source: str) -> np.ndarray:
