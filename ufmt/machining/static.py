@@ -134,11 +134,14 @@ def _build_structure(model, bodies: tuple[str, ...]) -> _Structure:
             hinges.append(replace(h, stiffness=k[:3], rotational_stiffness=k[3:]))
         return replace(model, hinges=tuple(hinges))
 
-    beams = assemble(with_springs(0.0), elements_per_beam=1)
-    springs = assemble(with_springs(1.0), elements_per_beam=1)
-    if zero_modes(springs).shape[1]:  # the inertia relief spreads along the beams' mass
-        beams = assemble(with_springs(0.0), elements_per_beam=RELIEF_ELEMENTS_PER_BEAM)
-        springs = assemble(with_springs(1.0), elements_per_beam=RELIEF_ELEMENTS_PER_BEAM)
+    elements = 1
+    springs = assemble(with_springs(1.0), elements_per_beam=elements)
+    zero = zero_modes(springs)
+    if zero.shape[1]:  # the inertia relief spreads along the beams' mass
+        elements = RELIEF_ELEMENTS_PER_BEAM
+        springs = assemble(with_springs(1.0), elements_per_beam=elements)
+        zero = zero_modes(springs)
+    beams = assemble(with_springs(0.0), elements_per_beam=elements)
     finite = [
         (i, j) for i, h in enumerate(model.hinges) for j in np.flatnonzero(~(h.rigid | h.released))
     ]
@@ -159,7 +162,7 @@ def _build_structure(model, bodies: tuple[str, ...]) -> _Structure:
     else:
         basis = np.eye(beams.K.shape[0])
     mass = basis.T @ springs.M @ basis
-    zero = basis.T @ zero_modes(springs)  # in the range of the basis: C z = 0
+    zero = basis.T @ zero  # the zero modes lie in the range of the basis: C z = 0
     if zero.shape[1]:
         zero = zero @ np.linalg.inv(np.linalg.cholesky(zero.T @ mass @ zero)).T
     index = np.array(finite, dtype=int).reshape(-1, 2)
