@@ -56,6 +56,7 @@ def test_json_contract_is_strict_and_complete(model_file):
         "straightness",
         "pressure_ripple",
         "workholding",
+        "carriage_load",
     }
     # the reference cut's forces are of the measured size (0.1-1 N), not tens of newtons
     assert 0.1 < out["force_peak_n"] < 1.0

@@ -37,7 +37,14 @@ from ufmt.machining.process import Process
 from ufmt.machining.psd import band_rms
 from ufmt.machining.recurrence import modal_damping
 from ufmt.machining.response import Response
-from ufmt.machining.sources import SCALLOP, SOURCES, ErrorSource, acting_sources, check_sources
+from ufmt.machining.sources import (
+    MODEL,
+    SCALLOP,
+    SOURCES,
+    ErrorSource,
+    acting_sources,
+    check_sources,
+)
 from ufmt.machining.static import ResidualFlexibility, residual_flexibility
 from ufmt.machining.surface import (
     DEFAULT_APERTURE_MARGIN,
@@ -289,7 +296,7 @@ def simulate(
         psd2_patch=psd2_patch,
         basis_cutoff_hz=basis_cutoff_hz if n_modes is None else None,
     )
-    return _run(basis, machine, process, residual, options)
+    return _run(basis, machine, process, residual, options, _profiles(model, machine, sources))
 
 
 def _loaded(model):
@@ -349,6 +356,19 @@ def _residual(model, basis: ModalBasis, machine: Machine) -> ResidualFlexibility
     return residual_flexibility(model, basis, machine)
 
 
+def _profiles(model, machine: Machine, sources) -> dict:
+    """The model-built height of each acting :data:`~ufmt.machining.sources.MODEL` source
+    among ``sources`` (built lazily, cached per model and machine by its module); none for a
+    model without bodies (a basis given directly stands for its structure)."""
+    if not model.bodies:
+        return {}
+    return {
+        source.name: source.profile(model, machine)
+        for source in acting_sources(check_sources(sources), machine)
+        if source.enters == MODEL
+    }
+
+
 def _basis(model, basis: ModalBasis | None, n_modes: int | None, cutoff_hz: float) -> ModalBasis:
     """The basis of the run: ``basis`` (the model's when None) cut to ``n_modes`` or to the
     modes below ``cutoff_hz`` [Hz]."""
@@ -386,8 +406,10 @@ def _run(
     process: Process,
     residual: ResidualFlexibility | None,
     options: SimulationOptions,
+    profiles: dict,
 ) -> SimulationResult:
-    """One simulation on a truncated ``basis``: the response, the surfaces and the metrics."""
+    """One simulation on a truncated ``basis``: the response, the surfaces and the metrics;
+    ``profiles`` the model-built heights (:func:`_profiles`)."""
     if options.method not in METHODS:
         raise ValueError(f"method must be one of {METHODS}, got {options.method!r}")
     force_scale = options.force_scale
@@ -400,10 +422,13 @@ def _run(
 
     # every surface reported (the total, the band surface, each source alone) is the lower
     # pass of a sum of per-source heights on one set of passes: each height is computed once
-    acting = acting_sources(sources, machine)
+    acting = tuple(
+        s for s in acting_sources(sources, machine) if s.enters != MODEL or s.name in profiles
+    )
     passes = surface_passes(machine, process.feed_per_rev_m, options.spacing, options.trailing_arc)
     terms = {
-        source.name: source.heights(passes, response.table, machine, process) for source in acting
+        source.name: source.heights(passes, response.table, machine, process, profiles)
+        for source in acting
     }
     total = passes.lower(terms.values())
     # the scallop's wavelength (v/f) cos(phi) <= 80 um lies below PSD2 (>= 120 um) for every
@@ -414,7 +439,7 @@ def _run(
     metrics = surface_metrics(total, options.aperture_margin)
     metrics.update(band_rms(band_surface))
     if options.psd2_patch is not None:
-        metrics.update(_psd2_band_rms(response, machine, process, acting, options))
+        metrics.update(_psd2_band_rms(response, machine, process, acting, options, profiles))
     pv_by_source = _pv_by_source(sources, passes, terms, metrics["pv_nm"])
     metrics.update(_dynamic_metrics(passes, terms, machine))
     metrics.update(_record_metrics(response, machine, force_scale))
@@ -503,6 +528,7 @@ def _psd2_band_rms(
     process: Process,
     acting: tuple[ErrorSource, ...],
     options: SimulationOptions,
+    profiles: dict,
 ) -> dict[str, float]:
     """The PSD2 band RMS [nm] (psd2_rms_nm, psd2_rms_along_nm, psd2_rms_across_nm) of the
     square patch of side ``options.psd2_patch`` [m] at the plate centre
@@ -513,7 +539,7 @@ def _psd2_band_rms(
         machine, process.feed_per_rev_m, PSD2_PATCH_SPACING, options.trailing_arc, window
     )
     patch = patch_passes.lower(
-        source.heights(patch_passes, response.table, machine, process)
+        source.heights(patch_passes, response.table, machine, process, profiles)
         for source in acting
         if source.enters != SCALLOP
     )

@@ -81,12 +81,10 @@ def check_no_massless_mechanism(am: AssembledModel, t_b: np.ndarray) -> None:
     )
 
 
-def zero_mode_count(am: AssembledModel) -> int:
-    """Number of independent motions that strain nothing (rigid-body and mechanism modes).
-
-    Such a motion moves every beam rigidly, so it is ``E q`` with q the 6 rigid-motion dofs of
-    each body (E carries a beam's first node to its other nodes) and ``[C; S] E q = 0``.
-    """
+def _rigid_carry(am: AssembledModel) -> tuple[np.ndarray, np.ndarray]:
+    """E (n, 6B): every body moved rigidly by its 6 rigid-motion dofs q (E carries a beam's
+    first node to its other nodes); and ``[C; S] E`` with C the rigid directions and S the
+    finite spring directions (rows of unit norm): the strain of each rigid motion."""
     names = list(am.body_dofs)
     dofs = np.concatenate([am.body_dofs[name] for name in names])  # (all nodes, 6)
     offsets = np.concatenate([am.node_positions[n] - am.node_positions[n][0] for n in names])
@@ -94,4 +92,22 @@ def zero_mode_count(am: AssembledModel) -> int:
     carry = np.zeros((len(am.dof_labels), 6 * len(names)))
     carry[dofs[:, :, None], 6 * body[:, None, None] + np.arange(6)] = point_motion(offsets)
     constraints = am.constraints / np.linalg.norm(am.constraints, axis=1, keepdims=True)
-    return 6 * len(names) - _rank(np.vstack([constraints, am.spring_directions]) @ carry)
+    return carry, np.vstack([constraints, am.spring_directions]) @ carry
+
+
+def zero_modes(am: AssembledModel) -> np.ndarray:
+    """Orthonormal basis (n, m) of the motions that strain nothing (rigid-body and mechanism
+    modes, e.g. a spindle free to turn), from geometry alone: ``E q`` with ``[C; S] E q = 0``
+    (:func:`_rigid_carry`; null space at RANK_RTOL), never from small eigenvalues."""
+    carry, strain = _rigid_carry(am)
+    q = _null_space(strain, carry.shape[1])
+    if q.shape[1] == 0:
+        return np.zeros((carry.shape[0], 0))
+    return np.linalg.qr(carry @ q)[0]
+
+
+def zero_mode_count(am: AssembledModel) -> int:
+    """Number of independent motions that strain nothing (rigid-body and mechanism modes,
+    :func:`zero_modes`)."""
+    carry, strain = _rigid_carry(am)
+    return carry.shape[1] - _rank(strain)

@@ -1,7 +1,7 @@
 """Error sources of the machined surface: each a switchable term with its closed form.
 
 The surface height is the relative tool-workpiece z position of the pass that cuts deepest
-(eq. 4.1 with tool interference, :mod:`ufmt.machining.surface`). Five sources move it; the
+(eq. 4.1 with tool interference, :mod:`ufmt.machining.surface`). These sources move it; the
 physics, literature magnitudes and defaults are in docs/ufmt-model.md ('Error sources'):
 
 dynamic        cutting-force vibration z_re(phi, Y) (paper eqs. 3.9-3.13, the modal response
@@ -27,12 +27,17 @@ workholding    the plate's spring-back off the vacuum chuck: a bowl c_p (1 - (u^
                and an astigmatism c_a (u^2 - v^2) / 2 of the plate's material coordinates
                u = 2 x / l_x, v = 2 y / l_y (each of PV |c| on the plate; power and
                astigmatism are not tilt, the interferometer keeps them).
+carriage_load  the carriage's own weight as it moves: the tool-workpiece deflection under
+               gravity at the pass's slide position less that at the tramming position, from a
+               static solve of the model (:mod:`ufmt.machining.carriage_load`; no parameter,
+               always on; its profile is built once per model and passed to
+               :meth:`ErrorSource.heights`).
 
-Each geometric term (the last five) is a height function z(phi, Y, machine, process) of the
-spindle angle and the slide position of the pass (the process gives the feed speed, hence the
-time of the pass, t = (Y - Y_first_touch) / v), added to z_re before the minimum over passes;
-all are linear in their amplitudes, and a source whose amplitudes are all zero on a machine is
-inactive there.
+Each geometric term (spindle_tilt to workholding) is a height function
+z(phi, Y, machine, process) of the spindle angle and the slide position of the pass (the
+process gives the feed speed, hence the time of the pass, t = (Y - Y_first_touch) / v), added
+to z_re before the minimum over passes; all are linear in their amplitudes, and a source whose
+amplitudes are all zero on a machine is inactive there.
 
 :data:`REGISTRY` holds one :class:`ErrorSource` per source, in the order of :data:`SOURCES`
 (the order of every per-source output). Adding a geometric source is one registry entry and its
@@ -48,14 +53,17 @@ import numpy as np
 
 from ufmt.errors import ModelError, closest_name
 from ufmt.machining.carriage import workpiece_rise
+from ufmt.machining.carriage_load import carriage_load
 from ufmt.machining.process import Process
 from ufmt.model.machine import Machine
 
 #: How a source enters the surface: the vibration response's z_re table, the tool nose's
-#: scallop between passes, or a height function z(phi, Y, machine) at each pass.
+#: scallop between passes, a height function z(phi, Y, machine) at each pass, or a height
+#: z(phi, Y) the simulation builds once from the model (a profile, cached per model).
 VIBRATION = "vibration"
 SCALLOP = "scallop"
 HEIGHT = "height"
+MODEL = "model"
 
 
 @dataclass(frozen=True)
@@ -68,7 +76,9 @@ class ErrorSource:
     none: always active); parameters: the other ``[machine]`` fields it reads; height: for
     :data:`HEIGHT`, its tool height relative to the workpiece z(phi [rad], slide_y [m],
     machine, process) [m] (``process`` a :class:`~ufmt.machining.process.Process`: the feed
-    speed and spindle speed that give the time of the pass).
+    speed and spindle speed that give the time of the pass); profile: for :data:`MODEL`,
+    profile(model, machine) the height z(phi [rad], slide_y [m]) [m] (the simulation builds it
+    once per model and passes it to :meth:`heights`).
     """
 
     name: str
@@ -76,6 +86,7 @@ class ErrorSource:
     amplitudes: tuple[str, ...] = ()
     parameters: tuple[str, ...] = ()
     height: Callable[[np.ndarray, np.ndarray, Machine, Process], np.ndarray] | None = None
+    profile: Callable[[object, Machine], Callable] | None = None
 
     @property
     def fields(self) -> tuple[str, ...]:
@@ -89,9 +100,14 @@ class ErrorSource:
             return True
         return any(getattr(machine, a) not in (0.0, None) for a in self.amplitudes)
 
-    def heights(self, passes, table, machine: Machine, process: Process) -> np.ndarray:
+    def heights(
+        self, passes, table, machine: Machine, process: Process, profiles=None
+    ) -> np.ndarray:
         """Heights [m] of the source at both passes over every grid point of ``passes`` (a
-        :class:`~ufmt.machining.surface.Passes`); ``table`` the response's z_re table."""
+        :class:`~ufmt.machining.surface.Passes`); ``table`` the response's z_re table;
+        ``profiles`` name -> the built profile of each :data:`MODEL` source."""
+        if self.enters == MODEL:
+            return passes.geometric(profiles[self.name])
         if self.enters == VIBRATION:
             return passes.dynamic(table, machine)
         if self.enters == SCALLOP:
@@ -193,6 +209,7 @@ REGISTRY = (
         amplitudes=("workholding_power_m", "workholding_astigmatism_m"),
         height=workholding_z,
     ),
+    ErrorSource("carriage_load", enters=MODEL, profile=carriage_load),
 )
 SOURCES = tuple(source.name for source in REGISTRY)
 

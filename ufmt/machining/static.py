@@ -79,16 +79,26 @@ class _Structure:
     """What a static solve needs that the hinge stiffnesses do not change (see
     :func:`static_flexibility`): the reduced stiffness of the beams k_beams (r, r), the
     reduced finite spring directions d (s, r), their hinge and direction (s,) indices into the
-    hinges' ``stiffness6``, and the map (r -> listed dofs) ``loads`` (r, 6B)."""
+    hinges' ``stiffness6``, the map (r -> listed dofs) ``loads`` (r, 6B); the zero-frequency
+    modes, mass-normalised, ``rigid`` (r, m), their inertia loads ``relief`` = M rigid (r, m)
+    and the trace of the reduced mass ``mass_trace`` [kg...] (m = 0: none); ``weight`` (r,)
+    [N, N m] the reduced load of gravity on every mass (:data:`GRAVITY`)."""
 
     k_beams: np.ndarray
     directions: np.ndarray
     spring_hinge: np.ndarray
     spring_direction: np.ndarray
     loads: np.ndarray
+    rigid: np.ndarray
+    relief: np.ndarray
+    mass_trace: float
+    weight: np.ndarray
 
 
-STRUCTURE_CACHE = 4
+#: Standard acceleration of gravity, along -z [m/s^2].
+GRAVITY = 9.81
+
+STRUCTURE_CACHE = 16  # the residual's slide position and the carriage-load profile's knots
 #: Structures of the last few models (key: bodies, hinge geometry and which directions are
 #: rigid or released), so that a design change (hinge stiffnesses only) costs one small solve.
 _STRUCTURES = Recent(STRUCTURE_CACHE)
@@ -101,12 +111,21 @@ def _structure(model, bodies: tuple[str, ...]) -> _Structure:
     return _STRUCTURES.get(key, lambda: _build_structure(model, bodies))
 
 
+#: Frame elements per beam of a model with zero-frequency modes: the inertia relief loads
+#: each beam by its consistent mass and the response's rigid part is weighted by it, an
+#: O(h^2) error in a beam's own deformation (a spindle's twist under the relief torque: 25 %
+#: with 1 element, 2e-4 with 32, against 64). Without zero modes 1 element is exact.
+RELIEF_ELEMENTS_PER_BEAM = 32
+
+
 def _build_structure(model, bodies: tuple[str, ...]) -> _Structure:
     """:class:`_Structure` of ``model`` (see :func:`_structure`)."""
     from ufmt.assembled import assemble
+    from ufmt.assembled.constraints import zero_modes
 
-    # one cubic frame element per beam is exact in statics (no load between the nodes);
-    # springs at zero give the beams alone, at one their unit direction rows d_j
+    # one cubic frame element per beam is exact in statics (no load between the nodes; with
+    # zero modes see RELIEF_ELEMENTS_PER_BEAM); springs at zero give the beams alone, at one
+    # their unit direction rows d_j
     def with_springs(value):
         hinges = []
         for h in model.hinges:
@@ -115,8 +134,14 @@ def _build_structure(model, bodies: tuple[str, ...]) -> _Structure:
             hinges.append(replace(h, stiffness=k[:3], rotational_stiffness=k[3:]))
         return replace(model, hinges=tuple(hinges))
 
-    beams = assemble(with_springs(0.0), elements_per_beam=1)
-    springs = assemble(with_springs(1.0), elements_per_beam=1)
+    elements = 1
+    springs = assemble(with_springs(1.0), elements_per_beam=elements)
+    zero = zero_modes(springs)
+    if zero.shape[1]:  # the inertia relief spreads along the beams' mass
+        elements = RELIEF_ELEMENTS_PER_BEAM
+        springs = assemble(with_springs(1.0), elements_per_beam=elements)
+        zero = zero_modes(springs)
+    beams = assemble(with_springs(0.0), elements_per_beam=elements)
     finite = [
         (i, j) for i, h in enumerate(model.hinges) for j in np.flatnonzero(~(h.rigid | h.released))
     ]
@@ -136,6 +161,10 @@ def _build_structure(model, bodies: tuple[str, ...]) -> _Structure:
         basis = sla.null_space(rows, rcond=1e-9)
     else:
         basis = np.eye(beams.K.shape[0])
+    mass = basis.T @ springs.M @ basis
+    zero = basis.T @ zero  # the zero modes lie in the range of the basis: C z = 0
+    if zero.shape[1]:
+        zero = zero @ np.linalg.inv(np.linalg.cholesky(zero.T @ mass @ zero)).T
     index = np.array(finite, dtype=int).reshape(-1, 2)
     return _Structure(
         k_beams=basis.T @ beams.K @ basis,
@@ -143,12 +172,19 @@ def _build_structure(model, bodies: tuple[str, ...]) -> _Structure:
         spring_hinge=index[:, 0],
         spring_direction=index[:, 1],
         loads=basis[dofs].T,
+        rigid=zero,
+        relief=mass @ zero,
+        mass_trace=float(np.trace(mass)),
+        weight=basis.T @ (springs.M @ _fall(springs)),
     )
 
 
-#: Eigenvalues of the reduced stiffness below this fraction of the largest are mechanisms
-#: (zero-frequency motions; rounding leaves them at ~1e-16 of the largest).
-MECHANISM_RTOL = 1e-12
+def _fall(am) -> np.ndarray:
+    """Every node of ``am`` translated by -GRAVITY along z [m/s^2]: M times it is the weight
+    of every mass (for a beam the consistent load of its distributed weight)."""
+    fall = np.zeros(len(am.dof_labels))
+    fall[[label[2] == "z" for label in am.dof_labels]] = -GRAVITY
+    return fall
 
 
 def static_flexibility(model, bodies: tuple[str, ...]) -> np.ndarray:
@@ -159,33 +195,49 @@ def static_flexibility(model, bodies: tuple[str, ...]) -> np.ndarray:
     are assembled once per structure (bodies, hinge geometry, rigid and released directions),
     so another design (hinge stiffnesses) costs the reduced sum and a Cholesky solve.
 
-    The bodies must be rigid or virtual (one node of 6 dofs). Zero-stiffness motions (a
-    released spindle rotation: the model's zero-frequency modes) carry no static correction
-    (pseudo-inverse on the elastic motions); ModelError if nothing is restrained.
+    The bodies must be rigid or virtual (one node of 6 dofs). A model with zero-frequency
+    modes (a released spindle rotation; found from geometry,
+    :func:`ufmt.assembled.constraints.zero_modes`) gets the flexibility of its elastic modes
+    only, sum_{elastic} v v^T / (M w^2) (inertia relief: the drive holds the spindle, and the
+    modal basis leaves those modes out too): with Phi the mass-normalised zero modes and any
+    sigma > 0, (K + sigma M Phi Phi^T M)^-1 = sum_elastic + Phi Phi^T / sigma, so
+    G = (K + sigma M Phi Phi^T M)^-1 - Phi Phi^T / sigma, sigma = tr K / tr M.
     """
     st = _structure(model, tuple(bodies))
+    return st.loads.T @ _elastic_solve(model, st, st.loads)
+
+
+def gravity_deflection(model, bodies: tuple[str, ...]) -> np.ndarray:
+    """Static deflection (6B,) [m, rad] of the listed bodies' coordinates (translation of the
+    centre of mass, rotation) under the weight of every mass of ``model`` (GRAVITY along -z),
+    solved as :func:`static_flexibility` (elastic modes only where zero modes exist)."""
+    st = _structure(model, tuple(bodies))
+    return st.loads.T @ _elastic_solve(model, st, st.weight)
+
+
+def _elastic_solve(model, st: _Structure, rhs: np.ndarray) -> np.ndarray:
+    """sum_elastic v v^T rhs / (M w^2) on the reduced coordinates of ``st`` for ``model``'s
+    stiffnesses (see :func:`static_flexibility`)."""
     k = np.array([h.stiffness6 for h in model.hinges]).reshape(-1, 6)
     k = k[st.spring_hinge, st.spring_direction]
     k_red = st.k_beams + (st.directions.T * k) @ st.directions
+    if not st.rigid.shape[1]:
+        return _cholesky_solve(k_red, rhs, model.source)
+    sigma = np.trace(k_red) / st.mass_trace
+    shifted = k_red + sigma * (st.relief @ st.relief.T)
+    return _cholesky_solve(shifted, rhs, model.source) - st.rigid @ (st.rigid.T @ rhs) / sigma
+
+
+def _cholesky_solve(k: np.ndarray, loads: np.ndarray, source: str) -> np.ndarray:
+    """k^-1 loads for a positive definite k; ModelError if it is not (a mechanism the
+    geometry did not show)."""
     try:
-        chol = sla.cho_factor(k_red)
+        return sla.cho_solve(sla.cho_factor(k), loads)
     except np.linalg.LinAlgError:
-        return st.loads.T @ _mechanism_free_solve(k_red, st.loads, model.source)
-    return st.loads.T @ sla.cho_solve(chol, st.loads)
-
-
-def _mechanism_free_solve(k_red: np.ndarray, loads: np.ndarray, source: str) -> np.ndarray:
-    """K^+ loads for a stiffness matrix with zero-stiffness motions (a mechanism such as a
-    released spindle rotation): the static correction is the elastic part only, so the
-    load components on the mechanism's motions are dropped (they are the zero-frequency
-    modes, which the modal basis leaves out too). Raises ModelError when every motion is a
-    mechanism."""
-    w, v = np.linalg.eigh(k_red)
-    elastic = w > MECHANISM_RTOL * np.abs(w).max(initial=0.0)
-    if not elastic.any():
-        raise ModelError(f"{source}: the structure is not restrained (no static solution)")
-    coords = v[:, elastic]
-    return coords @ ((coords.T @ loads) / w[elastic, None])
+        raise ModelError(
+            f"{source}: the static solve is singular: a motion strains no hinge that the "
+            "model's geometry does not show as free"
+        ) from None
 
 
 def residual_flexibility(model, basis: ModalBasis, machine: Machine) -> ResidualFlexibility:
