@@ -22,7 +22,7 @@ from ufmt.calibration.frequencies import Validation, validate
 from ufmt.calibration.identify import Identification, identify
 from ufmt.calibration.reduced import apply_parameters
 from ufmt.calibration.response import reference_process
-from ufmt.calibration.response_fit import ResponseFit, fit_response, with_values
+from ufmt.calibration.response_fit import EDGE_FRACTION, ResponseFit, fit_response, with_values
 from ufmt.calibration.settings import Calibration, load_calibration
 from ufmt.model.schema import Model
 from ufmt.model.write import model_to_toml
@@ -73,8 +73,12 @@ def provenance_header(
             "[machine] values, band in brackets):"
         )
         for p in response.settings.parameters:
-            flag = "  AT BOUND" if p.key in response.at_bound else ""
-            flag = flag if p.fit else "  held"
+            flag = "" if p.fit else "  held"
+            if p.key in response.at_bound:
+                flag = (
+                    f"  AT BOUND: the fit asks for {response.wanted[p.key]:.6g}, within"
+                    f" {100 * EDGE_FRACTION:g} % of the band's edge; held at its documented value"
+                )
             lines.append(
                 f"#   {p.key} = {response.values[p.key]:.6g} {p.unit}  "
                 f"[{p.band[0]:g}, {p.band[1]:g}]{flag}"

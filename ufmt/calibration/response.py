@@ -84,7 +84,8 @@ def response_table(
     The quantities and the paper's values (with their unit reading) are the ``[response]``
     targets of the calibration file ``settings_path`` (default the packaged
     ``calibration.toml``); ``fitted`` is True where the target took part in the fit, i.e. where
-    the file fits at least one ``[machine]`` key the loader knows. Ours is the exact time path
+    the file fits at least one ``[machine]`` key the loader knows and the target's weight is
+    not 0 (a weight-0 target is compared, not fitted). Ours is the exact time path
     (``ours``) and the fast periodic path used by the fit (``ours_periodic``). A one-sided
     target (a shape the paper states in words) has no paper value: ``error_percent`` is empty
     and ``reproduced`` says whether ours has the stated sign.
@@ -120,7 +121,7 @@ def response_table(
                 "ours_periodic": fast[t.metric],
                 "error_percent": error,
                 "reproduced": reproduced,
-                "fitted": fitted,
+                "fitted": fitted and t.weight > 0,
                 "source": t.note or source,
             }
         )

@@ -24,13 +24,15 @@ Restarts do not make an underdetermined fit identifiable: a key the targets cann
 declared ``fit = false`` and held at its documented ``start`` (docs/ufmt-model.md, 'Which keys
 are fitted'). The fitted values are rounded to
 :data:`ufmt.calibration.rounding.SIGNIFICANT` digits. A value at a band's edge means the
-measurements ask for more than the band allows: it is reported (``at_bound``), not widened.
+measurements ask for more than the band allows: it is reported (``at_bound``, with the value
+it asked for), held at its documented start and the others fitted again; never widened,
+never shipped at the edge. A target of ``weight = 0`` is compared and reported, not fitted.
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import pandas as pd
@@ -46,7 +48,9 @@ from ufmt.model.schema import Model
 from ufmt.simulate import simulate
 
 CENTRE_FRACTION = 0.5  # the "middle part": the central half of the plate in x and in y
-BOUND_RTOL = 1e-3  # a fitted value within this (relative) of a band edge is "at the bound"
+#: A fitted value within this share of its band (in the search coordinate: the log of a
+#: log-scaled key) of an edge is "at the bound": the fit asks for the edge, which is not shipped.
+EDGE_FRACTION = 0.02
 
 
 def centre_rise_nm(surface) -> float:
@@ -92,6 +96,7 @@ class ResponseFit:
     at_bound: tuple[str, ...]
     evaluations: int
     process: object = None  # the reference Process
+    wanted: dict = field(default_factory=dict)  # key -> the edge value the fit asked for
 
     def __repr__(self) -> str:
         values = ", ".join(f"{k}={v:.6g}" for k, v in self.values.items())
@@ -129,9 +134,38 @@ def fit_response(
     """Fit the settings' parameters of ``model`` to its targets at ``process`` (module doc).
 
     ``basis`` (default: ``modal_basis(model)``) is the model's modal basis; the fitted keys
-    change the cut, not the structure, so one basis serves every evaluation.
+    change the cut, not the structure, so one basis serves every evaluation. A key the fit
+    drives within :data:`EDGE_FRACTION` of an edge of its band is a finding, not a value: it is
+    held at its documented start, the others are fitted again, and the result names it in
+    ``at_bound`` with the value it asked for in ``wanted``.
     """
     basis = modal_basis(model) if basis is None else basis
+    wanted: dict[str, float] = {}
+    evaluations = 0
+    while True:
+        fit = _fit_once(model, settings, process, basis, progress)
+        evaluations += fit.evaluations
+        edges = {
+            p.key: fit.values[p.key]
+            for p in settings.parameters
+            if p.fit
+            and min(p.to_x(fit.values[p.key]), 1 - p.to_x(fit.values[p.key])) <= EDGE_FRACTION
+        }
+        if not edges:
+            break
+        wanted.update(edges)
+        settings = replace(
+            settings,
+            parameters=tuple(
+                replace(p, fit=False) if p.key in edges else p for p in settings.parameters
+            ),
+        )
+    return replace(fit, at_bound=tuple(wanted), wanted=wanted, evaluations=evaluations)
+
+
+def _fit_once(model: Model, settings: ResponseSettings, process, basis, progress) -> ResponseFit:
+    """One bounded least-squares fit of the settings' ``fit`` parameters (the others held at
+    their start) from every start point; the lowest cost is kept."""
     held = {p.key: p.start for p in settings.parameters if not p.fit}
     model = with_values(model, held)
     params = tuple(p for p in settings.parameters if p.fit)
@@ -172,9 +206,4 @@ def fit_response(
     finally:
         bar.close()
     values, final, res = best
-    at_bound = tuple(
-        p.key
-        for p in params
-        if min(abs(values[p.key] - b) for b in p.band) <= BOUND_RTOL * max(map(abs, p.band))
-    )
-    return ResponseFit(settings, values, final, res, at_bound, evaluations, process)
+    return ResponseFit(settings, values, final, res, (), evaluations, process)

@@ -495,6 +495,6 @@ def _fit_target(response: Where, index: int, t, reference: Mapping) -> FitTarget
         kind,
         str(t.get("unit", "")),
         where.number("scale_nm", t.get("scale_nm", 1.0), sign="positive"),
-        where.number("weight", t.get("weight", 1.0), sign="positive"),
+        where.number("weight", t.get("weight", 1.0), sign="nonnegative"),
         str(t.get("note", "")),
     )

@@ -170,8 +170,12 @@ def _print_response(run) -> None:
     fit = run.response
     print(f"response fit ({fit.settings.method} path, {fit.evaluations} simulations):")
     for p in fit.settings.parameters:
-        flag = "  AT BOUND: the measurements ask for more" if p.key in fit.at_bound else ""
-        flag = flag if p.fit else "  held (fit = false)"
+        flag = "" if p.fit else "  held (fit = false)"
+        if p.key in fit.at_bound:
+            flag = (
+                f"  AT BOUND: the fit asks for {fit.wanted[p.key]:.6g} at the band's edge;"
+                " held at its documented value"
+            )
         print(f"  {p.key:<26} = {fit.values[p.key]:.6g} {p.unit}  band {list(p.band)}{flag}")
     for key in fit.settings.skipped:
         print(f"  {key:<26}   skipped: not a [machine] field of this version")

@@ -27,8 +27,8 @@ from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
 
 from ufmt.design import SOURCE_METRICS
 from ufmt.machining.process import TABLE1_RANGE
+from ufmt.metric_names import metric_axis_label, metric_label, metric_unit, metric_words
 from ufmt.plots import new_axes, new_figure
-from ufmt.studies.metric import metric_label, metric_unit, metric_words
 
 PANEL = (4.2, 3.2)  # inches per panel
 DENSE_TICK_SPAN = 30.0  # log axes spanning less than this ratio label every 1-9 x 10^k
@@ -242,7 +242,7 @@ def _pv_panels(top, bottom, ok, group, baseline, sources, metric) -> None:
         right.set_ylabel("other sources alone [nm]", fontsize="small", color="C4")
         right.tick_params(axis="y", labelsize="small")
         right.margins(y=0.15)
-    top.set_ylabel(metric_label(metric).split(" (")[0], color="C0")
+    top.set_ylabel(metric_axis_label(metric), color="C0")
     bottom.set_xlabel(parameter_label(name))
     for a in (top, bottom):
         if axis["log"]:
@@ -281,7 +281,7 @@ def plot_pv_map(
     data = points[points["group"] == group["name"]]
     metric = metric or _main_metric(data)
     words = metric_words(metric)
-    label = metric_label(metric).split(" (")[0]
+    label = metric_axis_label(metric)
     table = data.pivot_table(index=y_name, columns=x_name, values=metric, aggfunc="first")
     fig, ax = new_axes(ax, (1.5 * PANEL[0], 1.35 * PANEL[1]))
     pv = table.to_numpy(float)
@@ -408,7 +408,7 @@ def plot_pareto(
     ranges" only when they are the paper's Table 1 ranges."""
     metric = optima["objective"].iloc[0] if "objective" in optima else "pv_nm"
     target = optima["target"].iloc[0] if "target" in optima else optima["target_pv_nm"].iloc[0]
-    words, unit = metric_words(metric), metric_label(metric).split(" (")[0]
+    words, unit = metric_words(metric), metric_axis_label(metric)
     fig, ax = new_axes(ax, (2.4 * PANEL[0], 1.6 * PANEL[1]))
     ok = _ok(points)
     travel = optima["travel_mm"].iloc[0]
@@ -508,7 +508,7 @@ def plot_design_tradeoff(points: pd.DataFrame, optima: pd.DataFrame, meta: dict,
     predate it) against stiffness cost of every evaluated bearing design, lines of equal
     objective (metric + cost), the calibrated design and the optimum."""
     metric = optima["objective"].iloc[0] if "objective" in optima else "pv_nm"
-    words, label = metric_words(metric), metric_label(metric).split(" (")[0]
+    words, label = metric_words(metric), metric_axis_label(metric)
     unit = label[label.index("[") :] if "[" in label else ""
     fig, ax = new_axes(ax, (1.6 * PANEL[0], 1.4 * PANEL[1]))
     ok = _ok(points)
@@ -579,8 +579,6 @@ def plot_tracked_modes(modes: pd.DataFrame, meta: dict | None = None, ax=None) -
     tracks that move most named, the others grey; a pairing with MAC < 0.5 ringed. Along the
     spindle speed the modes are flat and the spindle harmonics k rpm / 60 fan out over them (a
     Campbell diagram): where a harmonic crosses a mode the cut drives it at resonance."""
-    from ufmt.studies.tracking import WEAK_MAC, moved
-
     names = list(dict.fromkeys(modes["parameter"]))
     baseline = (meta or {}).get("baseline", {})
     if ax is None:
@@ -591,7 +589,9 @@ def plot_tracked_modes(modes: pd.DataFrame, meta: dict | None = None, ax=None) -
         fig = axes[0].figure
     for a, name in zip(axes, names, strict=True):
         table = modes[modes["parameter"] == name]
-        named = list(moved(table, top=NAMED_TRACKS)) if name != "rpm" else []
+        ratio = table.groupby("track_name", sort=False)["track_ratio"].first()
+        ranked = ratio.sort_values(key=lambda r: -np.abs(np.log(r)), kind="stable")
+        named = list(ranked.index[:NAMED_TRACKS]) if name != "rpm" else []
         for track, rows in table.groupby("track_name", sort=False):
             rows = rows.sort_values("value")
             k = named.index(track) if track in named else -1
@@ -604,7 +604,7 @@ def plot_tracked_modes(modes: pd.DataFrame, meta: dict | None = None, ax=None) -
                 label=track if k >= 0 else None,
                 zorder=2 if k >= 0 else 1,
             )
-            weak = rows[rows["mac_previous"] < WEAK_MAC]
+            weak = rows[rows["weak_pairing"].astype(bool)]
             a.plot(weak["value"], weak["frequency_hz"], "o", mfc="none", mec="r", ms=6)
         if name == "rpm":
             _spindle_harmonics(a, table)

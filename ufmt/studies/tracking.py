@@ -78,7 +78,9 @@ def tracked_modes(model_at, values, parameter: str, count: int = TRACKED_MODES) 
 
     Columns: parameter, value, mode (number at this point, from 1), frequency_hz, track,
     track_name (dominant body and direction at the first point), body, direction (dominant
-    here), mac_previous (MAC with the same track's mode at the previous value; NaN at the first).
+    here), mac_previous (MAC with the same track's mode at the previous value; NaN at the
+    first), weak_pairing (mac_previous < WEAK_MAC), track_ratio (the track's frequency at the
+    axis' last value over its first).
     """
     from ufmt.mstmm.solve import solve_modes
 
@@ -99,17 +101,16 @@ def tracked_modes(model_at, values, parameter: str, count: int = TRACKED_MODES) 
         )
     table = pd.concat(frames, ignore_index=True)
     table["track_name"] = [names[int(t)] for t in table["track"]]
+    table["weak_pairing"] = table["mac_previous"] < WEAK_MAC
+    ends = table.groupby("track_name")["frequency_hz"].agg(["first", "last"])
+    table["track_ratio"] = table["track_name"].map(ends["last"] / ends["first"])
     columns = ["parameter", "value", "mode", "frequency_hz", "track", "track_name"]
-    return table[[*columns, "body", "direction", "energy_share", "mac_previous"]]
-
-
-def weak_pairings(table: pd.DataFrame) -> pd.DataFrame:
-    """The rows whose pairing with the previous point is uncertain (MAC < WEAK_MAC)."""
-    return table[table["mac_previous"] < WEAK_MAC]
+    extra = ["body", "direction", "energy_share", "mac_previous", "weak_pairing", "track_ratio"]
+    return table[[*columns, *extra]]
 
 
 def moved(table: pd.DataFrame, top: int = 3) -> Mapping[str, float]:
-    """The ``top`` tracks whose frequency changes most over the axis [ratio last / first]."""
-    span = table.groupby("track_name")["frequency_hz"].agg(["first", "last"])
-    ratio = (span["last"] / span["first"]).sort_values(key=lambda r: -np.abs(np.log(r)))
-    return dict(ratio.head(top))
+    """The ``top`` tracks whose frequency changes most over the axis [ratio last / first]
+    (of one axis' rows of :func:`tracked_modes`)."""
+    ratio = table.groupby("track_name", sort=False)["track_ratio"].first()
+    return dict(ratio.sort_values(key=lambda r: -np.abs(np.log(r)), kind="stable").head(top))
