@@ -32,6 +32,7 @@ from dataclasses import dataclass, fields, is_dataclass
 from pathlib import Path
 
 from ufmt import evaluate_cache
+from ufmt.arguments import check_design
 from ufmt.defaults import DEFAULT_BASIS_CUTOFF_HZ, DEFAULT_SPACING
 from ufmt.design import (
     ALWAYS_FINITE,
@@ -180,7 +181,8 @@ def evaluate(
     ----------
     design
         Design parameters (:mod:`ufmt.design`: stiffnesses, ``machine.<key>``) -> value [SI];
-        missing ones keep the model's calibrated values.
+        missing ones keep the model's calibrated values; None or {} is the model as it is.
+        The design comes first and the model third (or ``model=``), :mod:`ufmt.arguments`.
     process
         A :class:`ufmt.Process` or a mapping of ``rpm`` [rev/min], ``feed_mm_min`` [mm/min],
         ``depth_um`` [um]; missing ones take the reference case (300 rpm, 15 mm/min, 4 um).
@@ -206,7 +208,8 @@ def evaluate(
     Raises
     ------
     StudyError
-        An unknown design or process parameter name (a caller's mistake, not physics).
+        An unknown design or process parameter name, a design value that is not a number (a
+        boolean, text), or a model where the design is due (a caller's mistake, not physics).
     ProcessError
         A process value that is not a real number (None, a string, a bool).
     OutsideDomainError
@@ -294,10 +297,11 @@ def _case(design, process, model, parameters) -> _Case:
     Raises the caller's mistakes (StudyError, ProcessError, ModelError) and
     OutsideDomainError; any other failure is kept in the case and recorded by :func:`_finish`.
     """
+    design = check_design(design)
     process = _process_mapping(process)
     _check_process_names(process)
     base, base_sha = resolve_model(model)
-    design_items = tuple(sorted((k, float(v)) for k, v in design.items()))
+    design_items = tuple(sorted(design.items()))
     designed = apply_design(base, dict(design_items), parameters)
     process_full = {**REFERENCE_PROCESS, **{k: _process_value(k, v) for k, v in process.items()}}
     case = _Case({**dict(design_items), **process_full}, designed, process_full)

@@ -173,9 +173,12 @@ def _not_strict(constant: str):
 
 
 def _read_no_follow(path: Path) -> str:
-    """The text of ``path``, refusing a symbolic link (a planted record)."""
-    fd = os.open(path, os.O_RDONLY | os.O_NOFOLLOW | os.O_CLOEXEC)
+    """The text of ``path``, refusing a symbolic link or anything but a regular file (a
+    planted FIFO or device): opened without blocking, checked before it is read."""
+    fd = os.open(path, os.O_RDONLY | os.O_NOFOLLOW | os.O_CLOEXEC | os.O_NONBLOCK)
     with open(fd, encoding="utf-8") as fh:
+        if not stat.S_ISREG(os.fstat(fd).st_mode):
+            raise OSError(f"{path.name} is not a regular file")
         return fh.read(_MAX_RECORD)
 
 

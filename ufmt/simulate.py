@@ -20,7 +20,10 @@ from pathlib import Path
 
 import numpy as np
 
+from ufmt import limits
+from ufmt.arguments import simulate_inputs
 from ufmt.defaults import DEFAULT_BASIS_CUTOFF_HZ, DEFAULT_SPACING
+from ufmt.errors import ProcessError
 from ufmt.machining import validity
 from ufmt.machining.basis import ModalBasis
 from ufmt.machining.cut_geometry import DEFAULT_TABLE_ROWS, cut_geometry, samples_per_rev
@@ -226,9 +229,11 @@ def simulate(
 
     Parameters
     ----------
-    model : model file path or a loaded :class:`ufmt.model.schema.Model`, with a
-        ``[machine]`` table.
-    process : :class:`Process` (rpm, feed_mm_min, depth_um).
+    model : model file path, a loaded :class:`ufmt.model.schema.Model` (with a ``[machine]``
+        table) or None (the packaged UFMT); first, as in every public function
+        (:mod:`ufmt.arguments`).
+    process : :class:`Process` or a mapping of ``rpm`` [rev/min], ``feed_mm_min`` [mm/min],
+        ``depth_um`` [um] (missing ones: the reference case), as :func:`ufmt.evaluate` takes.
     n_modes, basis_cutoff_hz : the modal basis: every mode below ``basis_cutoff_hz`` [Hz]
         (default 5 kHz, :mod:`ufmt.defaults`), or the first ``n_modes`` when given (the
         paper's choice is 30); the static residual stands for the modes above.
@@ -257,8 +262,12 @@ def simulate(
         which the psd2 keys are computed (None: PSD2 is not resolved and reads NaN).
 
     Raises OutsideDomainError for a cut outside the surface model's validity domain
-    (:mod:`ufmt.machining.validity`).
+    (:mod:`ufmt.machining.validity`); ProcessError for a size outside its budget
+    (:mod:`ufmt.limits`: ``n_modes``, ``n_phi`` even, ``table_rows``), no source, or the
+    model and process in the other order.
     """
+    model, process = simulate_inputs(model, process)
+    _check_sizes(n_modes, n_phi, table_rows, sources)
     model = _loaded(model)
     machine = _machine(model)
     validity.check_case(process, machine, spacing, aperture_margin, psd2_patch)
@@ -284,12 +293,27 @@ def simulate(
 
 
 def _loaded(model):
-    """``model``, loaded if it is a path."""
-    if isinstance(model, str | Path):
-        from ufmt.model.load import load_model
+    """``model``, loaded if it is a path (None: the packaged UFMT)."""
+    from ufmt.model.load import as_model
 
-        return load_model(model)
-    return model
+    return as_model(model)
+
+
+def _check_sizes(n_modes, n_phi, table_rows, sources) -> None:
+    """The discretisation's sizes inside their budgets (:mod:`ufmt.limits`) and at least one
+    error source, before anything is allocated."""
+    if n_modes is not None:
+        limits.count("n_modes", n_modes, 1, limits.MAX_MODE_COUNT, ProcessError)
+    if n_phi is not None:
+        top = validity.MAX_SAMPLES_PER_REV
+        limits.count("n_phi", n_phi, 8, top, ProcessError)
+        if n_phi % 2:
+            raise ProcessError(f"n_phi: {n_phi} must be even (8-{top})")
+    limits.count("table_rows", table_rows, 2, limits.MAX_TABLE_ROWS, ProcessError)
+    if isinstance(sources, str):
+        sources = (sources,)
+    if not isinstance(sources, Iterable) or not tuple(sources):
+        raise ProcessError(f"sources: {sources!r} names no error source (at least one)")
 
 
 def _sampling(

@@ -320,6 +320,8 @@ def short_vector(values) -> str:
 
 def type_name(value) -> str:
     """What a value is, for "expected ..., got <type_name>" (with the value when short)."""
+    if value is None:
+        return "an empty value"
     if isinstance(value, bool | np.bool_):
         return f"boolean {value!r}"
     if isinstance(value, str):

@@ -38,6 +38,7 @@ def build_parser() -> argparse.ArgumentParser:
     from ufmt.cli.modes import cmd_modes
     from ufmt.cli.report import register as register_report
     from ufmt.cli.studies import add_run_parser
+    from ufmt.limits import MAX_MODE_COUNT
 
     parser = _Parser(prog="ufmt", description=DESCRIPTION)
     parser.add_argument("--version", action="version", version=f"ufmt {__version__}")
@@ -49,7 +50,11 @@ def build_parser() -> argparse.ArgumentParser:
         type=positive(float, at_most=MAX_MODE_FREQUENCY_HZ),
         help="upper frequency [Hz] (default 1000, at most 20000)",
     )
-    p.add_argument("--count", type=positive(int), help="number of modes")
+    p.add_argument(
+        "--count",
+        type=positive(int, at_most=MAX_MODE_COUNT),
+        help=f"number of modes (at most {MAX_MODE_COUNT})",
+    )
     p.add_argument("--method", choices=["mstmm", "assembled"], default="mstmm")
     p.add_argument("--json", action="store_true", help="one JSON object on stdout")
     p.set_defaults(func=cmd_modes)
