@@ -10,12 +10,18 @@ above what the packaged model and the paper's studies use (13 bodies, about 70 m
   model is ~30 kB; a 200-body model about 0.2 MB).
 * ``MAX_BODIES`` [-]: bodies of a model. The overall transfer matrix, the assembled static
   solve and the mode shapes grow with the body count (6 or 12 states per body, dense
-  matrices: memory ~ bodies^2, work ~ bodies^3 per frequency).
+  matrices: memory ~ bodies^2, work ~ bodies^3 per frequency); ``MAX_HINGES`` [-] likewise
+  (each hinge that closes a loop adds 12 unknowns to the overall transfer equation).
 * ``MAX_MODE_COUNT`` [-]: modes asked for (``modes --count``, ``simulate --modes``, ``frf
   --modes``). The hinge damping of a basis is a dense (n, n) matrix and every mode is one
   Wittrick-Williams bracket and one null vector.
+* ``MAX_MODE_FREQUENCY_HZ`` [Hz]: the top of a mode search (``modes --fmax``,
+  ``solve_modes(fmax_hz=...)``): beyond it the rigid-body model is out of its scope and the
+  transfer matrices of the MSTMM determinant lose their conditioning.
 * ``MAX_FRF_POINTS`` [-]: frequencies of an FRF (each a (3, 3) complex response per point
   pair and one column of the modal sum).
+* ``MAX_FREQUENCY_HZ`` [Hz]: the top of an FRF's axis; the rigid-body and beam models hold
+  no mode near it (``ufmt modes`` searches to 20 kHz) and ``(2 pi f)^2`` stays finite.
 * ``MAX_TABLE_ROWS`` [-]: slide positions of the periodic response table (each row holds
   ``samples_per_rev`` samples of every mode).
 * ``MAX_UNCERTAINTY_SAMPLES`` [-]: Latin-hypercube samples of ``simulate --uncertainty`` (one
@@ -31,8 +37,11 @@ from ufmt.errors import UfmtError
 
 MAX_INPUT_BYTES = 8 << 20  # [bytes] a model, modal-test or settings file
 MAX_BODIES = 300  # [-] bodies of one model
+MAX_HINGES = 600  # [-] hinges of one model
 MAX_MODE_COUNT = 1000  # [-] modes of one request
+MAX_MODE_FREQUENCY_HZ = 2e4  # [Hz] top of a mode search
 MAX_FRF_POINTS = 10**5  # [-] frequencies of one FRF
+MAX_FREQUENCY_HZ = 1e6  # [Hz] an FRF's frequency axis (far above every mode a model holds)
 MAX_TABLE_ROWS = 4096  # [-] slide positions of the periodic response table
 MAX_UNCERTAINTY_SAMPLES = 2000  # [-] samples of one --uncertainty request
 

@@ -17,16 +17,13 @@ import warnings
 
 from ufmt import __version__
 from ufmt.errors import UfmtError
+from ufmt.limits import MAX_MODE_FREQUENCY_HZ
 
 DESCRIPTION = (
     "Dynamics of ultra-precision fly-cutting machine tools: natural frequencies and mode "
     "shapes (MSTMM), cutting response and machined-surface PV, validation against the paper, "
     "parameter studies and an HTML report. MODEL defaults to the packaged, calibrated UFMT."
 )
-
-#: Highest --fmax [Hz]: beyond it the rigid-body model is out of its scope and the transfer
-#: matrices of the MSTMM determinant lose their conditioning.
-MAX_MODE_FREQUENCY_HZ = 2e4
 
 
 def build_parser() -> argparse.ArgumentParser:

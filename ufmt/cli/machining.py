@@ -154,15 +154,22 @@ def _register_simulate(subparsers) -> None:
 def _register_frf(subparsers) -> None:
     """Add the ``frf`` sub-parser."""
     from ufmt.cli.common import positive
-    from ufmt.limits import MAX_FRF_POINTS
+    from ufmt.limits import MAX_FREQUENCY_HZ, MAX_FRF_POINTS
     from ufmt.machining.recurrence import DEFAULT_ZETA
 
     p = subparsers.add_parser(
         "frf", help="tool-workpiece or point-to-point FRF in any direction (table and plot)"
     )
     p.add_argument("model", nargs="?", help="model TOML (default: packaged UFMT)")
-    p.add_argument("--fmin", type=positive(float), default=1.0, help="[Hz] (1)")
-    p.add_argument("--fmax", type=positive(float), default=1000.0, help="[Hz] (1000)")
+    p.add_argument(
+        "--fmin", type=positive(float, at_most=MAX_FREQUENCY_HZ), default=1.0, help="[Hz] (1)"
+    )
+    p.add_argument(
+        "--fmax",
+        type=positive(float, at_most=MAX_FREQUENCY_HZ),
+        default=1000.0,
+        help=f"[Hz] (1000; at most {MAX_FREQUENCY_HZ:g})",
+    )
     p.add_argument(
         "--points",
         type=positive(int, at_least=2, at_most=MAX_FRF_POINTS),

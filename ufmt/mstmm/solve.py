@@ -20,6 +20,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from threadpoolctl import ThreadpoolController
 
+from ufmt import limits
 from ufmt.errors import UfmtError
 from ufmt.model.load import as_model
 from ufmt.model.schema import Model
@@ -332,14 +333,16 @@ def _remember(key, model, roots_hz, rigid_body_modes) -> None:
 
 def _check(fmax_hz, count, method) -> None:
     """UfmtError for a bad ``fmax_hz``, ``count`` or ``method`` (see :func:`solve_modes`)."""
-    if fmax_hz is not None and not (np.isfinite(fmax_hz) and fmax_hz > 0):
-        raise UfmtError(f"--fmax: {fmax_hz} must be a positive number of Hz")
+    if fmax_hz is not None:
+        limits.number("fmax_hz", fmax_hz, 0.0, limits.MAX_MODE_FREQUENCY_HZ)
+        if not fmax_hz > 0:
+            raise UfmtError(f"fmax_hz: {fmax_hz} must be > 0 [Hz]")
     if method != "mstmm":
         raise UfmtError(
             f"method: {method!r}: this is the MSTMM solver; ufmt.solve_modes takes 'assembled'"
         )
-    if count is not None and count < 1:
-        raise UfmtError(f"number of modes: {count} must be >= 1")
+    if count is not None:
+        limits.count("count", count, 1, limits.MAX_MODE_COUNT)
 
 
 def _solve_modes(model, fmax_hz, count, method, shapes) -> ModalSolution:
