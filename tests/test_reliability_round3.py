@@ -362,3 +362,63 @@ def test_a_model_typed_in_mm_is_refused_and_a_translated_one_is_not():
     here = ufmt.solve_modes(model_from_dict(_moved(1.0, 0.0)), count=4)
     moved = ufmt.solve_modes(model_from_dict(_moved(1.0, 100.0)), count=4)
     np.testing.assert_allclose(moved.frequencies_hz, here.frequencies_hz, rtol=1e-6)
+
+
+# ---------------------------------------------------------------------------------------------
+# the SDF reader
+
+
+def _sdf(points="4", profiles="3", scales=("1e-4", "1e-4", "1.0e-09"), heights=None) -> str:
+    heights = heights or [" ".join(["1.0"] * 4)] * 3
+    header = [
+        "aISO-1.0",
+        f"NumPoints = {points}",
+        f"NumProfiles = {profiles}",
+        f"Xscale = {scales[0]}",
+        f"Yscale = {scales[1]}",
+        f"Zscale = {scales[2]}",
+        "DataType = 7",
+    ]
+    return "\r\n".join([*header, "*", *heights, "*", "Origin = x 0.0 m, y 0.0 m", "*"]) + "\r\n"
+
+
+def test_a_well_formed_sdf_reads_back(tmp_path):
+    """Oracle: the closed-form grid of the header (x = i Xscale, z = height Zscale)."""
+    from ufmt.exports import read_sdf
+
+    path = tmp_path / "ok.sdf"
+    path.write_text(_sdf(), encoding="ascii")
+    x, y, z = read_sdf(path)
+    np.testing.assert_allclose(x, 1e-4 * np.arange(4))
+    assert y.shape == (3,) and z.shape == (3, 4)
+    np.testing.assert_allclose(z, 1e-9)
+
+
+@pytest.mark.parametrize(
+    ("text", "field"),
+    [
+        (_sdf(points="-1"), "NumPoints"),
+        (_sdf(points="0"), "NumPoints"),
+        (_sdf(profiles="-3"), "NumProfiles"),
+        (_sdf(points="1e3"), "NumPoints"),
+        (_sdf(scales=("nan", "1e-4", "1e-9")), "Xscale"),
+        (_sdf(scales=("1e-4", "0", "1e-9")), "Yscale"),
+        (_sdf(scales=("1e-4", "1e-4", "inf")), "Zscale"),
+        (_sdf(heights=["1 2 3 nan"] * 3), "data"),
+        (_sdf(heights=["1 2 3 inf"] * 3), "data"),
+        (_sdf(heights=["1 2 3"] * 3), "data"),
+        (_sdf(heights=["1 2 3 x"] * 3), "data"),
+        (_sdf().replace("NumPoints = 4\r\n", ""), "NumPoints"),
+        ("aISO-1.0\r\nNumPoints 4\r\n*\r\n*\r\n", "header line"),
+        ("not an sdf", "ISO 25178-71"),
+        (_sdf().replace("Origin = x 0.0 m", "Origin = x nan m"), "Origin"),
+    ],
+)
+def test_a_malformed_sdf_names_the_file_and_the_field(tmp_path, text, field):
+    from ufmt.exports import read_sdf
+
+    path = tmp_path / "bad.sdf"
+    path.write_text(text, encoding="ascii")
+    with pytest.raises(ModelError) as info:
+        read_sdf(path)
+    assert str(path) in str(info.value) and field in str(info.value), info.value
