@@ -422,3 +422,74 @@ def test_a_malformed_sdf_names_the_file_and_the_field(tmp_path, text, field):
     with pytest.raises(ModelError) as info:
         read_sdf(path)
     assert str(path) in str(info.value) and field in str(info.value), info.value
+
+
+# ---------------------------------------------------------------------------------------------
+# warnings
+
+
+FULL_CACHE = "cache directory /round3 is unusable (No space left on device); running without"
+
+
+def warn_once_pv(design, process, model=None):
+    """PV = rpm / 10 [nm]; reports a failed cache write as ufmt.evaluate does (warn_once)."""
+    evaluate_cache.warn_once(FULL_CACHE)
+    return {"pv_nm": process["rpm"] / 10.0}
+
+
+def test_a_failed_cache_write_is_reported_with_one_job(tmp_path):
+    """Oracle: the same warning ``--jobs 2`` shows (the main process reports a worker's)."""
+    from ufmt.studies.parallel import Execution
+    from ufmt.studies.runner import run_study
+
+    study = tmp_path / "w.toml"
+    study.write_text(
+        f'function = "{Path(__file__).resolve()}:warn_once_pv"\nkind = "sweep"\n'
+        '[[axis]]\nparameter = "rpm"\nrange = [200.0, 400.0]\nn = 2\n',
+        encoding="utf-8",
+    )
+    with pytest.warns(evaluate_cache.CacheWarning, match="No space left on device"):
+        run_study(study, Execution(jobs=1), results=tmp_path / "r", progress=False, plots=False)
+
+
+def test_an_all_zero_frf_plots_without_a_warning():
+    """Oracle: an identically zero receptance (no coupling) plots on a linear axis at 0."""
+    import warnings
+
+    from ufmt.plots.response import plot_frf
+
+    freq = np.geomspace(1.0, 100.0, 50)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        fig = plot_frf(freq, np.zeros(50, complex), natural_hz=[10.0])
+    assert fig.axes[0].get_yscale() == "linear"
+    np.testing.assert_array_equal(fig.axes[0].lines[0].get_ydata(), 0.0)
+
+
+# ---------------------------------------------------------------------------------------------
+# every result has .plot() and .save()
+
+
+def test_an_evaluation_record_plots_and_saves_its_own_values(tmp_path):
+    """Oracle: record.json holds the record's values (NaN as null), the bars its finite
+    [nm] values."""
+    record = ufmt.evaluate(None, {"rpm": 300.0})
+    paths = record.save(tmp_path)
+    assert [p.name for p in paths] == ["record.json", "record.csv", "record.png"]
+    saved = json.loads((tmp_path / "record.json").read_text(encoding="utf-8"))
+    for key, value in record.items():
+        expected = None if isinstance(value, float) and np.isnan(value) else value
+        assert saved[key] == expected, key
+    bars = record.plot().axes[0].patches
+    finite = [v for k, v in record.items() if k.endswith("_nm") and np.isfinite(v)]
+    assert sorted(b.get_width() for b in bars) == sorted(finite)
+
+
+def test_a_modal_solution_keeps_the_model_it_was_solved_for(tmp_path):
+    """Oracle: the same table as with the model passed again."""
+    model = model_from_dict(_moved(1.0, 0.0))
+    modes = ufmt.solve_modes(model, count=3)
+    pd.testing.assert_frame_equal(modes.to_frame(), modes.to_frame(model))
+    assert "body" in modes.to_frame()
+    assert [p.name for p in modes.save(tmp_path)] == ["modes.csv", "modes.png"]
+    assert modes.plot(mode=1) is not None

@@ -163,6 +163,43 @@ class EvaluationRecord(Mapping):
 
         return pd.DataFrame([self.values])
 
+    def plot(self, ax=None):
+        """The record's surface heights [nm] as bars: the total PV, the interferometer's PV
+        and RMS, and the PV of each error source alone (unresolved ones left out).
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+        """
+        from ufmt.plots import new_axes
+
+        fig, ax = new_axes(ax)
+        names = [k for k, v in self.values.items() if k.endswith("_nm") and math.isfinite(v)]
+        ax.barh(names[::-1], [self.values[k] for k in names[::-1]], color="0.5")
+        ax.set_xlabel("[nm]")
+        process = ", ".join(f"{k} {self.values[k]:g}" for k in PROCESS_PARAMETERS)
+        ax.set_title(f"{process}: {self.status}", fontsize="medium")
+        return fig
+
+    def save(self, directory) -> list:
+        """Write ``record.json`` (strict JSON, null for NaN), ``record.csv``
+        (:meth:`to_frame`) and ``record.png`` (:meth:`plot`) to ``directory``; returns the
+        paths."""
+        from ufmt import files
+        from ufmt.jsonout import dumps_strict
+        from ufmt.plots import save_figure
+
+        directory = Path(directory)
+        table = self.to_frame()
+        return [
+            files.write_text(directory / "record.json", dumps_strict(self.values) + "\n"),
+            files.write_with(
+                directory / "record.csv",
+                lambda b: table.to_csv(b, index=False, float_format="%.10g"),
+            ),
+            save_figure(self.plot(), directory / "record.png"),
+        ]
+
 
 # ---------------------------------------------------------------------------------------------
 # evaluation

@@ -110,6 +110,13 @@ def warn_once(message: str) -> None:
     warnings.warn(message, CacheWarning, stacklevel=4)
 
 
+def not_shown(messages) -> None:
+    """Forget that ``messages`` were issued: a caller caught them without showing them (a
+    study's chunk in the main process with one job), so the next :func:`warn_once` shows
+    them."""
+    _warned.difference_update(messages)
+
+
 def key_digest(key: Mapping) -> str:
     """SHA-256 of the canonical JSON of ``key``."""
     return hashlib.sha256(_canonical(key).encode()).hexdigest()

@@ -52,7 +52,7 @@ def solve_modes(
     found = assembled_modes(model, fmax_hz=fmax, count=count, shapes=False)
     f = found.frequencies_hz
     seconds = time.perf_counter() - t0
-    return ModalSolution(f, 0, "assembled", f.size, found.rigid_body_modes, None, seconds)
+    return ModalSolution(f, 0, "assembled", f.size, found.rigid_body_modes, None, seconds, model)
 
 
 def solve_modes_batch(
