@@ -241,10 +241,17 @@ def test_library_messages_name_parameters_not_options():
 # every request bounded before it allocates
 
 
+def _many_modes():
+    """A slender cantilever (0.5 m long, 0.3 mm thick): far more than MAX_MODE_COUNT modes
+    below 1 MHz (bending modes grow as the square of their number)."""
+    return load_model_text(_beam_model(0.0003), "slender.toml")
+
+
 @pytest.mark.parametrize(
     ("call", "phrase"),
     [
         (lambda: ufmt.solve_modes(None, fmax_hz=1e300, count=3), "fmax_hz: 1e+300"),
+        (lambda: ufmt.solve_modes(_many_modes(), fmax_hz=1e6), "modes below fmax_hz = 1e+06"),
         (lambda: ufmt.solve_modes(None, count=100000), "count: 100,000"),
         (lambda: ufmt.simulate(None, {}, n_modes=1e9), "n_modes: 1,000,000,000"),
         (lambda: ufmt.simulate(None, {}, table_rows=10**8), "table_rows: 100,000,000"),

@@ -110,6 +110,11 @@ def warn_once(message: str) -> None:
     warnings.warn(message, CacheWarning, stacklevel=4)
 
 
+def issued() -> frozenset[str]:
+    """The messages :func:`warn_once` has issued in this process."""
+    return frozenset(_warned)
+
+
 def not_shown(messages) -> None:
     """Forget that ``messages`` were issued: a caller caught them without showing them (a
     study's chunk in the main process with one job), so the next :func:`warn_once` shows

@@ -15,13 +15,16 @@ above what the packaged model and the paper's studies use (13 bodies, about 70 m
 * ``MAX_MODE_COUNT`` [-]: modes asked for (``modes --count``, ``simulate --modes``, ``frf
   --modes``). The hinge damping of a basis is a dense (n, n) matrix and every mode is one
   Wittrick-Williams bracket and one null vector.
-* ``MAX_MODE_FREQUENCY_HZ`` [Hz]: the top of a mode search (``modes --fmax``,
-  ``solve_modes(fmax_hz=...)``): beyond it the rigid-body model is out of its scope and the
-  transfer matrices of the MSTMM determinant lose their conditioning.
+* ``MAX_MODE_FREQUENCY_HZ`` [Hz]: the top of ``ufmt modes --fmax``: beyond it the
+  rigid-body model is out of its scope and the transfer matrices of the MSTMM determinant
+  lose their conditioning. The API's ``solve_modes(fmax_hz=...)`` takes up to
+  ``MAX_FREQUENCY_HZ`` (the correlation asks for the first ``count`` modes below it); the
+  modes counted below ``fmax_hz`` (Wittrick-Williams, cheap) must not exceed
+  ``MAX_MODE_COUNT`` before any is solved.
 * ``MAX_FRF_POINTS`` [-]: frequencies of an FRF (each a (3, 3) complex response per point
   pair and one column of the modal sum).
-* ``MAX_FREQUENCY_HZ`` [Hz]: the top of an FRF's axis; the rigid-body and beam models hold
-  no mode near it (``ufmt modes`` searches to 20 kHz) and ``(2 pi f)^2`` stays finite.
+* ``MAX_FREQUENCY_HZ`` [Hz]: the top of an FRF's axis and of a mode search through the API;
+  ``(2 pi f)^2`` stays finite and the packaged model counts 747 modes below it.
 * ``MAX_TABLE_ROWS`` [-]: slide positions of the periodic response table (each row holds
   ``samples_per_rev`` samples of every mode).
 * ``MAX_UNCERTAINTY_SAMPLES`` [-]: Latin-hypercube samples of ``simulate --uncertainty`` (one

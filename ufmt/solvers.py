@@ -37,7 +37,7 @@ def solve_modes(
     if method not in METHODS:
         raise UfmtError(f"method: {method!r} is not one of 'mstmm', 'assembled'")
     if fmax_hz is not None:  # the budget (ufmt.limits) before the model is even loaded
-        limits.number("fmax_hz", fmax_hz, 0.0, limits.MAX_MODE_FREQUENCY_HZ)
+        limits.number("fmax_hz", fmax_hz, 0.0, limits.MAX_FREQUENCY_HZ)
     if count is not None:
         limits.count("count", count, 1, limits.MAX_MODE_COUNT)
     model = as_model(model)

@@ -144,7 +144,7 @@ def read_modal_test(path) -> ModalTest:
     if Path(path).suffix.lower() in UFF_SUFFIXES:
         return read_uff(path)
     where = Where(str(path), error=StudyError)
-    frame = _read_csv(where, path, {"body": str, "direction": str})
+    frame = _read_csv(where, path, str)  # cell by cell: one text cell blames its own row
     where.keys(dict.fromkeys(frame.columns), valid=COLUMNS, required=REQUIRED)
     shaped = [c for c in SHAPE_COLUMNS if c in frame.columns]
     if shaped and len(shaped) != len(SHAPE_COLUMNS):
@@ -210,9 +210,17 @@ def _read_csv(where: Where, path, dtype) -> pd.DataFrame:
 
 
 def _cell(value):
-    """None for an empty CSV cell, else the value (numpy integers as int)."""
+    """None for an empty CSV cell, a number for a cell that holds one (int where it is an
+    integer), else the value (numpy integers as int)."""
     if value is None or (isinstance(value, float) and math.isnan(value)):
         return None
+    if isinstance(value, str):  # a CSV read as text: its number, else the text itself
+        for kind in (int, float):
+            try:
+                return kind(value.strip())
+            except ValueError:
+                pass
+        return value
     return value.item() if isinstance(value, np.generic) else value
 
 

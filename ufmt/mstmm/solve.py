@@ -341,7 +341,7 @@ def _remember(key, model, roots_hz, rigid_body_modes) -> None:
 def _check(fmax_hz, count, method) -> None:
     """UfmtError for a bad ``fmax_hz``, ``count`` or ``method`` (see :func:`solve_modes`)."""
     if fmax_hz is not None:
-        limits.number("fmax_hz", fmax_hz, 0.0, limits.MAX_MODE_FREQUENCY_HZ)
+        limits.number("fmax_hz", fmax_hz, 0.0, limits.MAX_FREQUENCY_HZ)
         if not fmax_hz > 0:
             raise UfmtError(f"fmax_hz: {fmax_hz} must be > 0 [Hz]")
     if method != "mstmm":
@@ -361,6 +361,11 @@ def _solve_modes(model, fmax_hz, count, method, shapes) -> ModalSolution:
     counter = RootCounter(model)
     # the next design of a continuation tracks one root more
     (brackets,) = _search_ranges(counter, fmax_hz, count, count is not None and tracking)
+    if count is None and brackets.total > limits.MAX_MODE_COUNT:  # counted, not yet solved
+        raise UfmtError(
+            f"{model.source}: {brackets.total:,} modes below fmax_hz = {brackets.below_hz:g}"
+            f" Hz; at most {limits.MAX_MODE_COUNT:,} per request (lower fmax_hz or give count)"
+        )
     solution, found = _solution(counter, 0, brackets, count, shapes)
     if tracking:
         _remember(_CONTINUATION.get(), model, found, counter.rigid_body_modes)
