@@ -500,3 +500,38 @@ def test_a_modal_solution_keeps_the_model_it_was_solved_for(tmp_path):
     assert "body" in modes.to_frame()
     assert [p.name for p in modes.save(tmp_path)] == ["modes.csv", "modes.png"]
     assert modes.plot(mode=1) is not None
+
+
+# ---------------------------------------------------------------------------------------------
+# messages
+
+
+def test_a_5_mb_body_name_is_not_echoed():
+    """Oracle: the message names the field and the budget, in one short line."""
+    data = tomllib.loads((MODELS / "good_mixed.toml").read_text(encoding="utf-8"))
+    data["body"][0]["name"] = "b" * 5_000_000
+    with pytest.raises(ModelError) as info:
+        model_from_dict(data, "long.toml")
+    assert "long.toml" in str(info.value) and "'name'" in str(info.value)
+    assert f"at most {limits.MAX_NAME_CHARS}" in str(info.value) and len(str(info.value)) < 300
+
+
+def test_an_unknown_long_name_is_cut_in_the_message():
+    data = tomllib.loads((MODELS / "good_mixed.toml").read_text(encoding="utf-8"))
+    data["hinge"][0]["between"] = ["ground", "x" * 100_000]
+    with pytest.raises(ModelError) as info:
+        model_from_dict(data, "long.toml")
+    assert len(str(info.value)) < 1000
+
+
+def test_a_memory_error_names_the_model_file(capsys, monkeypatch, tmp_path):
+    """Oracle: the last guard's line names the file the command was given."""
+    import ufmt.solvers
+
+    def exhausted(*args, **kwargs):
+        raise MemoryError
+
+    monkeypatch.setattr(ufmt.solvers, "solve_modes", exhausted)
+    path = MODELS / "good_mixed.toml"
+    line = refused(capsys, "modes", str(path))
+    assert str(path) in line and "MemoryError" in line

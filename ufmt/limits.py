@@ -41,6 +41,7 @@ from ufmt.errors import UfmtError
 MAX_INPUT_BYTES = 8 << 20  # [bytes] a model, modal-test or settings file
 MAX_BODIES = 300  # [-] bodies of one model
 MAX_HINGES = 600  # [-] hinges of one model
+MAX_NAME_CHARS = 200  # [-] characters of a body or hinge name (messages quote names)
 MAX_MODE_COUNT = 1000  # [-] modes of one request
 MAX_MODE_FREQUENCY_HZ = 2e4  # [Hz] top of a mode search
 MAX_FRF_POINTS = 10**5  # [-] frequencies of one FRF

@@ -118,10 +118,12 @@ def _main(argv) -> int:
         return 130
     except (MemoryError, RecursionError, np.linalg.LinAlgError) as exc:
         # a last guard: the input checks should have refused what causes these
-        reason = " ".join(str(exc).split()) or "out of memory"
+        reason = " ".join(str(exc).split())[:200] or "out of memory"
+        given = getattr(args, "model", None) or getattr(args, "study", None)
+        where = f"{given}: " if given else "the packaged model: "
         print(
-            f"ufmt {args.command}: error: {type(exc).__name__}: {reason} (input too large or"
-            " too extreme for the solver)",
+            f"ufmt {args.command}: error: {where}{type(exc).__name__}: {reason} (input too"
+            " large or too extreme for the solver; budgets in ufmt.limits)",
             file=sys.stderr,
         )
         return 2
