@@ -86,6 +86,7 @@ def peak_mib(call) -> tuple[BaseException | None, float]:
         (["frf", "--points", "1000000"], f"--points: 1000000 must be <= {limits.MAX_FRF_POINTS}"),
         (["simulate", "--uncertainty", "2", "--uncertainty-inputs", ""], "names no band"),
         (["simulate", "--uncertainty", "2", "--uncertainty-inputs", ","], "names no band"),
+        (["simulate", "--uncertainty", "10000"], f"must be <= {limits.MAX_UNCERTAINTY_SAMPLES}"),
         (["frf", "--at", "head:nan,0,0.93", "head:0,0,0.93"], "must be finite"),
         (["frf", "--at", "head:1e6,0,0.93", "head:0,0,0.93"], "within 20 m"),
     ],
@@ -278,6 +279,14 @@ def test_a_20_mb_model_file_is_refused_from_its_size(tmp_path):
     raised, peak = peak_mib(lambda: load_model(path))
     assert isinstance(raised, ModelError) and "20,971,520 bytes" in str(raised)
     assert str(path) in str(raised) and peak < 4
+
+
+def test_ufmt_modes_refuses_a_20_mb_model_in_one_line(capsys, tmp_path):
+    path = tmp_path / "big.toml"
+    with path.open("wb") as fh:
+        fh.truncate(20 << 20)
+    line = refused(capsys, "modes", str(path))
+    assert str(path) in line and f"at most {limits.MAX_INPUT_BYTES:,}" in line
 
 
 def test_a_device_is_read_up_to_the_budget_only():

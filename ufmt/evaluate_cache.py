@@ -16,7 +16,10 @@ No HMAC: the directory is used only when it belongs to the user and no one else 
 (below), so a record "written by someone else" can only come from the user's own processes;
 a key file for an HMAC would sit in the same home directory, readable by exactly those
 processes, and would add no protection against them while adding a secret to manage. The
-range checks bound what a tampered record can do.
+range checks bound what a tampered record can do: a right-key record with plausible wrong
+values (a PV times 5) is taken as written, as any file the user's own processes write is;
+deleting the directory (or ``UFMT_CACHE_DIR=``) recomputes. Records are opened without
+blocking and read only when they are regular files (a FIFO or device is a miss).
 
 The directory is ``$UFMT_CACHE_DIR`` if set (the empty string switches the cache off), else
 ``$XDG_CACHE_HOME/ufmt`` or ``~/.cache/ufmt``. A directory that cannot be created or written,
