@@ -229,11 +229,8 @@ def simulate(
 
     Parameters
     ----------
-    model : model file path, a loaded :class:`ufmt.model.schema.Model` (with a ``[machine]``
-        table) or None (the packaged UFMT); first, as in every public function
-        (:mod:`ufmt.arguments`).
-    process : :class:`Process` or a mapping of ``rpm`` [rev/min], ``feed_mm_min`` [mm/min],
-        ``depth_um`` [um] (missing ones: the reference case), as :func:`ufmt.evaluate` takes.
+    model, process : a path, a loaded model (with ``[machine]``) or None (packaged); a
+        :class:`Process` or a mapping as :func:`ufmt.evaluate` takes (:mod:`ufmt.arguments`).
     n_modes, basis_cutoff_hz : the modal basis: every mode below ``basis_cutoff_hz`` [Hz]
         (default 5 kHz, :mod:`ufmt.defaults`), or the first ``n_modes`` when given (the
         paper's choice is 30); the static residual stands for the modes above.
@@ -262,13 +259,10 @@ def simulate(
         which the psd2 keys are computed (None: PSD2 is not resolved and reads NaN).
 
     Raises OutsideDomainError for a cut outside the surface model's validity domain
-    (:mod:`ufmt.machining.validity`); ProcessError for a size outside its budget
-    (:mod:`ufmt.limits`: ``n_modes``, ``n_phi`` even, ``table_rows``), no source, or the
-    model and process in the other order.
+    (:mod:`ufmt.machining.validity`); ProcessError for a size outside :mod:`ufmt.limits`.
     """
     model, process = simulate_inputs(model, process)
-    _check_sizes(n_modes, n_phi, table_rows, sources)
-    model = _loaded(model)
+    model = _loaded(model, n_modes, n_phi, table_rows, sources)
     machine = _machine(model)
     validity.check_case(process, machine, spacing, aperture_margin, psd2_patch)
     basis = _basis(model, basis, n_modes, basis_cutoff_hz)
@@ -292,10 +286,12 @@ def simulate(
     return _run(basis, machine, process, residual, options)
 
 
-def _loaded(model):
-    """``model``, loaded if it is a path (None: the packaged UFMT)."""
+def _loaded(model, n_modes, n_phi, table_rows, sources):
+    """``model``, loaded if it is a path (None: the packaged UFMT), once the sizes asked for
+    are inside their budgets (:func:`_check_sizes`)."""
     from ufmt.model.load import as_model
 
+    _check_sizes(n_modes, n_phi, table_rows, sources)
     return as_model(model)
 
 

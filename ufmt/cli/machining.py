@@ -91,8 +91,7 @@ def _register_simulate(subparsers) -> None:
         type=positive(int, at_least=8, at_most=2**16, even=True),
         default=None,
         metavar="N",
-        help="response samples per spindle revolution, even, 8-65536 (default: from the basis'"
-        " highest mode)",
+        help="samples per revolution, even, 8-65536 (default: from the basis' highest mode)",
     )
     p.add_argument(
         "--zeta",
@@ -126,9 +125,8 @@ def _register_simulate(subparsers) -> None:
         type=positive(int, at_most=MAX_UNCERTAINTY_SAMPLES),
         default=None,
         metavar="N",
-        help="also simulate N Latin-hypercube samples of the documented bands and print each "
-        "metric's 5-95 %% interval beside its value (JSON: key 'uncertainty'; at most "
-        f"{MAX_UNCERTAINTY_SAMPLES}; a progress bar on a terminal)",
+        help=f"also simulate N <= {MAX_UNCERTAINTY_SAMPLES} Latin-hypercube samples of the "
+        "documented bands and print each metric's 5-95 %% interval (JSON: 'uncertainty')",
     )
     p.add_argument(
         "--uncertainty-inputs",
