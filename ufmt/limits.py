@@ -3,11 +3,10 @@
 Each limit bounds the memory or the work of one command; a request above it is refused with
 one line (:class:`~ufmt.errors.UfmtError` or the caller's error class) that names the field,
 the allowed range and, where it is a size, what the request would need. The limits sit well
-above what the packaged model and the paper's studies use (13 bodies, about 70 modes below
-5 kHz, 4000 FRF points, a few hundred uncertainty samples).
+above what the packaged model and the paper's studies use (docs/ufmt-model.md, "Requests,
+budgets and argument order").
 
-* ``MAX_INPUT_BYTES`` [bytes]: a model file, a modal test or a settings file (the packaged
-  model is ~30 kB; a 200-body model about 0.2 MB).
+* ``MAX_INPUT_BYTES`` [bytes]: a model file, a modal test or a settings file.
 * ``MAX_BODIES`` [-]: bodies of a model. The overall transfer matrix, the assembled static
   solve and the mode shapes grow with the body count (6 or 12 states per body, dense
   matrices: memory ~ bodies^2, work ~ bodies^3 per frequency); ``MAX_HINGES`` [-] likewise
@@ -23,12 +22,12 @@ above what the packaged model and the paper's studies use (13 bodies, about 70 m
   ``MAX_MODE_COUNT`` before any is solved.
 * ``MAX_FRF_POINTS`` [-]: frequencies of an FRF (each a (3, 3) complex response per point
   pair and one column of the modal sum).
-* ``MAX_FREQUENCY_HZ`` [Hz]: the top of an FRF's axis and of a mode search through the API;
-  ``(2 pi f)^2`` stays finite and the packaged model counts 747 modes below it.
+* ``MAX_FREQUENCY_HZ`` [Hz]: the top of an FRF's axis and of a mode search through the API
+  (``(2 pi f)^2`` stays finite).
 * ``MAX_TABLE_ROWS`` [-]: slide positions of the periodic response table (each row holds
   ``samples_per_rev`` samples of every mode).
 * ``MAX_UNCERTAINTY_SAMPLES`` [-]: Latin-hypercube samples of ``simulate --uncertainty`` (one
-  simulation each, ~0.1-1 s on one core; a progress bar on stderr while they run).
+  whole simulation each; a progress bar on stderr while they run).
 """
 
 from __future__ import annotations
