@@ -544,3 +544,13 @@ def test_a_memory_error_names_the_model_file(capsys, monkeypatch, tmp_path):
     path = MODELS / "good_mixed.toml"
     line = refused(capsys, "modes", str(path))
     assert str(path) in line and "MemoryError" in line
+
+
+def test_evaluate_refuses_a_20_mb_model_without_holding_it(tmp_path):
+    """Oracle: MAX_INPUT_BYTES; the content hash streams the file (peak far below 20 MiB)."""
+    path = tmp_path / "big.toml"
+    with path.open("wb") as fh:
+        fh.truncate(20 << 20)
+    raised, peak = peak_mib(lambda: ufmt.evaluate(None, {}, path))
+    assert isinstance(raised, ModelError) and str(path) in str(raised), raised
+    assert peak < 4, peak
