@@ -554,3 +554,15 @@ def test_evaluate_refuses_a_20_mb_model_without_holding_it(tmp_path):
     raised, peak = peak_mib(lambda: ufmt.evaluate(None, {}, path))
     assert isinstance(raised, ModelError) and str(path) in str(raised), raised
     assert peak < 4, peak
+
+
+def test_a_tolerance_cost_of_1e308_is_one_line(tmp_path):
+    """Oracle: the documented bound of a cost coefficient (MAX_COST, relative units)."""
+    from test_tolerances import study_text
+
+    from ufmt.studies.load import parse_study
+    from ufmt.studies.tolerances import MAX_COST
+
+    text = study_text("linear_budget", 50.0).replace("cost = [1.0, 2.0]", "cost = [1e308, 1e308]")
+    with pytest.raises(StudyError, match=rf"field .cost.*at most {re.escape(f'{MAX_COST:g}')}"):
+        parse_study(text, tmp_path / "bad.toml")
