@@ -3,6 +3,7 @@ plot returns a Figure and draws into a given axes."""
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -136,7 +137,9 @@ def test_modal_solution_repr_table_plot_and_save(bridge, tmp_path):
     lines = describe(model, solution.energy_shares(model), top=1)
     for row, line in zip(table.itertuples(), lines, strict=True):
         assert line == f"{row.body} {row.direction} {100 * row.energy_share:.0f}%"
-    assert list(solution.to_frame().columns) == ["mode", "frequency_hz"]
+    assert solution.to_frame().equals(table)  # the solution keeps the model it was solved for
+    unbound = dataclasses.replace(solution, model=None)
+    assert list(unbound.to_frame().columns) == ["mode", "frequency_hz"]
     # the energy shares stacked in the plot sum to 100 % per mode
     fig = solution.plot(model=model)
     heights = np.zeros(3)

@@ -7,14 +7,17 @@ Public entry points:
 - ``ufmt.solve_modes(model, fmax_hz=None, count=None, method="mstmm")``: natural frequencies
   and mode shapes (:class:`ufmt.ModalSolution`: ``.to_frame()``, ``.plot()``, ``.save()``);
 - ``ufmt.simulate(model, ufmt.Process(rpm, feed_mm_min, depth_um), ...)``: tool-tip response,
-  machined surface and its PV;
+  machined surface and its PV; ``process`` a ``ufmt.Process`` or a dict, as ``evaluate``;
 - ``ufmt.evaluate(design, process, model=None)``: the study function (design, process) → PV;
-  ``process`` is a ``ufmt.Process`` or a dict; returns a :class:`ufmt.EvaluationRecord`;
+  the design first (None: the model as it is), the model third or ``model=``; ``process`` is a
+  ``ufmt.Process`` or a dict; returns a :class:`ufmt.EvaluationRecord`;
   ``ufmt.evaluate_batch(designs, processes, model=None)`` the same for many points at once;
 - ``ufmt.frf(model, direction="z", kind="receptance", output=None, input=None, ...)``:
   tool-workpiece or point-to-point FRF in any direction (:class:`ufmt.FrfResult`).
 
-Every ``model`` argument takes a path or a loaded model; modes are numbered from 1.
+Every ``model`` argument takes a path, a loaded model or None (the packaged UFMT); a model
+in another argument's place is refused with the order (:mod:`ufmt.arguments`); every request
+is bounded before it allocates (:mod:`ufmt.limits`); modes are numbered from 1.
 """
 
 import sys

@@ -32,6 +32,7 @@ from dataclasses import dataclass, fields, is_dataclass
 from pathlib import Path
 
 from ufmt import evaluate_cache
+from ufmt.arguments import check_design
 from ufmt.defaults import DEFAULT_BASIS_CUTOFF_HZ, DEFAULT_SPACING
 from ufmt.design import (
     ALWAYS_FINITE,
@@ -162,6 +163,43 @@ class EvaluationRecord(Mapping):
 
         return pd.DataFrame([self.values])
 
+    def plot(self, ax=None):
+        """The record's surface heights [nm] as bars: the total PV, the interferometer's PV
+        and RMS, and the PV of each error source alone (unresolved ones left out).
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+        """
+        from ufmt.plots import new_axes
+
+        fig, ax = new_axes(ax)
+        names = [k for k, v in self.values.items() if k.endswith("_nm") and math.isfinite(v)]
+        ax.barh(names[::-1], [self.values[k] for k in names[::-1]], color="0.5")
+        ax.set_xlabel("[nm]")
+        process = ", ".join(f"{k} {self.values[k]:g}" for k in PROCESS_PARAMETERS)
+        ax.set_title(f"{process}: {self.status}", fontsize="medium")
+        return fig
+
+    def save(self, directory) -> list:
+        """Write ``record.json`` (strict JSON, null for NaN), ``record.csv``
+        (:meth:`to_frame`) and ``record.png`` (:meth:`plot`) to ``directory``; returns the
+        paths."""
+        from ufmt import files
+        from ufmt.jsonout import dumps_strict
+        from ufmt.plots import save_figure
+
+        directory = Path(directory)
+        table = self.to_frame()
+        return [
+            files.write_text(directory / "record.json", dumps_strict(self.values) + "\n"),
+            files.write_with(
+                directory / "record.csv",
+                lambda b: table.to_csv(b, index=False, float_format="%.10g"),
+            ),
+            save_figure(self.plot(), directory / "record.png"),
+        ]
+
 
 # ---------------------------------------------------------------------------------------------
 # evaluation
@@ -180,7 +218,8 @@ def evaluate(
     ----------
     design
         Design parameters (:mod:`ufmt.design`: stiffnesses, ``machine.<key>``) -> value [SI];
-        missing ones keep the model's calibrated values.
+        missing ones keep the model's calibrated values; None or {} is the model as it is.
+        The design comes first and the model third (or ``model=``), :mod:`ufmt.arguments`.
     process
         A :class:`ufmt.Process` or a mapping of ``rpm`` [rev/min], ``feed_mm_min`` [mm/min],
         ``depth_um`` [um]; missing ones take the reference case (300 rpm, 15 mm/min, 4 um).
@@ -209,7 +248,8 @@ def evaluate(
     Raises
     ------
     StudyError
-        An unknown design or process parameter name (a caller's mistake, not physics).
+        An unknown design or process parameter name, a design value that is not a number (a
+        boolean, text), or a model where the design is due (a caller's mistake, not physics).
     ProcessError
         A process value that is not a real number (None, a string, a bool).
     OutsideDomainError
@@ -297,10 +337,11 @@ def _case(design, process, model, parameters) -> _Case:
     Raises the caller's mistakes (StudyError, ProcessError, ModelError) and
     OutsideDomainError; any other failure is kept in the case and recorded by :func:`_finish`.
     """
+    design = check_design(design)
     process = _process_mapping(process)
     _check_process_names(process)
     base, base_sha = resolve_model(model)
-    design_items = tuple(sorted((k, float(v)) for k, v in design.items()))
+    design_items = tuple(sorted(design.items()))
     designed = apply_design(base, dict(design_items), parameters)
     process_full = {**REFERENCE_PROCESS, **{k: _process_value(k, v) for k, v in process.items()}}
     case = _Case({**dict(design_items), **process_full}, designed, process_full)

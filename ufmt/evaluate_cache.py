@@ -16,7 +16,10 @@ No HMAC: the directory is used only when it belongs to the user and no one else 
 (below), so a record "written by someone else" can only come from the user's own processes;
 a key file for an HMAC would sit in the same home directory, readable by exactly those
 processes, and would add no protection against them while adding a secret to manage. The
-range checks bound what a tampered record can do.
+range checks bound what a tampered record can do: a right-key record with plausible wrong
+values (a PV times 5) is taken as written, as any file the user's own processes write is;
+deleting the directory (or ``UFMT_CACHE_DIR=``) recomputes. Records are opened without
+blocking and read only when they are regular files (a FIFO or device is a miss).
 
 The directory is ``$UFMT_CACHE_DIR`` if set (the empty string switches the cache off), else
 ``$XDG_CACHE_HOME/ufmt`` or ``~/.cache/ufmt``. A directory that cannot be created or written,
@@ -110,6 +113,18 @@ def warn_once(message: str) -> None:
     warnings.warn(message, CacheWarning, stacklevel=4)
 
 
+def issued() -> frozenset[str]:
+    """The messages :func:`warn_once` has issued in this process."""
+    return frozenset(_warned)
+
+
+def not_shown(messages) -> None:
+    """Forget that ``messages`` were issued: a caller caught them without showing them (a
+    study's chunk in the main process with one job), so the next :func:`warn_once` shows
+    them."""
+    _warned.difference_update(messages)
+
+
 def key_digest(key: Mapping) -> str:
     """SHA-256 of the canonical JSON of ``key``."""
     return hashlib.sha256(_canonical(key).encode()).hexdigest()
@@ -173,9 +188,12 @@ def _not_strict(constant: str):
 
 
 def _read_no_follow(path: Path) -> str:
-    """The text of ``path``, refusing a symbolic link (a planted record)."""
-    fd = os.open(path, os.O_RDONLY | os.O_NOFOLLOW | os.O_CLOEXEC)
+    """The text of ``path``, refusing a symbolic link or anything but a regular file (a
+    planted FIFO or device): opened without blocking, checked before it is read."""
+    fd = os.open(path, os.O_RDONLY | os.O_NOFOLLOW | os.O_CLOEXEC | os.O_NONBLOCK)
     with open(fd, encoding="utf-8") as fh:
+        if not stat.S_ISREG(os.fstat(fd).st_mode):
+            raise OSError(f"{path.name} is not a regular file")
         return fh.read(_MAX_RECORD)
 
 

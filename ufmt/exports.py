@@ -26,7 +26,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ufmt import files
+from ufmt import files, limits
+from ufmt.errors import ModelError
+from ufmt.tables import Where
+from ufmt.tomlfile import read_text
 
 SDF_MAGIC = "aISO-1.0"
 SDF_ZSCALE = 1e-9  # heights written in nanometres [m per unit]
@@ -88,22 +91,71 @@ def write_npz(surface, path) -> Path:
 
 def read_sdf(path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(x (Nx,), y (Ny,), z (Ny, Nx)) [m] of an ASCII ISO 25178-71 file as :func:`write_sdf`
-    writes it (origin from its trailer, else 0)."""
-    text = Path(path).read_text(encoding="ascii")
-    if not text.startswith(SDF_MAGIC):
-        raise ValueError(f"{path}: not an ASCII ISO 25178-71 file ({SDF_MAGIC})")
-    head, data, trailer = text[len(SDF_MAGIC) :].split("*")[:3]
-    pairs = (line.split("=", 1) for line in head.strip().splitlines())
-    fields = {k.strip(): v.strip() for k, v in pairs}
-    nx, ny = int(fields["NumPoints"]), int(fields["NumProfiles"])
-    z = np.array(data.split(), dtype=float).reshape(ny, nx) * float(fields["Zscale"])
+    writes it (origin from its trailer, else 0).
+
+    Raises ModelError naming the file and the field: a file that is not ASCII ISO-1.0 or is
+    larger than :data:`ufmt.limits.MAX_INPUT_BYTES`, ``NumPoints`` or ``NumProfiles`` outside
+    1-65535, a scale that is not a finite number > 0, heights that are not finite numbers
+    or not ``NumPoints`` x ``NumProfiles`` of them, an origin that is not finite.
+    """
+    where = Where(str(path), error=ModelError)
+    try:
+        text = read_text(path, ModelError).encode("ascii").decode("ascii")
+    except UnicodeEncodeError as exc:
+        where.fail_table(f"not ASCII text (character {exc.start}); an ASCII {SDF_MAGIC} file")
+    if not text.startswith(SDF_MAGIC) or text.count("*") < 2:
+        where.fail_table(f"not an ASCII ISO 25178-71 file (starts with {SDF_MAGIC}, then *)")
+    head, data, trailer = (text[len(SDF_MAGIC) :].split("*") + [""])[:3]
+    fields = {}
+    for line in head.strip().splitlines():
+        name, equals, value = line.partition("=")
+        if not equals:
+            where.fail_table(f"header line {limits.shown(line)} is not 'name = value'")
+        fields[name.strip()] = value.strip()
+    for name in ("NumPoints", "NumProfiles", "Xscale", "Yscale", "Zscale"):
+        if name not in fields:
+            where.missing(name, "a header field of ISO 25178-71")
+    nx, ny = (
+        where.integer(name, _header_number(where, name, fields[name], int), 1, SDF_MAX_POINTS)
+        for name in ("NumPoints", "NumProfiles")
+    )
+    scales = [
+        where.number(
+            name, _header_number(where, name, fields[name], float), sign="positive", unit="[m]"
+        )
+        for name in ("Xscale", "Yscale", "Zscale")
+    ]
+    try:
+        heights = np.array(data.split(), dtype=float)
+    except ValueError:
+        where.fail("data", "a height is not a number")
+    if heights.size != nx * ny:
+        where.fail("data", f"{heights.size} heights; NumPoints x NumProfiles = {nx * ny}")
+    if not np.all(np.isfinite(heights)):
+        where.fail("data", "a height is NaN or infinite (allowed: finite numbers)")
+    z = heights.reshape(ny, nx) * scales[2]
     x0 = y0 = 0.0
     if "Origin" in trailer:
         parts = trailer.split()
-        x0, y0 = float(parts[parts.index("x") + 1]), float(parts[parts.index("y") + 1])
-    x = x0 + float(fields["Xscale"]) * np.arange(nx)
-    y = y0 + float(fields["Yscale"]) * np.arange(ny)
+        try:
+            x0, y0 = float(parts[parts.index("x") + 1]), float(parts[parts.index("y") + 1])
+        except (ValueError, IndexError):
+            where.fail("Origin", "expected 'Origin = x X m, y Y m'")
+        if not (np.isfinite(x0) and np.isfinite(y0)):
+            where.fail("Origin", f"x {x0!r}, y {y0!r} (allowed: finite numbers [m])")
+    x = x0 + scales[0] * np.arange(nx)
+    y = y0 + scales[1] * np.arange(ny)
     return x, y, z
+
+
+def _header_number(where: Where, name: str, text: str, kind):
+    """A header value as ``kind`` (int or float), else ModelError naming the field."""
+    try:
+        return kind(text)
+    except ValueError:
+        where.fail(
+            name, f"{limits.shown(text)} is not {'an integer' if kind is int else 'a number'}"
+        )
 
 
 def time_frame(response):

@@ -42,8 +42,10 @@ PHYSICS = (
 
 
 def file_sha256(path: str | os.PathLike) -> str:
-    """SHA-256 hex digest of a file's bytes."""
-    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+    """SHA-256 hex digest of a file's bytes (read in blocks: a huge file costs time, not
+    memory, before the loader refuses it)."""
+    with Path(path).open("rb") as fh:
+        return hashlib.file_digest(fh, "sha256").hexdigest()
 
 
 def model_sha256(model: Model) -> str:

@@ -412,7 +412,7 @@ def _headline_intervals(cut: Path, uncertainty: Path) -> str:
     """The reference cut's headline numbers (``metrics.json`` of ``ufmt simulate --save``)
     beside their 5-95 % intervals over the documented bands, read from the uncertainty
     study's ``distribution.csv`` (never recomputed here)."""
-    title = "<h3>Headline numbers with their 5–95 % intervals</h3>"
+    title = "<h3>Headline numbers with their uncertainty intervals</h3>"
     table_file, meta_file = uncertainty / "distribution.csv", uncertainty / "meta.json"
     if not table_file.is_file() or not meta_file.is_file():
         return title + _missing(f"{table_file} (make uncertainty)")
@@ -420,21 +420,18 @@ def _headline_intervals(cut: Path, uncertainty: Path) -> str:
     point = json.loads(metrics.read_text(encoding="utf-8")) if metrics.is_file() else {}
     meta = json.loads(meta_file.read_text(encoding="utf-8"))
     table = pd.read_csv(table_file)
+    quantiles = [c for c in table.columns if c.startswith("q")]  # the study's own quantiles
     rows = []
     for r in table.to_dict("records"):
         value = point.get(r["metric"])
         resolved = r["resolved"] > 0
-        rows.append(
-            {
-                "metric": r["metric"],
-                "reference cut": "" if value is None else f"{value:.4g}",
-                "5 %": f"{r['q05']:.4g}" if resolved else "not resolved",
-                "median": f"{r['q50']:.4g}" if resolved else "",
-                "95 %": f"{r['q95']:.4g}" if resolved else "",
-                "samples resolved": f"{r['resolved']} of {r['samples']}",
-                "P(meet)": _p_meet(r),
-            }
-        )
+        row = {"metric": r["metric"], "reference cut": "" if value is None else f"{value:.4g}"}
+        for i, column in enumerate(quantiles):
+            shown = f"{r[column]:.4g}" if resolved else ("not resolved" if i == 0 else "")
+            row[f"{float(column[1:]):g} %"] = shown
+        row["samples resolved"] = f"{r['resolved']} of {r['samples']}"
+        row["P(meet)"] = _p_meet(r)
+        rows.append(row)
     inputs = meta.get("options", {}).get("inputs", [])
     note = (
         f"<p>Point values: the reference cut ({html.escape(str(point.get('method', '?')))} "

@@ -20,7 +20,10 @@ from pathlib import Path
 
 import numpy as np
 
+from ufmt import limits
+from ufmt.arguments import simulate_inputs
 from ufmt.defaults import DEFAULT_BASIS_CUTOFF_HZ, DEFAULT_SPACING
+from ufmt.errors import ProcessError
 from ufmt.machining import validity
 from ufmt.machining.basis import ModalBasis
 from ufmt.machining.cut_geometry import DEFAULT_TABLE_ROWS, cut_geometry, samples_per_rev
@@ -242,9 +245,8 @@ def simulate(
 
     Parameters
     ----------
-    model : model file path or a loaded :class:`ufmt.model.schema.Model`, with a
-        ``[machine]`` table.
-    process : :class:`Process` (rpm, feed_mm_min, depth_um).
+    model, process : a path, a loaded model (with ``[machine]``) or None (packaged); a
+        :class:`Process` or a mapping as :func:`ufmt.evaluate` takes (:mod:`ufmt.arguments`).
     n_modes, basis_cutoff_hz : the modal basis: every mode below ``basis_cutoff_hz`` [Hz]
         (default 5 kHz, :mod:`ufmt.defaults`), or the first ``n_modes`` when given (the
         paper's choice is 30); the static residual stands for the modes above.
@@ -273,9 +275,10 @@ def simulate(
         which the psd2 keys are computed (None: PSD2 is not resolved and reads NaN).
 
     Raises OutsideDomainError for a cut outside the surface model's validity domain
-    (:mod:`ufmt.machining.validity`).
+    (:mod:`ufmt.machining.validity`); ProcessError for a size outside :mod:`ufmt.limits`.
     """
-    model = _loaded(model)
+    model, process = simulate_inputs(model, process)
+    model = _loaded(model, n_modes, n_phi, table_rows, sources)
     machine = _machine(model)
     validity.check_case(process, machine, spacing, aperture_margin, psd2_patch)
     basis = _basis(model, basis, n_modes, basis_cutoff_hz)
@@ -299,13 +302,30 @@ def simulate(
     return _run(basis, machine, process, residual, options, _profiles(model, machine, sources))
 
 
-def _loaded(model):
-    """``model``, loaded if it is a path."""
-    if isinstance(model, str | Path):
-        from ufmt.model.load import load_model
+def _loaded(model, n_modes, n_phi, table_rows, sources):
+    """``model``, loaded if it is a path (None: the packaged UFMT), once the sizes asked for
+    are inside their budgets (:func:`_check_sizes`)."""
+    from ufmt.model.load import as_model
 
-        return load_model(model)
-    return model
+    _check_sizes(n_modes, n_phi, table_rows, sources)
+    return as_model(model)
+
+
+def _check_sizes(n_modes, n_phi, table_rows, sources) -> None:
+    """The discretisation's sizes inside their budgets (:mod:`ufmt.limits`) and at least one
+    error source, before anything is allocated."""
+    if n_modes is not None:
+        limits.count("n_modes", n_modes, 1, limits.MAX_MODE_COUNT, ProcessError)
+    if n_phi is not None:
+        top = validity.MAX_SAMPLES_PER_REV
+        limits.count("n_phi", n_phi, 8, top, ProcessError)
+        if n_phi % 2:
+            raise ProcessError(f"n_phi: {n_phi} must be even (8-{top})")
+    limits.count("table_rows", table_rows, 2, limits.MAX_TABLE_ROWS, ProcessError)
+    if isinstance(sources, str):
+        sources = (sources,)
+    if not isinstance(sources, Iterable) or not tuple(sources):
+        raise ProcessError(f"sources: {sources!r} names no error source (at least one)")
 
 
 def _sampling(

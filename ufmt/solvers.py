@@ -8,6 +8,7 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
+from ufmt import limits
 from ufmt.errors import UfmtError
 from ufmt.model.load import as_model
 from ufmt.model.schema import Model
@@ -33,15 +34,17 @@ def solve_modes(
     :func:`ufmt.mstmm.solve.solve_modes`; ``model`` is a loaded model or a path (None: the
     packaged UFMT).
     """
-    model = as_model(model)
     if method not in METHODS:
-        raise UfmtError(f"--method: {method!r} is not one of 'mstmm', 'assembled'")
+        raise UfmtError(f"method: {method!r} is not one of 'mstmm', 'assembled'")
+    if fmax_hz is not None:  # the budget (ufmt.limits) before the model is even loaded
+        limits.number("fmax_hz", fmax_hz, 0.0, limits.MAX_FREQUENCY_HZ)
+    if count is not None:
+        limits.count("count", count, 1, limits.MAX_MODE_COUNT)
+    model = as_model(model)
     if method == "mstmm":
         return mstmm_modes(model, fmax_hz, count, shapes=shapes)
-    if fmax_hz is not None and not (fmax_hz > 0 and fmax_hz < float("inf")):
-        raise UfmtError(f"--fmax: {fmax_hz} must be a positive number of Hz")
-    if count is not None and count < 1:
-        raise UfmtError(f"number of modes: {count} must be >= 1")
+    if fmax_hz is not None and not fmax_hz > 0:
+        raise UfmtError(f"fmax_hz: {fmax_hz} must be > 0 [Hz]")
     from ufmt.assembled import assembled_modes
 
     t0 = time.perf_counter()
@@ -49,7 +52,7 @@ def solve_modes(
     found = assembled_modes(model, fmax_hz=fmax, count=count, shapes=False)
     f = found.frequencies_hz
     seconds = time.perf_counter() - t0
-    return ModalSolution(f, 0, "assembled", f.size, found.rigid_body_modes, None, seconds)
+    return ModalSolution(f, 0, "assembled", f.size, found.rigid_body_modes, None, seconds, model)
 
 
 def solve_modes_batch(

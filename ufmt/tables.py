@@ -70,6 +70,7 @@ from typing import NoReturn
 import numpy as np
 
 from ufmt.errors import closest_name
+from ufmt.limits import shown
 
 #: What "allowed" says for each sign rule of :meth:`Where.number` (the unit is appended).
 SIGN_ALLOWED = {None: "finite", "positive": "> 0", "nonnegative": ">= 0, finite"}
@@ -131,12 +132,16 @@ class Where:
 
     # -- scalars ------------------------------------------------------------------------------
 
-    def string(self, field: str, value, allow_empty: bool = False) -> str:
-        """A string (non-empty unless ``allow_empty``)."""
+    def string(
+        self, field: str, value, allow_empty: bool = False, max_chars: int | None = None
+    ) -> str:
+        """A string (non-empty unless ``allow_empty``; at most ``max_chars`` characters)."""
         if not isinstance(value, str):
             self.fail(field, f"expected a string, got {type_name(value)}")
         if not allow_empty and not value.strip():
             self.fail(field, "empty (allowed: a non-empty string)")
+        if max_chars is not None and len(value) > max_chars:
+            self.fail(field, f"{len(value):,} characters (allowed: at most {max_chars:,})")
         return value
 
     def boolean(self, field: str, value) -> bool:
@@ -236,7 +241,7 @@ class Where:
         if value not in choices:
             names = ", ".join(str(c) for c in choices)
             hint = did_you_mean(value, choices) or f"valid {plural or noun + 's'}: {names}"
-            self.fail(field, f"unknown {noun} {value!r} ({hint})")
+            self.fail(field, f"unknown {noun} {shown(value)} ({hint})")
         return value
 
     # -- arrays and tables --------------------------------------------------------------------
@@ -320,10 +325,12 @@ def short_vector(values) -> str:
 
 def type_name(value) -> str:
     """What a value is, for "expected ..., got <type_name>" (with the value when short)."""
+    if value is None:
+        return "an empty value"
     if isinstance(value, bool | np.bool_):
         return f"boolean {value!r}"
     if isinstance(value, str):
-        return f"string {value!r}"
+        return f"string {shown(value)}"
     if isinstance(value, numbers.Integral):
         return f"integer {value}"
     if isinstance(value, numbers.Real):

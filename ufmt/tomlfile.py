@@ -5,17 +5,29 @@ malformed TOML: <parser message>``."""
 
 from __future__ import annotations
 
+import os
 import tomllib
 from pathlib import Path
 
 from ufmt.errors import StudyError, UfmtError
+from ufmt.limits import MAX_INPUT_BYTES
 
 
-def read_text(path: str | Path, error: type[UfmtError] = StudyError) -> str:
+def read_text(
+    path: str | Path, error: type[UfmtError] = StudyError, max_bytes: int = MAX_INPUT_BYTES
+) -> str:
     """The UTF-8 text of ``path`` (universal newlines; a leading byte-order mark is not
-    content); a file that cannot be read raises ``error`` (one line)."""
+    content); a file that cannot be read, or longer than ``max_bytes`` (refused from its size
+    before reading, or after reading ``max_bytes`` of a device or pipe), raises ``error``
+    (one line)."""
     try:
-        return Path(path).read_text(encoding="utf-8-sig")
+        with open(path, "rb") as fh:
+            size = os.fstat(fh.fileno()).st_size
+            data = fh.read(max_bytes + 1) if size <= max_bytes else b""
+        if size > max_bytes or len(data) > max_bytes:
+            shown = f"{size:,} bytes" if size > max_bytes else f"more than {max_bytes:,} bytes"
+            raise error(f"{path}: {shown}; an input file holds at most {max_bytes:,}")
+        return data.decode("utf-8-sig").replace("\r\n", "\n").replace("\r", "\n")
     except (OSError, UnicodeDecodeError) as exc:
         raise error(f"{path}: {_unreadable(exc)}") from None
 
@@ -31,13 +43,9 @@ def parse_toml(text: str, source: str, error: type[UfmtError] = StudyError) -> d
 
 
 def read_toml(path: str | Path, error: type[UfmtError] = StudyError) -> dict:
-    """The table in ``path`` (read as bytes, as TOML specifies); a file that cannot be read or
-    malformed TOML raises ``error`` (one line)."""
-    try:
-        data = Path(path).read_bytes().decode("utf-8-sig")  # a byte-order mark is allowed
-    except (OSError, UnicodeDecodeError) as exc:
-        raise error(f"{path}: {_unreadable(exc)}") from None
-    return parse_toml(data, str(path), error)
+    """The table in ``path`` (read as :func:`read_text` reads it); a file that cannot be read
+    or malformed TOML raises ``error`` (one line)."""
+    return parse_toml(read_text(path, error), str(path), error)
 
 
 def _unreadable(exc: OSError | UnicodeDecodeError) -> str:

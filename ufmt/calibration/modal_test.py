@@ -39,6 +39,7 @@ import numpy as np
 import pandas as pd
 
 from ufmt.errors import StudyError
+from ufmt.limits import MAX_INPUT_BYTES
 from ufmt.tables import Where
 from ufmt.tomlfile import read_text
 
@@ -143,7 +144,7 @@ def read_modal_test(path) -> ModalTest:
     if Path(path).suffix.lower() in UFF_SUFFIXES:
         return read_uff(path)
     where = Where(str(path), error=StudyError)
-    frame = _read_csv(where, path, {"body": str, "direction": str})
+    frame = _read_csv(where, path, str)  # cell by cell: one text cell blames its own row
     where.keys(dict.fromkeys(frame.columns), valid=COLUMNS, required=REQUIRED)
     shaped = [c for c in SHAPE_COLUMNS if c in frame.columns]
     if shaped and len(shaped) != len(SHAPE_COLUMNS):
@@ -170,9 +171,12 @@ def read_modal_test(path) -> ModalTest:
     )
 
 
+MAX_TEST_MODE = 10**6  # [-] highest test mode number (an int64 array holds the numbers)
+
+
 def _read_row(where: Where, row: dict, shaped, by_mode: dict, sensors: dict) -> None:
     """Check one CSV row and add it to ``by_mode`` (mode -> frequency, damping, shape)."""
-    k = where.integer("mode", _cell(row["mode"]), low=1)
+    k = where.integer("mode", _cell(row["mode"]), low=1, high=MAX_TEST_MODE)
     f = where.number("frequency_hz", _cell(row["frequency_hz"]), sign="positive", unit="[Hz]")
     zeta = _cell(row.get("damping_ratio"))
     zeta = math.nan if zeta is None else where.number("damping_ratio", zeta)
@@ -206,9 +210,17 @@ def _read_csv(where: Where, path, dtype) -> pd.DataFrame:
 
 
 def _cell(value):
-    """None for an empty CSV cell, else the value (numpy integers as int)."""
+    """None for an empty CSV cell, a number for a cell that holds one (int where it is an
+    integer), else the value (numpy integers as int)."""
     if value is None or (isinstance(value, float) and math.isnan(value)):
         return None
+    if isinstance(value, str):  # a CSV read as text: its number, else the text itself
+        for kind in (int, float):
+            try:
+                return kind(value.strip())
+            except ValueError:
+                pass
+        return value
     return value.item() if isinstance(value, np.generic) else value
 
 
@@ -219,6 +231,10 @@ def read_uff(path) -> ModalTest:
     where = Where(str(path), error=StudyError)
     if not Path(path).is_file():
         where.fail_table("file not found" if not Path(path).exists() else "not a file")
+    if Path(path).stat().st_size > MAX_INPUT_BYTES:
+        where.fail_table(
+            f"{Path(path).stat().st_size:,} bytes; an input file holds at most {MAX_INPUT_BYTES:,}"
+        )
     try:
         sets = pyuff.UFF(str(path)).read_sets()
     except Exception as exc:  # pyuff raises bare exceptions on malformed files

@@ -327,6 +327,12 @@ def _parameters(top: Where, tables, model: Model) -> tuple[Parameter, ...]:
             where.integer(f"components[{j}]", c, 0, 2)
         where.unique("components", comps)
         band = where.interval("band", t["band"], allow_equal=True, sign="positive")
+        if band[0] == band[1]:  # the search needs room (bounds lower < upper)
+            where.fail(
+                "band",
+                f"empty range {short_vector(band)} (allowed: 0 < lower <= 1 <= upper, lower <"
+                " upper); to hold these hinges at the prior, leave the parameter out",
+            )
         if not band[0] <= 1.0 <= band[1]:
             where.fail(
                 "band",

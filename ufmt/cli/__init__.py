@@ -17,16 +17,13 @@ import warnings
 
 from ufmt import __version__
 from ufmt.errors import UfmtError
+from ufmt.limits import MAX_MODE_FREQUENCY_HZ
 
 DESCRIPTION = (
     "Dynamics of ultra-precision fly-cutting machine tools: natural frequencies and mode "
     "shapes (MSTMM), cutting response and machined-surface PV, validation against the paper, "
     "parameter studies and an HTML report. MODEL defaults to the packaged, calibrated UFMT."
 )
-
-#: Highest --fmax [Hz]: beyond it the rigid-body model is out of its scope and the transfer
-#: matrices of the MSTMM determinant lose their conditioning.
-MAX_MODE_FREQUENCY_HZ = 2e4
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -38,6 +35,7 @@ def build_parser() -> argparse.ArgumentParser:
     from ufmt.cli.modes import cmd_modes
     from ufmt.cli.report import register as register_report
     from ufmt.cli.studies import add_run_parser
+    from ufmt.limits import MAX_MODE_COUNT
 
     parser = _Parser(prog="ufmt", description=DESCRIPTION)
     parser.add_argument("--version", action="version", version=f"ufmt {__version__}")
@@ -49,7 +47,11 @@ def build_parser() -> argparse.ArgumentParser:
         type=positive(float, at_most=MAX_MODE_FREQUENCY_HZ),
         help="upper frequency [Hz] (default 1000, at most 20000)",
     )
-    p.add_argument("--count", type=positive(int), help="number of modes")
+    p.add_argument(
+        "--count",
+        type=positive(int, at_most=MAX_MODE_COUNT),
+        help=f"number of modes (at most {MAX_MODE_COUNT})",
+    )
     p.add_argument("--method", choices=["mstmm", "assembled"], default="mstmm")
     p.add_argument("--json", action="store_true", help="one JSON object on stdout")
     p.set_defaults(func=cmd_modes)
@@ -116,10 +118,12 @@ def _main(argv) -> int:
         return 130
     except (MemoryError, RecursionError, np.linalg.LinAlgError) as exc:
         # a last guard: the input checks should have refused what causes these
-        reason = " ".join(str(exc).split()) or "out of memory"
+        reason = " ".join(str(exc).split())[:200] or "out of memory"
+        given = getattr(args, "model", None) or getattr(args, "study", None)
+        where = f"{given}: " if given else "the packaged model: "
         print(
-            f"ufmt {args.command}: error: {type(exc).__name__}: {reason} (input too large or"
-            " too extreme for the solver)",
+            f"ufmt {args.command}: error: {where}{type(exc).__name__}: {reason} (input too"
+            " large or too extreme for the solver; budgets in ufmt.limits)",
             file=sys.stderr,
         )
         return 2

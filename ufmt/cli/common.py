@@ -14,9 +14,9 @@ def load(path: str | None):
     return load_model(path or packaged_path())
 
 
-def positive(kind, below=None, at_most=None):
+def positive(kind, below=None, at_most=None, at_least=None, even=False):
     """argparse type: a finite number of ``kind`` that must be > 0 (and < ``below``, <=
-    ``at_most`` if given)."""
+    ``at_most``, >= ``at_least`` if given; even if ``even``)."""
 
     def parse(text):
         try:
@@ -29,6 +29,10 @@ def positive(kind, below=None, at_most=None):
             raise argparse.ArgumentTypeError(f"{text} must be < {below:g}")
         if at_most is not None and not value <= at_most:
             raise argparse.ArgumentTypeError(f"{text} must be <= {at_most:g}")
+        if at_least is not None and not value >= at_least:
+            raise argparse.ArgumentTypeError(f"{text} must be >= {at_least:g}")
+        if even and value % 2:
+            raise argparse.ArgumentTypeError(f"{text} must be even")
         return value
 
     return parse

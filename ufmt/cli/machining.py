@@ -47,14 +47,15 @@ def _add_basis_arguments(p) -> None:
     """--modes N (the paper's choice: 30) or --basis-cutoff HZ (default: every mode below it)."""
     from ufmt.cli.common import positive
     from ufmt.defaults import DEFAULT_BASIS_CUTOFF_HZ
+    from ufmt.limits import MAX_MODE_COUNT
 
     p.add_argument(
         "--modes",
-        type=positive(int),
+        type=positive(int, at_most=MAX_MODE_COUNT),
         default=None,
         metavar="N",
         help="modal basis of the first N modes (the paper: 30; default: every mode below the "
-        "cutoff)",
+        f"cutoff; at most {MAX_MODE_COUNT})",
     )
     p.add_argument(
         "--basis-cutoff",
@@ -69,6 +70,7 @@ def _add_basis_arguments(p) -> None:
 def _register_simulate(subparsers) -> None:
     """Add the ``simulate`` sub-parser."""
     from ufmt.cli.common import positive
+    from ufmt.limits import MAX_UNCERTAINTY_SAMPLES
     from ufmt.machining.recurrence import DEFAULT_ZETA
     from ufmt.machining.sources import SOURCES
     from ufmt.machining.surface import DEFAULT_APERTURE_MARGIN, DEFAULT_PSD2_PATCH
@@ -86,10 +88,10 @@ def _register_simulate(subparsers) -> None:
     _add_basis_arguments(p)
     p.add_argument(
         "--samples-per-rev",
-        type=positive(int, at_most=2**16),
+        type=positive(int, at_least=8, at_most=2**16, even=True),
         default=None,
         metavar="N",
-        help="response samples per spindle revolution (default: from the basis' highest mode)",
+        help="samples per revolution, even, 8-65536 (default: from the basis' highest mode)",
     )
     p.add_argument(
         "--zeta",
@@ -120,11 +122,11 @@ def _register_simulate(subparsers) -> None:
     p.add_argument("--no-static", action="store_true", help="modal sum without static correction")
     p.add_argument(
         "--uncertainty",
-        type=positive(int, at_most=10**4),
+        type=positive(int, at_most=MAX_UNCERTAINTY_SAMPLES),
         default=None,
         metavar="N",
-        help="also simulate N Latin-hypercube samples of the documented bands and print each "
-        "metric's 5-95 %% interval beside its value (JSON: key 'uncertainty')",
+        help=f"also simulate N <= {MAX_UNCERTAINTY_SAMPLES} Latin-hypercube samples of the "
+        "documented bands and print each metric's 5-95 %% interval (JSON: 'uncertainty')",
     )
     p.add_argument(
         "--uncertainty-inputs",
@@ -150,16 +152,27 @@ def _register_simulate(subparsers) -> None:
 def _register_frf(subparsers) -> None:
     """Add the ``frf`` sub-parser."""
     from ufmt.cli.common import positive
+    from ufmt.limits import MAX_FREQUENCY_HZ, MAX_FRF_POINTS
     from ufmt.machining.recurrence import DEFAULT_ZETA
 
     p = subparsers.add_parser(
         "frf", help="tool-workpiece or point-to-point FRF in any direction (table and plot)"
     )
     p.add_argument("model", nargs="?", help="model TOML (default: packaged UFMT)")
-    p.add_argument("--fmin", type=positive(float), default=1.0, help="[Hz] (1)")
-    p.add_argument("--fmax", type=positive(float), default=1000.0, help="[Hz] (1000)")
     p.add_argument(
-        "--points", type=positive(int, at_most=10**6), default=4000, help="log-spaced (4000)"
+        "--fmin", type=positive(float, at_most=MAX_FREQUENCY_HZ), default=1.0, help="[Hz] (1)"
+    )
+    p.add_argument(
+        "--fmax",
+        type=positive(float, at_most=MAX_FREQUENCY_HZ),
+        default=1000.0,
+        help=f"[Hz] (1000; at most {MAX_FREQUENCY_HZ:g})",
+    )
+    p.add_argument(
+        "--points",
+        type=positive(int, at_least=2, at_most=MAX_FRF_POINTS),
+        default=4000,
+        help=f"log-spaced (4000; 2-{MAX_FRF_POINTS})",
     )
     _add_basis_arguments(p)
     p.add_argument(
@@ -200,7 +213,7 @@ def cmd_simulate(args) -> int:
     from ufmt.errors import UfmtError
     from ufmt.machining.process import Process
     from ufmt.machining.sources import SOURCES
-    from ufmt.machining.validity import check_cut
+    from ufmt.machining.validity import check_cut, check_revolutions
     from ufmt.model.machine import machine_of
     from ufmt.plots.response import plot_simulation
     from ufmt.simulate import simulate
@@ -215,6 +228,7 @@ def cmd_simulate(args) -> int:
         warnings.simplefilter("always")
         process = Process(args.rpm, args.feed, args.depth)
     check_cut(process, machine_of(model))  # outside the validity domain: the one line
+    check_revolutions(process, machine_of(model))
     for warning in caught:
         warnings.warn(warning.message, warning.category, stacklevel=1)
     options = {} if args.zeta is None else {"zeta": args.zeta}
@@ -273,7 +287,10 @@ def _intervals(args, model, process, options) -> dict | None:
     from ufmt.studies.intervals import headline_intervals
 
     patterns = [p.strip() for p in args.uncertainty_inputs.split(",") if p.strip()]
-    return headline_intervals(model, process, args.uncertainty, patterns, **options).to_dict()
+    intervals = headline_intervals(
+        model, process, args.uncertainty, patterns, progress=True, **options
+    )
+    return intervals.to_dict()
 
 
 def cmd_frf(args) -> int:

@@ -25,6 +25,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from ufmt import limits
 from ufmt.defaults import DEFAULT_BASIS_CUTOFF_HZ
 from ufmt.errors import UfmtError
 from ufmt.kinematics import point_motion
@@ -36,7 +37,7 @@ from ufmt.machining.recurrence import DEFAULT_ZETA, modal_damping
 from ufmt.machining.slide import model_at_slide
 from ufmt.machining.static import ResidualFlexibility, static_flexibility
 from ufmt.model.load import as_model
-from ufmt.model.machine import Machine, machine_of
+from ufmt.model.machine import MAX_LENGTH_M, Machine, machine_of
 from ufmt.model.schema import RigidBody
 
 AXES = {"x": (1.0, 0.0, 0.0), "y": (0.0, 1.0, 0.0), "z": (0.0, 0.0, 1.0)}
@@ -264,8 +265,14 @@ def frf(
     axes = _directions(direction)
     if kind not in KINDS:
         raise UfmtError(f"FRF kind {kind!r}: one of {', '.join(KINDS)}")
-    if not (0 < fmin_hz < fmax_hz and points >= 2):
-        raise UfmtError(f"FRF range: need 0 < fmin {fmin_hz} < fmax {fmax_hz} and points >= 2")
+    fmin_hz = limits.number("fmin_hz", fmin_hz, 0.0, limits.MAX_FREQUENCY_HZ)
+    fmax_hz = limits.number("fmax_hz", fmax_hz, 0.0, limits.MAX_FREQUENCY_HZ)
+    points = limits.count("points", points, 2, limits.MAX_FRF_POINTS)
+    if n_modes is not None:
+        limits.count("n_modes", n_modes, 1, limits.MAX_MODE_COUNT)
+    tool_angle = limits.number("tool_angle", tool_angle, -2 * np.pi, 2 * np.pi)
+    if not 0 < fmin_hz < fmax_hz:
+        raise UfmtError(f"FRF range: need 0 < fmin_hz {fmin_hz:g} < fmax_hz {fmax_hz:g} [Hz]")
     machine = machine_of(model) if model.machine is not None else None
     if zeta is None:
         zeta = DEFAULT_ZETA if machine is None else machine.modal_damping_ratio
@@ -306,5 +313,14 @@ def _end(model, spec, tool_angle: float, slide_y: float) -> End:
     names = [b.name for b in model.bodies]
     if body not in names or not isinstance(model.body(body), RigidBody):
         rigid = [b.name for b in model.bodies if isinstance(b, RigidBody)]
-        raise UfmtError(f"FRF point on {body!r}: not a rigid body (rigid bodies: {rigid})")
+        raise UfmtError(
+            f"FRF point on {limits.shown(body)}: not a rigid body (rigid bodies: {rigid})"
+        )
+    offset = point - model.body(body).center_of_mass
+    if not (np.all(np.isfinite(point)) and np.linalg.norm(offset) <= MAX_LENGTH_M):
+        raise UfmtError(
+            f"FRF point on {body!r}: {point.tolist()} [m] must be finite and within"
+            f" {MAX_LENGTH_M:g} m of the body's centre of mass"
+            f" {model.body(body).center_of_mass.tolist()} (lengths in metres)"
+        )
     return point_end(body, point)

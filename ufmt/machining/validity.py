@@ -27,6 +27,12 @@ The limits and their physics (r_n nose radius, a_p depth of cut, s = v/f feed pe
   revolution so that the basis' highest mode is resolved
   (:func:`ufmt.machining.cut_geometry.samples_per_rev`); a spindle so slow that this needs
   more samples is outside the discretisation's range (its memory grows with n_phi).
+* **Revolutions** of the whole cut (slide travel over the feed per revolution) at most
+  MAX_CUT_REVOLUTIONS: the time of the record window (mid-cut) is n_rev / f, and with its
+  sampling step 1 / (n_phi f) it must stay far inside a float64's resolution (a feed of
+  1e-9 mm/min put 1e14 revolutions before the window and made the step 0); the time path's
+  work grows with it too. Table 1's slowest feed per revolution (4 mm/min at 400 rpm) needs
+  ~6.5e4 revolutions on the packaged machine.
 * **Surface grid**: each workpiece side holds at least MIN_GRID_STEPS grid steps and the
   whole grid at most MAX_GRID_NODES nodes; the clear aperture (the plate less the margin at
   each edge) is not empty; a PSD2 patch fits on the plate.
@@ -47,6 +53,7 @@ from ufmt.machining.process import Process
 from ufmt.model.machine import Machine
 
 MAX_SAMPLES_PER_REV = 2**16  # [-] response samples per revolution (the CLI's --samples-per-rev)
+MAX_CUT_REVOLUTIONS = 2**24  # [-] revolutions of one cut (time resolution of the window)
 MIN_GRID_STEPS = 2  # [-] grid steps along each workpiece side (three nodes)
 MAX_GRID_NODES = 2**22  # [-] nodes of a surface grid (~4e6: 32 MB per float array)
 
@@ -61,6 +68,7 @@ def check_case(
 ) -> None:
     """Every limit that needs no modal basis (module doc): checked before any allocation."""
     check_cut(process, machine)
+    check_revolutions(process, machine)
     check_bodies(machine)
     check_surface(machine, spacing, aperture_margin, psd2_patch)
 
@@ -86,6 +94,19 @@ def check_cut(process: Process, machine: Machine) -> None:
             f" {process.rpm:g} rpm) exceeds the width {width * 1e6:.4g} um the nose cuts at"
             f" {process.depth_um:g} um depth (scallop deeper than the cut; limit:"
             " feed/rev <= 2 sqrt(2 r_n a_p - a_p^2))"
+        )
+
+
+def check_revolutions(process: Process, machine: Machine) -> None:
+    """At most MAX_CUT_REVOLUTIONS revolutions in the cut (module doc)."""
+    y0, y1 = machine.cut_span
+    revolutions = (y1 - y0) / process.feed_per_rev_m
+    if not revolutions <= MAX_CUT_REVOLUTIONS:
+        raise OutsideDomainError(
+            f"process: {process.feed_mm_min:g} mm/min at {process.rpm:g} rpm needs"
+            f" {revolutions:.3g} revolutions to cross the {(y1 - y0) * 1e3:g} mm cut; at most"
+            f" {MAX_CUT_REVOLUTIONS:,} (feed per revolution >="
+            f" {(y1 - y0) / MAX_CUT_REVOLUTIONS * 1e9:.3g} nm)"
         )
 
 

@@ -9,6 +9,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from ufmt.errors import ModelError
+from ufmt.limits import MAX_NAME_CHARS
 from ufmt.model.rules import (
     BEAM_FIELDS,
     BODY_FIELDS,
@@ -58,7 +59,7 @@ def _parse_body(where: Where, table: Mapping) -> Body:
     else:
         valid, context = BODY_FIELDS + RIGID_FIELDS + BEAM_FIELDS, ""
     where.keys(table, valid, ("name",), context)
-    name = where.string("name", table["name"])
+    name = where.string("name", table["name"], max_chars=MAX_NAME_CHARS)
     if "kind" not in table:
         where.missing("kind", f"valid kinds: {', '.join(KINDS)}")
     where.choice("kind", kind, KINDS, "kind")

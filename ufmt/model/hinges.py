@@ -8,6 +8,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from ufmt.errors import ModelError
+from ufmt.limits import MAX_NAME_CHARS
 from ufmt.model.rules import (
     BEAM_END_RTOL,
     HINGE_FIELDS,
@@ -42,7 +43,7 @@ def parse_hinges(source: str, tables: list[Mapping], bodies: dict[str, Body]) ->
 
 def _parse_hinge(where: Where, table: Mapping, bodies: dict[str, Body]) -> Hinge:
     where.keys(table, HINGE_FIELDS, HINGE_REQUIRED)
-    name = where.string("name", table["name"])
+    name = where.string("name", table["name"], max_chars=MAX_NAME_CHARS)
     between = _between(where, table["between"], bodies)
     at = vector(where, "at", table["at"], "finite", "[m]", "coordinate")
     for side in between:

@@ -14,18 +14,28 @@ model back so that loading the text gives the same model.
 from __future__ import annotations
 
 import functools
+import math
 from collections.abc import Mapping
 from importlib import resources
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
+from ufmt import limits
 from ufmt.errors import ModelError
 from ufmt.model.bodies import parse_bodies
 from ufmt.model.design import parse_design
 from ufmt.model.hinges import check_connected, check_numbers, parse_hinges
-from ufmt.model.machine import check_machine_bodies, check_machine_geometry, read_machine
+from ufmt.model.machine import (
+    MAX_LENGTH_M,
+    check_machine_bodies,
+    check_machine_geometry,
+    read_machine,
+    unit_hint,
+)
 from ufmt.model.rules import TOP_FIELDS
-from ufmt.model.schema import Model
+from ufmt.model.schema import Beam, Model, RigidBody
 from ufmt.tables import Where, type_name
 from ufmt.tomlfile import parse_toml, read_text
 
@@ -74,8 +84,13 @@ def model_from_dict(data: Mapping[str, Any], source: str = "<dict>") -> Model:
     if "machine" in data:
         machine = read_machine(top.mapping("machine", data["machine"], "[machine]"), source)
 
+    for key, most in (("body", limits.MAX_BODIES), ("hinge", limits.MAX_HINGES)):
+        size = len(data.get(key, ())) if isinstance(data.get(key), list) else 0
+        if size > most:  # before anything is built from them
+            top.fail(key, f"{size:,} [[{key}]] tables; a model holds at most {most:,}")
     bodies = parse_bodies(source, top.tables("body", data["body"], required=True))
     hinges = parse_hinges(source, top.tables("hinge", data.get("hinge", [])), bodies)
+    check_extent(source, bodies.values(), hinges)
     check_numbers(source, bodies, hinges)
     check_connected(source, bodies, hinges)
     if machine is not None:
@@ -89,6 +104,47 @@ def model_from_dict(data: Mapping[str, Any], source: str = "<dict>") -> Model:
         design=parse_design(source, data.get("design", {}), {h.name: h for h in hinges}),
         source=source,
     )
+
+
+def check_extent(source: str, bodies, hinges) -> None:
+    """Lengths a machine can have: the model's points (centres of mass, beam ends, hinge
+    points) span at most ``MAX_LENGTH_M`` along each axis and a beam's section is no wider
+    (equivalent diameter sqrt(4 A / pi)); a model typed in mm or cm fails here, with a hint.
+    Only spans are checked: the model may sit anywhere in its frame."""
+    named = [
+        (f"body {b.name!r}", "center_of_mass", b.center_of_mass)
+        for b in bodies
+        if isinstance(b, RigidBody)
+    ]
+    named += [
+        (f"body {b.name!r}", end, getattr(b, end))
+        for b in bodies
+        if isinstance(b, Beam)
+        for end in ("start", "end")
+    ]
+    named += [(f"hinge {h.name!r}", "at", h.at) for h in hinges]
+    fits = lambda v: v <= MAX_LENGTH_M  # noqa: E731
+    for body in (b for b in bodies if isinstance(b, Beam)):
+        width = math.sqrt(4.0 * body.area / math.pi)
+        if not fits(width):
+            Where(source, f"body {body.name!r}", error=ModelError).fail(
+                "diameter",
+                f"a section {width:g} m wide (diameter, or sqrt(4 area / pi); at most"
+                f" {MAX_LENGTH_M:g} m): {unit_hint(width, fits)}",
+            )
+    if len(named) < 2:
+        return
+    points = np.array([p for _, _, p in named], dtype=float)
+    spans = points.max(axis=0) - points.min(axis=0)
+    axis = int(np.argmax(spans))
+    if not fits(spans[axis]):
+        far, field, _ = named[int(np.argmax(points[:, axis]))]
+        near, near_field, _ = named[int(np.argmin(points[:, axis]))]
+        Where(source, far, error=ModelError).fail(
+            field,
+            f"the model spans {spans[axis]:g} m along {'xyz'[axis]} (from {near} {near_field});"
+            f" a machine spans at most {MAX_LENGTH_M:g} m: {unit_hint(spans[axis], fits)}",
+        )
 
 
 def as_model(model: Model | str | Path | None) -> Model:

@@ -8,6 +8,7 @@ import math
 
 import numpy as np
 
+from ufmt.limits import MAX_NAME_CHARS
 from ufmt.model.schema import frozen_array
 from ufmt.tables import Where
 
@@ -85,9 +86,11 @@ def vector(
 
 
 def label(kind: str, index: int, table) -> str:
-    """``body 'x'`` when the table has a usable name, else ``body #3`` (1-based, file order)."""
+    """``body 'x'`` when the table has a usable name (at most MAX_NAME_CHARS characters),
+    else ``body #3`` (1-based, file order)."""
     name = table.get("name")
-    return f"{kind} {name!r}" if isinstance(name, str) and name.strip() else f"{kind} #{index}"
+    usable = isinstance(name, str) and name.strip() and len(name) <= MAX_NAME_CHARS
+    return f"{kind} {name!r}" if usable else f"{kind} #{index}"
 
 
 def derived(values) -> str:

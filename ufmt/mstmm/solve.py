@@ -20,6 +20,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from threadpoolctl import ThreadpoolController
 
+from ufmt import limits
 from ufmt.errors import UfmtError
 from ufmt.model.load import as_model
 from ufmt.model.schema import Model
@@ -45,6 +46,8 @@ class ModalSolution:
     rigid_body_modes : zero-frequency modes (counted, not listed).
     shapes : :class:`ufmt.mstmm.modes.ModeShapes` (unit modal mass), or None.
     seconds : wall time of the solution [s].
+    model : the model it was solved for (``solve_modes`` keeps it; ``to_frame``, ``plot``,
+        ``save`` use it when no model is passed).
     """
 
     frequencies_hz: np.ndarray
@@ -54,6 +57,11 @@ class ModalSolution:
     rigid_body_modes: int
     shapes: ModeShapes | None
     seconds: float
+    model: Model | None = None
+
+    def _model(self, model):
+        """``model`` (loaded if a path) or, if None, the model this solution was solved for."""
+        return self.model if model is None else as_model(model)
 
     def __repr__(self) -> str:
         f = self.frequencies_hz
@@ -64,10 +72,10 @@ class ModalSolution:
             f"shapes={'yes' if self.shapes is not None else 'no'}, seconds={self.seconds:.3g})"
         )
 
-    def energy_shares(self, model) -> np.ndarray:
+    def energy_shares(self, model=None) -> np.ndarray:
         """Kinetic-energy share (n_modes, n_bodies, 6) per body and direction; ``model`` a
-        loaded model or its path."""
-        return energy_shares(as_model(model), self.shapes)
+        loaded model or its path (default: the one solved for)."""
+        return energy_shares(self._model(model), self.shapes)
 
     def to_frame(self, model=None):
         """One row per mode: ``mode``, ``frequency_hz`` and, given the model the shapes belong
@@ -85,8 +93,8 @@ class ModalSolution:
                 "frequency_hz": self.frequencies_hz,
             }
         )
+        model = self._model(model)
         if model is not None and self.shapes is not None:
-            model = as_model(model)
             shares = self.energy_shares(model).reshape(self.frequencies_hz.size, -1)
             top = np.argmax(shares, axis=1)
             table["body"] = [model.bodies[i // 6].name for i in top]
@@ -109,10 +117,11 @@ class ModalSolution:
         UfmtError
             ``mode`` outside 1..n (the modes solved), without ``model`` or without shapes.
         """
+        model = self._model(model)
         if mode is None:
             from ufmt.plots.modes import plot_modal_solution
 
-            return plot_modal_solution(self, None if model is None else as_model(model), ax=ax)
+            return plot_modal_solution(self, model, ax=ax)
         from ufmt.plots.modes import plot_mode
 
         n = self.frequencies_hz.size
@@ -129,7 +138,6 @@ class ModalSolution:
         )
         if why:
             raise UfmtError(f"mode {mode}: cannot draw it (1..{n}; {why})")
-        model = as_model(model)
         line = describe(model, self.energy_shares(model), top=3)[mode - 1]
         return plot_mode(model, self.shapes, mode - 1, scale, line, ax=ax)
 
@@ -141,7 +149,7 @@ class ModalSolution:
         from ufmt import files
         from ufmt.plots import save_figure
 
-        model = None if model is None else as_model(model)
+        model = self._model(model)
         directory = Path(directory)
         table = self.to_frame(model)
         csv = files.write_with(
@@ -193,7 +201,7 @@ def solve_modes(
     """
     model = as_model(model)
     with _blas_controller().limit(limits=1, user_api="blas"):
-        return _solve_modes(model, fmax_hz, count, method, shapes)
+        return replace(_solve_modes(model, fmax_hz, count, method, shapes), model=model)
 
 
 def solve_modes_batch(
@@ -332,14 +340,16 @@ def _remember(key, model, roots_hz, rigid_body_modes) -> None:
 
 def _check(fmax_hz, count, method) -> None:
     """UfmtError for a bad ``fmax_hz``, ``count`` or ``method`` (see :func:`solve_modes`)."""
-    if fmax_hz is not None and not (np.isfinite(fmax_hz) and fmax_hz > 0):
-        raise UfmtError(f"--fmax: {fmax_hz} must be a positive number of Hz")
+    if fmax_hz is not None:
+        limits.number("fmax_hz", fmax_hz, 0.0, limits.MAX_FREQUENCY_HZ)
+        if not fmax_hz > 0:
+            raise UfmtError(f"fmax_hz: {fmax_hz} must be > 0 [Hz]")
     if method != "mstmm":
         raise UfmtError(
             f"method: {method!r}: this is the MSTMM solver; ufmt.solve_modes takes 'assembled'"
         )
-    if count is not None and count < 1:
-        raise UfmtError(f"number of modes: {count} must be >= 1")
+    if count is not None:
+        limits.count("count", count, 1, limits.MAX_MODE_COUNT)
 
 
 def _solve_modes(model, fmax_hz, count, method, shapes) -> ModalSolution:
@@ -351,6 +361,11 @@ def _solve_modes(model, fmax_hz, count, method, shapes) -> ModalSolution:
     counter = RootCounter(model)
     # the next design of a continuation tracks one root more
     (brackets,) = _search_ranges(counter, fmax_hz, count, count is not None and tracking)
+    if count is None and brackets.total > limits.MAX_MODE_COUNT:  # counted, not yet solved
+        raise UfmtError(
+            f"{model.source}: {brackets.total:,} modes below fmax_hz = {brackets.below_hz:g}"
+            f" Hz; at most {limits.MAX_MODE_COUNT:,} per request (lower fmax_hz or give count)"
+        )
     solution, found = _solution(counter, 0, brackets, count, shapes)
     if tracking:
         _remember(_CONTINUATION.get(), model, found, counter.rigid_body_modes)

@@ -111,7 +111,9 @@ def plot_frf(
         fig = mag.figure
     freq_hz = np.asarray(freq_hz, dtype=float)
     magnitude = np.abs(receptance)
-    mag.loglog(freq_hz, magnitude, lw=0.9, label="$|H_{zz}|$")
+    # an identically zero FRF (no mode couples the two ends) has nothing on a log axis
+    draw = mag.loglog if np.any(magnitude > 0) else mag.semilogx
+    draw(freq_hz, magnitude, lw=0.9, label="$|H_{zz}|$")
     phase.semilogx(freq_hz, np.degrees(np.angle(receptance)), lw=0.9)
     if spindle_rpm:
         harmonics = spindle_rpm / 60.0 * np.arange(1, SPINDLE_HARMONICS + 1)

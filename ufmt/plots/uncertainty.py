@@ -36,24 +36,27 @@ def plot_distributions(distribution: pd.DataFrame, samples: pd.DataFrame) -> Fig
     its specification (red), the probability of meeting it in the title."""
     fig, axes = _grid(len(distribution))
     quantiles = [c for c in distribution.columns if c.startswith("q")]
-    for ax, row in zip(axes, distribution.itertuples(index=False), strict=False):
-        values = samples[row.metric].to_numpy(dtype=float)
+    for ax, row in zip(axes, distribution.to_dict("records"), strict=False):  # "q2.5": by name
+        values = samples[row["metric"]].to_numpy(dtype=float)
         values = values[np.isfinite(values)]
-        ax.set_xlabel(parameter_label(row.metric), fontsize="small")
+        ax.set_xlabel(parameter_label(row["metric"]), fontsize="small")
         if not len(values):
             ax.text(0.5, 0.5, "not resolved\nin any sample", ha="center", va="center")
             ax.set_yticks([])
             continue
         ax.hist(values, bins=min(40, max(8, len(values) // 8)), color="0.6")
         for q in quantiles:
-            ax.axvline(getattr(row, q), color="C0", ls="--", lw=0.8)
-        title = f"{quantiles[0]}-{quantiles[-1]}: {getattr(row, quantiles[0]):.3g}"
-        title += f"-{getattr(row, quantiles[-1]):.3g}"
-        if math.isfinite(row.limit):
-            ax.axvline(row.limit, color="C3", lw=1.5, label="specification")
-            title += f"\nP(meet) = {row.p_meet:.2f} [{row.p_meet_low:.2f}, {row.p_meet_high:.2f}]"
-        if row.resolved < row.samples:
-            title += f"\n{row.resolved} of {row.samples} resolved"
+            ax.axvline(row[q], color="C0", ls="--", lw=0.8)
+        title = f"{quantiles[0]}-{quantiles[-1]}: {row[quantiles[0]]:.3g}"
+        title += f"-{row[quantiles[-1]]:.3g}"
+        if math.isfinite(row["limit"]):
+            ax.axvline(row["limit"], color="C3", lw=1.5, label="specification")
+            title += (
+                f"\nP(meet) = {row['p_meet']:.2f} [{row['p_meet_low']:.2f},"
+                f" {row['p_meet_high']:.2f}]"
+            )
+        if row["resolved"] < row["samples"]:
+            title += f"\n{row['resolved']} of {row['samples']} resolved"
         ax.set_title(title, fontsize="small")
         ax.set_ylabel("samples", fontsize="small")
     return fig

@@ -22,7 +22,9 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 import pandas as pd
+from tqdm import tqdm
 
+from ufmt import limits
 from ufmt.design import MACHINE_PREFIX, apply_design, machine_target
 from ufmt.errors import StudyError
 from ufmt.machining.modal import modal_basis
@@ -75,6 +77,10 @@ def input_bands(patterns: Sequence[str] = DEFAULT_INPUTS) -> dict:
     """The documented bands matching the shell ``patterns`` (in the bands' order), the assumed
     damping bands included."""
     bands = {**documented_bands(), **damping_bands()}
+    if not patterns:
+        raise StudyError(
+            f"--uncertainty-inputs: names no band (at least one pattern of: {', '.join(bands)})"
+        )
     names = [n for pattern in patterns for n in matching(pattern, bands)]
     unknown = [p for p in patterns if not matching(p, bands)]
     if unknown:
@@ -100,13 +106,21 @@ def sample_designs(bands: Mapping, n: int, seed: int = 1) -> pd.DataFrame:
 
 
 def headline_intervals(
-    model, process, n: int, patterns: Sequence[str] = DEFAULT_INPUTS, seed: int = 1, **options
+    model,
+    process,
+    n: int,
+    patterns: Sequence[str] = DEFAULT_INPUTS,
+    seed: int = 1,
+    progress: bool = False,
+    **options,
 ) -> Intervals:
     """The cut of ``process`` on ``model`` (a loaded Model) simulated at ``n`` Latin-hypercube
-    samples of the documented bands matching ``patterns``; ``options`` go to
-    :func:`ufmt.simulate.simulate` (method, sources, basis size...)."""
+    samples (1 to :data:`ufmt.limits.MAX_UNCERTAINTY_SAMPLES`) of the documented bands
+    matching ``patterns``; ``options`` go to :func:`ufmt.simulate.simulate` (method, sources,
+    basis size...). ``progress``: a progress bar on stderr (when it is a terminal)."""
     from ufmt.simulate import simulate
 
+    n = limits.count("--uncertainty", n, 1, limits.MAX_UNCERTAINTY_SAMPLES, StudyError)
     bands = input_bands(patterns)
     designs = sample_designs(bands, n, seed)
     shared_basis = all(
@@ -119,11 +133,14 @@ def headline_intervals(
             basis_options["cutoff_hz"] = options["basis_cutoff_hz"]
         basis = modal_basis(model, **basis_options)
     rows = []
+    bar = tqdm(total=n, desc="uncertainty", unit="sample", disable=None if progress else True)
     for design in designs.to_dict("records"):
         sample_model, sample_options = _with_damping(model, design, basis, options)
         result = simulate(apply_design(sample_model, design), process, **sample_options)
         metrics = {k: np.nan if v is None else float(v) for k, v in result.metrics.items()}
         rows.append(metrics)
+        bar.update()
+    bar.close()
     samples = pd.concat([designs, pd.DataFrame(rows)], axis=1)
     return Intervals(samples, tuple(bands))
 

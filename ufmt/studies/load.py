@@ -46,7 +46,7 @@ def load_study(path: str | Path) -> Study:
             f"{size:,} bytes; a study file holds at most {MAX_STUDY_BYTES:,} (its points are"
             " described by axes, grids and bounds, not listed at length)"
         )
-    return parse_study(read_text(path, StudyError), path)
+    return parse_study(read_text(path, StudyError, MAX_STUDY_BYTES), path)
 
 
 def parse_study(text: str, path: str | Path = "study.toml") -> Study:

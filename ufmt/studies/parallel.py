@@ -51,7 +51,7 @@ from threadpoolctl import threadpool_limits
 
 from ufmt.allocator import retain_freed_memory
 from ufmt.errors import StudyError
-from ufmt.evaluate_cache import CacheWarning
+from ufmt.evaluate_cache import CacheWarning, issued, not_shown
 from ufmt.machining.validity import OutsideDomainError
 from ufmt.model.schema import DesignParameter
 
@@ -149,10 +149,12 @@ def evaluate_chunk(
         _tasks_done += 1
     start = time.perf_counter()
     extra = {"parameters": dict(parameters)} if parameters else {}
+    before = issued()
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", CacheWarning)
         records = _records(ref, points, model, extra)
     notes = [str(w.message) for w in caught if issubclass(w.category, CacheWarning)]
+    not_shown(set(notes) - before)  # one job: this is the main process; its journal shows them
     seconds = (time.perf_counter() - start) / max(len(points), 1)
     return [
         (position, record, seconds, notes if i == 0 else [])

@@ -95,6 +95,7 @@ from ufmt.tables import Where
 BUDGETS = ("auto", "rss", "linear")
 KINDS_ = ("tolerance", "stiffness")
 BUDGET = "budget.csv"
+MAX_COST = 1e12  # [-] a cost coefficient in relative units (sums of many stay finite)
 ALLOCATION = "allocation.csv"
 TRADEOFF = "tradeoff.csv"
 INTERVAL = "interval.csv"
@@ -185,6 +186,8 @@ def _variable(where: Where, i: int, table: Mapping, bands, parameters) -> tuple[
     a, b = at.numbers("cost", table["cost"], 2, sign="nonnegative")
     if b <= 0:
         at.fail("cost", f"b = {b:g} must be > 0 (a cost that rises as t tightens)")
+    if max(a, b) > MAX_COST:
+        at.fail("cost", f"[{a:g}, {b:g}]: each at most {MAX_COST:g} (relative units)")
     if "reason" not in table:
         at.missing("reason", "state the cost model's source or assumption")
     reason = at.string("reason", table["reason"])
@@ -268,6 +271,7 @@ def allocate(
     from scipy.optimize import brentq
 
     b = np.array([v["b"] for v in variables], dtype=float)
+    b = b / b.max()  # the allocation depends on the ratios of b only (lambda absorbs a scale)
     if form == "rss":
         room = level**2 - r**2
 

@@ -109,6 +109,11 @@ def parse(where: Where, data: Mapping, parameters: Parameters) -> dict:
         "quantiles": _quantiles(where, data.get("quantiles", list(DEFAULT_QUANTILES))),
         "specification": _specification(where, data.get("specification", {})),
     }
+    for metric in options["specification"]:
+        if metric not in options["metrics"]:  # its limit would be dropped without a word
+            where.sub("specification").fail(
+                metric, f"is not one of this study's metrics ({', '.join(options['metrics'])})"
+            )
     groups, options["contrasts"] = parse_contrasts(
         where, data, parameters, [b.parameter for b in bounds]
     )
@@ -387,20 +392,20 @@ def headline(distribution: pd.DataFrame, sobol: pd.DataFrame, options: Mapping) 
     probability of meeting the specification."""
     low, high = quantile_column(options["quantiles"][0]), quantile_column(options["quantiles"][-1])
     parts = []
-    for r in distribution.itertuples():
-        if r.resolved == 0:
-            parts.append(f"{r.metric} not resolved in any sample")
+    for r in distribution.to_dict("records"):  # by name: "q2.5" is no attribute name
+        if r["resolved"] == 0:
+            parts.append(f"{r['metric']} not resolved in any sample")
             continue
-        text = f"{r.metric} {short(getattr(r, low))}-{short(getattr(r, high))}"
-        if r.resolved < r.samples:
-            text += f" ({r.resolved} of {r.samples} samples resolved)"
-        top = sobol[sobol["metric"] == r.metric].sort_values("ST", ascending=False)
+        text = f"{r['metric']} {short(r[low])}-{short(r[high])}"
+        if r["resolved"] < r["samples"]:
+            text += f" ({r['resolved']} of {r['samples']} samples resolved)"
+        top = sobol[sobol["metric"] == r["metric"]].sort_values("ST", ascending=False)
         if len(top):
             text += f", led by {top.iloc[0]['parameter']} (ST {short(top.iloc[0]['ST'])})"
-        if math.isfinite(r.p_meet):
+        if math.isfinite(r["p_meet"]):
             text += (
-                f", P(<= {short(r.limit)}) = {short(r.p_meet)}"
-                f" [{short(r.p_meet_low)}, {short(r.p_meet_high)}]"
+                f", P(<= {short(r['limit'])}) = {short(r['p_meet'])}"
+                f" [{short(r['p_meet_low'])}, {short(r['p_meet_high'])}]"
             )
         parts.append(text)
     span = f"{options['quantiles'][0]:.0%}-{options['quantiles'][-1]:.0%}"
