@@ -47,6 +47,7 @@ from ufmt.machining.surface import (
     surface_passes,
 )
 from ufmt.machining.time_path import DEFAULT_RECORD_PERIODS, time_response
+from ufmt.machining.tool import with_tool
 from ufmt.model.machine import Machine, machine_of
 
 #: Slide positions of the geometries that refine the accelerometer's peak: only their record
@@ -67,14 +68,17 @@ class SimulationResult:
     resolved; PSD2 on the ``psd2_patch``), zre_peak_nm (mean over
     the record window's spindle periods of the largest |z_re| in each; the window sits mid-cut,
     at :func:`ufmt.machining.response.record_slide`), tip_acc_peak_mm_s2 (the same for the
-    tool-tip z acceleration), force_peak_n (largest cutting-force magnitude in the window),
+    head's z acceleration at the tool point), carrier_acc_peak_mm_s2 (for the tool carrier's,
+    where the paper's sensor sat), force_peak_n (largest cutting-force magnitude in the window),
     force_scale; pv_measured_nm and rms_measured_nm (flatness as the interferometer reports it:
     clear aperture, piston and tilt removed, scallops seen as their mean) and roughness_pv_nm,
-    roughness_rq_nm (the feed marks), :mod:`ufmt.machining.instruments`. n_modes: modes in the
-    basis; basis_cutoff_hz: the frequency [Hz] below which it holds every mode (the cutoff it
-    was chosen by, or its highest mode when chosen by count); basis_highest_hz: its highest
-    natural frequency [Hz]; samples_per_rev: samples per
-    spindle revolution of the response (``n_phi``). pv_by_source_nm: source -> PV [nm] of the
+    roughness_rq_nm (the feed marks), :mod:`ufmt.machining.instruments`. n_modes: the
+    machine's modes in the basis; basis_cutoff_hz: the frequency [Hz] below which it holds
+    every mode (the cutoff it was chosen by, or its highest mode when chosen by count);
+    basis_highest_hz: its highest natural frequency [Hz]; samples_per_rev: samples per
+    spindle revolution of the response (``n_phi``); tool_mode_hz: the natural frequency [Hz]
+    of the tool carrier on its shank, the basis' one mode more (None: a rigid or massless
+    tool, :mod:`ufmt.machining.tool`). pv_by_source_nm: source -> PV [nm] of the
     surface with that source alone (None where switched off). sources: the switched-on
     sources. surface: every source (the metrics' surface); smooth_surface: the same without
     the feed marks, whose scallops (wavelength (v/f) cos(phi), tens of um) the grid only
@@ -96,6 +100,7 @@ class SimulationResult:
     basis_cutoff_hz: float
     basis_highest_hz: float
     samples_per_rev: int
+    tool_mode_hz: float | None = None
 
     def __repr__(self) -> str:
         p = self.process
@@ -120,6 +125,7 @@ class SimulationResult:
             "basis_cutoff_hz": self.basis_cutoff_hz,
             "basis_highest_hz": self.basis_highest_hz,
             "samples_per_rev": self.samples_per_rev,
+            "tool_mode_hz": self.tool_mode_hz,
             "sources": list(self.sources),
             **{k: _json_number(v) for k, v in self.metrics.items()},
             "pv_by_source_nm": {k: _json_number(v) for k, v in self.pv_by_source_nm.items()},
@@ -262,7 +268,7 @@ def simulate(
     model = _loaded(model)
     machine = _machine(model)
     validity.check_case(process, machine, spacing, aperture_margin, psd2_patch)
-    basis = _basis(model, basis, n_modes, basis_cutoff_hz)
+    basis = with_tool(_basis(model, basis, n_modes, basis_cutoff_hz), machine)
     n_phi = _sampling(machine, basis, process, n_phi, spacing)
     residual = _residual(model, basis, machine) if static_correction else None
     options = SimulationOptions(
@@ -296,14 +302,20 @@ def _sampling(
     machine: Machine, basis: ModalBasis, process: Process, n_phi: int | None, spacing
 ) -> int:
     """Samples per revolution: ``n_phi`` or, if None, the default from the basis' highest
-    mode and the surface grid's step across the feed
+    mode, the tool carrier's mode and the surface grid's step across the feed
     (:func:`~ufmt.machining.cut_geometry.samples_per_rev`), inside the validity domain (with
     the tool and workpiece bodies in the basis)."""
     validity.check_bodies(machine, basis.body_shapes)
     highest_hz = float(basis.omega[-1]) / (2 * np.pi)
     if n_phi is None:  # 0 stays an error of the discretisation, not the default
         x_step = float(np.atleast_1d(spacing)[0])
-        n_phi = samples_per_rev(highest_hz, process.rpm / 60.0, machine.tool_radius, x_step)
+        n_phi = samples_per_rev(
+            _machine_highest_hz(basis),
+            process.rpm / 60.0,
+            machine.tool_radius,
+            x_step,
+            _tool_mode_hz(basis) or 0.0,
+        )
     validity.check_sampling(n_phi, process, highest_hz)
     return n_phi
 
@@ -348,6 +360,19 @@ def _basis(model, basis: ModalBasis | None, n_modes: int | None, cutoff_hz: floa
 
         basis = modal_basis(model, n_modes, cutoff_hz)
     return _truncated(basis, _basis_size(basis, n_modes, cutoff_hz))
+
+
+def _machine_highest_hz(basis: ModalBasis) -> float:
+    """The highest natural frequency [Hz] of the machine's modes in ``basis`` (the tool
+    carrier's mode left out, :mod:`ufmt.machining.tool`)."""
+    omega = basis.omega if basis.tool is None else basis.tool.structure_omega
+    return float(omega[-1]) / (2 * np.pi)
+
+
+def _tool_mode_hz(basis: ModalBasis) -> float | None:
+    """The tool carrier's natural frequency [Hz] in ``basis``, or None (no carrier)."""
+    tool = basis.tool
+    return None if tool is None else float(basis.omega[tool.mode]) / (2 * np.pi)
 
 
 def _basis_size(basis: ModalBasis, n_modes: int | None, cutoff_hz: float) -> int:
@@ -412,7 +437,7 @@ def _run(
         metrics["tip_acc_measured_mm_s2"], basis, machine, process, zeta, options
     )
     metrics.update(_instrument_metrics(machine, process, band_surface, scallops, total, options))
-    highest = float(basis.omega[-1]) / (2 * np.pi)
+    highest = _machine_highest_hz(basis)
     return SimulationResult(
         process=process,
         method=options.method,
@@ -425,10 +450,11 @@ def _run(
         metrics=metrics,
         pv_by_source_nm=pv_by_source,
         sources=sources,
-        n_modes=basis.n_modes,
+        n_modes=basis.n_modes - (basis.tool is not None),
         basis_cutoff_hz=float(options.basis_cutoff_hz or highest),
         basis_highest_hz=highest,
         samples_per_rev=options.n_phi,
+        tool_mode_hz=_tool_mode_hz(basis),
     )
 
 
@@ -530,13 +556,15 @@ def _pv_by_source(
 
 
 def _record_metrics(response: Response, force_scale: float) -> dict[str, float]:
-    """The record window's metrics: zre_peak_nm, tip_acc_peak_mm_s2 (raw),
+    """The record window's metrics: zre_peak_nm, tip_acc_peak_mm_s2 (raw, the head's z
+    acceleration at the tool point), carrier_acc_peak_mm_s2 (raw, the tool carrier's),
     tip_acc_measured_mm_s2 (as the accelerometer reports it), force_peak_n, and the
     force_scale used."""
     per = response.periods
     return {
         "zre_peak_nm": _mean_peak(response.z_re, per) * 1e9,
         "tip_acc_peak_mm_s2": _mean_peak(response.tip_acc[:, 2], per) * 1e3,
+        "carrier_acc_peak_mm_s2": _mean_peak(response.carrier_acc, per) * 1e3,
         "tip_acc_measured_mm_s2": _measured_peak(response),
         "force_peak_n": float(np.linalg.norm(response.force, axis=1).max()),
         "force_scale": float(force_scale),
