@@ -256,3 +256,46 @@ def test_the_tool_keys_are_checked():
     text = packaged_text().replace("[machine]\n", "[machine]\ntool_damping_ratio = nan\n", 1)
     with pytest.raises(ModelError, match="tool_damping_ratio"):
         load_model_text(text, "ufmt.toml")
+
+
+def test_the_peak_between_samples_is_the_parabola_s_vertex():
+    """Oracle: A (1 + cos(2 pi t)) / 2 sampled 17 times per period with its peaks half way
+    between samples: the refined peak is within 5e-4 of A (the parabola's error on a cosine,
+    (A / 2) 4.3e-4), where the largest sample misses it by (A / 2) (1 - cos(pi / 17))."""
+    from ufmt.simulate import _mean_peak, _mean_smooth_peak
+
+    n, periods, amp = 1700, 2, 3.0
+    t = (np.arange(periods * n) + 0.5) / 17.0
+    signal = amp * (1 + np.cos(2 * np.pi * t)) / 2
+    assert _mean_peak(signal, periods) == pytest.approx(amp * (1 + np.cos(np.pi / 17)) / 2)
+    assert _mean_smooth_peak(signal, periods) == pytest.approx(amp, rel=5e-4)
+
+
+def test_both_response_paths_carry_the_carrier():
+    """A synthetic machine (modes 8-400 Hz) with a 50 g carrier at 2.25 kHz: the time path's
+    record window, in its periodic steady state mid-cut, equals the periodic path's for the
+    tool tip, the head's and the carrier's acceleration (two solvers of one basis); the
+    carrier rings (its acceleration is far above the head's)."""
+    from synthetic import SMALL, synthetic_basis
+
+    from ufmt.machining.cut_geometry import cut_geometry
+    from ufmt.machining.periodic_path import periodic_response
+    from ufmt.machining.time_path import time_response
+    from ufmt.model.machine import read_machine
+
+    machine = read_machine({**SMALL, "tool_compliance_m_per_N": 1e-7, "tool_mass_kg": 0.05})
+    basis = with_tool(synthetic_basis(slider_turns=False), machine)
+    assert basis.omega[basis.tool.mode] / (2 * np.pi) == pytest.approx(2251.0, rel=0.05)
+    process = Process(400, 16, 4)
+    geo = cut_geometry(basis, machine, n_phi=4096)
+    per, tim = periodic_response(geo, process), time_response(geo, process)
+    n = per.t.size
+    mid = tim.periods // 2
+    one = slice(mid * n, (mid + 1) * n)
+    for a, b in (
+        (tim.carrier_acc[one], per.carrier_acc),
+        (tim.tip_acc[one], per.tip_acc),
+        (tim.tip_disp[one], per.tip_disp),
+    ):
+        np.testing.assert_allclose(a, b, rtol=0, atol=1e-7 * np.abs(b).max())
+    assert np.abs(per.carrier_acc).max() > 10 * np.abs(per.tip_acc[:, 2]).max()

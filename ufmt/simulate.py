@@ -562,7 +562,7 @@ def _record_metrics(response: Response, force_scale: float) -> dict[str, float]:
     force_scale used."""
     per = response.periods
     return {
-        "zre_peak_nm": _mean_peak(response.z_re, per) * 1e9,
+        "zre_peak_nm": _mean_smooth_peak(response.z_re, per) * 1e9,
         "tip_acc_peak_mm_s2": _mean_peak(response.tip_acc[:, 2], per) * 1e3,
         "carrier_acc_peak_mm_s2": _mean_peak(response.carrier_acc, per) * 1e3,
         "tip_acc_measured_mm_s2": _measured_peak(response),
@@ -630,3 +630,18 @@ def _periodic_acceleration(
 def _mean_peak(signal: np.ndarray, periods: int) -> float:
     """Mean over the spindle periods of the largest |signal| in each."""
     return float(np.abs(signal).reshape(periods, -1).max(axis=1).mean())
+
+
+def _mean_smooth_peak(signal: np.ndarray, periods: int) -> float:
+    """:func:`_mean_peak` of a continuous signal (a displacement), each largest sample refined
+    by the parabola through it and its neighbours: the peak between samples (the ringing tool
+    carrier is sampled 17-41 times per period, where the largest sample misses its peak by up
+    to 1 - cos(pi / 17) = 1.7 %). Not for an acceleration, which jumps with the force (there
+    the parabola overshoots)."""
+    s = np.abs(signal).reshape(periods, -1)
+    rows = np.arange(periods)
+    i = np.argmax(s, axis=1)
+    a, b, c = s[rows, i - 1], s[rows, i], s[rows, (i + 1) % s.shape[1]]
+    curve = a - 2 * b + c
+    lift = np.where(curve < 0, (a - c) ** 2 / (-8 * np.where(curve < 0, curve, -1.0)), 0.0)
+    return float(np.mean(b + lift))
