@@ -268,7 +268,9 @@ def simulate(
     model = _loaded(model)
     machine = _machine(model)
     validity.check_case(process, machine, spacing, aperture_margin, psd2_patch)
-    basis = with_tool(_basis(model, basis, n_modes, basis_cutoff_hz), machine)
+    basis = _basis(model, basis, n_modes, basis_cutoff_hz)
+    validity.check_bodies(machine, basis.body_shapes)
+    basis = with_tool(basis, machine)
     n_phi = _sampling(machine, basis, process, n_phi, spacing)
     residual = _residual(model, basis, machine) if static_correction else None
     options = SimulationOptions(
