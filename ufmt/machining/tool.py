@@ -104,15 +104,3 @@ def _with_tool(
             point=np.array(point),
         ),
     )
-
-
-def head_shapes(basis: ModalBasis, body: str) -> np.ndarray:
-    """The rigid motion (m, 6) of ``body`` per mode, the tool carrier's stretch taken out of
-    the tool body's: the head's own motion (every body's shapes when the basis carries no
-    tool)."""
-    shapes = basis.body_shapes[body]
-    if basis.tool is None or body != basis.tool.body:
-        return shapes
-    out = np.array(shapes)
-    out[:, 2] -= basis.tool.stretch
-    return out
