@@ -21,7 +21,6 @@ from ufmt.machining.instruments import accelerometer_peak
 from ufmt.machining.periodic_path import periodic_response, record_tip_acceleration
 from ufmt.machining.process import Process
 from ufmt.machining.recurrence import modal_damping
-from ufmt.machining.tool import with_tool
 from ufmt.model.machine import read_machine
 from ufmt.simulate import simulate
 
@@ -87,9 +86,7 @@ def assert_the_step_on_full_responses(packaged, packaged_basis, process, method)
     a_p a whole periodic response's (its static correction and every body's motion)."""
     result = simulate(packaged, process, basis=packaged_basis, method=method)
     machine = result.machine
-    basis = with_tool(
-        simulation._basis(packaged, packaged_basis, None, DEFAULT_BASIS_CUTOFF_HZ), machine
-    )
+    basis = simulation._basis(packaged, machine, packaged_basis, None, DEFAULT_BASIS_CUTOFF_HZ)
     residual = simulation._residual(packaged, basis, machine)
     zeta = modal_damping(machine.modal_damping_ratio, basis.n_modes)
     fine = simulation.SimulationOptions(

@@ -268,9 +268,7 @@ def simulate(
     model = _loaded(model)
     machine = _machine(model)
     validity.check_case(process, machine, spacing, aperture_margin, psd2_patch)
-    basis = _basis(model, basis, n_modes, basis_cutoff_hz)
-    validity.check_bodies(machine, basis.body_shapes)
-    basis = with_tool(basis, machine)
+    basis = _basis(model, machine, basis, n_modes, basis_cutoff_hz)
     n_phi = _sampling(machine, basis, process, n_phi, spacing)
     residual = _residual(model, basis, machine) if static_correction else None
     options = SimulationOptions(
@@ -354,14 +352,19 @@ def _residual(model, basis: ModalBasis, machine: Machine) -> ResidualFlexibility
     return residual_flexibility(model, basis, machine)
 
 
-def _basis(model, basis: ModalBasis | None, n_modes: int | None, cutoff_hz: float) -> ModalBasis:
+def _basis(
+    model, machine: Machine, basis: ModalBasis | None, n_modes: int | None, cutoff_hz: float
+) -> ModalBasis:
     """The basis of the run: ``basis`` (the model's when None) cut to ``n_modes`` or to the
-    modes below ``cutoff_hz`` [Hz]."""
+    modes below ``cutoff_hz`` [Hz], its tool and workpiece bodies checked, with the machine's
+    tool carrier (:func:`~ufmt.machining.tool.with_tool`)."""
     if basis is None:
         from ufmt.machining.modal import modal_basis
 
         basis = modal_basis(model, n_modes, cutoff_hz)
-    return _truncated(basis, _basis_size(basis, n_modes, cutoff_hz))
+    basis = _truncated(basis, _basis_size(basis, n_modes, cutoff_hz))
+    validity.check_bodies(machine, basis.body_shapes)
+    return with_tool(basis, machine)
 
 
 def _machine_highest_hz(basis: ModalBasis) -> float:
