@@ -86,7 +86,7 @@ def assert_the_step_on_full_responses(packaged, packaged_basis, process, method)
     a_p a whole periodic response's (its static correction and every body's motion)."""
     result = simulate(packaged, process, basis=packaged_basis, method=method)
     machine = result.machine
-    basis = simulation._basis(packaged, packaged_basis, None, DEFAULT_BASIS_CUTOFF_HZ)
+    basis = simulation._basis(packaged, machine, packaged_basis, None, DEFAULT_BASIS_CUTOFF_HZ)
     residual = simulation._residual(packaged, basis, machine)
     zeta = modal_damping(machine.modal_damping_ratio, basis.n_modes)
     fine = simulation.SimulationOptions(

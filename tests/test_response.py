@@ -182,7 +182,7 @@ def test_spinning_tip_acceleration_is_the_second_derivative_of_its_displacement(
     t = (np.arange(1000, 1003) - 1) * dt  # three samples around j = 1000
     nu = np.array([20.0, 50.0, 90.0])[:, None]
     q, qd, qdd = np.cos(nu * t), -nu * np.sin(nu * t), -(nu**2) * np.cos(nu * t)
-    tip, acc, _ = tool_and_workpiece_motion(
+    tip, acc, _, _ = tool_and_workpiece_motion(
         geo, np.arange(999, 1002), np.zeros(3), q, qd, qdd, spindle_hz
     )
     second = (tip[0] - 2 * tip[1] + tip[2]) / dt**2

@@ -35,6 +35,7 @@ PAPER_MODES = 30  # Table 3 and the paper's basis (sections 2.5, 3.2)
 DEFAULT_BASIS_CUTOFF_HZ = 5000.0  # [Hz] the default basis: every mode below this
 SAMPLES_PER_MODE_PERIOD = 4  # default sampling: samples per period of the basis' highest mode
 SAMPLES_PER_GRID_STEP = 4  # and per surface grid step across the feed along the tip's circle
+SAMPLES_PER_TOOL_PERIOD = 32  # and per period of the tool carrier's mode (ufmt.machining.tool)
 MIN_SAMPLES_PER_REV = 512
 
 DEFAULT_SPACING = (1e-3, 1.25e-3)  # surface grid step (x, y) [m]

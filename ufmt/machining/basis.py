@@ -36,6 +36,9 @@ class ModalBasis:
         (the modal equations are then classically damped).
     slide_y : slide position Y [m] of the configuration the modes were solved at (0: as the
         model file draws it).
+    tool : the tool carrier's coupling when the basis carries the tool as an oscillator
+        (:func:`ufmt.machining.tool.with_tool`: the tool body's shapes are then the tool
+        carrier's), or None.
     """
 
     omega: np.ndarray
@@ -44,6 +47,7 @@ class ModalBasis:
     body_centers: dict[str, np.ndarray]
     hinge_damping: np.ndarray | None = None
     slide_y: float = 0.0
+    tool: ToolCoupling | None = None
 
     def __post_init__(self):
         omega = np.asarray(self.omega, dtype=float)
@@ -81,11 +85,14 @@ class ModalBasis:
         return self.omega.size
 
     def truncated(self, n: int) -> ModalBasis:
-        """The first ``n`` modes (all of them if ``n`` >= n_modes)."""
+        """The first ``n`` modes (all of them if ``n`` >= n_modes); a basis with the tool is
+        cut before the tool is added (ValueError)."""
         if n >= self.n_modes:
             return self
         if n < 1:
             raise ValueError(f"n_modes must be >= 1, got {n}")
+        if self.tool is not None:
+            raise ValueError("cut the machine's basis before the tool is added to it")
         return ModalBasis(
             omega=self.omega[:n],
             modal_mass=self.modal_mass[:n],
@@ -115,6 +122,34 @@ class ModalBasis:
         s = self.body_shapes[body]
         out = s[:, None, :3] + np.cross(s[:, None, 3:], d[None, :, :])
         return out[:, 0, :] if single else out
+
+
+@dataclass(frozen=True, eq=False)
+class ToolCoupling:
+    """The tool carrier on its shank in a basis of m = n + 1 modes (n of the machine).
+
+    body: the tool body (its shapes are the carrier's); stretch (m,) the shank's deflection, carrier
+    minus head z at the tool point [m per unit coordinate]; structure (n, m) the machine's modal
+    coordinates in each mode, scaled by the square roots of their modal masses [sqrt(kg)] (the
+    machine's structural damping diag(2 zeta w) carried to the basis); structure_omega (n,) the
+    machine's natural frequencies [rad/s]; mode: the index of the tool's own mode; mass [kg],
+    stiffness [N/m] and damping [N s/m] of the carrier on the shank; point (3,) the tool point the
+    shank is attached at [m].
+    """
+
+    body: str
+    stretch: np.ndarray
+    structure: np.ndarray
+    structure_omega: np.ndarray
+    mode: int
+    mass: float
+    stiffness: float
+    damping: float
+    point: np.ndarray
+
+    def __post_init__(self):
+        for name in ("stretch", "structure", "structure_omega", "point"):
+            object.__setattr__(self, name, _readonly(getattr(self, name)))
 
 
 def _readonly(a: np.ndarray) -> np.ndarray:

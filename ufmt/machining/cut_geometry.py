@@ -27,7 +27,12 @@ from functools import cached_property, lru_cache
 import numpy as np
 
 from ufmt.assembled import point_motion
-from ufmt.defaults import MIN_SAMPLES_PER_REV, SAMPLES_PER_GRID_STEP, SAMPLES_PER_MODE_PERIOD
+from ufmt.defaults import (
+    MIN_SAMPLES_PER_REV,
+    SAMPLES_PER_GRID_STEP,
+    SAMPLES_PER_MODE_PERIOD,
+    SAMPLES_PER_TOOL_PERIOD,
+)
 from ufmt.machining.basis import ModalBasis
 from ufmt.machining.cutting import (
     DEFAULT_COEFFICIENTS,
@@ -39,6 +44,7 @@ from ufmt.machining.cutting import (
     tool_tip_rates,
 )
 from ufmt.machining.static import ResidualFlexibility
+from ufmt.machining.validity import MAX_SAMPLES_PER_REV
 from ufmt.model.machine import Machine
 
 #: Force samples per spindle revolution of a basis of the paper's size (30 modes, ~700 Hz);
@@ -56,7 +62,11 @@ OUTPUT_HARMONICS = np.arange(-1, 2)
 
 
 def samples_per_rev(
-    highest_hz: float, spindle_hz: float, tool_radius: float = 0.0, grid_step: float = math.inf
+    highest_hz: float,
+    spindle_hz: float,
+    tool_radius: float = 0.0,
+    grid_step: float = math.inf,
+    tool_hz: float = 0.0,
 ) -> int:
     """Default samples per spindle revolution [-], a power of two, never below
     MIN_SAMPLES_PER_REV (:mod:`ufmt.defaults`): at least SAMPLES_PER_MODE_PERIOD per period
@@ -67,10 +77,15 @@ def samples_per_rev(
     sampled force places its step at the plate's edges to one sample, which the whole-plate
     PV reads (4096 samples at 300 rpm: PV 0.51 % from 4x the sampling; 8192: 0.19 %). The
     surface metrics, z_re and the accelerometer's peak then lie within 0.5 % of four times the
-    sampling (tests/test_convergence.py)."""
+    sampling (tests/test_convergence.py). The tool carrier's mode ``tool_hz`` [Hz] (0: none,
+    :mod:`ufmt.machining.tool`) asks for SAMPLES_PER_TOOL_PERIOD per period, as far as
+    MAX_SAMPLES_PER_REV allows: the force's entry step is sampled as a ramp over about one
+    sample, which excites the carrier's ringing by sinc(w_t dt / 2) of the step's, an error
+    of second order in dt (at 4 samples per period a tenth of the ringing)."""
     need = max(
         SAMPLES_PER_MODE_PERIOD * highest_hz / spindle_hz,
         SAMPLES_PER_GRID_STEP * 2 * math.pi * tool_radius / grid_step,
+        min(SAMPLES_PER_TOOL_PERIOD * tool_hz / spindle_hz, MAX_SAMPLES_PER_REV),
     )
     return max(MIN_SAMPLES_PER_REV, 1 << max(0, math.ceil(math.log2(max(need, 1.0)))))
 

@@ -111,9 +111,17 @@ def _side_motion(model: Model, shapes: ModeShapes, beams, hinge, side: int) -> n
 
 def damping_matrix(basis: ModalBasis, zeta) -> np.ndarray:
     """D = diag(2 zeta w) + M^-1 Phi_rel^T C Phi_rel (n, n) [1/s] of the modal equations
-    q'' + D q' + Omega^2 q = f (``zeta``: the structural ratios, scalar or (n,))."""
+    q'' + D q' + Omega^2 q = f (``zeta``: the structural ratios, scalar or (n,)). With the tool
+    carrier in the basis (``basis.tool``) the structural part is the machine's diag(2 zeta w)
+    carried to the basis' modes (the ratios of the tool's own mode left out) and the hinge
+    part holds the shank's dashpot too (:mod:`ufmt.machining.tool`)."""
     zeta = modal_damping(zeta, basis.n_modes)
-    out = np.diag(2 * zeta * basis.omega)
+    tool = basis.tool
+    if tool is None:
+        out = np.diag(2 * zeta * basis.omega)
+    else:  # the machine's structural damping in the tool's basis (ufmt.machining.tool)
+        machine_zeta = np.delete(zeta, tool.mode)
+        out = (tool.structure.T * (2 * machine_zeta * tool.structure_omega)) @ tool.structure
     if basis.hinge_damping is not None:
         out = out + basis.hinge_damping / basis.modal_mass[:, None]
     return out

@@ -36,6 +36,7 @@ from ufmt.machining.modal import modal_basis
 from ufmt.machining.recurrence import DEFAULT_ZETA, modal_damping
 from ufmt.machining.slide import model_at_slide
 from ufmt.machining.static import ResidualFlexibility, static_flexibility
+from ufmt.machining.tool import with_tool
 from ufmt.model.load import as_model
 from ufmt.model.machine import MAX_LENGTH_M, Machine, machine_of
 from ufmt.model.schema import RigidBody
@@ -78,9 +79,15 @@ def point_end(body: str, point) -> End:
 
 
 def participation(basis: ModalBasis, end: End, direction) -> np.ndarray:
-    """c (n,): the end's weighted point translations along ``direction`` in every mode."""
+    """c (n,): the end's weighted point translations along ``direction`` in every mode (with
+    the tool carrier in the basis, :mod:`ufmt.machining.tool`: the tool-workpiece end's tip
+    on the carrier, any other point of the tool body on the head)."""
     d = np.asarray(direction, dtype=float)
-    return sum(w * basis.point_shapes(body, np.asarray(p)) @ d for body, p, w in end.terms)
+    out = sum(w * basis.point_shapes(body, np.asarray(p)) @ d for body, p, w in end.terms)
+    tool = basis.tool
+    if tool is not None and end.label != TOOL_WORKPIECE:
+        out = out - d[2] * tool.stretch * sum(w for b, _, w in end.terms if b == tool.body)
+    return out
 
 
 def modal_receptance(basis: ModalBasis, c_out, c_in, freq_hz, zeta=DEFAULT_ZETA) -> np.ndarray:
@@ -105,7 +112,8 @@ def residual_receptance(
     of the ends' bodies (solved with the slide where the basis was, ``basis.slide_y``) minus
     the basis' sum of v v^T / (M w^2), projected on the points; between two tool-workpiece
     ends, plus the tool's own compliance along z (``tool_compliance_m_per_N``, a spring at the
-    tip that no other point feels)."""
+    tip that no other point feels) unless the basis carries the tool as an oscillator
+    (:mod:`ufmt.machining.tool`; its residual is then the head's alone)."""
     bodies = tuple(dict.fromkeys(b for b, _, _ in out.terms + inp.terms))
     for name in bodies:
         if not isinstance(model.body(name), RigidBody):
@@ -114,8 +122,12 @@ def residual_receptance(
     g = static_flexibility(moved, bodies)
     v = np.concatenate([basis.body_shapes[b] for b in bodies], axis=1)
     g = g - (v.T / (basis.modal_mass * basis.omega**2)) @ v
+    tool = basis.tool
+    if tool is not None and tool.body in bodies:  # the shank's compliance is in the basis
+        i = 6 * bodies.index(tool.body) + 2
+        g[i, i] += 1.0 / tool.stiffness
     h = float(_row(basis, bodies, out, d_out) @ g @ _row(basis, bodies, inp, d_in))
-    if machine is not None and out.label == inp.label == TOOL_WORKPIECE:
+    if machine is not None and tool is None and out.label == inp.label == TOOL_WORKPIECE:
         h += machine.tool_compliance_m_per_N * float(d_out[2]) * float(d_in[2])
     return h
 
@@ -277,6 +289,8 @@ def frf(
     if zeta is None:
         zeta = DEFAULT_ZETA if machine is None else machine.modal_damping_ratio
     basis = modal_basis(model, n_modes, basis_cutoff_hz)
+    if machine is not None:
+        basis = with_tool(basis, machine)
     out = _end(model, output, tool_angle, basis.slide_y)
     inp = out if input is None else _end(model, input, tool_angle, basis.slide_y)
     freq = np.geomspace(fmin_hz, fmax_hz, int(points))

@@ -264,7 +264,7 @@ def periodic_response(geo, process, zeta=DEFAULT_ZETA, force_scale: float = 1.0)
     y_rec = record_slide(geo.machine)
     j = np.arange(n)
     motion = _record_motion(geo, zeta, f, fs, motion_shapes(geo))
-    tip, acc, work = projected_motion(geo, j, np.full(n, y_rec), *motion, f)
+    tip, acc, work, carrier = projected_motion(geo, j, np.full(n, y_rec), *motion, f)
     for amp, u in zip(amps, units, strict=True):
         if u.static_tip is not None:
             tip, work = tip + amp * u.static_tip, work + amp * u.static_work
@@ -277,6 +277,7 @@ def periodic_response(geo, process, zeta=DEFAULT_ZETA, force_scale: float = 1.0)
         tip_acc=acc,
         work_disp=work,
         z_re=tip[:, 2] - work[:, 2],
+        carrier_acc=carrier,
         period=1.0 / f,
         periods=1,
         table=PeriodicZreTable(parts, amps, f, tuple(zeta.tolist()), geo.table_y, geo.row_knots),
@@ -287,8 +288,8 @@ def record_tip_acceleration(
     geo, process, zeta=DEFAULT_ZETA, force_scale: float = 1.0
 ) -> tuple[np.ndarray, np.ndarray]:
     """The record window of :func:`periodic_response` reduced to what an accelerometer on the
-    tool reads: its times t (N,) [s] and the tool tip's z acceleration (N,) [m/s^2], equal to
-    that response's ``t`` and ``tip_acc[:, 2]`` to rounding.
+    head reads: its times t (N,) [s] and the head's z acceleration at the tool point (N,)
+    [m/s^2], equal to that response's ``t`` and ``tip_acc[:, 2]`` to rounding.
 
     The same periodic state under the same modal force, projected on the 7 modal shapes the
     acceleration reads (:func:`~ufmt.machining.response.tip_acceleration_shapes`) instead of

@@ -120,13 +120,17 @@ def cubic_weights(phi: np.ndarray, n_phi: int) -> tuple[np.ndarray, np.ndarray]:
 class Response:
     """Response in a record window plus the z_re table of the whole cut.
 
-    t (T,) time [s] (0 at the first touch of the cut); slide_y (T,) slide position Y [m];
-    force (T, 3) force on the tool [N]; tip_disp, tip_acc (T, 3) tool-tip displacement [m]
-    and acceleration [m/s^2]; work_disp (T, 3) workpiece displacement at the contact point
-    [m]; z_re (T,) tool minus workpiece z displacement [m]; period [s] spindle period;
-    periods: spindle periods in the window; table: the z_re of the whole cut, a
-    :class:`ZreTable` (time path) or a :class:`~ufmt.machining.periodic_path.PeriodicZreTable`
-    (periodic path: the same layout and reading methods, evaluated where it is read).
+    t (T,) time [s] (0 at the first touch of the cut); slide_y (T,) slide position Y [m]; force
+    (T, 3) force on the tool [N]; tip_disp (T, 3) tool-tip displacement [m] (the tool carrier's
+    in z, :mod:`ufmt.machining.tool`); tip_acc (T, 3) the head's acceleration at the tool point
+    [m/s^2] (where the holder sits; the tool tip's with a rigid or massless tool); carrier_acc
+    (T,) the tool carrier's z acceleration [m/s^2] (what a sensor "pasted under the tool
+    carrier", paper section 4.2, sees; None in a hand-built response); work_disp (T, 3)
+    workpiece displacement at the contact point [m]; z_re (T,) tool minus workpiece z
+    displacement [m]; period [s] spindle period; periods: spindle periods in the window; table:
+    the z_re of the whole cut, a :class:`ZreTable` (time path) or a
+    :class:`~ufmt.machining.periodic_path.PeriodicZreTable` (periodic path: the same layout and
+    reading methods, evaluated where it is read).
     """
 
     method: str
@@ -140,10 +144,11 @@ class Response:
     period: float
     periods: int
     table: ZreTable  # or a PeriodicZreTable (see above)
+    carrier_acc: np.ndarray | None = None
 
 
 def tool_and_workpiece_motion(geo: CutGeometry, j, slide, q, qd, qdd, spindle_hz: float):
-    """Tool-tip displacement and acceleration, workpiece displacement, from modal coordinates.
+    """:func:`projected_motion` from modal coordinates.
 
     j (T,) phase indices; slide (T,) slide positions Y [m]; q, qd, qdd (n, T): their
     projections on :func:`motion_shapes` to :func:`projected_motion`.
@@ -155,17 +160,25 @@ def tool_and_workpiece_motion(geo: CutGeometry, j, slide, q, qd, qdd, spindle_hz
 def motion_shapes(geo: CutGeometry) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The modal shapes (n, k) that :func:`projected_motion` reads, on q, q' and q'': the
     tool's and the workpiece's rigid-body motion [r; theta] at their centres of mass (n, 12),
-    the tool's rotation (n, 3) and its motion (n, 6)."""
+    the tool's rotation (n, 3), and its motion (n, 6) with the tool carrier's stretch (n, 1)."""
     b, m = geo.basis, geo.machine
     tool, work = b.body_shapes[m.tool_body], b.body_shapes[m.workpiece_body]
-    return np.concatenate([tool, work], axis=1), tool[:, 3:], tool
+    return np.concatenate([tool, work], axis=1), tool[:, 3:], np.column_stack([tool, stretch(b)])
+
+
+def stretch(basis) -> np.ndarray:
+    """The tool carrier's stretch on its shank per mode (n,) [m] (zeros without the tool in
+    the basis, :mod:`ufmt.machining.tool`)."""
+    return np.zeros(basis.n_modes) if basis.tool is None else basis.tool.stretch
 
 
 def projected_motion(geo: CutGeometry, j, slide, moved, spin, accel, spindle_hz: float):
-    """Tool-tip displacement and acceleration, workpiece displacement (T, 3) from the bodies'
-    motions (q, q', q'' on :func:`motion_shapes`): moved (T, 12) the tool's and the
-    workpiece's [r; theta], spin (T, 3) the tool's angular velocity and accel (T, 6) the
-    tool's acceleration.
+    """Tool-tip displacement, the head's acceleration at the tool point, workpiece
+    displacement (T, 3) and the tool carrier's z acceleration (T,) from the bodies' motions
+    (q, q', q'' on :func:`motion_shapes`): moved (T, 12) the tool's and the workpiece's
+    [r; theta], spin (T, 3) the tool's angular velocity and accel (T, 7) the tool's
+    acceleration and its carrier's stretch's (the head's acceleration is the carrier's less
+    the stretch's).
 
     j (T,) phase indices; slide (T,) slide positions Y [m]. The tip is a material point of the
     spinning tool body, so its acceleration is d^2/dt^2 sum_s [r_s + theta_s x (p(t) - C)]
@@ -177,23 +190,27 @@ def projected_motion(geo: CutGeometry, j, slide, moved, spin, accel, spindle_hz:
     arm_work = geo.tip[j] - b.body_centers[m.workpiece_body]
     arm_work[:, 1] += slide
     om = 2 * np.pi * spindle_hz
-    rot = np.stack([moved[:, 3:6], moved[:, 9:], accel[:, 3:], spin, moved[:, 3:6]])
+    rot = np.stack([moved[:, 3:6], moved[:, 9:], accel[:, 3:6], spin, moved[:, 3:6]])
     arm = np.stack([arm_tool, arm_work, arm_tool, 2 * om * geo.dtip[j], om**2 * geo.ddtip[j]])
     turn = cross(rot, arm)  # (5, T, 3)
     acc = accel[:, :3] + turn[2] + turn[3] + turn[4]
-    return moved[:, :3] + turn[0], acc, moved[:, 6:9] + turn[1]
+    head = acc.copy()
+    head[:, 2] -= accel[:, 6]
+    return moved[:, :3] + turn[0], head, moved[:, 6:9] + turn[1], acc[:, 2]
 
 
 def tip_acceleration_shapes(geo: CutGeometry) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The columns of :func:`motion_shapes` that the tool tip's z acceleration reads, on q, q'
-    and q'': the tool's rotation about x and y (n, 2), the same (n, 2), and its z translation
-    with its rotation about x and y (n, 3)."""
+    """The columns of :func:`motion_shapes` that the head's z acceleration at the tool point
+    reads, on q, q' and q'': the tool's rotation about x and y (n, 2), the same (n, 2), and
+    the head's z translation with its rotation about x and y (n, 3)."""
     tool = geo.basis.body_shapes[geo.machine.tool_body]
-    return tool[:, 3:5], tool[:, 3:5], tool[:, 2:5]
+    accel = tool[:, 2:5].copy()
+    accel[:, 0] -= stretch(geo.basis)  # the head's z, not the carrier's
+    return tool[:, 3:5], tool[:, 3:5], accel
 
 
 def projected_tip_acceleration(geo: CutGeometry, j, tilt, spin, accel, spindle_hz: float):
-    """The z component of :func:`projected_motion`'s tool-tip acceleration (T,) [m/s^2] from
+    """The z component of :func:`projected_motion`'s head acceleration (T,) [m/s^2] from
     the tool's motions on :func:`tip_acceleration_shapes`: tilt (T, 2) its rotation about x
     and y, spin (T, 2) their rates and accel (T, 3) the accelerations of its z translation and
     of the tilt; j (T,) phase indices. The same operations in the same order as there."""
@@ -230,6 +247,7 @@ def combine(responses) -> Response:
         tip_acc=total("tip_acc"),
         work_disp=total("work_disp"),
         z_re=total("z_re"),
+        carrier_acc=total("carrier_acc"),
         period=first.period,
         periods=first.periods,
         table=ZreTable(

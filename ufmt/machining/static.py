@@ -245,9 +245,11 @@ def residual_flexibility(model, basis: ModalBasis, machine: Machine) -> Residual
 
     G_res = G_static - sum_s v_s v_s^T / (M_s w_s^2), v_s the bodies' rigid motions in mode s;
     G_static is solved with the slide where the basis was solved (``basis.slide_y``,
-    :mod:`ufmt.machining.slide`). The tool's own z compliance (``tool_compliance_m_per_N``,
-    a shank whose first mode lies far above the basis) is added to the tool body's z
-    translation: it moves the tip by c F_z, quasi-statically like the modes above the basis.
+    :mod:`ufmt.machining.slide`). The tool's own z compliance (``tool_compliance_m_per_N``)
+    is added to the tool body's z translation. With a massless tool it moves the tip by
+    c F_z, quasi-statically like the modes above the basis; with the tool carrier in the basis
+    (:mod:`ufmt.machining.tool`, the tool body's shapes the carrier's) the basis' sum holds c
+    exactly, and the residual is the head's alone.
     """
     bodies = (machine.tool_body, machine.workpiece_body)
     static = static_flexibility(model_at_slide(model, machine, basis.slide_y), bodies)

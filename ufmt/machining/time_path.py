@@ -80,7 +80,7 @@ def time_response(
     idx = np.arange(clock.rec0 * clock.n - 1, clock.rec1 * clock.n)  # one before the window
     j = idx % clock.n
     y = clock.y_start + clock.delta * idx / clock.n
-    tip, acc, work = _record_motion(parts, amps, zeta, clock, rec_q, j, y)
+    tip, acc, work, carrier = _record_motion(parts, amps, zeta, clock, rec_q, j, y)
     return Response(
         method="time",
         t=idx[1:] * clock.dt,
@@ -99,6 +99,7 @@ def time_response(
         tip_acc=acc,
         work_disp=work,
         z_re=tip[:, 2] - work[:, 2],
+        carrier_acc=carrier,
         period=1.0 / clock.spindle_hz,
         periods=clock.rec1 - clock.rec0,
         table=table,
@@ -261,10 +262,11 @@ def _zre_table(rows, clock: _Clock) -> ZreTable:
 
 
 def _record_motion(parts, amps, zeta, clock: _Clock, rec_q, j, y):
-    """Tool-tip displacement and acceleration and workpiece displacement (T, 3) in the record
-    window, from its modal coordinates ``rec_q`` (or the complex modes' state, see
-    :func:`_whole_cut`) at angle indices ``j`` and slide positions
-    ``y`` [m] (T + 1,) (from one sample before the window), static correction included."""
+    """Tool-tip displacement, the head's acceleration at the tool point and workpiece
+    displacement (T, 3), the tool carrier's z acceleration (T,), in the record window, from its
+    modal coordinates ``rec_q`` (or the complex modes' state, see :func:`_whole_cut`) at angle
+    indices ``j`` and slide positions ``y`` [m] (T + 1,) (from one sample before the window),
+    static correction included."""
     geo = parts[0]
     n = clock.n
     chips = [
@@ -275,16 +277,17 @@ def _record_motion(parts, amps, zeta, clock: _Clock, rec_q, j, y):
     modes = damped_modes(geo.basis, zeta)
     if modes is None:
         q, qd, qdd = _modal_rates(geo.basis, zeta, clock.dt, fs, rec_q)
-        tip, acc, work = tool_and_workpiece_motion(geo, j[1:], y[1:], q, qd, qdd, clock.spindle_hz)
+        motion = tool_and_workpiece_motion(geo, j[1:], y[1:], q, qd, qdd, clock.spindle_hz)
     else:  # the complex modes' state itself, projected without forming q, q', q''
         with serial_blas():
             motion = modes.projected(rec_q[:, 1:], fs[:, 1:], *motion_shapes(geo))
-        tip, acc, work = projected_motion(geo, j[1:], y[1:], *motion, clock.spindle_hz)
+        motion = projected_motion(geo, j[1:], y[1:], *motion, clock.spindle_hz)
+    tip, acc, work, carrier = motion
     for g, a in zip(parts, chips, strict=True):
         if g.static_tool is not None:
             s_tool, s_work = g.static_at(j[1:], y[1:])
             tip, work = tip + a[1:, None] * s_tool, work + a[1:, None] * s_work
-    return tip, acc, work
+    return tip, acc, work, carrier
 
 
 def _modal_rates(basis: ModalBasis, zeta, dt: float, fs, rec_q):

@@ -61,9 +61,12 @@ class Machine:
         workholding's bowl (centre high if > 0) and astigmatism (x edges high if > 0) left by
         the plate's spring-back off the vacuum chuck (:mod:`ufmt.machining.sources`).
     tool_compliance_m_per_N : z compliance of the tool and its holder between the tool body
-        and the tip [m/N] (a cantilevered shank; 0: rigid). Its own mode lies far above the
-        basis, so it acts quasi-statically, with the static correction
+        and the tip [m/N] (a cantilevered shank, 3 E I / L^3 its stiffness; 0: rigid).
+    tool_mass_kg : mass of the tool carrier (holder, shank and tool) that the shank's spring
+        carries [kg]: the tool is an oscillator on the head (:mod:`ufmt.machining.tool`);
+        0: a massless spring, added quasi-statically with the static correction
         (:mod:`ufmt.machining.static`).
+    tool_damping_ratio : damping ratio of the tool carrier on its shank [-].
     pressure_ripple_m, pressure_ripple_hz : amplitude [m] and frequency [Hz] of the axial
         motion of the head from the fluctuation of its bearings' air supply pressure (a
         non-synchronous source, :mod:`ufmt.machining.sources`).
@@ -103,6 +106,8 @@ class Machine:
     workholding_power_m: float = 0.0
     workholding_astigmatism_m: float = 0.0
     tool_compliance_m_per_N: float = 0.0
+    tool_mass_kg: float = 0.015
+    tool_damping_ratio: float = 0.03
     pressure_ripple_m: float = 0.0
     pressure_ripple_hz: float = 0.0096
     modal_damping_ratio: float = 0.01
@@ -197,6 +202,8 @@ OPTIONAL_FIELDS = {
     "workholding_power_m": (0.0, -2e-6, 2e-6, "m"),
     "workholding_astigmatism_m": (0.0, -2e-6, 2e-6, "m"),
     "tool_compliance_m_per_N": (0.0, 0.0, 2e-7, "m/N"),
+    "tool_mass_kg": (0.015, 0.0, 0.05, "kg"),
+    "tool_damping_ratio": (0.03, 0.005, 0.2, "-"),
     "pressure_ripple_m": (0.0, 0.0, 1e-7, "m"),
     "pressure_ripple_hz": (0.0096, 1e-4, 100.0, "Hz"),
     "modal_damping_ratio": (0.01, 1e-4, 0.2, "-"),
