@@ -84,8 +84,8 @@ class SimulationResult:
     the record window's spindle periods of the largest |z_re| in each; the window sits mid-cut,
     at :func:`ufmt.machining.response.record_slide`), tip_acc_peak_mm_s2 (the same for the
     head's z acceleration at the tool point), carrier_acc_peak_mm_s2 (for the tool carrier's,
-    where the paper's sensor sat); tip_acc_measured_mm_s2 as the paper's accelerometer chain
-    reports it under the tool carrier, :class:`ufmt.machining.instruments.AccelerometerChain`),
+    the shank's ringing mass); tip_acc_measured_mm_s2 the head's as the paper's accelerometer
+    chain reports it, :class:`ufmt.machining.instruments.AccelerometerChain`),
     pv_dynamic_nm, pv_dynamic_steady_nm and edge_runout_nm (the cutting-force vibration's
     surface alone: whole plate, steady cut, what the edges add; :func:`ufmt.machining.surface.
     dynamic_metrics`), force_peak_n (largest cutting-force magnitude in the window),
@@ -493,10 +493,9 @@ def _run(
     pv_by_source = _pv_by_source(sources, passes, terms, metrics["pv_nm"])
     metrics.update(_dynamic_metrics(passes, terms, machine))
     metrics.update(_record_metrics(response, machine, force_scale))
-    if basis.tool is None:  # the head's record: extrapolated to fine sampling
-        metrics["tip_acc_measured_mm_s2"] = _extrapolated_acceleration(
-            metrics["tip_acc_measured_mm_s2"], basis, machine, process, zeta, options
-        )
+    metrics["tip_acc_measured_mm_s2"] = _extrapolated_acceleration(
+        metrics["tip_acc_measured_mm_s2"], basis, machine, process, zeta, options
+    )
     metrics.update(_instrument_metrics(machine, process, band_surface, scallops, total, options))
     highest = _machine_highest_hz(basis)
     return SimulationResult(
@@ -628,8 +627,10 @@ def _dynamic_metrics(passes: Passes, terms: dict, machine: Machine) -> dict[str,
 def _record_metrics(response: Response, machine: Machine, force_scale: float) -> dict[str, float]:
     """The record window's metrics: zre_peak_nm, tip_acc_peak_mm_s2 (raw, the head's z
     acceleration at the tool point), carrier_acc_peak_mm_s2 (raw, the tool carrier's),
-    tip_acc_measured_mm_s2 (the carrier's as the accelerometer chain reports it: the paper's
-    sensor sat under the tool carrier), force_peak_n, and the
+    tip_acc_measured_mm_s2 (the head's at the tool point as the accelerometer chain reports
+    it: the sensor on the fly-cutting head, the disc that carries the tool; on the shank's
+    own carrier the chain would report tens of times Fig. 12, docs/ufmt-model.md), force_peak_n,
+    and the
     force_scale used."""
     per = response.periods
     return {
@@ -637,7 +638,7 @@ def _record_metrics(response: Response, machine: Machine, force_scale: float) ->
         "tip_acc_peak_mm_s2": _mean_peak(response.tip_acc[:, 2], per) * 1e3,
         "carrier_acc_peak_mm_s2": _mean_peak(response.carrier_acc, per) * 1e3,
         "tip_acc_measured_mm_s2": _accelerometer_peak(
-            machine, response.t, response.carrier_acc, per
+            machine, response.t, response.tip_acc[:, 2], per
         ),
         "force_peak_n": float(np.linalg.norm(response.force, axis=1).max()),
         "force_scale": float(force_scale),
@@ -658,8 +659,7 @@ def _extrapolated_acceleration(
     zeta: np.ndarray,
     options: SimulationOptions,
 ) -> float:
-    """The accelerometer's peak [mm/s^2] extrapolated to fine sampling (Richardson), for a
-    basis without a tool carrier (the sensor then reads the head at the tool point).
+    """The accelerometer's peak [mm/s^2] extrapolated to fine sampling (Richardson).
 
     The sampled force smears the engagement step over one sample, and the acceleration
     follows the force directly, so the peak converges at second order in the sample step
