@@ -152,12 +152,13 @@ class SimulationResult:
 
     def save(self, directory) -> list[Path]:
         """Write metrics.json (strict JSON), summary.csv, time.csv (the record window), the
-        surface without the feed marks as surface.xyz and surface.sdf (ISO 25178-71),
+        surface without the feed marks as surface.xyz, surface.sdf (ISO 25178-71) and
+        surface.x3p (ISO 25178-72),
         surface.npz (x_m, y_m, z_m: every source; z_smooth_m: without the feed marks) and the
         maps surface.png and surface_measured.png (:mod:`ufmt.exports`), as one set
         (:class:`ufmt.files.FileSet`, metrics.json last): a failure keeps the earlier set."""
         from ufmt import files
-        from ufmt.exports import write_sdf, write_xyz
+        from ufmt.exports import write_sdf, write_x3p, write_xyz
         from ufmt.plots import save_figure
 
         s = self.surface
@@ -170,6 +171,7 @@ class SimulationResult:
                 )
             write_xyz(self.smooth_surface, out.staged("surface.xyz"))
             write_sdf(self.smooth_surface, out.staged("surface.sdf"))
+            write_x3p(self.smooth_surface, out.staged("surface.x3p"))
             files.write_with(
                 out.staged("surface.npz"),
                 lambda b: np.savez_compressed(
@@ -181,7 +183,7 @@ class SimulationResult:
             metrics = json.dumps(self.to_dict(), indent=2, allow_nan=False) + "\n"
             out.add("metrics.json", metrics.encode())
         names = ("metrics.json", "summary.csv", "time.csv", "surface.xyz", "surface.sdf")
-        names += ("surface.npz", "surface.png", "surface_measured.png")
+        names += ("surface.x3p", "surface.npz", "surface.png", "surface_measured.png")
         return [Path(directory) / name for name in names]
 
 

@@ -19,7 +19,7 @@ from matplotlib.colors import TwoSlopeNorm
 from matplotlib.figure import Figure
 from matplotlib.patches import Rectangle
 
-from ufmt.machining.instruments import Interferometer, scallop_height
+from ufmt.machining.instruments import Interferometer, plane_removed, scallop_height
 from ufmt.machining.surface import DEFAULT_APERTURE_MARGIN
 from ufmt.plots import new_axes, new_figure
 
@@ -50,11 +50,7 @@ def measured_map(result, instrument: Interferometer | None = None):
         else:
             z = z + scallop_height(s.x, result.machine, feed)[None, :] / 3.0
     x, y, z = s.x[in_x], s.y[in_y], z[np.ix_(in_y, in_x)]
-    fit = s.core_rows[in_y]
-    yy, xx = np.meshgrid(y[fit], x, indexing="ij")
-    design = np.column_stack([np.ones(xx.size), xx.ravel(), yy.ravel()])
-    coef, *_ = np.linalg.lstsq(design, z[fit].ravel(), rcond=None)
-    return x, y, z - (coef[0] + coef[1] * x[None, :] + coef[2] * y[:, None])
+    return x, y, plane_removed(x, y, z)
 
 
 def plot_surface_map(result, stage: str = "machined", ax=None) -> Figure:
