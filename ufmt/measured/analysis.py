@@ -18,8 +18,8 @@
   left out of the mean PSD (a band with no complete profile is None).
 * ISO 25178-2 parameters ``sa_nm``, ``sq_nm``, ``sp_nm``, ``sv_nm``, ``sz_nm``, ``ssk``,
   ``sku`` of the map about its mean, unfiltered (:mod:`.areal`); with a ``cutoff`` lambda_c
-  [m], the same of the S-L surface (the map less its ISO 16610-21 Gaussian mean) with the
-  suffix ``_lc`` (``sq_lc_nm``, ``ssk_lc``, ...).
+  [m], the same of the S-L surface (the map less its least-squares plane, the F-operator, less
+  the ISO 16610-21 Gaussian mean of that) with the suffix ``_lc`` (``sq_lc_nm``, ``ssk_lc``, ...).
 
 The feed direction of the map is declared (``feed_direction`` "y": the columns run along the
 feed, as ufmt writes its maps; "x": the rows do, the map is turned).
@@ -158,7 +158,8 @@ def map_metrics(
         **areal_parameters(z),
     }
     if cutoff is not None:
-        rough = z - gaussian_mean(z, height_map.spacing, cutoff)
+        flat = fit_removed(basis[:3], z)[0]  # F-operator: the plane, then the L-filter
+        rough = flat - gaussian_mean(flat, height_map.spacing, cutoff)
         out.update({_lc(k): v for k, v in areal_parameters(rough).items()})
     return out
 

@@ -55,7 +55,7 @@ class Comparison:
         }
 
     def plot(self):
-        """Maps on one colour scale, PSDs overlaid (:func:`~ufmt.plots.measured.plot_comparison`)."""
+        """Maps on one scale, PSDs overlaid (:func:`~ufmt.plots.measured.plot_comparison`)."""
         from ufmt.plots.measured import plot_comparison
 
         return plot_comparison(self)
