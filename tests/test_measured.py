@@ -243,3 +243,38 @@ def test_bad_options_name_the_field(tmp_path):
         read_map(tmp_path / "missing.x3p")
     with pytest.raises(ModelError, match="unit"):
         read_map(tmp_path / "missing.x3p", unit="furlong")
+
+
+def test_attribution_recovers_each_sources_share():
+    import dataclasses
+
+    from ufmt.measured.attribution import attribute_map, source_lines
+
+    process = Process(300, 15, 4)  # f_s = 5 Hz, v = 0.25 mm/s, f_r = 50 um
+    machine = dataclasses.replace(
+        read_machine(MACHINE),
+        pressure_ripple_hz=0.25e-3 / 7e-3,  # v / f_p = 7 mm along the feed
+        straightness_wavelength_m=20e-3,
+    )
+    mode_hz = 5.0 * (100 + 0.05 / 12)  # beats with the 100th harmonic: 12 mm along the feed
+    lines = source_lines(machine, process, [mode_hz])
+    assert lines["mode 1"]["along"][0] == pytest.approx(1 / 12e-3)
+    h = 0.5e-3
+    x, y = symmetric_axis(41, h), symmetric_axis(401, h)
+    amplitudes = {"straightness": (10e-9, 20e-3), "pressure_ripple": (5e-9, 7e-3),
+                  "mode 1": (3e-9, 12e-3)}  # fmt: skip
+    rng = np.random.default_rng(11)
+    profile = sum(a * np.sin(2 * np.pi * y / lam + rng.uniform(0, 2 * np.pi))
+                  for a, lam in amplitudes.values())  # fmt: skip
+    noise = 1e-9
+    z = profile[:, None] + rng.normal(scale=noise, size=(y.size, x.size))
+    shares = attribute_map(HeightMap(x, y, z, "synthetic"), lines)["psd1"]["along"]
+    # expected: each sine's mean square over the band's (the sines plus the white noise's
+    # share of the band, (1/2.5 - 1/33) mm^-1 of the 1 mm^-1 up to Nyquist)
+    noise_power = noise**2 * (1 / 2.5e-3 - 1 / 33e-3) * 2 * h
+    total = sum(a**2 / 2 for a, _ in amplitudes.values()) + noise_power
+    for name, (a, _) in amplitudes.items():
+        assert shares[name] == pytest.approx(a**2 / 2 / total, rel=0.10), name
+    # the noise less its part in the sources' bins (5 of ~370 per line)
+    assert shares["unexplained"] == pytest.approx(noise_power / total, rel=0.2)
+    assert sum(shares.values()) == pytest.approx(1.0, rel=1e-12)

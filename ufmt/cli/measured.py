@@ -11,6 +11,7 @@ HEADLINE = ("pv_measured_nm", "rms_measured_nm", "sq_nm", "psd1_rms_nm", "psd2_r
 
 def register(subparsers) -> None:
     """Add the ``surface`` and ``compare`` sub-parsers."""
+    from ufmt.cli.common import positive
     from ufmt.cli.machining import _add_process_arguments
 
     p = subparsers.add_parser("surface", help="metrics of a measured surface map")
@@ -22,6 +23,13 @@ def register(subparsers) -> None:
     _add_map_arguments(p)
     p.add_argument("model", nargs="?", help="model TOML (default: packaged UFMT)")
     _add_process_arguments(p)
+    p.add_argument(
+        "--fmax",
+        type=positive(float),
+        default=1000.0,
+        metavar="HZ",
+        help="natural frequencies below HZ attributed in the spectrum (1000)",
+    )
     p.add_argument("--plot", metavar="DIR", help="write comparison.png, .csv and .json")
     p.set_defaults(func=cmd_compare)
 
@@ -100,6 +108,7 @@ def cmd_compare(args) -> int:
     from ufmt.machining.process import Process
     from ufmt.measured.compare import compare
     from ufmt.simulate import simulate
+    from ufmt.solvers import solve_modes
 
     files.check_set_target(args.plot)
     measured = _read(args)
@@ -109,7 +118,9 @@ def cmd_compare(args) -> int:
         process = Process(args.rpm, args.feed, args.depth)
     for warning in caught:
         warnings.warn(warning.message, warning.category, stacklevel=1)
-    comparison = compare(measured, simulate(model, process))
+    result = simulate(model, process)
+    modes = solve_modes(model, fmax_hz=args.fmax, shapes=False).frequencies_hz
+    comparison = compare(measured, result, modes)
     if args.plot:
         comparison.save(args.plot)
     if args.json:
@@ -120,4 +131,9 @@ def cmd_compare(args) -> int:
     print(f"  {'metric':<24} {'measured':>11} {'predicted':>11} {'ratio':>8}")
     for row in comparison.to_frame().itertuples():
         print(f"  {row.metric:<24} {row.measured:>11.4g} {row.predicted:>11.4g} {row.ratio:>8.3g}")
+    for band, directions in comparison.attribution.items():
+        for direction, shares in directions.items():
+            ranked = sorted(shares.items(), key=lambda item: -item[1])
+            text = ", ".join(f"{name} {share:.0%}" for name, share in ranked)
+            print(f"  {band} {direction}: {text}")
     return 0

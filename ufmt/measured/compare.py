@@ -1,7 +1,8 @@
 """A measured map beside the prediction of a simulated cut: both through the same pipeline
 (:func:`ufmt.measured.analysis.analyse`, the predicted surface being the simulation's surface
-without the feed marks on the grid its exports write, :func:`ufmt.exports.export_grid`), and a
-table of every metric with both values and their ratio measured / predicted."""
+without the feed marks on the grid its exports write, :func:`ufmt.exports.export_grid`), a
+table of every metric with both values and their ratio measured / predicted, and the share of
+each band of the measured spectrum each source explains (:mod:`.attribution`)."""
 
 from __future__ import annotations
 
@@ -21,6 +22,7 @@ class Comparison:
     measured: MeasuredSurface
     predicted: MeasuredSurface
     simulation: object
+    attribution: dict
 
     def to_frame(self):
         """One row per metric: ``metric``, ``measured``, ``predicted``, ``ratio`` (measured /
@@ -52,6 +54,7 @@ class Comparison:
             "feed_mm_min": sim.process.feed_mm_min,
             "depth_um": sim.process.depth_um,
             "metrics": table,
+            "attribution": self.attribution,
         }
 
     def plot(self):
@@ -76,11 +79,14 @@ class Comparison:
         ]
 
 
-def compare(measured: MeasuredSurface, simulation) -> Comparison:
+def compare(measured: MeasuredSurface, simulation, mode_frequencies_hz=()) -> Comparison:
     """The :class:`Comparison` of a measured surface with a
     :class:`ufmt.simulate.SimulationResult`, the prediction analysed with the measured
-    surface's options (clear-aperture margin, cutoff)."""
+    surface's options (clear-aperture margin, cutoff); the measured spectrum attributed to the
+    sources of the simulated machine and process and to the natural frequencies
+    ``mode_frequencies_hz`` [Hz]."""
     from ufmt.exports import export_grid
+    from ufmt.measured.attribution import attribute_map, source_lines
 
     x, y, z = export_grid(simulation.smooth_surface)
     options = measured.options
@@ -90,4 +96,5 @@ def compare(measured: MeasuredSurface, simulation) -> Comparison:
         aperture_margin=options["aperture_margin_mm"] * 1e-3,
         cutoff=None if cutoff is None else cutoff * 1e-3,
     )
-    return Comparison(measured, predicted, simulation)
+    lines = source_lines(simulation.machine, simulation.process, mode_frequencies_hz)
+    return Comparison(measured, predicted, simulation, attribute_map(measured.map, lines))
