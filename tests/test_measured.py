@@ -278,3 +278,19 @@ def test_attribution_recovers_each_sources_share():
     # the noise less its part in the sources' bins (5 of ~370 per line)
     assert shares["unexplained"] == pytest.approx(noise_power / total, rel=0.2)
     assert sum(shares.values()) == pytest.approx(1.0, rel=1e-12)
+
+
+def test_cli_simulate_save_surface_and_compare(tmp_path, capsys):
+    # the outside contract on the packaged model: the saved surface.sdf reads the simulation's
+    # interferometer PV within 2 %, and compare of it against the same cut finds ratio 1
+    assert main(["simulate", "--json", "--save", str(tmp_path / "sim")]) == 0
+    simulated = json.loads(capsys.readouterr().out)
+    sdf = str(tmp_path / "sim" / "surface.sdf")
+    assert main(["surface", sdf, "--json", "--plot", str(tmp_path / "plots")]) == 0
+    read = json.loads(capsys.readouterr().out)
+    assert read["pv_measured_nm"] == pytest.approx(simulated["pv_measured_nm"], rel=0.02)
+    assert (tmp_path / "plots" / "psd.png").is_file()
+    assert main(["compare", sdf, "--json", "--fmax", "200"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["metrics"]["pv_measured_nm"]["ratio"] == pytest.approx(1.0, rel=1e-6)
+    assert out["rpm"] == simulated["rpm"]
