@@ -12,7 +12,6 @@ HEADLINE = ("pv_measured_nm", "rms_measured_nm", "sq_nm", "psd1_rms_nm", "psd2_r
 def register(subparsers) -> None:
     """Add the ``surface`` and ``compare`` sub-parsers."""
     from ufmt.cli.common import positive
-    from ufmt.cli.machining import _add_process_arguments
 
     p = subparsers.add_parser("surface", help="metrics of a measured surface map")
     _add_map_arguments(p)
@@ -22,7 +21,7 @@ def register(subparsers) -> None:
     p = subparsers.add_parser("compare", help="a measured surface beside the simulated one")
     _add_map_arguments(p)
     p.add_argument("model", nargs="?", help="model TOML (default: packaged UFMT)")
-    _add_process_arguments(p)
+    _add_process_arguments(p, positive)
     p.add_argument(
         "--fmax",
         type=positive(float),
@@ -32,6 +31,20 @@ def register(subparsers) -> None:
     )
     p.add_argument("--plot", metavar="DIR", help="write comparison.png, .csv and .json")
     p.set_defaults(func=cmd_compare)
+
+
+def _add_process_arguments(p, positive) -> None:
+    """--rpm, --feed, --depth of the cut to predict (the reference process by default)."""
+    from ufmt.defaults import REFERENCE_DEPTH_UM, REFERENCE_FEED_MM_MIN, REFERENCE_RPM
+
+    for flag, default, help_text in (
+        ("--rpm", REFERENCE_RPM, "spindle speed"),
+        ("--feed", REFERENCE_FEED_MM_MIN, "feed [mm/min]"),
+        ("--depth", REFERENCE_DEPTH_UM, "depth of cut [um]"),
+    ):
+        p.add_argument(
+            flag, type=positive(float), default=default, help=f"{help_text} ({default:g})"
+        )
 
 
 def _add_map_arguments(p) -> None:

@@ -125,9 +125,9 @@ def attribute(
 
 def attribute_map(height_map, lines: dict[str, dict[str, np.ndarray]]):
     """Shares (:func:`attribute`) of the PSDs of a map whose feed runs along y
-    (:func:`ufmt.measured.analysis.map_psd`), in the bands its profiles resolve."""
+    (:func:`ufmt.measured.fits.map_psd`), in the bands its profiles resolve."""
     from ufmt.machining.psd import band_resolved
-    from ufmt.measured.analysis import map_psd
+    from ufmt.measured.fits import map_psd
 
     hx, hy = height_map.spacing
     profile = {"along": (height_map.y.size, hy), "across": (height_map.x.size, hx)}

@@ -9,7 +9,7 @@ from matplotlib.colors import TwoSlopeNorm
 from matplotlib.figure import Figure
 
 from ufmt.machining.psd import BANDS, DIRECTIONS
-from ufmt.measured.analysis import map_psd, plane_removed
+from ufmt.measured.fits import map_psd, plane_removed
 from ufmt.plots import new_axes, new_figure
 from ufmt.plots.psd import BAND_COLOURS, DIRECTION_STYLE, KDP_SPEC_RMS_NM
 
