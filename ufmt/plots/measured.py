@@ -4,6 +4,8 @@ bands shaded and their KDP limits (:data:`ufmt.plots.psd.KDP_SPEC_RMS_NM`, band 
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 from matplotlib.colors import TwoSlopeNorm
 from matplotlib.figure import Figure
@@ -46,7 +48,7 @@ def plot_map(measured, ax=None) -> Figure:
 def _map_title(measured) -> str:
     m = measured.metrics
     return (
-        f"{measured.map.path or 'map'}: PV {m['pv_measured_nm']:.1f} nm, "
+        f"{Path(measured.map.path).name or 'map'}: PV {m['pv_measured_nm']:.1f} nm, "
         f"RMS {m['rms_measured_nm']:.2f} nm (clear aperture, piston and tilt removed)"
     )
 
