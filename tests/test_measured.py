@@ -175,7 +175,7 @@ def test_sq_agrees_with_surfacetopography(tmp_path):
 
 def test_exports_read_back_alike_in_every_format(result, tmp_path):
     paths = result.save(tmp_path)
-    x, y, z = export_grid(result.smooth_surface)
+    x, y, z = export_grid(result.measured_surface())
     rx, ry, rz = read_sdf(tmp_path / "surface.sdf")
     # the SDF holds 1e-6 nm; SurfaceTopography's xyz reader rounds the step to 8 digits
     for name, step in (("sdf", 1e-12), ("xyz", 1e-6), ("x3p", 1e-12), ("npz", 1e-12)):

@@ -29,6 +29,7 @@ from ufmt.machining.instruments import (
     Interferometer,
     accelerometer_peak,
     interferometer_metrics,
+    interferometer_surface,
     scallop_roughness,
 )
 from ufmt.machining.periodic_path import periodic_response, record_tip_acceleration
@@ -150,11 +151,20 @@ class SimulationResult:
 
         return plot_surface_map(self, stage=stage, ax=ax)
 
+    def measured_surface(self) -> Surface:
+        """The surface as the interferometer sees it: without the feed marks, plus their mean
+        where it does not resolve them
+        (:func:`~ufmt.machining.instruments.interferometer_surface`)."""
+        scallops = self.surface if "feed_marks" in self.sources else None
+        feed = self.process.feed_per_rev_m
+        return interferometer_surface(self.smooth_surface, self.machine, feed, scallops=scallops)
+
     def save(self, directory) -> list[Path]:
         """Write metrics.json (strict JSON), summary.csv, time.csv (the record window), the
-        surface without the feed marks as surface.xyz, surface.sdf (ISO 25178-71) and
-        surface.x3p (ISO 25178-72),
-        surface.npz (x_m, y_m, z_m: every source; z_smooth_m: without the feed marks) and the
+        surface as the interferometer sees it (:meth:`measured_surface`) as surface.xyz,
+        surface.sdf (ISO 25178-71) and surface.x3p (ISO 25178-72),
+        surface.npz (x_m, y_m, z_m: every source; z_smooth_m: without the feed marks;
+        z_measured_m: as the interferometer sees it) and the
         maps surface.png and surface_measured.png (:mod:`ufmt.exports`), as one set
         (:class:`ufmt.files.FileSet`, metrics.json last): a failure keeps the earlier set."""
         from ufmt import files
@@ -169,13 +179,19 @@ class SimulationResult:
                     out.staged(name),
                     lambda b, f=frame: f.to_csv(b, index=False, float_format="%.8g"),
                 )
-            write_xyz(self.smooth_surface, out.staged("surface.xyz"))
-            write_sdf(self.smooth_surface, out.staged("surface.sdf"))
-            write_x3p(self.smooth_surface, out.staged("surface.x3p"))
+            seen = self.measured_surface()
+            write_xyz(seen, out.staged("surface.xyz"))
+            write_sdf(seen, out.staged("surface.sdf"))
+            write_x3p(seen, out.staged("surface.x3p"))
             files.write_with(
                 out.staged("surface.npz"),
                 lambda b: np.savez_compressed(
-                    b, x_m=s.x, y_m=s.y, z_m=s.z, z_smooth_m=self.smooth_surface.z
+                    b,
+                    x_m=s.x,
+                    y_m=s.y,
+                    z_m=s.z,
+                    z_smooth_m=self.smooth_surface.z,
+                    z_measured_m=seen.z,
                 ),
             )
             for stage, name in (("machined", "surface.png"), ("measured", "surface_measured.png")):

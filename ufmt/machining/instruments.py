@@ -106,6 +106,26 @@ def plane_removed(x: np.ndarray, y: np.ndarray, z: np.ndarray) -> np.ndarray:
     return z - (coef[0] + coef[1] * x[None, :] + coef[2] * y[:, None])
 
 
+def interferometer_surface(
+    smooth: Surface,
+    machine: Machine,
+    feed_per_rev: float,
+    *,
+    scallops: Surface | None = None,
+    instrument: Interferometer = Interferometer(),
+) -> Surface:
+    """The surface as the interferometer sees it: ``smooth`` (every switched-on source but the
+    feed marks) with the feed marks' mean h(x) / 3 where it does not resolve them, else
+    ``scallops`` (the surface with the feed marks); ``smooth`` where the feed marks are off
+    (``scallops`` None). feed_per_rev [m]."""
+    if scallops is None:
+        return smooth
+    if instrument.resolves_scallops(feed_per_rev):
+        return scallops
+    mean = scallop_height(smooth.x, machine, feed_per_rev)[None, :] / 3.0
+    return Surface(smooth.x, smooth.y, smooth.z + mean, smooth.core)
+
+
 def interferometer_metrics(
     smooth: Surface,
     machine: Machine,
@@ -120,14 +140,11 @@ def interferometer_metrics(
     with the feed marks too (None where the feed marks are switched off). feed_per_rev [m].
     """
     in_x, in_y = _aperture_masks(smooth, instrument.aperture_margin)
-    if scallops is None:
-        z = smooth.z
-    elif instrument.resolves_scallops(feed_per_rev):
-        z = scallops.z
-    else:
-        z = smooth.z + scallop_height(smooth.x, machine, feed_per_rev)[None, :] / 3.0
+    seen = interferometer_surface(
+        smooth, machine, feed_per_rev, scallops=scallops, instrument=instrument
+    )
     x, y = smooth.x[in_x], smooth.y[in_y]
-    flat = plane_removed(x, y, z[np.ix_(in_y, in_x)])
+    flat = plane_removed(x, y, seen.z[np.ix_(in_y, in_x)])
     core = flat[smooth.core_rows[in_y]]
     return {
         "pv_measured_nm": float(flat.max() - flat.min()) * 1e9,

@@ -1,6 +1,6 @@
 """A measured map beside the prediction of a simulated cut: both through the same pipeline
 (:func:`ufmt.measured.analysis.analyse`, the predicted surface being the simulation's surface
-without the feed marks on the grid its exports write, :func:`ufmt.exports.export_grid`), a
+as the interferometer sees it on the grid its exports write, :func:`ufmt.exports.export_grid`), a
 table of every metric with both values and their ratio measured / predicted, and the share of
 each band of the measured spectrum each source explains (:mod:`.attribution`)."""
 
@@ -88,7 +88,7 @@ def compare(measured: MeasuredSurface, simulation, mode_frequencies_hz=()) -> Co
     from ufmt.exports import export_grid
     from ufmt.measured.attribution import attribute_map, source_lines
 
-    x, y, z = export_grid(simulation.smooth_surface)
+    x, y, z = export_grid(simulation.measured_surface())
     options = measured.options
     cutoff = options.get("cutoff_mm")
     predicted = analyse(

@@ -10,9 +10,10 @@ file's lateral and height units converted to metres. Missing pixels (masked or N
 file) are NaN. A file without units (plain-text xyz) is in metres, as ufmt writes it, unless
 ``unit`` says otherwise.
 
-ufmt's ``.npz`` (``x_m``, ``y_m``, ``z_m``, ``z_smooth_m``; every row of the simulated grid,
-the refined edge rows included) is read on the lattice :func:`ufmt.exports.export_grid`
-writes, from ``z_smooth_m`` (the surface without the feed marks, as in the other exports).
+ufmt's ``.npz`` (``x_m``, ``y_m``, ``z_m``, ``z_smooth_m``, ``z_measured_m``; every row of the
+simulated grid, the refined edge rows included) is read on the lattice
+:func:`ufmt.exports.export_grid` writes, from ``z_measured_m`` (the surface as the
+interferometer sees it, as in the other exports), else ``z_smooth_m``, else ``z_m``.
 """
 
 from __future__ import annotations
@@ -107,7 +108,8 @@ def _ufmt_npz(data, path: Path) -> HeightMap:
     from ufmt.machining.surface import Surface
 
     x, y = np.asarray(data["x_m"], float), np.asarray(data["y_m"], float)
-    z = np.asarray(data["z_smooth_m"] if "z_smooth_m" in data.files else data["z_m"], float)
+    key = next(k for k in ("z_measured_m", "z_smooth_m", "z_m") if k in data.files)
+    z = np.asarray(data[key], float)
     if x.ndim != 1 or y.ndim != 1 or z.shape != (y.size, x.size) or min(x.size, y.size) < 2:
         raise ModelError(f"{path}: z_m must be (len(y_m), len(x_m)), got {z.shape}")
     step = float(np.diff(y).max())
