@@ -13,7 +13,7 @@ import pytest
 from synthetic import MACHINE, synthetic_basis
 
 import ufmt
-from ufmt.exports import even_grid, read_sdf, sdf_text, write_xyz
+from ufmt.exports import export_grid, read_sdf, sdf_text, write_xyz
 from ufmt.machining.process import Process
 from ufmt.model.machine import read_machine
 from ufmt.model.schema import Model
@@ -69,8 +69,19 @@ def test_feed_marks_are_drawn_at_their_own_scale_only(result):
     assert "feed marks switched off" in texts
 
 
+def test_export_lattice_holds_every_computed_row(result):
+    # the exports' uniform lattice passes through the evenly spaced and the refined rows
+    s = result.smooth_surface
+    assert not s.core_rows.all()
+    x, y, z = export_grid(s)
+    np.testing.assert_allclose(np.diff(y), np.diff(y).mean(), rtol=1e-9)
+    rows = np.abs(y[:, None] - s.y[None, :]).argmin(axis=0)
+    np.testing.assert_allclose(y[rows], s.y, atol=1e-12)
+    np.testing.assert_array_equal(z[rows], s.z)
+
+
 def test_sdf_and_xyz_round_trip_the_even_grid(result, tmp_path):
-    x, y, z = even_grid(result.smooth_surface)
+    x, y, z = export_grid(result.smooth_surface)
     text = sdf_text(result.smooth_surface, datetime.datetime(2026, 1, 2, 3, 4))
     lines = text.split("\r\n")
     assert lines[0] == "aISO-1.0" and "CreateDate = 020120260304" in lines

@@ -13,7 +13,10 @@ Public entry points:
   ``ufmt.Process`` or a dict; returns a :class:`ufmt.EvaluationRecord`;
   ``ufmt.evaluate_batch(designs, processes, model=None)`` the same for many points at once;
 - ``ufmt.frf(model, direction="z", kind="receptance", output=None, input=None, ...)``:
-  tool-workpiece or point-to-point FRF in any direction (:class:`ufmt.FrfResult`).
+  tool-workpiece or point-to-point FRF in any direction (:class:`ufmt.FrfResult`);
+- ``ufmt.read_surface(path, feed_direction="y", ...)``: a measured height map (MetroPro, x3p,
+  SDF, xyz, ufmt's exports) through the instrument pipeline
+  (:class:`ufmt.measured.analysis.MeasuredSurface`).
 
 Every ``model`` argument takes a path, a loaded model or None (the packaged UFMT); a model
 in another argument's place is refused with the order (:mod:`ufmt.arguments`); every request
@@ -37,6 +40,7 @@ _PUBLIC = {
     "frf": "ufmt.machining.frf",
     "load_model": "ufmt.model.load",
     "packaged_path": "ufmt.model.load",
+    "read_surface": "ufmt.measured.analysis",
     "simulate": "ufmt.simulate",
     "solve_modes": "ufmt.solvers",
 }

@@ -1,9 +1,11 @@
 """Exports of a simulation in the formats other tools open: the machined surface as a height
 grid and the record window's time histories as a table.
 
-Height grids (the evenly spaced rows of a :class:`ufmt.machining.surface.Surface`; the
-refined rows along the entry and exit edges, which only sharpen the PV, are left out, since
-these formats hold an evenly spaced grid):
+Height grids (:func:`export_grid`: these formats hold an evenly spaced grid, so a
+:class:`ufmt.machining.surface.Surface` with refined rows along its entry and exit edges is
+written on the uniform lattice of the refined rows' step in y: the evenly spaced rows and the
+refined ones exact, the rows between them a cubic spline through them in y; the features the
+refined rows resolve, which set the interferometer's PV, stay in the file):
 
 * ``.xyz``: plain text, one point per line, ``x y z`` in metres, x fastest. Surface-analysis
   and interferometer software (Gwyddion's "XYZ data", MountainsMap, MetroPro/Mx's XYZ import)
@@ -13,6 +15,8 @@ these formats hold an evenly spaced grid):
   ``NumProfiles`` along y, ``Xscale``/``Yscale``/``Zscale`` in metres, ``DataType = 7``
   double), ``*``, the heights one profile per line in units of ``Zscale`` (1 nm), ``*``, a
   trailer, ``*``.
+* ``.x3p``: ISO 25178-72 XML 3D surface profile, written by SurfaceTopography (heights in
+  metres, doubles).
 * ``.npz``: numpy arrays ``x_m``, ``y_m``, ``z_m`` (every row, the refined ones included).
 
 Time histories (:func:`time_frame`): one row per sample of the record window, units in the
@@ -43,18 +47,38 @@ def even_grid(surface) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return surface.x, surface.y[rows], surface.z[rows]
 
 
+def export_grid(surface) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(x (Nx,), y (Ny,), z (Ny, Nx)) [m] written by the height-grid exports (module docstring):
+    :func:`even_grid` if every row is evenly spaced, else the lattice of the refined step."""
+    if surface.core_rows.all():
+        return even_grid(surface)
+    import scipy.interpolate
+
+    y = surface.y
+    step = float(np.diff(y).min())
+    n = int(round((y[-1] - y[0]) / step)) + 1
+    lattice = np.linspace(y[0], y[-1], n)
+    spline = scipy.interpolate.make_interp_spline(y, surface.z, k=3, axis=0)
+    z = spline(lattice)
+    # the computed rows exactly (the spline passes through them up to rounding)
+    known = np.abs(lattice[:, None] - y[None, :]) < step * 1e-6
+    rows, cols = np.nonzero(known)
+    z[rows] = surface.z[cols]
+    return surface.x, lattice, z
+
+
 def write_xyz(surface, path) -> Path:
-    """Write the evenly spaced grid as ``x y z`` lines [m] (x fastest); returns the path."""
-    x, y, z = even_grid(surface)
+    """Write :func:`export_grid` as ``x y z`` lines [m] (x fastest); returns the path."""
+    x, y, z = export_grid(surface)
     yy, xx = np.meshgrid(y, x, indexing="ij")
     table = np.column_stack([xx.ravel(), yy.ravel(), z.ravel()])
     return files.write_with(path, lambda b: np.savetxt(b, table, fmt="%.9e"))
 
 
 def sdf_text(surface, created: datetime.datetime | None = None) -> str:
-    """The ISO 25178-71 ASCII surface data file (module docstring) of the evenly spaced grid;
+    """The ISO 25178-71 ASCII surface data file (module docstring) of :func:`export_grid`;
     ``created`` (default now) dates the header."""
-    x, y, z = even_grid(surface)
+    x, y, z = export_grid(surface)
     if x.size > SDF_MAX_POINTS or y.size > SDF_MAX_POINTS:
         raise ValueError(f"an ISO-1.0 SDF holds at most {SDF_MAX_POINTS} points per axis")
     stamp = (created or datetime.datetime.now(datetime.UTC)).strftime("%d%m%Y%H%M")
@@ -81,6 +105,17 @@ def sdf_text(surface, created: datetime.datetime | None = None) -> str:
 def write_sdf(surface, path, created: datetime.datetime | None = None) -> Path:
     """Write :func:`sdf_text` to ``path``; returns the path."""
     return files.write_bytes(path, sdf_text(surface, created).encode("ascii"))
+
+
+def write_x3p(surface, path) -> Path:
+    """Write :func:`export_grid` as an ISO 25178-72 ``.x3p`` file (SurfaceTopography's
+    writer; heights [m]); returns the path."""
+    from SurfaceTopography import Topography
+
+    x, y, z = export_grid(surface)
+    sizes = (x.size * float(x[1] - x[0]), y.size * float(y[1] - y[0]))  # n h: pixel h
+    topography = Topography(z.T, physical_sizes=sizes, unit="m")
+    return files.write_with(path, topography.to_x3p)
 
 
 def write_npz(surface, path) -> Path:

@@ -33,6 +33,7 @@ from ufmt.machining.instruments import (
     Interferometer,
     accelerometer_peak,
     interferometer_metrics,
+    interferometer_surface,
     scallop_roughness,
 )
 from ufmt.machining.periodic_path import periodic_response, record_tip_acceleration
@@ -175,14 +176,24 @@ class SimulationResult:
 
         return plot_surface_map(self, stage=stage, ax=ax)
 
+    def measured_surface(self) -> Surface:
+        """The surface as the interferometer sees it: without the feed marks, plus their mean
+        where it does not resolve them
+        (:func:`~ufmt.machining.instruments.interferometer_surface`)."""
+        scallops = self.surface if "feed_marks" in self.sources else None
+        feed = self.process.feed_per_rev_m
+        return interferometer_surface(self.smooth_surface, self.machine, feed, scallops=scallops)
+
     def save(self, directory) -> list[Path]:
         """Write metrics.json (strict JSON), summary.csv, time.csv (the record window), the
-        surface without the feed marks as surface.xyz and surface.sdf (ISO 25178-71),
-        surface.npz (x_m, y_m, z_m: every source; z_smooth_m: without the feed marks) and the
+        surface as the interferometer sees it (:meth:`measured_surface`) as surface.xyz,
+        surface.sdf (ISO 25178-71) and surface.x3p (ISO 25178-72),
+        surface.npz (x_m, y_m, z_m: every source; z_smooth_m: without the feed marks;
+        z_measured_m: as the interferometer sees it) and the
         maps surface.png and surface_measured.png (:mod:`ufmt.exports`), as one set
         (:class:`ufmt.files.FileSet`, metrics.json last): a failure keeps the earlier set."""
         from ufmt import files
-        from ufmt.exports import write_sdf, write_xyz
+        from ufmt.exports import write_sdf, write_x3p, write_xyz
         from ufmt.plots import save_figure
 
         s = self.surface
@@ -193,12 +204,19 @@ class SimulationResult:
                     out.staged(name),
                     lambda b, f=frame: f.to_csv(b, index=False, float_format="%.8g"),
                 )
-            write_xyz(self.smooth_surface, out.staged("surface.xyz"))
-            write_sdf(self.smooth_surface, out.staged("surface.sdf"))
+            seen = self.measured_surface()
+            write_xyz(seen, out.staged("surface.xyz"))
+            write_sdf(seen, out.staged("surface.sdf"))
+            write_x3p(seen, out.staged("surface.x3p"))
             files.write_with(
                 out.staged("surface.npz"),
                 lambda b: np.savez_compressed(
-                    b, x_m=s.x, y_m=s.y, z_m=s.z, z_smooth_m=self.smooth_surface.z
+                    b,
+                    x_m=s.x,
+                    y_m=s.y,
+                    z_m=s.z,
+                    z_smooth_m=self.smooth_surface.z,
+                    z_measured_m=seen.z,
                 ),
             )
             for stage, name in (("machined", "surface.png"), ("measured", "surface_measured.png")):
@@ -206,7 +224,7 @@ class SimulationResult:
             metrics = json.dumps(self.to_dict(), indent=2, allow_nan=False) + "\n"
             out.add("metrics.json", metrics.encode())
         names = ("metrics.json", "summary.csv", "time.csv", "surface.xyz", "surface.sdf")
-        names += ("surface.npz", "surface.png", "surface_measured.png")
+        names += ("surface.x3p", "surface.npz", "surface.png", "surface_measured.png")
         return [Path(directory) / name for name in names]
 
 

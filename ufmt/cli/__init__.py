@@ -1,5 +1,5 @@
-"""Command-line interface: ``ufmt modes | simulate | frf | calibrate | validate | plot-mode |
-run | report``; ``ufmt --version``; bare ``ufmt`` prints the help.
+"""Command-line interface: ``ufmt modes | simulate | frf | surface | compare | calibrate |
+validate | plot-mode | run | report``; ``ufmt --version``; bare ``ufmt`` prints the help.
 
 Exit status: 0 success; 1 ``ufmt run`` finished but some points failed (a summary line on
 stderr; each failure's message is in points.csv); 2 a user error (bad model, study, argument or
@@ -32,6 +32,7 @@ def build_parser() -> argparse.ArgumentParser:
     from ufmt.cli.calibration import register as register_calibration
     from ufmt.cli.common import positive
     from ufmt.cli.machining import register as register_machining
+    from ufmt.cli.measured import register as register_measured
     from ufmt.cli.modes import cmd_modes
     from ufmt.cli.report import register as register_report
     from ufmt.cli.studies import add_run_parser
@@ -55,7 +56,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--method", choices=["mstmm", "assembled"], default="mstmm")
     p.add_argument("--json", action="store_true", help="one JSON object on stdout")
     p.set_defaults(func=cmd_modes)
-    for register in (register_calibration, register_machining, add_run_parser, register_report):
+    registers = (register_calibration, register_machining, register_measured, add_run_parser)
+    for register in (*registers, register_report):
         register(sub)
     return parser
 

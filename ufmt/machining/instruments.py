@@ -117,13 +117,37 @@ def _aperture_masks(surface: Surface, margin: float) -> tuple[np.ndarray, np.nda
     return np.abs(x - cx) <= half_x + 1e-12, np.abs(y - cy) <= half_y + 1e-12
 
 
-def _plane_removed(x: np.ndarray, y: np.ndarray, z: np.ndarray, fit_rows: np.ndarray):
-    """z (Ny, Nx) less its least-squares plane fitted on the rows ``fit_rows`` (evenly spaced,
-    so every fitted point stands for one equal pixel)."""
-    yy, xx = np.meshgrid(y[fit_rows], x, indexing="ij")
-    design = np.column_stack([np.ones(xx.size), xx.ravel(), yy.ravel()])
-    coef, *_ = np.linalg.lstsq(design, z[fit_rows].ravel(), rcond=None)
+def plane_removed(x: np.ndarray, y: np.ndarray, z: np.ndarray) -> np.ndarray:
+    """z (Ny, Nx) [m] less its least-squares plane, each row weighted by the length of plate
+    it stands for (half the gaps to its neighbours): the camera's pixels are equal, and the
+    refined rows along the entry and exit edges (finer than the evenly spaced ones) count
+    for their own strip, not for a whole grid step."""
+    edges = np.concatenate([y[:1], (y[1:] + y[:-1]) / 2, y[-1:]])
+    root = np.sqrt(np.diff(edges))[:, None]
+    yy, xx = np.meshgrid(y, x, indexing="ij")
+    design = np.stack([np.ones_like(xx), xx, yy], axis=-1) * root[..., None]
+    coef, *_ = np.linalg.lstsq(design.reshape(-1, 3), (z * root).ravel(), rcond=None)
     return z - (coef[0] + coef[1] * x[None, :] + coef[2] * y[:, None])
+
+
+def interferometer_surface(
+    smooth: Surface,
+    machine: Machine,
+    feed_per_rev: float,
+    *,
+    scallops: Surface | None = None,
+    instrument: Interferometer = Interferometer(),
+) -> Surface:
+    """The surface as the interferometer sees it: ``smooth`` (every switched-on source but the
+    feed marks) with the feed marks' mean h(x) / 3 where it does not resolve them, else
+    ``scallops`` (the surface with the feed marks); ``smooth`` where the feed marks are off
+    (``scallops`` None). feed_per_rev [m]."""
+    if scallops is None:
+        return smooth
+    if instrument.resolves_scallops(feed_per_rev):
+        return scallops
+    mean = scallop_height(smooth.x, machine, feed_per_rev)[None, :] / 3.0
+    return Surface(smooth.x, smooth.y, smooth.z + mean, smooth.core)
 
 
 def interferometer_metrics(
@@ -140,14 +164,11 @@ def interferometer_metrics(
     with the feed marks too (None where the feed marks are switched off). feed_per_rev [m].
     """
     in_x, in_y = _aperture_masks(smooth, instrument.aperture_margin)
-    if scallops is None:
-        z = smooth.z
-    elif instrument.resolves_scallops(feed_per_rev):
-        z = scallops.z
-    else:
-        z = smooth.z + scallop_height(smooth.x, machine, feed_per_rev)[None, :] / 3.0
+    seen = interferometer_surface(
+        smooth, machine, feed_per_rev, scallops=scallops, instrument=instrument
+    )
     x, y = smooth.x[in_x], smooth.y[in_y]
-    flat = _plane_removed(x, y, z[np.ix_(in_y, in_x)], smooth.core_rows[in_y])
+    flat = plane_removed(x, y, seen.z[np.ix_(in_y, in_x)])
     core = flat[smooth.core_rows[in_y]]
     return {
         "pv_measured_nm": float(flat.max() - flat.min()) * 1e9,

@@ -69,23 +69,15 @@ def profile_psd(
 
     Each line is detrended (its least-squares line) and windowed (``window``, a
     :func:`scipy.signal.get_window` name; "boxcar" for none), its periodogram divided by the
-    window's mean square (as :func:`scipy.signal.periodogram` with ``detrend="linear"``,
-    ``scaling="density"``). Returns frequency (n // 2 + 1,) [1/m] and PSD [z unit^2 m], the
+    window's mean square: :func:`scipy.signal.periodogram` with ``detrend="linear"``,
+    ``scaling="density"``. Returns frequency (n // 2 + 1,) [1/m] and PSD [z unit^2 m], the
     mean over the other axes.
     """
     lines = np.moveaxis(np.asarray(z, dtype=float), axis, -1)
-    n = lines.shape[-1]
-    t = np.arange(n) - (n - 1) / 2  # centred: orthogonal to the constant, fitted apart
-    slope = (lines @ t) / (t @ t)
-    lines = lines - lines.mean(axis=-1, keepdims=True) - slope[..., None] * t
-    win = scipy.signal.get_window(window, n)
-    spectrum = scipy.fft.rfft(lines * win, axis=-1)
-    power = (spectrum.real**2 + spectrum.imag**2).reshape(-1, spectrum.shape[-1]).mean(axis=0)
-    psd = power * (2 * spacing / np.sum(win**2))
-    psd[0] /= 2  # DC and (even n) Nyquist appear once in the two-sided spectrum
-    if n % 2 == 0:
-        psd[-1] /= 2
-    return scipy.fft.rfftfreq(n, spacing), psd
+    frequency, psd = scipy.signal.periodogram(
+        lines, fs=1.0 / spacing, window=window, detrend="linear", scaling="density", axis=-1
+    )
+    return frequency, psd.reshape(-1, psd.shape[-1]).mean(axis=0)
 
 
 def band_power(frequency: np.ndarray, psd: np.ndarray, band: tuple[float, float]) -> float:

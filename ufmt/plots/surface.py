@@ -19,7 +19,12 @@ from matplotlib.colors import TwoSlopeNorm
 from matplotlib.figure import Figure
 from matplotlib.patches import Rectangle
 
-from ufmt.machining.instruments import Interferometer, scallop_height
+from ufmt.machining.instruments import (
+    Interferometer,
+    interferometer_surface,
+    plane_removed,
+    scallop_height,
+)
 from ufmt.machining.surface import DEFAULT_APERTURE_MARGIN
 from ufmt.plots import new_axes, new_figure
 
@@ -42,19 +47,12 @@ def measured_map(result, instrument: Interferometer | None = None):
     cx, cy = (s.x[0] + s.x[-1]) / 2, (s.y[0] + s.y[-1]) / 2
     in_x = np.abs(s.x - cx) <= (s.x[-1] - s.x[0]) / 2 - margin + 1e-12
     in_y = np.abs(s.y - cy) <= (s.y[-1] - s.y[0]) / 2 - margin + 1e-12
+    scallops = result.surface if FEED_MARKS in result.sources else None
     feed = result.process.feed_per_rev_m
-    z = s.z
-    if FEED_MARKS in result.sources:
-        if instrument.resolves_scallops(feed):
-            z = result.surface.z
-        else:
-            z = z + scallop_height(s.x, result.machine, feed)[None, :] / 3.0
+    seen = interferometer_surface(s, result.machine, feed, scallops=scallops, instrument=instrument)
+    z = seen.z
     x, y, z = s.x[in_x], s.y[in_y], z[np.ix_(in_y, in_x)]
-    fit = s.core_rows[in_y]
-    yy, xx = np.meshgrid(y[fit], x, indexing="ij")
-    design = np.column_stack([np.ones(xx.size), xx.ravel(), yy.ravel()])
-    coef, *_ = np.linalg.lstsq(design, z[fit].ravel(), rcond=None)
-    return x, y, z - (coef[0] + coef[1] * x[None, :] + coef[2] * y[:, None])
+    return x, y, plane_removed(x, y, z)
 
 
 def plot_surface_map(result, stage: str = "machined", ax=None) -> Figure:
