@@ -297,7 +297,7 @@ def test_packaged_calibration_loads(prior):
             r"'regularisation'\?\)",
         ),
         (  # [response] is checked when the file is loaded, before any identification
-            "starts = 12",
+            "starts = 3",
             "starts = 0",
             r"calibration\.toml: response: field 'starts': 0 is too small \(allowed: >= 1\)",
         ),
@@ -359,8 +359,8 @@ def test_cli_calibrate_is_deterministic_and_reports_the_response_fit(tmp_path, c
     for old, new in (
         ("max_iterations = 60", "max_iterations = 2"),
         ("global_start = true", "global_start = false"),
-        ("max_evaluations = 200", "max_evaluations = 1"),  # one Jacobian, no step
-        ("starts = 12", "starts = 1"),  # restarts: tests/test_response_fit.py
+        ("max_evaluations = 40", "max_evaluations = 1"),  # one Jacobian, no step
+        ("starts = 3", "starts = 1"),  # restarts: tests/test_response_fit.py
     ):
         assert old in text
         text = text.replace(old, new)

@@ -36,6 +36,9 @@ PHYSICS = (
     "solvers.py",  # solve_modes by either solver
     "machining",  # modal basis, cutting force, error sources, response, surface
     "simulate.py",  # one cut
+    "simulation_result.py",  # the result of a cut, whose to_dict an evaluation reads
+    "arguments.py",  # the argument checks whose messages a failed evaluation records
+    "limits.py",  # the budgets whose messages a failed evaluation records
     "design.py",  # design parameters -> hinge values, the reference process, record names
     "evaluate.py",  # the record itself
 )
