@@ -5,12 +5,12 @@ recorder's instants directly, the expected peak of a sine under a free-running c
 from __future__ import annotations
 
 import math
-import re
 
 import numpy as np
 import pytest
 import scipy.integrate
 import scipy.signal
+from machine_text import set_machine_keys  # tests/ helper
 from synthetic import packaged_text
 
 from ufmt.errors import ModelError
@@ -133,7 +133,7 @@ def test_the_chain_is_linear_in_the_acceleration():
 
 
 def with_machine_key(key: str, value: float):
-    text = re.sub(r"(?m)^\[machine\]$", f"[machine]\n{key} = {value!r}", packaged_text())
+    text = set_machine_keys(packaged_text(), **{key: repr(value)})
     return load_model_text(text, source="chain.toml")
 
 

@@ -13,6 +13,7 @@ from __future__ import annotations
 from functools import lru_cache
 
 import pytest
+from machine_text import set_machine_keys  # tests/ helper
 
 from ufmt.defaults import DEFAULT_BASIS_CUTOFF_HZ
 from ufmt.machining.modal import modal_basis
@@ -38,7 +39,7 @@ def packaged():
     from importlib import resources
 
     text = resources.files("ufmt.data").joinpath("ufmt.toml").read_text()
-    return load_model_text(text.replace("[machine]\n", "[machine]\ntool_mass_kg = 0.0\n", 1))
+    return load_model_text(set_machine_keys(text, tool_mass_kg=0.0))
 
 
 @lru_cache(maxsize=4)
@@ -122,7 +123,7 @@ def test_with_the_tool_carrier_the_default_sampling_is_within_half_a_percent_of_
     from ufmt.machining import validity
 
     text = resources.files("ufmt.data").joinpath("ufmt.toml").read_text()
-    model = load_model_text(text.replace("[machine]\n", "[machine]\ntool_mass_kg = 0.015\n", 1))
+    model = load_model_text(set_machine_keys(text, tool_mass_kg=0.015))
     default = _tool_run(model, None)
     assert default.samples_per_rev == validity.MAX_SAMPLES_PER_REV
     monkeypatch.setattr(validity, "MAX_SAMPLES_PER_REV", 4 * default.samples_per_rev)

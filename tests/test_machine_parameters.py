@@ -26,13 +26,13 @@ def test_every_optional_machine_number_is_a_parameter():
 def test_machine_parameter_round_trip_and_band():
     model = load_model()
     changed = apply_design(
-        model, {"machine.straightness_m": 5e-8, "machine.workpiece_size[1]": 0.1}
+        model, {"machine.straightness_m": 7e-8, "machine.workpiece_size[1]": 0.1}
     )
-    assert changed.machine.straightness_m == 5e-8
+    assert changed.machine.straightness_m == 7e-8
     assert changed.machine.workpiece_size[1] == 0.1
-    assert design_value(changed, "machine.straightness_m") == 5e-8
+    assert design_value(changed, "machine.straightness_m") == 7e-8
     assert design_value(changed, "machine.workpiece_size[1]") == 0.1
-    assert model.machine.straightness_m != 5e-8  # the loaded model is untouched
+    assert model.machine.straightness_m != 7e-8  # the loaded model is untouched
     with pytest.raises(ModelError, match="straightness_m.*outside the allowed range"):
         apply_design(model, {"machine.straightness_m": 5e-5})
     with pytest.raises(StudyError, match="did you mean 'machine.straightness_m'"):

@@ -298,11 +298,14 @@ def test_cli_simulate_save_surface_and_compare(tmp_path, capsys):
 
 def test_attribution_of_a_simulated_surface_read_back(tmp_path):
     # straightness (10 nm, 20 mm) and pressure ripple (5 nm, v / f_p = 7 mm) alone on a
-    # 120 mm plate: along the feed the surface is the two sines, 100 : 25 in mean square
+    # 120 mm plate: along the feed the surface is the two sines, 100 : 25 in mean square (the
+    # carriage's pads 20 mm apart and 1 mm long carry the guideway's 20 mm wave whole: heave
+    # cos(pi S / L) sinc(l / L) = -1.00, no pitch)
     from ufmt.measured.attribution import attribute_map, source_lines
 
     table = {**MACHINE, "workpiece_size": [0.12, 0.12], "straightness_m": 10e-9,
-             "straightness_wavelength_m": 20e-3, "pressure_ripple_m": 5e-9,
+             "straightness_wavelength_m": 20e-3, "carriage_pad_span_m": 20e-3,
+             "carriage_pad_length_m": 1e-3, "pressure_ripple_m": 5e-9,
              "pressure_ripple_hz": 0.25e-3 / 7e-3}  # fmt: skip
     machine = read_machine(table)
     result = ufmt.simulate(

@@ -7,10 +7,10 @@ extra body on a z spring and dashpot (an independent assembly of the same machin
 """
 
 import dataclasses
-import re
 
 import numpy as np
 import pytest
+from machine_text import set_machine_keys  # tests/ helper
 from synthetic import packaged_text
 from test_frf_direct import direct_receptance
 
@@ -118,10 +118,8 @@ def test_the_head_shapes_are_the_machine_modes_combined():
 
 def soft_model(mass_kg: float):
     """The packaged model (force scale 1) with the tool keys given."""
-    text = re.sub(r"(?m)^tool_compliance_m_per_N = .*$", "", packaged_text())
-    keys = {**SOFT, "tool_mass_kg": mass_kg}
-    lines = "".join(f"{k} = {v!r}\n" for k, v in keys.items())
-    return load_model_text(text.replace("[machine]\n", "[machine]\n" + lines, 1), "u.toml")
+    keys = {k: repr(v) for k, v in {**SOFT, "tool_mass_kg": mass_kg}.items()}
+    return load_model_text(set_machine_keys(packaged_text(), **keys), "u.toml")
 
 
 def with_carrier_body(model, machine):
@@ -249,10 +247,10 @@ def test_a_vanishing_carrier_mass_gives_the_massless_spring():
 
 
 def test_the_tool_keys_are_checked():
-    text = packaged_text().replace("[machine]\n", "[machine]\ntool_mass_kg = 0.5\n", 1)
+    text = set_machine_keys(packaged_text(), tool_mass_kg=0.5)
     with pytest.raises(ModelError, match="tool_mass_kg"):
         load_model_text(text, "ufmt.toml")
-    text = packaged_text().replace("[machine]\n", "[machine]\ntool_damping_ratio = nan\n", 1)
+    text = set_machine_keys(packaged_text(), tool_damping_ratio="nan")
     with pytest.raises(ModelError, match="tool_damping_ratio"):
         load_model_text(text, "ufmt.toml")
 

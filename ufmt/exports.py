@@ -32,6 +32,7 @@ import numpy as np
 
 from ufmt import files, limits
 from ufmt.errors import ModelError
+from ufmt.limits import MAX_MAP_BYTES
 from ufmt.tables import Where
 from ufmt.tomlfile import read_text
 
@@ -129,13 +130,13 @@ def read_sdf(path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     writes it (origin from its trailer, else 0).
 
     Raises ModelError naming the file and the field: a file that is not ASCII ISO-1.0 or is
-    larger than :data:`ufmt.limits.MAX_INPUT_BYTES`, ``NumPoints`` or ``NumProfiles`` outside
+    larger than :data:`ufmt.limits.MAX_MAP_BYTES`, ``NumPoints`` or ``NumProfiles`` outside
     1-65535, a scale that is not a finite number > 0, heights that are not finite numbers
     or not ``NumPoints`` x ``NumProfiles`` of them, an origin that is not finite.
     """
     where = Where(str(path), error=ModelError)
     try:
-        text = read_text(path, ModelError).encode("ascii").decode("ascii")
+        text = read_text(path, ModelError, MAX_MAP_BYTES).encode("ascii").decode("ascii")
     except UnicodeEncodeError as exc:
         where.fail_table(f"not ASCII text (character {exc.start}); an ASCII {SDF_MAGIC} file")
     if not text.startswith(SDF_MAGIC) or text.count("*") < 2:

@@ -7,6 +7,7 @@ above what the packaged model and the paper's studies use (docs/ufmt-model.md, "
 budgets and argument order").
 
 * ``MAX_INPUT_BYTES`` [bytes]: a model file, a modal test or a settings file.
+* ``MAX_MAP_BYTES`` [bytes]: a height map read as text (an SDF export).
 * ``MAX_BODIES`` [-]: bodies of a model. The overall transfer matrix, the assembled static
   solve and the mode shapes grow with the body count (6 or 12 states per body, dense
   matrices: memory ~ bodies^2, work ~ bodies^3 per frequency); ``MAX_HINGES`` [-] likewise
@@ -38,6 +39,7 @@ import numbers
 from ufmt.errors import UfmtError
 
 MAX_INPUT_BYTES = 8 << 20  # [bytes] a model, modal-test or settings file
+MAX_MAP_BYTES = 1 << 30  # [bytes] a height map (a 410 mm plate's SDF export is ~14 MB)
 MAX_BODIES = 300  # [-] bodies of one model
 MAX_HINGES = 600  # [-] hinges of one model
 MAX_NAME_CHARS = 200  # [-] characters of a body or hinge name (messages quote names)
