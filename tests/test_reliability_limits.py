@@ -305,7 +305,7 @@ def test_a_study_records_points_outside_the_domain_as_invalid_and_goes_on(tmp_pa
     assert "300" in result.stdout  # the sweep's best point is a valid one (lowest pv: 300 rpm)
 
 
-def soft_model(tmp_path: Path, factor: float = 1e-4) -> Path:
+def soft_model(tmp_path: Path, factor: float = 2e-5) -> Path:
     """The packaged model with every hinge stiffness times ``factor``: a machine whose tool
     vibrates by micrometres under the reference cut."""
     text = ufmt.packaged_path().read_text(encoding="utf-8")
