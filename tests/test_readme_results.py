@@ -79,12 +79,13 @@ def test_worked_example_quotes_the_committed_optimise_tolerances_tables():
         f"PSD1 5–95 % {_g(first['q05'], 2)}–{_g(first['q95'], 3)} nm, P(PSD1 ≤ 5 nm) ="
         f" {_g(first['p_meet'], 2)} [{_g(first['p_meet_low'], 2)}, {_g(first['p_meet_high'], 2)}]"
     )
-    feasible = tradeoff[tradeoff["feasible"].astype(bool)]
-    tightest = feasible.iloc[0]
-    quotes.append(
-        f"{_g(tightest['cost'], 3)} for PSD1 ≤ {_g(tightest['level'], 2)} nm (straightness"
-        f" {_g(1e9 * tightest['machine.straightness_m'], 2)} nm)"
-    )
+    feasible = tradeoff[tradeoff["feasible"].astype(bool)] if len(tradeoff) else tradeoff
+    if len(feasible):  # a trade-off exists only when the loosest tolerances miss some level
+        tightest = feasible.iloc[0]
+        quotes.append(
+            f"{_g(tightest['cost'], 3)} for PSD1 ≤ {_g(tightest['level'], 2)} nm (straightness"
+            f" {_g(1e9 * tightest['machine.straightness_m'], 2)} nm)"
+        )
     if "specification" in allocation and (allocation["specification"] != "nominal").any():
         likely = allocation[allocation["specification"] != "nominal"].iloc[-1]
         last = interval.iloc[-1]
