@@ -91,7 +91,7 @@ def test_machine_table_gives_every_value_its_unit_band_and_how_it_was_set():
     from ufmt.calibration.settings import load_calibration
     from ufmt.model.load import packaged_path
     from ufmt.model.machine import MACHINE_FIELDS, OPTIONAL_FIELDS
-    from ufmt.report import _calibration_of, design_table, machine_table
+    from ufmt.report import _asked_for_edges, _calibration_of, design_table, machine_table
 
     model = load_model()  # the calibrated model: its calibration file says what was fitted
     calibration = _calibration_of(model)
@@ -102,8 +102,13 @@ def test_machine_table_gives_every_value_its_unit_band_and_how_it_was_set():
     fits = {
         p.key: p for p in load_calibration(packaged_path("calibration.toml"))[0].response.parameters
     }
+    asked = _asked_for_edges(model)  # the header's AT BOUND keys: held at their start
     for key, fit in fits.items():
-        assert table.loc[key, "set by"].startswith("fitted" if fit.fit else "held")
+        fitted = fit.fit and key not in asked
+        assert table.loc[key, "set by"].startswith("fitted" if fitted else "held")
+    for key, value in asked.items():
+        assert value in fits[key].band or min(abs(value - b) for b in fits[key].band) < 1e-5
+        assert getattr(model.machine, key) == fits[key].start
     straightness = model.machine.straightness_m
     at_edge = straightness in fits["straightness_m"].band
     assert ("AT A BAND EDGE" in table.loc["straightness_m", "set by"]) == at_edge

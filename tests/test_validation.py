@@ -111,14 +111,6 @@ def committed_response_targets() -> tuple[pd.DataFrame, list]:
     return committed, targets
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason=(
-        "results/validation/response.csv predates the accelerometer chain (its Fig. 12 row "
-        "holds the former 2 kHz Butterworth's 40.3252 mm/s^2, the chain reports 53.2508): "
-        "regenerated with the recalibration"
-    ),
-)
 def test_committed_response_table_has_the_packaged_models_periodic_numbers(model, packaged_basis):
     """results/validation/response.csv (written by ``ufmt validate``): one row per paper
     quantity of the [response] targets; its fast periodic-path column is the packaged
@@ -138,10 +130,6 @@ def test_committed_response_table_has_the_packaged_models_periodic_numbers(model
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(
-    strict=True,
-    reason="results/validation/response.csv predates the accelerometer chain (see above)",
-)
 def test_committed_response_table_matches_the_packaged_model(model):
     """Every column of results/validation/response.csv is the packaged model's."""
     from ufmt.calibration.response import response_table

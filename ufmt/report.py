@@ -18,6 +18,7 @@ import base64
 import html
 import json
 import os
+import re
 from pathlib import Path
 
 import numpy as np
@@ -262,6 +263,7 @@ def machine_table(model: Model, calibration=None) -> pd.DataFrame:
         if calibration and calibration.response
         else {}
     )
+    asked = _asked_for_edges(model) if fits else {}
     rows = []
     for key in MACHINE_FIELDS:
         value = getattr(machine, key)
@@ -273,7 +275,7 @@ def machine_table(model: Model, calibration=None) -> pd.DataFrame:
         written_how = (
             "as written in the model file" if key in written else f"default ({_value(default)})"
         )
-        how = _how_set(key, value, fits.get(key), written_how)
+        how = _how_set(key, value, fits.get(key), written_how, asked)
         rows.append(
             {
                 "field": key,
@@ -286,20 +288,36 @@ def machine_table(model: Model, calibration=None) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def _how_set(key: str, value, fit, otherwise: str) -> str:
+def _how_set(key: str, value, fit, otherwise: str, asked: dict | None = None) -> str:
     """How a ``[machine]`` value was set: fitted (in its fit band, an edge flagged), held by
-    the calibration (its reason), or ``otherwise``."""
+    the calibration, held because the fit asked for a band's edge (``asked``: key -> the
+    value the calibrated file's header says it asked for), or ``otherwise``."""
     if fit is None:
         return otherwise
+    if asked and key in asked:
+        return (
+            f"held at its documented value: the fit asked for {asked[key]:g}, its band's edge"
+            " (AT BOUND, a finding)"
+        )
     if not fit.fit:
-        return f"held: {fit.reason}"
+        return "held at its documented value (its reason: calibration.toml)"
     low, high = fit.band
     edge = (
         " (AT A BAND EDGE)"
         if np.any(np.asarray(value) <= low) or np.any(np.asarray(value) >= high)
         else ""
     )
-    return f"fitted to the paper (section 4.2, Table 4) in {_band(fit.band)}{edge}"
+    return f"fitted to the paper (Figs. 12-13) in {_band(fit.band)}{edge}"
+
+
+def _asked_for_edges(model: Model) -> dict[str, float]:
+    """Keys the calibrated file's header marks AT BOUND, with the value the fit asked for."""
+    try:
+        header = Path(model.source).read_text(encoding="utf-8").split("\n[", 1)[0]
+    except OSError:
+        return {}
+    found = re.findall(r"#\s+(\w+) = \S+ .*AT BOUND: the fit asks for (\S+),", header)
+    return {key: float(v) for key, v in found}
 
 
 def design_table(model: Model, calibration=None) -> pd.DataFrame:

@@ -21,7 +21,6 @@ from ufmt.model.schema import Model
 #: The reference cut's headline metrics, in the order shown: key -> words [unit].
 HEADLINE_METRICS = {
     "pv_measured_nm": "interferometer PV (clear aperture, piston and tilt removed) [nm]",
-    "rms_measured_nm": "interferometer RMS [nm]",
     "pv_dynamic_nm": "PV of the cutting-force vibration alone, whole plate (eq. 4.1) [nm]",
     "pv_dynamic_steady_nm": "PV of the cutting-force vibration alone, steady cut [nm]",
     "pv_nm": "whole-plate PV, every source [nm]",
@@ -30,7 +29,6 @@ HEADLINE_METRICS = {
     "psd2_rms_nm": "PSD2 band RMS (0.12-2.5 mm) [nm]",
     "zre_peak_nm": "z_re average peak per period [nm]",
     "tip_acc_measured_mm_s2": "tool-tip acceleration as the accelerometer reports it [mm/s²]",
-    "force_peak_n": "peak cutting force [N]",
 }
 
 
