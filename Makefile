@@ -5,7 +5,7 @@ JOBS    ?= 2
 # test workers (pytest-xdist); worksteal evens out the long tests between them
 TEST_JOBS ?= 2
 
-.PHONY: test test-all bench lint format calibrate sweep-stiffness sweep-process \
+.PHONY: test test-all bench docs lint format calibrate sweep-stiffness sweep-process \
         optimise-process optimise-design sensitivity uncertainty \
         optimise-tolerances validate report clean-venv
 
@@ -23,6 +23,9 @@ test-all: $(STAMP)
 
 bench: $(STAMP)
 	$(PY) benchmarks/run.py
+
+docs: $(STAMP)
+	$(PY) -m mkdocs build --site-dir site
 
 lint: $(STAMP)
 	$(PY) -m ruff check ufmt tests benchmarks

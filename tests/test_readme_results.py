@@ -1,6 +1,6 @@
-"""The README's uncertainty and tolerance numbers are the committed results' own: each quote is
-rebuilt here from the tables in results/ (the oracle) and must appear in the README verbatim,
-so a regenerated result that moves a number fails here until the README says it."""
+"""The uncertainty and tolerance numbers of docs/findings.md are the committed results' own:
+each quote is rebuilt here from the tables in results/ (the oracle) and must appear there
+verbatim, so a regenerated result that moves a number fails here until the page says it."""
 
 from __future__ import annotations
 
@@ -17,7 +17,7 @@ from ufmt.studies.journal import results_sha256
 from ufmt.studies.load import load_study
 
 REPO = Path(__file__).resolve().parents[1]
-README = (REPO / "README.md").read_text(encoding="utf-8")
+README = (REPO / "docs" / "findings.md").read_text(encoding="utf-8")
 RESULTS = REPO / "results"
 
 
@@ -56,7 +56,7 @@ def _meta(study: str) -> dict:
 
 def test_worked_example_quotes_the_committed_optimise_tolerances_tables():
     meta = _meta("optimise-tolerances")
-    text = _flat(_section("#### Worked example: straightness and bearing for PSD1 below 5 nm"))
+    text = _flat(_section("## Worked example: straightness and bearing for PSD1 below 5 nm"))
     allocation = _table("optimise-tolerances", "allocation.csv")
     interval = _table("optimise-tolerances", "interval.csv")
     tradeoff = _table("optimise-tolerances", "tradeoff.csv")
@@ -103,7 +103,7 @@ def test_worked_example_quotes_the_committed_optimise_tolerances_tables():
 
 def test_make_uncertainty_bullet_quotes_the_committed_uncertainty_tables():
     meta = _meta("uncertainty")
-    text = _flat(_section("### Uncertainty and tolerance allocation"))
+    text = _flat(_section("## Uncertainty and tolerance allocation"))
     distribution = _table("uncertainty", "distribution.csv").set_index("metric")
     sobol = _table("uncertainty", "sobol.csv")
     pv = distribution.loc["pv_measured_nm"]
