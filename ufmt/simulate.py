@@ -508,8 +508,7 @@ def _extrapolated_acceleration(
 
     The sampled force smears the engagement step over one sample, and the acceleration
     follows the force directly, so the peak converges at second order in the sample step
-    (measured on the packaged model: the differences fall 3.97x and 4.0x per doubling,
-    tests/test_convergence.py). a(n) + (4/3) (a_p(2n) - a_p(n)) removes that term, a_p the
+    (tests/test_convergence.py checks the rate). a(n) + (4/3) (a_p(2n) - a_p(n)) removes that term, a_p the
     periodic path's record at the same slide position (:func:`_periodic_acceleration`);
     ``measured`` a(n) is the run's own value.
     """

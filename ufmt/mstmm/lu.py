@@ -3,9 +3,8 @@
 ``numpy.linalg.solve`` factors its matrices anew at every call; the Newton iteration on
 det U_all (:mod:`ufmt.mstmm.roots`) solves with one matrix per root several times (its
 inverse iteration), so the factors (2/3 n³ each) are computed once and every later solve
-costs 2 n² per right-hand side. One LAPACK call per matrix: the matrices are small (order
-~70) and few (one per root), so the loop costs a few µs per matrix against ~30 µs of
-factorisation.
+costs 2 n² per right-hand side. One LAPACK call per matrix: the matrices are small and
+few (one per root), so a Python loop over them costs little beside the factorisation.
 """
 
 from __future__ import annotations

@@ -457,7 +457,7 @@ def _newton(system, omega, lo, hi, mult, rtol, state_keys=()):
     The state maps of ``state_keys`` come at the roots for free as well ({key: State
     (clusters, 12, k)}): the walks that evaluate U_all keep them, and each is interpolated
     to the root from ω and ω + dω, like the pivot rows (an error of order step · dω times
-    the maps' second derivative: ≤ 1e-14 of each map's largest entry, measured).
+    the maps' second derivative).
     """
     w = omega.astype(float).copy()
     n = w.size

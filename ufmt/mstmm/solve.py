@@ -251,7 +251,7 @@ def _segmented(models: list[Model], ranges: list[Brackets]) -> list[TransferSyst
 @functools.cache
 def _blas_controller() -> ThreadpoolController:
     """The loaded BLAS libraries, found once: a new ``threadpool_limits`` scans every loaded
-    shared library (~3 ms, a few per cent of a solve)."""
+    shared library, a cost of the order of a small solve's."""
     return ThreadpoolController()
 
 

@@ -9,8 +9,8 @@ touches are condensed exactly through their own modes
 (:class:`ufmt.mstmm.nodal.Condensation`: s{K} = #{λ_i < ω²} + s{C(ω)}, Haynsworth), and
 s{C} is the inertia of an LDLᵀ factorisation (LAPACK ``dsytrf``, Bunch-Kaufman pivoting:
 backward stable for indefinite matrices; by Sylvester's law the signs of D's 1x1 and 2x2
-blocks give the inertia; order 18 instead of 78 on the packaged model, ~7 µs per frequency
-against ~50 µs for the whole K; CPU time, one BLAS thread). One counter serves a stack of
+blocks give the inertia; the condensed matrix is several times smaller than K, and the
+factorisation's cost falls with its cube: docs/benchmarks.md). One counter serves a stack of
 designs of one structure (a design index beside every frequency): each J evaluation,
 bisection and secant step is one pass for all of them.
 Zero-frequency (rigid-body and mechanism) modes lie below every ω > 0 and are subtracted

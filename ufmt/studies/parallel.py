@@ -9,8 +9,7 @@ worker processes is started). A task is a chunk of several points (:func:`chunk_
 one point; ``ufmt.evaluate`` evaluates a chunk as one batch
 (:func:`ufmt.evaluate.evaluate_each`: the new designs' modes in one solve). Each worker's
 BLAS thread pools are limited to one thread with threadpoolctl: the model's matrices are small
-(order 66), so threaded BLAS only adds overhead (measured on the UFMT: 1.0 s per modal basis
-with one thread, 1.3-2.5 s with two), and the cores are better used by evaluating points side
+(order ~70), so threaded BLAS only adds overhead (docs/benchmarks.md), and the cores are better used by evaluating points side
 by side.
 
 A loky worker ends when the main process dies, even by kill -9 (which runs no clean-up): on
