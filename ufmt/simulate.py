@@ -508,9 +508,9 @@ def _extrapolated_acceleration(
 
     The sampled force smears the engagement step over one sample, and the acceleration
     follows the force directly, so the peak converges at second order in the sample step
-    (tests/test_convergence.py checks the rate). a(n) + (4/3) (a_p(2n) - a_p(n)) removes that term, a_p the
-    periodic path's record at the same slide position (:func:`_periodic_acceleration`);
-    ``measured`` a(n) is the run's own value.
+    (tests/test_convergence.py checks the rate). a(n) + (4/3) (a_p(2n) - a_p(n)) removes
+    that term, a_p the periodic path's record at the same slide position
+    (:func:`_periodic_acceleration`); ``measured`` a(n) is the run's own value.
     """
     fine = replace(options, n_phi=2 * options.n_phi)
     a_fine = _periodic_acceleration(basis, machine, process, zeta, fine)

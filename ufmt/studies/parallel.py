@@ -9,8 +9,8 @@ worker processes is started). A task is a chunk of several points (:func:`chunk_
 one point; ``ufmt.evaluate`` evaluates a chunk as one batch
 (:func:`ufmt.evaluate.evaluate_each`: the new designs' modes in one solve). Each worker's
 BLAS thread pools are limited to one thread with threadpoolctl: the model's matrices are small
-(order ~70), so threaded BLAS only adds overhead (docs/benchmarks.md), and the cores are better used by evaluating points side
-by side.
+(order ~70), so threaded BLAS only adds overhead (docs/benchmarks.md), and the cores are
+better used by evaluating points side by side.
 
 A loky worker ends when the main process dies, even by kill -9 (which runs no clean-up): on
 Linux the kernel sends it SIGTERM (``prctl(PR_SET_PDEATHSIG)``, set by the worker initializer
