@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from dense_reduction import arranged, left_right, null_vectors, reduced
+from ufmt.mstmm.dense_reduction import arranged, left_right, null_vectors, reduced
 from synthetic import axisymmetric_chain
 
 from ufmt.model.load import load_model, model_from_dict, packaged_path

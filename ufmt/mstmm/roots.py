@@ -1,34 +1,26 @@
 """Natural frequencies: every root of det U_all(ω) = 0 in (0, f_max] (paper eq. 2.23).
 
 The Wittrick-Williams count (:mod:`ufmt.mstmm.wittrick`) brackets every root, each bracket
-holding a known number of them (:func:`bracketed_roots`); :func:`natural_frequencies` takes
-estimates of the roots instead (any independent model's). The MSTMM then finds each root:
+holding a known number of them (:func:`bracketed_roots`). The MSTMM then finds each root:
 
-1. **Newton on det, batched over all roots.** A bracket of m roots (or estimates closer than
-   1e-6) is a cluster of multiplicity m (a repeated root of a symmetric structure). From the
-   cluster's start (the Wittrick-Williams secant's last point, the bracket's geometric
-   centre, or the estimate), ω_k ← ω_k - m_k / Σ λ: d ln det U_all/dω = tr(U⁻¹ dU/dω) is
-   the sum of the eigenvalues λ of U⁻¹ dU/dω, m_k of which are ≈ 1/(ω_k - root) near the
-   cluster, and the step sums only those (found by inverse iteration with U's LU kept, the
-   Ritz values of the cluster's own roots): the multiplicity-corrected Newton step on det
-   with every other root divided out exactly, quadratically convergent for simple and
-   semisimple repeated roots alike; a root another cluster's iterate is on is left to it,
-   which keeps two clusters off one root. dU/dω is a forward difference of U_all (its
-   entries are smooth in ω). A cluster is certified when its steps contract superlinearly
-   (a wrong multiplicity converges linearly or oscillates) inside the cluster's window (its
-   bracket, or half-way, geometrically, to the neighbouring estimates; a step that would
-   leave it goes half-way to its end) and no two clusters meet. A cluster that does not
-   converge as one repeated root may be a pair split by a small asymmetry
-   (multiplicity-2 Newton then 2-cycles): its m roots are solved again as m simple ones,
-   each with its own iterate (``_split_clusters``).
-2. **Fallback, only for the clusters Newton could not certify:** in a bracket, bisection on
-   the count down to 1e-13; from estimates, the sign of det on a grid refined around every
-   estimate, Illinois refinement of each sign change, and a golden section on the smallest
-   singular values for even-multiplicity roots the sign cannot see.
-3. **Continuation** (:func:`continued_roots`): in a sweep over hinge stiffnesses the roots
-   are tracked from the neighbouring design's inside Courant-Fischer brackets, without the
-   count (see :func:`ufmt.mstmm.solve.continuation`).
-4. **Never lose a root.** A cluster whose roots neither method finds is reported in
+1. **Newton on det, batched over all roots.** A bracket of m roots is a cluster of
+   multiplicity m (a repeated root of a symmetric structure). From the cluster's start (the
+   Wittrick-Williams secant's last point or the bracket's geometric centre), ω_k ← ω_k - m_k
+   / Σ λ: d ln det U_all/dω = tr(U⁻¹ dU/dω) is the sum of the eigenvalues λ of U⁻¹ dU/dω,
+   m_k of which are ≈ 1/(ω_k - root) near the cluster, and the step sums only those (found
+   by inverse iteration with U's LU kept, the Ritz values of the cluster's own roots): the
+   multiplicity-corrected Newton step on det with every other root divided out exactly,
+   quadratically convergent for simple and semisimple repeated roots alike; a root another
+   cluster's iterate is on is left to it, which keeps two clusters off one root. dU/dω is a
+   forward difference of U_all (its entries are smooth in ω). A cluster is certified when
+   its steps contract superlinearly (a wrong multiplicity converges linearly or oscillates)
+   inside the cluster's bracket (a step that would leave it goes half-way to its end) and no
+   two clusters meet. A cluster that does not converge as one repeated root may be a pair
+   split by a small asymmetry (multiplicity-2 Newton then 2-cycles): its m roots are solved
+   again as m simple ones, each with its own iterate (``_split_clusters``).
+2. **Fallback, only for the clusters Newton could not certify:** bisection on the count
+   down to 1e-13 (no null vector then).
+3. **Never lose a root.** A cluster whose roots neither method finds is reported in
    :attr:`Roots.missing_hz`; :func:`ufmt.mstmm.solve.solve_modes` then raises
    :class:`RootsLostError` naming the missing frequencies.
 """
@@ -41,18 +33,15 @@ import numpy as np
 
 from ufmt.errors import UfmtError
 from ufmt.mstmm.newton_step import inverse_iteration, own_step
-from ufmt.mstmm.overall import State, TransferSystem, assemble, block_layout, equilibrate
+from ufmt.mstmm.overall import State, TransferSystem, assemble, block_layout
 from ufmt.mstmm.reduced import ConstantParts, SparseReduction
 
 TWO_PI = 2.0 * np.pi
-STEPS = np.array([3e-2, 1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7])
-NOISE_RTOL = 1e-5  # sign flips of det closer than this (relative) are rounding noise
 OFF_ROOT = 1.0 + 3.7e-3  # a generic point near a root, where the scaling of U_all is taken
 NEWTON_ITERATIONS = 8
 DERIVATIVE_STEP = 1e-7  # relative forward-difference step for dU/dω
 ACCEPT_STEP = 1e-8  # a contracting Newton step this small (relative) ends the iteration
 CONTRACTION = 0.1  # |step_k| <= CONTRACTION |step_k-1|: superlinear, right multiplicity
-CLUSTER_RTOL = 1e-6  # estimates closer than this (relative) are one repeated root
 
 
 @dataclass(frozen=True)
@@ -60,253 +49,19 @@ class Roots:
     """Natural frequencies [Hz] ascending, repeated roots listed once per multiplicity."""
 
     frequencies_hz: np.ndarray
-    expected: int  # how many are counted (or estimated) in (0, f_max]
+    expected: int  # how many are counted in (0, f_max]
     missing_hz: np.ndarray  # counted roots in (0, f_max] not found (their bracket's centre)
-    newton: int = 0  # roots certified by Newton (the rest came from the fallback scan)
+    newton: int = 0  # roots certified by Newton (the rest came from the count's bisection)
     # (n, size) null vectors of U_all per root, an orthonormal basis over a repeated root
-    # (NaN rows for roots of the fallback scan: see ufmt.mstmm.modes.null_vectors)
+    # (NaN rows for roots of the bisection: see ufmt.mstmm.modes.null_vectors)
     null_vectors: np.ndarray | None = None
-    # state maps (ufmt.mstmm.overall.State) at each root, of the keys natural_frequencies
+    # state maps (ufmt.mstmm.overall.State) at each root, of the keys bracketed_roots
     # was asked for, when every root came from the Newton iteration (else None)
     states: dict | None = None
 
 
 class RootsLostError(UfmtError):
     """Fewer MSTMM roots than counted: never returned silently."""
-
-
-def det_sign(system: TransferSystem, omega: np.ndarray) -> np.ndarray:
-    """Sign of det U_all (LU with partial pivoting; positive scalings cannot change it)."""
-    sign, _ = np.linalg.slogdet(system.evaluate(omega))
-    return sign
-
-
-def _illinois(system, lo, hi, rtol, max_iter=100):
-    """Vectorised Illinois iteration on brackets [lo, hi] of det sign changes [rad/s].
-
-    det is evaluated with a fixed positive scaling per bracket, taken off the root (OFF_ROOT)
-    so that rows vanishing at the root are not blown up; the scaling keeps det continuous in
-    ω. Each iteration evaluates only the brackets still wider than ``rtol``; a bisection step
-    is forced when an Illinois step failed to halve a bracket.
-    """
-    n = lo.size
-    mid = 0.5 * (lo + hi)
-    u = system.evaluate(np.concatenate([mid * OFF_ROOT, mid, lo, hi]))
-    r, c = equilibrate(u[:n])
-    rr, cc = np.tile(r, (3, 1, 1)), np.tile(c, (3, 1, 1))
-    sign, logdet = np.linalg.slogdet(u[n:] * rr * cc)
-    ref = logdet[:n]
-    fa = sign[n : 2 * n] * np.exp(logdet[n : 2 * n] - ref)
-    fb = sign[2 * n :] * np.exp(logdet[2 * n :] - ref)
-    a, b = lo.copy(), hi.copy()
-    # A bracket end that sits on the root (det at noise level) may change sign under the
-    # refinement's scaling; that end is then the root itself.
-    lost = np.sign(fa) == np.sign(fb)
-    on_end = np.where(np.abs(fa) < np.abs(fb), a, b)
-    a, b = np.where(lost, on_end, a), np.where(lost, on_end, b)
-    previous = np.abs(b - a)
-    step = np.abs(b - a)
-    for _ in range(max_iter):
-        # converged: the bracket, or the last secant step, is below rtol
-        active = np.flatnonzero(np.minimum(np.abs(b - a), step) > rtol * np.abs(b))
-        if active.size == 0:
-            break
-        aa, bb, fa_, fb_ = a[active], b[active], fa[active], fb[active]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            cpt = bb - fb_ * (bb - aa) / (fb_ - fa_)
-        slow = np.abs(bb - aa) > 0.5 * previous[active]
-        bad = ~np.isfinite(cpt) | (cpt <= np.minimum(aa, bb)) | (cpt >= np.maximum(aa, bb))
-        cpt = np.where(bad | slow, 0.5 * (aa + bb), cpt)
-        s, ld = np.linalg.slogdet(system.evaluate(cpt) * r[active] * c[active])
-        fc = s * np.exp(ld - ref[active])
-        previous[active] = np.abs(bb - aa)
-        step[active] = np.abs(cpt - bb)
-        flip = np.sign(fc) != np.sign(fb_)
-        a[active] = np.where(flip, bb, aa)
-        fa[active] = np.where(flip, fb_, 0.5 * fa_)
-        b[active] = cpt
-        fb[active] = fc
-        a[active] = np.where(fc == 0, cpt, a[active])
-    return b
-
-
-def _golden_nullity(system, centre, lo, hi, k, iters=48):
-    """Minimise the k-th smallest singular value of U_all near ``centre`` within [lo, hi].
-
-    σ_k is V-shaped only close to a root (elsewhere other singular values set a plateau), so
-    a grid refined geometrically around the estimate picks the valley first; golden section
-    then refines it between the grid neighbours of the best point. Vectorised over windows.
-    """
-    r, c = equilibrate(system.evaluate(centre * OFF_ROOT))
-
-    def sigma(w):
-        s = np.linalg.svd(
-            system.evaluate(w.ravel())
-            * np.repeat(r, w.size // r.shape[0], 0)
-            * np.repeat(c, w.size // c.shape[0], 0),
-            compute_uv=False,
-        )
-        return s[:, -k].reshape(w.shape)
-
-    offsets = np.concatenate([-STEPS, [0.0], STEPS[::-1]])
-    grid = np.clip(centre[:, None] * (1.0 + offsets[None, :]), lo[:, None], hi[:, None])
-    values = sigma(grid)
-    best = np.argmin(values, axis=1)
-    rows = np.arange(centre.size)
-    a = grid[rows, np.maximum(best - 1, 0)]
-    b = grid[rows, np.minimum(best + 1, offsets.size - 1)]
-    g = (np.sqrt(5.0) - 1.0) / 2.0
-    x1, x2 = b - g * (b - a), a + g * (b - a)
-    f1, f2 = sigma(x1[:, None])[:, 0], sigma(x2[:, None])[:, 0]
-    for _ in range(iters):
-        left = f1 < f2
-        b = np.where(left, x2, b)
-        a = np.where(left, a, x1)
-        x2n = np.where(left, x1, a + g * (b - a))
-        x1n = np.where(left, b - g * (b - a), x2)
-        fx = sigma(np.where(left, x1n, x2n)[:, None])[:, 0]
-        f1, f2 = np.where(left, fx, f2), np.where(left, f1, fx)
-        x1, x2 = x1n, x2n
-    w = 0.5 * (a + b)
-    ends = np.stack([grid[:, 0], grid[:, -1]], axis=1)
-    s_min = np.linalg.svd(system.evaluate(w) * r * c, compute_uv=False)
-    s_ends = sigma(ends).min(axis=1)
-    return w, s_min, s_ends
-
-
-def _scan(system: TransferSystem, fmax_hz: float, est: np.ndarray, rtol: float) -> np.ndarray:
-    """Fallback: roots [Hz] from the sign of det on a refined grid (module docstring, 2.)."""
-    f_lo = 0.5 * est[0]
-    near = est[est <= fmax_hz * 1.05]
-    grid = [np.linspace(f_lo, fmax_hz, 64), near, np.sqrt(near[1:] * near[:-1])]
-    for s in (-1.0, 1.0):
-        grid.append((near[:, None] * (1.0 + s * STEPS[None, :])).ravel())
-    f = np.unique(np.clip(np.concatenate(grid), f_lo, fmax_hz))
-    w = TWO_PI * f
-    sign = det_sign(system, w)
-    change = np.flatnonzero((sign[1:] != sign[:-1]) & (sign[1:] != 0) & (sign[:-1] != 0))
-    exact = w[1:-1][(sign[1:-1] == 0)]
-    roots_w = _illinois(system, w[change], w[change + 1], rtol) if change.size else np.zeros(0)
-    found = np.sort(np.concatenate([roots_w, exact])) / TWO_PI
-    windows = _windows(near, f_lo, fmax_hz)
-    found = _merge_noise_roots(found, windows)
-    return _add_even_roots(system, found, windows, fmax_hz)
-
-
-def _add_even_roots(system, found, windows, fmax_hz):
-    """Find repeated (even-multiplicity) roots the sign scan cannot see, near the estimates."""
-    lo_list, hi_list, need, centres = [], [], [], []
-    for idx, centre, lo, hi in windows:
-        if centre > fmax_hz:
-            continue
-        have = np.sum((found >= lo) & (found <= hi))
-        missing = len(idx) - have
-        if missing > 0:
-            centres.append(centre)
-            lo_list.append(lo)
-            hi_list.append(hi)
-            need.append(missing)
-    if not need:
-        return found
-    extra = []
-    for k in sorted(set(need)):
-        sel = [i for i, m in enumerate(need) if m == k]
-        centre = TWO_PI * np.array([centres[i] for i in sel])
-        lo = TWO_PI * np.array([lo_list[i] for i in sel])
-        hi = TWO_PI * np.array([hi_list[i] for i in sel])
-        w, s_min, s_ends = _golden_nullity(system, centre, lo, hi, k)
-        for j in range(w.size):
-            vanished = int(np.sum(s_min[j, -k:] < 1e-7 * s_ends[j]))
-            if vanished and w[j] / TWO_PI <= fmax_hz:
-                extra.extend([w[j] / TWO_PI] * vanished)
-    return np.sort(np.concatenate([found, extra]))
-
-
-def _windows(near: np.ndarray, f_lo: float, fmax_hz: float):
-    """(cluster indices, lo, hi) [Hz]: the search window of each cluster of estimates."""
-    out = []
-    for idx in _clusters(near):
-        centre = near[idx].mean()
-        prev_e = near[idx[0] - 1] if idx[0] > 0 else f_lo
-        next_e = near[idx[-1] + 1] if idx[-1] + 1 < near.size else fmax_hz * 1.05
-        lo = max(np.sqrt(prev_e * near[idx[0]]), centre * (1 - 3e-2))
-        hi = min(np.sqrt(next_e * near[idx[-1]]), centre * (1 + 3e-2))
-        out.append((idx, centre, lo, hi))
-    return out
-
-
-def _merge_noise_roots(found: np.ndarray, windows) -> np.ndarray:
-    """Undo sign flips of det U_all caused by rounding noise near a root.
-
-    At noise level det flips sign an odd number of times within ~NOISE_RTOL of one root.
-    Within each cluster window that holds more roots than its estimates count there,
-    three consecutive roots a < b < c spanning less than NOISE_RTOL are replaced by b.
-    """
-    out = np.sort(found)
-    for idx, _, lo, hi in windows:
-        while True:
-            inside = np.flatnonzero((out >= lo) & (out <= hi))
-            if inside.size <= idx.size or inside.size < 3:
-                break
-            f = out[inside]
-            span = (f[2:] - f[:-2]) / f[2:]
-            k = int(np.argmin(span))
-            if span[k] > NOISE_RTOL:
-                break
-            out = np.delete(out, [inside[k], inside[k + 2]])
-    return out
-
-
-def _clusters(est: np.ndarray, rel: float = CLUSTER_RTOL) -> list[np.ndarray]:
-    """Group estimates closer than ``rel`` (relative) into clusters of repeated roots."""
-    if est.size == 0:
-        return []
-    breaks = np.flatnonzero(np.diff(est) > rel * est[1:]) + 1
-    return np.split(np.arange(est.size), breaks)
-
-
-def natural_frequencies(
-    system: TransferSystem, fmax_hz: float, estimates_hz, rtol: float = 1e-12, state_keys=()
-) -> Roots:
-    """Every natural frequency in (0, fmax_hz] [Hz], to relative precision ``rtol``, from
-    estimates of where they are.
-
-    ``estimates_hz``: nonzero frequencies near the roots (ascending, repeated roots repeated),
-    e.g. an independent model's; they count the roots and set each one's window (half-way,
-    geometrically, to the neighbouring estimates), the MSTMM values are computed
-    independently. A counted root that neither Newton nor the fallback scan finds is listed
-    in ``missing_hz`` (never dropped silently). ``state_keys``: state maps
-    (:meth:`TransferSystem.states` keys) wanted at the roots, taken from the Newton walks
-    (see ``_newton``) when every root comes from them (:attr:`Roots.states`).
-    :func:`bracketed_roots` takes certified brackets instead (the Wittrick-Williams count).
-    """
-    system.segment_for(fmax_hz)
-    est = np.sort(np.asarray(estimates_hz, dtype=float))
-    est = est[est > 0]
-    if est.size == 0:
-        return Roots(np.zeros(0), 0, np.zeros(0), 0, np.zeros((0, system.size)))
-    near = est[est <= fmax_hz * 1.05]
-    windows = _windows(near, 0.5 * est[0], fmax_hz)
-    lo = np.array([a for _, _, a, _ in windows])
-    hi = np.array([b for _, _, _, b in windows])
-
-    def scan(failed):
-        scanned = _scan(system, fmax_hz, est, rtol)
-        inside = np.zeros(scanned.size, dtype=bool)
-        for j in failed:
-            inside |= (scanned >= lo[j]) & (scanned <= hi[j])
-        return scanned[inside]
-
-    found = Windows(
-        np.array([c for _, c, _, _ in windows]),
-        lo,
-        hi,
-        np.array([len(idx) for idx, _, _, _ in windows]),
-        [near[idx] for idx, _, _, _ in windows],
-    )
-    return roots_in_windows(
-        system, fmax_hz, int(np.sum(est <= fmax_hz)), found, scan, rtol, state_keys
-    )
 
 
 def bracketed_roots(system: TransferSystem, brackets, refine, rtol: float = 1e-12, state_keys=()):
@@ -317,7 +72,7 @@ def bracketed_roots(system: TransferSystem, brackets, refine, rtol: float = 1e-1
     converge inside it; a bracket Newton cannot certify falls back to
     ``refine(lo_hz, hi_hz)``, bisection on the count
     (:meth:`ufmt.mstmm.wittrick.RootCounter.refine`, no null vector then). Parameters and
-    result as :func:`natural_frequencies`.
+    result: :class:`Roots`.
     """
     fmax_hz = brackets.below_hz
     system.segment_for(fmax_hz)
@@ -348,7 +103,7 @@ class Windows:
 
 def roots_in_windows(system, fmax_hz, expected, windows: Windows, fallback, rtol, state_keys):
     """The roots in each window (Newton, split clusters, then ``fallback(failed windows)``
-    returning roots [Hz] inside those windows); see :func:`natural_frequencies`."""
+    returning roots [Hz] inside those windows); see :func:`bracketed_roots`."""
     centre, lo, hi, mult = windows.centre, windows.lo, windows.hi, windows.mult
     if centre.size == 0:
         return Roots(np.zeros(0), expected, np.zeros(0), 0, np.zeros((0, system.size)))
@@ -603,56 +358,3 @@ def batched_solve(a: np.ndarray, b: np.ndarray) -> np.ndarray:
                 except np.linalg.LinAlgError:
                     continue
         return out
-
-
-def continued_roots(
-    system: TransferSystem, start_hz, lo_hz, hi_hz, rtol: float = 1e-12
-) -> Roots | None:
-    """The roots of ``system`` tracked from a neighbouring design's, or None if they cannot
-    be certified without the Wittrick-Williams count.
-
-    ``start_hz``: the neighbour's lowest roots (ascending, repeated roots repeated);
-    [lo_hz, hi_hz]: where each of them is now (Courant-Fischer bounds, see
-    :func:`ufmt.mstmm.solve.continuation`). Overlapping brackets form a block, which holds
-    exactly the roots of its clusters (the others lie in their own, disjoint brackets);
-    Newton starts from the neighbour's roots, each must be certified inside its block and
-    no two on one root (checked by ``_newton``); the sign of
-    det U_all below the first root and between consecutive roots must flip exactly with
-    each root's multiplicity parity (a root the start values miss breaks the pattern).
-    """
-    start = np.asarray(start_hz, dtype=float)
-    idx = _clusters(start)
-    first = np.array([i[0] for i in idx])
-    lo, hi = np.asarray(lo_hz, dtype=float)[first], np.asarray(hi_hz, dtype=float)[first]
-    lo, hi = lo * (1 - 1e-9), hi * (1 + 1e-9)  # the bounds are exact: widen by rounding only
-    # overlapping brackets form a block that holds exactly the roots of its clusters
-    block = np.cumsum(np.r_[True, np.maximum.accumulate(hi)[:-1] < lo[1:]]) - 1
-    lo_b = np.minimum.reduceat(lo, np.flatnonzero(np.diff(np.r_[-1, block])))[block]
-    hi_b = np.maximum.reduceat(hi, np.flatnonzero(np.diff(np.r_[-1, block])))[block]
-    mult = np.array([i.size for i in idx])
-    system.segment_for(float(hi[-1]))
-    # iterates may overshoot a block's end (the root on it, e.g. a mode the changed hinge
-    # does not move); they stay between the neighbouring blocks, the root must be inside
-    below = np.r_[0.5 * lo_b[0], np.sqrt(hi_b[:-1] * lo_b[1:])]
-    above = np.r_[np.sqrt(hi_b[:-1] * lo_b[1:]), 2 * hi_b[-1]]
-    below = np.where(np.r_[True, block[1:] != block[:-1]], below, 0.0)
-    below = np.maximum.accumulate(below)
-    above = np.where(np.r_[block[1:] != block[:-1], True], above, np.inf)
-    above = np.minimum.accumulate(above[::-1])[::-1]
-    root, ok, basis, _ = _newton(
-        system, TWO_PI * start[first], TWO_PI * below, TWO_PI * above, mult, rtol
-    )
-    root_hz = root / TWO_PI
-    if not (ok.all() and np.all((root_hz >= lo_b) & (root_hz <= hi_b))):
-        return None
-    order = np.argsort(root_hz, kind="stable")  # roots may swap places within a block
-    root, root_hz, mult = root[order], root_hz[order], mult[order]
-    basis = {k: basis[j] for k, j in enumerate(order)}
-    gaps = np.r_[0.5 * root[0], np.sqrt(root[1:] * root[:-1])]
-    sign = det_sign(system, gaps)
-    flips = sign[1:] * sign[:-1]
-    if np.any(sign == 0) or np.any(flips != (-1.0) ** mult[:-1]):
-        return None
-    found = np.repeat(root_hz, mult)
-    vectors = np.concatenate([basis[j].T for j in range(root.size)])
-    return Roots(found, found.size, np.zeros(0), found.size, vectors)

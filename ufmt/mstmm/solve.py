@@ -9,11 +9,7 @@ naming the missing frequencies and exits non-zero).
 
 from __future__ import annotations
 
-import contextlib
-import contextvars
 import functools
-import hashlib
-import pickle
 import time
 from dataclasses import dataclass, replace
 
@@ -26,7 +22,7 @@ from ufmt.model.load import as_model
 from ufmt.model.schema import Model
 from ufmt.mstmm.modes import ModeShapes, kinetic_terms, mode_shapes, shape_state_keys
 from ufmt.mstmm.overall import State, TransferSystem, segment_designs
-from ufmt.mstmm.roots import RootsLostError, bracketed_roots, continued_roots
+from ufmt.mstmm.roots import Roots, RootsLostError, bracketed_roots
 from ufmt.mstmm.wittrick import Brackets, RootCounter
 
 DEFAULT_FMAX_HZ = 1000.0
@@ -227,11 +223,11 @@ def solve_modes_batch(
         for members in groups.values():
             t0 = time.perf_counter()
             counter = RootCounter([models[i] for i in members])
-            ranges = _search_ranges(counter, fmax_hz, count, False)
+            ranges = _search_ranges(counter, fmax_hz, count)
             systems = _segmented([models[i] for i in members], ranges)
             shared = (time.perf_counter() - t0) / len(members)  # the count's share
             for d, (i, brackets) in enumerate(zip(members, ranges, strict=True)):
-                solution = _solution(counter, d, brackets, count, shapes, systems[d])[0]
+                solution = _solution(counter, d, brackets, count, shapes, systems[d])
                 out[i] = replace(solution, seconds=solution.seconds + shared)
         return out
 
@@ -255,89 +251,6 @@ def _blas_controller() -> ThreadpoolController:
     return ThreadpoolController()
 
 
-@contextlib.contextmanager
-def continuation(key):
-    """Within this block, ``solve_modes(model, count=n)`` starts from the roots of the last
-    design solved under the same ``key`` (a sweep of one model file over hinge stiffnesses).
-
-    A design that differs from the last one only in hinge stiffness values (same masses, same
-    released and rigid directions), each scaled by s_i, has K_new between min(1, s_i) K_old
-    and max(1, s_i) K_old, so by Courant-Fischer its k-th natural frequency lies in
-    [f_k √min(1, s_i), f_k √max(1, s_i)] around the last design's k-th one. When those
-    brackets of the n + 1 lowest roots do not overlap, each holds exactly its own roots:
-    Newton tracks them from the last design without the count, each certified inside its
-    bracket as usual (contracting steps, right multiplicity), and det U_all must change
-    sign between them as their multiplicities say. Otherwise (large steps, a split repeated
-    root) the Wittrick-Williams brackets are used as usual.
-    """
-    token = _CONTINUATION.set(key)
-    try:
-        yield
-    finally:
-        _CONTINUATION.reset(token)
-
-
-_CONTINUATION: contextvars.ContextVar = contextvars.ContextVar("continuation", default=None)
-# continuation key -> (masses, hinge pattern, hinge stiffness, roots [Hz], rigid-body modes)
-_LAST_ROOTS: dict = {}
-LAST_ROOTS_KEPT = 8
-MAX_TRACKED_SHIFT = 1.05  # continuation only when no root can move by more than this factor
-
-
-def _hinge_pattern(model: Model) -> tuple:
-    """Which hinge directions are released, elastic or rigid: the topology of U_all."""
-    return tuple(tuple(np.sign(h.stiffness6) * np.isfinite(h.stiffness6)) for h in model.hinges)
-
-
-def _masses(model: Model) -> str:
-    """Digest of every body (mass, inertia, beam data): the mass matrix of the design."""
-    return hashlib.sha256(pickle.dumps(model.bodies)).hexdigest()
-
-
-def _stiffness_bounds(model: Model, stiffness_before) -> tuple[float, float]:
-    """(min(1, s_i), max(1, s_i)) over the finite nonzero hinge stiffness ratios s_i."""
-    now = np.concatenate([h.stiffness6 for h in model.hinges])
-    before = np.concatenate(stiffness_before)
-    elastic = np.isfinite(now) & (now > 0)
-    ratio = now[elastic] / before[elastic]
-    return min(1.0, float(ratio.min(initial=1.0))), max(1.0, float(ratio.max(initial=1.0)))
-
-
-def _continued(model, count, shapes, t0) -> ModalSolution | None:
-    """The first ``count`` modes tracked from the last design's roots, or None (see
-    :func:`continuation`)."""
-    key = _CONTINUATION.get()
-    last = _LAST_ROOTS.get(key) if key is not None else None
-    if (
-        last is None
-        or last[0] != _masses(model)
-        or last[1] != _hinge_pattern(model)
-        or last[3].size < count + 1
-    ):
-        return None
-    low, high = _stiffness_bounds(model, last[2])
-    if high / low > MAX_TRACKED_SHIFT**2:  # Newton from so far away: not worth trying
-        return None
-    start = last[3][: count + 1]
-    system = TransferSystem(model)
-    roots = continued_roots(system, start, start * np.sqrt(low), start * np.sqrt(high))
-    if roots is None:
-        return None
-    f, z = roots.frequencies_hz[:count], roots.null_vectors[:count]
-    modes = mode_shapes(system, f, z) if shapes else None
-    _remember(key, model, roots.frequencies_hz, last[4])
-    return ModalSolution(f, system.order, "mstmm", count, last[4], modes, time.perf_counter() - t0)
-
-
-def _remember(key, model, roots_hz, rigid_body_modes) -> None:
-    _LAST_ROOTS.pop(key, None)
-    stiffness = [h.stiffness6.copy() for h in model.hinges]
-    entry = (_masses(model), _hinge_pattern(model), stiffness, np.array(roots_hz))
-    _LAST_ROOTS[key] = (*entry, rigid_body_modes)
-    while len(_LAST_ROOTS) > LAST_ROOTS_KEPT:
-        del _LAST_ROOTS[next(iter(_LAST_ROOTS))]
-
-
 def _check(fmax_hz, count, method) -> None:
     """UfmtError for a bad ``fmax_hz``, ``count`` or ``method`` (see :func:`solve_modes`)."""
     if fmax_hz is not None:
@@ -355,35 +268,47 @@ def _check(fmax_hz, count, method) -> None:
 def _solve_modes(model, fmax_hz, count, method, shapes) -> ModalSolution:
     _check(fmax_hz, count, method)
     t0 = time.perf_counter()
-    tracking = fmax_hz is None and count is not None and _CONTINUATION.get() is not None
-    if tracking and (solution := _continued(model, count, shapes, t0)) is not None:
-        return solution
     counter = RootCounter(model)
-    # the next design of a continuation tracks one root more
-    (brackets,) = _search_ranges(counter, fmax_hz, count, count is not None and tracking)
+    (brackets,) = _search_ranges(counter, fmax_hz, count)
     if count is None and brackets.total > limits.MAX_MODE_COUNT:  # counted, not yet solved
         raise UfmtError(
             f"{model.source}: {brackets.total:,} modes below fmax_hz = {brackets.below_hz:g}"
             f" Hz; at most {limits.MAX_MODE_COUNT:,} per request (lower fmax_hz or give count)"
         )
-    solution, found = _solution(counter, 0, brackets, count, shapes)
-    if tracking:
-        _remember(_CONTINUATION.get(), model, found, counter.rigid_body_modes)
+    solution = _solution(counter, 0, brackets, count, shapes)
     return replace(solution, seconds=time.perf_counter() - t0)
 
 
-def _solution(counter: RootCounter, design: int, brackets: Brackets, count, shapes, system=None):
-    """(the ModalSolution of design ``design`` of ``counter`` from its brackets, every root
-    found [Hz]) (``seconds`` of this part only); ``system``: its TransferSystem if made."""
-    t0 = time.perf_counter()
-    model = counter.models[design]
-    system = TransferSystem(model) if system is None else system
-    keys = shape_state_keys(system) if shapes else ()
+def certified_roots(model, fmax_hz: float, state_keys=()) -> tuple[TransferSystem, Roots]:
+    """(the transfer system, every root below ``fmax_hz`` [Hz] with its null vectors): the
+    path :func:`solve_modes` takes (Wittrick-Williams brackets, Newton, bisection on the
+    count where Newton cannot certify), before any root is required or a shape built."""
+    model = as_model(model)
+    _check(fmax_hz, None, "mstmm")
+    counter = RootCounter(model)
+    (brackets,) = _search_ranges(counter, fmax_hz, None)
+    system = TransferSystem(model)
+    with _blas_controller().limit(limits=1, user_api="blas"):
+        return system, _roots(counter, 0, brackets, system, state_keys)
+
+
+def _roots(counter: RootCounter, design: int, brackets: Brackets, system, state_keys) -> Roots:
+    """The roots of design ``design`` of ``counter`` in its certified ``brackets``."""
 
     def refine(lo_hz, hi_hz):
         return counter.refine(lo_hz, hi_hz, design=design)
 
-    roots = bracketed_roots(system, brackets, refine, state_keys=keys)
+    return bracketed_roots(system, brackets, refine, state_keys=state_keys)
+
+
+def _solution(counter: RootCounter, design: int, brackets: Brackets, count, shapes, system=None):
+    """The ModalSolution of design ``design`` of ``counter`` from its brackets (``seconds``
+    of this part only); ``system``: its TransferSystem if made."""
+    t0 = time.perf_counter()
+    model = counter.models[design]
+    system = TransferSystem(model) if system is None else system
+    keys = shape_state_keys(system) if shapes else ()
+    roots = _roots(counter, design, brackets, system, keys)
     if roots.missing_hz.size:
         raise RootsLostError(
             f"{model.source}: the MSTMM found {roots.frequencies_hz.size} of the "
@@ -399,19 +324,18 @@ def _solution(counter: RootCounter, design: int, brackets: Brackets, count, shap
     rigid = int(counter.zero_modes[design])
     seconds = time.perf_counter() - t0
     solution = ModalSolution(f, system.order, "mstmm", expected, rigid, modes, seconds)
-    return solution, roots.frequencies_hz
+    return solution
 
 
-def _search_ranges(counter: RootCounter, fmax_hz, count, one_more: bool) -> list[Brackets]:
+def _search_ranges(counter: RootCounter, fmax_hz, count) -> list[Brackets]:
     """Certified brackets of the roots to find, per design of ``counter``: all below
-    ``fmax_hz`` (default 1000 Hz), or the first ``count`` (``one_more``: count + 1) and at
-    most those below ``fmax_hz``; the upper frequency lies between the last wanted root and
-    the next one."""
+    ``fmax_hz`` (default 1000 Hz), or the first ``count`` and at most those below
+    ``fmax_hz``; the upper frequency lies between the last wanted root and the next one."""
     n = len(counter.models)
     if count is None:
         found = counter.brackets(DEFAULT_FMAX_HZ if fmax_hz is None else float(fmax_hz))
         return [found] if n == 1 else found
-    wanted = count + 1 if one_more and count + 1 <= counter.total_modes() else count
+    wanted = count
     limited = np.zeros(n, dtype=bool)  # fewer than wanted below fmax_hz: all of those
     if fmax_hz is not None:
         limited = counter.below(np.full(n, float(fmax_hz)), np.arange(n)) < wanted

@@ -1,6 +1,9 @@
-"""The elimination of ufmt.mstmm.reduced written out densely, the tests' oracle for the
-sparse map: S' = L A R with A the arranged U_all (its rows ``rows``, its ω-dependent columns
-``columns``), L = [I, -G on the kept o rows] and R = [I; -C]."""
+"""The definition of the Newton matrix S' written out densely: the elimination of
+:mod:`ufmt.mstmm.reduced` as S' = L A R with A the arranged U_all (its rows ``rows``, its
+ω-dependent columns ``columns``), L = [I, -G on the kept o rows] and R = [I; -C].
+
+The reference the fast sparse map (:class:`ufmt.mstmm.reduced.SparseReduction`) must equal;
+too slow for the search itself (dense products of order |U_all|)."""
 
 import numpy as np
 
