@@ -2,13 +2,13 @@
 
 import numpy as np
 import pytest
-from ufmt.mstmm.dense_reduction import null_vectors, reduced
 from scipy.optimize import brentq
 
 from ufmt.model.load import load_model, model_from_dict, packaged_path
 from ufmt.model.schema import Beam
 from ufmt.mstmm import elements
 from ufmt.mstmm.bodies import GAUSS_POINTS, gauss_points
+from ufmt.mstmm.dense_reduction import null_vectors, reduced
 from ufmt.mstmm.modes import mode_shapes
 from ufmt.mstmm.overall import TransferSystem
 from ufmt.mstmm.reduced import ConstantParts

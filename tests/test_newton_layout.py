@@ -6,10 +6,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from ufmt.mstmm.dense_reduction import arranged, left_right, null_vectors, reduced
 from synthetic import axisymmetric_chain
 
 from ufmt.model.load import load_model, model_from_dict, packaged_path
+from ufmt.mstmm.dense_reduction import arranged, left_right, null_vectors, reduced
 from ufmt.mstmm.overall import TransferSystem, assemble, block_layout
 from ufmt.mstmm.reduced import ConstantParts, SparseReduction
 
