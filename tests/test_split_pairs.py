@@ -15,7 +15,7 @@ import numpy as np
 from ufmt.assembled import assembled_modes
 from ufmt.model.load import model_from_dict
 from ufmt.mstmm.overall import TransferSystem
-from ufmt.mstmm.roots import TWO_PI, det_sign
+from ufmt.mstmm.roots import TWO_PI
 from ufmt.mstmm.solve import solve_modes
 from ufmt.solvers import solve_modes as solve_by
 
@@ -33,6 +33,12 @@ def bridge(symmetric: bool = False):
         inertia[1, 1] = inertia[0, 0]
         data["body"][0]["inertia"] = inertia.tolist()
     return model_from_dict(data, source=str(BRIDGE))
+
+
+def det_sign(system: TransferSystem, omega: np.ndarray) -> np.ndarray:
+    """Sign of det U_all (LU with partial pivoting; positive scalings cannot change it)."""
+    sign, _ = np.linalg.slogdet(system.evaluate(omega))
+    return sign
 
 
 def pair(f: np.ndarray) -> np.ndarray:
