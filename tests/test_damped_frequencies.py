@@ -1,0 +1,107 @@
+"""Damped natural frequencies and damping ratios (oracles: the closed form of a 1-DOF damped
+oscillator, w_n = sqrt(k/m), zeta = zeta_0 + c/(2 m w_n), w_d = w_n sqrt(1 - zeta^2); the
+eigenvalues of the first-order matrix of a 2-DOF chain assembled by hand from its M, C and K,
+its structural damping M Phi diag(2 zeta_0 w) Phi^T M built from its own eigenvectors)."""
+
+import json
+
+import numpy as np
+import pytest
+import scipy.linalg
+
+from ufmt.cli import main
+from ufmt.machining.damped_frequencies import damped_frequencies
+from ufmt.model.load import load_model_text
+
+RIGID = "[inf, inf, inf]"
+
+
+def body(name: str, mass: float, z: float) -> str:
+    return (
+        f'[[body]]\nname = "{name}"\nkind = "rigid"\nmass = {mass}\n'
+        f"center_of_mass = [0.0, 0.0, {z}]\ninertia = [[1, 0, 0], [0, 1, 0], [0, 0, 1]]\n"
+    )
+
+
+def hinge(name: str, a: str, b: str, z: float, k: float, c: float) -> str:
+    return (
+        f'[[hinge]]\nname = "{name}"\nbetween = ["{a}", "{b}"]\nat = [0.0, 0.0, {z}]\n'
+        f"stiffness = [inf, inf, {k}]\nrotational_stiffness = {RIGID}\n"
+        f"damping = [0.0, 0.0, {c}]\n"
+    )
+
+
+def chain(masses, springs, dampers) -> str:
+    """Rigid bodies stacked along z, each on the one below by a z spring and dashpot."""
+    text = 'name = "chain"\n'
+    below = "ground"
+    for i, (m, k, c) in enumerate(zip(masses, springs, dampers, strict=True)):
+        text += body(f"b{i}", m, float(i + 1))
+        text += hinge(f"h{i}", below, f"b{i}", i + 0.5, k, c)
+        below = f"b{i}"
+    return text
+
+
+@pytest.mark.parametrize("c", [0.0, 2.0e3, 2.0e4])
+def test_one_dof_matches_the_closed_form(c):
+    m, k, zeta0 = 50.0, 4.0e7, 0.01
+    model = load_model_text(chain([m], [k], [c]))
+    result = damped_frequencies(model, count=1, zeta=zeta0)
+    wn = np.sqrt(k / m)
+    zeta = zeta0 + c / (2 * m * wn)
+    np.testing.assert_allclose(result.natural_hz, [wn / (2 * np.pi)], rtol=1e-9)
+    np.testing.assert_allclose(result.damping_ratio, [zeta], rtol=1e-9)
+    np.testing.assert_allclose(
+        result.damped_hz, [wn * np.sqrt(1 - zeta**2) / (2 * np.pi)], rtol=1e-9
+    )
+    assert result.hinge_dampers == (c > 0)
+
+
+def hand_poles(masses, springs, dampers, zeta0):
+    """Upper-half-plane poles of M x'' + (C + C_0) x' + K x = 0 assembled by hand."""
+    m1, m2 = masses
+    k1, k2 = springs
+    c1, c2 = dampers
+    mass = np.diag([m1, m2])
+    stiff = np.array([[k1 + k2, -k2], [-k2, k2]])
+    damp = np.array([[c1 + c2, -c2], [-c2, c2]])
+    w2, phi = scipy.linalg.eigh(stiff, mass)  # unit modal mass
+    damp = damp + mass @ phi @ np.diag(2 * zeta0 * np.sqrt(w2)) @ phi.T @ mass
+    inv = np.linalg.inv(mass)
+    a = np.block([[np.zeros((2, 2)), np.eye(2)], [-inv @ stiff, -inv @ damp]])
+    lam = np.linalg.eigvals(a)
+    lam = lam[lam.imag > 0]
+    return lam[np.argsort(np.abs(lam))]
+
+
+def test_two_dof_chain_matches_the_hand_assembled_eigenvalues():
+    masses, springs, dampers, zeta0 = (80.0, 20.0), (6.0e7, 2.0e7), (3.0e4, 8.0e3), 0.02
+    model = load_model_text(chain(masses, springs, dampers))
+    result = damped_frequencies(model, count=2, zeta=zeta0)
+    lam = hand_poles(masses, springs, dampers, zeta0)
+    np.testing.assert_allclose(result.natural_hz, np.abs(lam) / (2 * np.pi), rtol=1e-8)
+    np.testing.assert_allclose(result.damped_hz, lam.imag / (2 * np.pi), rtol=1e-8)
+    np.testing.assert_allclose(result.damping_ratio, -lam.real / np.abs(lam), rtol=1e-7)
+    # non-proportional dampers: the two ratios differ from what each mode alone would give
+    assert result.hinge_dampers
+
+
+def test_modes_json_reports_the_damped_modes(tmp_path, capsys):
+    masses, springs, dampers = (80.0, 20.0), (6.0e7, 2.0e7), (3.0e4, 8.0e3)
+    path = tmp_path / "chain.toml"
+    path.write_text(chain(masses, springs, dampers))
+    assert main(["modes", str(path), "--json", "--zeta", "0.02"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    lam = hand_poles(masses, springs, dampers, 0.02)
+    np.testing.assert_allclose(out["damped_frequencies_hz"], lam.imag / (2 * np.pi), rtol=1e-8)
+    np.testing.assert_allclose(out["damping_ratios"], -lam.real / np.abs(lam), rtol=1e-7)
+    assert out["structural_damping_ratio"] == 0.02 and out["hinge_dampers"] is True
+    assert len(out["damped_frequencies_hz"]) == out["count"] == 2
+
+
+def test_assembled_method_has_no_damped_modes(tmp_path, capsys):
+    path = tmp_path / "chain.toml"
+    path.write_text(chain([50.0], [4.0e7], [0.0]))
+    assert main(["modes", str(path), "--json", "--method", "assembled"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["damped_frequencies_hz"] is None and out["damping_ratios"] is None
