@@ -63,10 +63,9 @@ class DampedFrequencies:
 
     def plot(self, ax=None):
         """Damping ratio against damped frequency, one marker per mode."""
-        import matplotlib.pyplot as plt
+        from ufmt.plots import new_axes
 
-        if ax is None:
-            _, ax = plt.subplots(figsize=(6, 3.5))
+        _, ax = new_axes(ax, figsize=(6.0, 3.5))
         ax.plot(self.damped_hz, 100 * self.damping_ratio, "o")
         ax.set_xlabel("damped natural frequency [Hz]")
         ax.set_ylabel("damping ratio [%]")
