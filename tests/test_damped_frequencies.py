@@ -1,19 +1,25 @@
 """Damped natural frequencies and damping ratios (oracles: the closed form of a 1-DOF damped
 oscillator, w_n = sqrt(k/m), zeta = zeta_0 + c/(2 m w_n), w_d = w_n sqrt(1 - zeta^2); the
 eigenvalues of the first-order matrix of a 2-DOF chain assembled by hand from its M, C and K,
-its structural damping M Phi diag(2 zeta_0 w) Phi^T M built from its own eigenvectors)."""
+its structural damping M Phi diag(2 zeta_0 w) Phi^T M built from its own eigenvectors; the
+complex eigenvalues of the assembled finite-element model of the bridge example with the same
+dampers, on the same modes and on all of them)."""
 
 import json
+from dataclasses import replace
 
 import numpy as np
 import pytest
 import scipy.linalg
 
+from ufmt.assembled.matrices import assemble
+from ufmt.assembled.solve import assembled_modes
 from ufmt.cli import main
 from ufmt.machining.damped_frequencies import damped_frequencies
 from ufmt.model.load import load_model_text
 
 RIGID = "[inf, inf, inf]"
+BRIDGE = "examples/bridge.toml"
 
 
 def body(name: str, mass: float, z: float) -> str:
@@ -105,3 +111,67 @@ def test_assembled_method_has_no_damped_modes(tmp_path, capsys):
     assert main(["modes", str(path), "--json", "--method", "assembled"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["damped_frequencies_hz"] is None and out["damping_ratios"] is None
+
+
+def damped_bridge():
+    """The bridge example with dashpots in its air bearing and table guide."""
+    text = open(BRIDGE).read()
+    bearing = "rotational_stiffness = [1e7, 1e7, 0.0]"
+    guide = "rotational_stiffness = [5e8, 6e8, 5e8]"
+    assert bearing in text and guide in text
+    text = text.replace(
+        bearing, bearing + "\ndamping = [4e4, 4e4, 6e4]\nrotational_damping = [300.0, 300.0, 0.0]"
+    )
+    text = text.replace(guide, guide + "\ndamping = [2e5, 1e5, 2e5]")
+    return load_model_text(text, "bridge-damped")
+
+
+def with_springs(model, value):
+    """``model`` with the non-rigid directions of every damped hinge given the stiffness
+    ``value(hinge)`` (6,)."""
+    hinges = []
+    for h in model.hinges:
+        if np.any(h.damping6[~h.rigid] != 0):
+            k6 = np.where(h.rigid, np.inf, value(h))
+            h = replace(h, stiffness=k6[:3], rotational_stiffness=k6[3:])
+        hinges.append(h)
+    return replace(model, hinges=tuple(hinges))
+
+
+def assembled_poles(model, zeta, modes=None, elements=10):
+    """Poles of the assembled (finite-element) model's modal equations over its first
+    ``modes`` modes (default all): its own mass-normalised shapes, the hinge dampers' matrix
+    C = sum c d d^T assembled as the springs are (the stiffness matrix with the dampers' values
+    as springs minus the one with those springs removed)."""
+    damp = (
+        assemble(with_springs(model, lambda h: h.damping6), elements).K
+        - assemble(with_springs(model, lambda h: np.zeros(6)), elements).K
+    )
+    solution = assembled_modes(model, elements_per_beam=elements)
+    phi, w = solution.shapes[:modes], 2 * np.pi * solution.frequencies_hz[:modes]
+    n = w.size
+    d = np.diag(2 * zeta * w) + phi @ damp @ phi.T
+    a = np.block([[np.zeros((n, n)), np.eye(n)], [-np.diag(w**2), -d]])
+    lam = np.linalg.eigvals(a)
+    lam = lam[lam.imag > 0]
+    return lam[np.argsort(np.abs(lam))]
+
+
+def test_damped_bridge_matches_the_assembled_model_on_the_same_modes():
+    model = damped_bridge()
+    result = damped_frequencies(model, count=15, zeta=0.01, basis_hz=1.0)  # the 15 listed
+    lam = assembled_poles(model, 0.01, modes=15)
+    assert result.hinge_dampers and result.damping_ratio.max() > 0.1  # strongly coupled
+    # the MSTMM's exact beams against a 10-element mesh: agreement to the mesh error
+    np.testing.assert_allclose(result.damped_hz, lam.imag / (2 * np.pi), rtol=1e-5)
+    np.testing.assert_allclose(result.damping_ratio, -lam.real / np.abs(lam), rtol=5e-5)
+
+
+def test_a_wider_basis_converges_to_the_full_assembled_model():
+    model = damped_bridge()
+    lam = assembled_poles(model, 0.01)[:15]  # every mode of the assembled model
+    errors = []
+    for basis_hz in (1.0, 3000.0, 12000.0):
+        result = damped_frequencies(model, count=15, zeta=0.01, basis_hz=basis_hz)
+        errors.append(np.max(np.abs(result.damped_hz / (lam.imag / (2 * np.pi)) - 1)))
+    assert errors[0] > 3 * errors[1] and errors[1] > 3 * errors[2]

@@ -8,7 +8,9 @@ damped: λ_j from ω_j and ζ alone. With them the modes couple and the poles ar
 complex modes of the basis (:func:`ufmt.machining.damping.damped_modes`), ascending by |λ|; an
 overdamped mode (a real pole pair) has no damped frequency and is left out. The basis is
 solved with the model as loaded (the slide where the file puts it) and without the tool
-carrier: the structure's own modes, as ``ufmt modes`` lists them.
+carrier: the structure's own modes, as ``ufmt modes`` lists them, and those above them up to
+the response's basis cutoff (the dampers couple a mode to the modes above it; the modes
+above the basis stay undamped, as in the response).
 """
 
 from __future__ import annotations
@@ -94,26 +96,31 @@ def pole_frequencies(poles) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return size / (2 * np.pi), lam.imag / (2 * np.pi), -lam.real / size
 
 
-def damped_frequencies(model=None, count: int | None = None, fmax_hz=None, zeta=None):
+def damped_frequencies(model=None, count=None, zeta=None, basis_hz=DEFAULT_BASIS_CUTOFF_HZ):
     """:class:`DampedFrequencies` of ``model`` (a path, a loaded model or None for the packaged
-    UFMT): the first ``count`` modes, or every mode below ``fmax_hz`` [Hz]. ``zeta``: the
-    structural damping ratio (default the model's ``machine.modal_damping_ratio``,
-    :data:`~ufmt.machining.recurrence.DEFAULT_ZETA` without ``[machine]``)."""
+    UFMT): its first ``count`` damped modes (default: every mode of the basis) with the
+    structural damping ratio ``zeta`` (default the model's ``machine.modal_damping_ratio``,
+    :data:`~ufmt.machining.recurrence.DEFAULT_ZETA` without ``[machine]``). The basis holds
+    every mode below ``basis_hz`` [Hz] (the response's default basis) and at least ``count``:
+    the dampers couple the modes, and a basis cut at the listed modes misses their coupling
+    to the modes above."""
     model = as_model(model)
     if zeta is None:
         machine = model.machine
         zeta = DEFAULT_ZETA if machine is None else machine.modal_damping_ratio
-    basis = modal_basis(model, count, fmax_hz or DEFAULT_BASIS_CUTOFF_HZ, slide_y=0.0)
+    basis = modal_basis(model, None, basis_hz, slide_y=0.0)
+    if count is not None and basis.n_modes < count:
+        basis = modal_basis(model, count, slide_y=0.0)
     ratios = modal_damping(zeta, basis.n_modes)
     modes = damped_modes(basis, ratios)
     if modes is None:
         poles = basis.omega * (-ratios + 1j * np.sqrt(1.0 - ratios**2))
     else:
         poles = modes.poles
-    natural, damped, ratio = pole_frequencies(poles)
+    natural, damped, ratio = (x[:count] for x in pole_frequencies(poles))
     return DampedFrequencies(
         model.name,
-        basis.omega / (2 * np.pi),
+        basis.omega[:count] / (2 * np.pi),
         natural,
         damped,
         ratio,
