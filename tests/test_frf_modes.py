@@ -162,3 +162,28 @@ def test_validate_with_measured_frfs(frfs, tmp_path, capsys):
     # the extracted modes, written as a modal-test CSV, read back as the same test
     again = read_modal_test(out / "frf-modes.csv")
     np.testing.assert_allclose(again.frequencies_hz, data["frf"]["frequencies_hz"], rtol=1e-9)
+
+
+def test_accelerance_gives_the_same_modes(frfs, files):
+    iw = 2j * np.pi * frfs.frequencies_hz
+    accel = replace(frfs, values=frfs.values * iw**2, kind="accelerance")
+    a = extract_modes(accel, *BAND).test
+    r = extract_modes(files[0], *BAND).test
+    assert a.frequencies_hz.size == r.frequencies_hz.size
+    np.testing.assert_allclose(a.frequencies_hz, r.frequencies_hz, rtol=1e-4)
+    np.testing.assert_allclose(a.damping_ratio, r.damping_ratio, rtol=2e-2)
+
+
+def test_calibration_on_frfs_recovers_the_air_bearing_factor(bridge, frfs, tmp_path):
+    """FRFs of the bridge with its air bearing 0.8 x as stiff: calibrating the example against
+    the modes extracted from them finds the factor 0.8."""
+    from ufmt.calibration.model_update import update_model
+    from ufmt.calibration.reduced import apply_parameters
+    from ufmt.calibration.settings import Parameter
+
+    bearing = Parameter("bearing", ("air_bearing",), "stiffness", (0, 1, 2), (0.5, 2.0), "")
+    truth = apply_parameters(bridge, [bearing], np.array([np.log(0.8)]))
+    measured = synthetic_frf(truth, frfs.outputs, frfs.inputs, FREQ)
+    test = extract_modes(measured, *BAND).test
+    update = update_model(bridge, test, [bearing])
+    assert update.scales[0] == pytest.approx(0.8, rel=5e-3)
