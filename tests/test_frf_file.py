@@ -103,3 +103,24 @@ def test_csv_table_kind_comment(tmp_path):
     assert read_measured_frf(path).kind == "accelerance"
     path.write_text(path.read_text().replace("accelerance", "compliance"))
     refused(path, "unknown kind 'compliance'")
+
+
+def test_a_zero_hz_line_is_dropped(tmp_path):
+    lines = np.arange(0.0, 9.0)
+    values = np.vstack([np.full(lines.size, 1 + 1j), np.full(lines.size, 2 - 1j)])
+    with_dc = MeasuredFrf("dc", lines, values, (HEAD, TABLE), (HEAD, HEAD), "receptance")
+    back = read_measured_frf(save_uff(with_dc, tmp_path / "t.uff"))
+    np.testing.assert_array_equal(back.frequencies_hz, FREQ)
+    np.testing.assert_allclose(back.values, values[:, 1:], rtol=1e-11)
+
+
+def test_positions_from_the_node_map_without_units(tmp_path):
+    path = save_uff(small(), tmp_path / "t.uff")
+    sets = [d for d in pyuff.UFF(str(path)).read_sets() if d["type"] == 58]
+    path.unlink()
+    pyuff.UFF(str(path), "w").write_sets(sets, mode="overwrite")
+    refused(path, "field 'x_m': missing")  # the map names bodies only
+    small().save(tmp_path / "t.csv")  # writes t.nodes.csv with x_m, y_m, z_m
+    back = read_measured_frf(path)
+    assert back.outputs == small().outputs
+    np.testing.assert_allclose(back.values, small().values, rtol=1e-11)

@@ -9,7 +9,8 @@ receptance), velocity (11: mobility) or acceleration (12: accelerance) per force
 positions come from datasets 15 or 2411 in the file, in the file's units: dataset 164 (SI
 value = file value / its length factor) or the unit the caller declares (``unit``: m, cm,
 mm, in); with neither, the file is refused with one line asking for the unit. The ordinates
-are converted to SI with the same factors (x force / length).
+are converted to SI with the same factors (x force / length); a file with no units and no
+node positions has SI ordinates.
 
 CSV FRF table: a column ``frequency_hz`` [Hz] (evenly spaced) and one column per FRF named
 ``<response>/<reference>``, each a node number and a direction (``101z/201x``; ``-z`` for the
@@ -235,6 +236,7 @@ def _read_uff(where: Where, path: Path, unit: str | None) -> MeasuredFrf:
     sets = sets if isinstance(sets, list) else [sets]
     length, force = _units(where, sets, unit)
     geometry = _geometry(where, sets, length)
+    scale = 1.0 if math.isnan(length) else force / length  # no units at all: SI ordinates
     frfs = [d for d in sets if d.get("type") == 58]
     if not frfs:
         where.fail_table("no measured FRFs (dataset 58)")
@@ -253,16 +255,17 @@ def _read_uff(where: Where, path: Path, unit: str | None) -> MeasuredFrf:
         kinds.add(KINDS[kind])
         x = np.asarray(d["x"], dtype=float)
         if freq is None:
-            freq = _axis(here, x)
-        elif x.shape != freq.shape or not np.allclose(x, freq, rtol=SPACING_RTOL):
+            first, freq = x, _axis(here, x)
+        elif x.shape != first.shape or not np.allclose(x, first, rtol=SPACING_RTOL):
             here.fail("x", "its frequency lines differ from the first FRF's")
         data = np.asarray(d["data"])
-        if not np.iscomplexobj(data) or not np.all(np.isfinite(data)):
-            here.fail("data", "expected finite complex FRF values")
+        if not np.iscomplexobj(data) or data.shape != x.shape or not np.all(np.isfinite(data)):
+            here.fail("data", "expected finite complex FRF values, one per frequency line")
+        data = data[x.size - freq.size :]  # without a 0 Hz line
         out = _direction(here, "rsp_dir", d.get("rsp_dir"))
         inp = _direction(here, "ref_dir", d.get("ref_dir"))
         channels.append(((int(d["rsp_node"]), out[0]), (int(d["ref_node"]), inp[0])))
-        rows.append(data * out[1] * inp[1] * force / length)
+        rows.append(data * out[1] * inp[1] * scale)
     if len(kinds) > 1:
         where.fail_table(f"FRFs of different kinds ({', '.join(sorted(kinds))})")
     return _assemble(where, path, freq, np.array(rows), channels, kinds.pop(), geometry)
