@@ -9,6 +9,7 @@ import json
 from dataclasses import replace
 
 import numpy as np
+import pandas as pd
 import pytest
 import scipy.linalg
 
@@ -175,3 +176,11 @@ def test_a_wider_basis_converges_to_the_full_assembled_model():
         result = damped_frequencies(model, count=15, zeta=0.01, basis_hz=basis_hz)
         errors.append(np.max(np.abs(result.damped_hz / (lam.imag / (2 * np.pi)) - 1)))
     assert errors[0] > 3 * errors[1] and errors[1] > 3 * errors[2]
+
+
+def test_result_saves_its_table(tmp_path):
+    result = damped_frequencies(load_model_text(chain([50.0], [4.0e7], [2.0e3])), zeta=0.01)
+    csv, png = result.save(tmp_path)
+    table = pd.read_csv(csv)
+    np.testing.assert_allclose(table["damped_hz"], result.damped_hz, rtol=1e-9)
+    assert png.stat().st_size > 0 and "1 damped modes" in repr(result)
