@@ -27,6 +27,7 @@ import numpy as np
 import pandas as pd
 from scipy.optimize import linear_sum_assignment
 
+from ufmt import limits
 from ufmt.assembled import assembled_modes
 from ufmt.calibration.modal_test import AXES, ModalTest, modal_test
 from ufmt.calibration.test_file import read_test
@@ -200,15 +201,16 @@ def correlate(model, test, count: int | None = None) -> Correlation:
 
     ``count``: model modes to solve (default: the highest test mode number plus EXTRA_MODES,
     and at least every mode below WINDOW times the highest test frequency (modes extracted
-    from FRFs are numbered 1..m whatever the model's numbering),
+    from FRFs are numbered 1..m whatever the model's numbering), at most MAX_MODE_COUNT,
     or as many as the model has).
     """
     model = as_model(model)
     test = test if isinstance(test, ModalTest) else read_test(test)
     if not count:
-        fmax = min(WINDOW * test.frequencies_hz.max(), MAX_MODEL_HZ)
+        fmax = min(WINDOW * test.frequencies_hz.max(), limits.MAX_MODE_FREQUENCY_HZ)
         window = solve_modes(model, fmax_hz=fmax, shapes=False).frequencies_hz.size
         count = max(int(max(test.modes.max(), test.modes.size)), window) + EXTRA_MODES
+        count = min(count, limits.MAX_MODE_COUNT)
     solution = solve_modes(model, fmax_hz=MAX_MODEL_HZ, count=count, shapes=bool(test.sensors))
     model_hz = solution.frequencies_hz
     if test.sensors:

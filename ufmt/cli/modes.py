@@ -6,6 +6,7 @@ from __future__ import annotations
 import sys
 
 from ufmt.cli.common import load
+from ufmt.errors import UfmtError
 from ufmt.jsonout import dumps_strict
 
 
@@ -20,7 +21,10 @@ def cmd_modes(args) -> int:
     lines = describe(model, sol.energy_shares(model)) if sol.shapes is not None else []
     damped = None
     if sol.shapes is not None and sol.frequencies_hz.size:
-        damped = damped_frequencies(model, count=sol.frequencies_hz.size, zeta=args.zeta)
+        try:
+            damped = damped_frequencies(model, count=sol.frequencies_hz.size, zeta=args.zeta)
+        except UfmtError as exc:  # e.g. coalescing poles: the undamped modes still stand
+            print(f"warning: no damped modes: {exc}", file=sys.stderr)
     if args.json:
         out = {
             "model": model.name,
@@ -62,7 +66,7 @@ def cmd_modes(args) -> int:
 
 def _damped_json(damped) -> dict:
     """The damped modes' keys of ``ufmt modes --json`` (null without them: the assembled
-    method)."""
+    method, or damped modal equations that are defective)."""
     if damped is None:
         return dict.fromkeys(
             ("damped_frequencies_hz", "damping_ratios", "structural_damping_ratio", "hinge_dampers")
