@@ -141,6 +141,7 @@ def _add_frf_options(p) -> None:
         "--frf-order",
         type=positive(int, at_least=6, at_most=100),
         default=30,
+        metavar="N",
         help="measured FRFs: highest LSCF model order / 2 (default 30)",
     )
     p.add_argument(
