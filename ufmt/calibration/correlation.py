@@ -27,8 +27,10 @@ import numpy as np
 import pandas as pd
 from scipy.optimize import linear_sum_assignment
 
+from ufmt import limits
 from ufmt.assembled import assembled_modes
-from ufmt.calibration.modal_test import AXES, ModalTest, modal_test, read_modal_test
+from ufmt.calibration.modal_test import AXES, ModalTest, modal_test
+from ufmt.calibration.test_file import read_test
 from ufmt.errors import StudyError
 from ufmt.kinematics import carried_motion
 from ufmt.model.load import as_model
@@ -39,6 +41,8 @@ from ufmt.mstmm.solve import solve_modes
 from ufmt.tables import Where
 
 EXTRA_MODES = 5  # model modes solved beyond the highest test mode number (room to pair)
+MAX_MODEL_HZ = 1e6  # [Hz] highest model frequency solved for a pairing
+WINDOW = 1.5  # model modes up to this factor times the highest test frequency are candidates
 BEAM_TOLERANCE = 1e-6  # how far past a beam's end [m] a sensor may sit and still be on it
 
 
@@ -196,12 +200,18 @@ def correlate(model, test, count: int | None = None) -> Correlation:
     the modes of ``test`` (a path or a :class:`ModalTest`).
 
     ``count``: model modes to solve (default: the highest test mode number plus EXTRA_MODES,
+    and at least every mode below WINDOW times the highest test frequency (modes extracted
+    from FRFs are numbered 1..m whatever the model's numbering), at most MAX_MODE_COUNT,
     or as many as the model has).
     """
     model = as_model(model)
-    test = test if isinstance(test, ModalTest) else read_modal_test(test)
-    count = count or int(max(test.modes.max(), test.modes.size)) + EXTRA_MODES
-    solution = solve_modes(model, fmax_hz=1e6, count=count, shapes=bool(test.sensors))
+    test = test if isinstance(test, ModalTest) else read_test(test)
+    if not count:
+        fmax = min(WINDOW * test.frequencies_hz.max(), limits.MAX_MODE_FREQUENCY_HZ)
+        window = solve_modes(model, fmax_hz=fmax, shapes=False).frequencies_hz.size
+        count = max(int(max(test.modes.max(), test.modes.size)), window) + EXTRA_MODES
+        count = min(count, limits.MAX_MODE_COUNT)
+    solution = solve_modes(model, fmax_hz=MAX_MODEL_HZ, count=count, shapes=bool(test.sensors))
     model_hz = solution.frequencies_hz
     if test.sensors:
         model_shapes = sensor_shapes(model, solution.shapes, test.sensors, test.source)

@@ -32,9 +32,10 @@ import pandas as pd
 from scipy.optimize import least_squares
 
 from ufmt.calibration.correlation import Correlation, correlate
-from ufmt.calibration.modal_test import ModalTest, read_modal_test
+from ufmt.calibration.modal_test import ModalTest
 from ufmt.calibration.reduced import apply_parameters
 from ufmt.calibration.settings import Parameter, read_parameters
+from ufmt.calibration.test_file import read_test
 from ufmt.errors import StudyError
 from ufmt.model.load import as_model
 from ufmt.model.schema import Model
@@ -178,7 +179,7 @@ def update_model(
     """Calibrate ``prior`` (a path or a model) against ``test`` (a path or a ModalTest) by the
     bounded, regularised fit of the module docstring."""
     prior = as_model(prior)
-    test = test if isinstance(test, ModalTest) else read_modal_test(test)
+    test = test if isinstance(test, ModalTest) else read_test(test)
     parameters = tuple(parameters or default_parameters(prior))
     settings = settings or UpdateSettings()
     if not parameters:

@@ -54,6 +54,12 @@ def build_parser() -> argparse.ArgumentParser:
         help=f"number of modes (at most {MAX_MODE_COUNT})",
     )
     p.add_argument("--method", choices=["mstmm", "assembled"], default="mstmm")
+    p.add_argument(
+        "--zeta",
+        type=positive(float, below=1.0),
+        help="structural damping ratio of the damped modes (default: the model's "
+        "machine.modal_damping_ratio, else 0.01); the hinge dampers add to it",
+    )
     p.add_argument("--json", action="store_true", help="one JSON object on stdout")
     p.set_defaults(func=cmd_modes)
     registers = (register_calibration, register_machining, register_measured, add_run_parser)

@@ -57,9 +57,11 @@ def register(subparsers) -> None:
     p.add_argument(
         "--test",
         metavar="FILE",
-        help="your modal-test file, CSV or UFF (docs/modal-test.md): calibrate --prior against it; "
+        help="your modal-test file: modes (CSV, UFF 55) or measured FRFs (UFF 58, CSV FRF table; "
+        "docs/modal-test.md): calibrate --prior against it; "
         "--settings is then a model-update file (docs/modal-test.md), optional",
     )
+    _add_frf_options(p)
     p.add_argument("--settings", help="calibration file (default: packaged calibration.toml)")
     p.add_argument(
         "--output",
@@ -76,9 +78,11 @@ def register(subparsers) -> None:
     p.add_argument(
         "--test",
         metavar="FILE",
-        help="modal-test file, CSV or UFF (docs/modal-test.md): pair the modes by MAC or "
-        "order, write correlation.csv, mac.csv, mac.png",
+        help="modal-test file: modes (CSV, UFF 55) or measured FRFs (UFF 58, CSV FRF table), "
+        "docs/modal-test.md: pair the modes by MAC or order, write correlation.csv, mac.csv, "
+        "mac.png (FRFs: also frf-modes.csv, stabilisation.csv/png, frf-overlay.csv/png)",
     )
+    _add_frf_options(p)
     p.add_argument("--json", action="store_true", help="with --test: one JSON object on stdout")
     p.add_argument(
         "--output-dir",
@@ -104,6 +108,60 @@ def register(subparsers) -> None:
         "--gif", action="store_true", help="also write the mode animated over one period (GIF)"
     )
     p.set_defaults(func=cmd_plot_mode)
+
+
+def _floats(text: str) -> list[float]:
+    """Comma-separated positive numbers."""
+    try:
+        values = [float(t) for t in text.split(",") if t.strip()]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a list of numbers") from None
+    if not values or not all(v > 0 and math.isfinite(v) for v in values):
+        raise argparse.ArgumentTypeError(f"{text!r}: finite numbers > 0, comma-separated")
+    return values
+
+
+def _band(text: str) -> list[float]:
+    """FMIN,FMAX [Hz]."""
+    values = _floats(text)
+    if len(values) != 2 or not values[0] < values[1]:
+        raise argparse.ArgumentTypeError(f"{text!r}: FMIN,FMAX with FMIN < FMAX [Hz]")
+    return values
+
+
+def _add_frf_options(p) -> None:
+    """The modal-extraction options of a measured-FRF test (ufmt.calibration.frf_modes)."""
+    p.add_argument(
+        "--frf-band",
+        type=_band,
+        metavar="FMIN,FMAX",
+        help="measured FRFs: the band of the modal extraction [Hz] (default: the whole file)",
+    )
+    p.add_argument(
+        "--frf-order",
+        type=positive(int, at_least=6, at_most=100),
+        default=30,
+        metavar="N",
+        help="measured FRFs: highest LSCF model order / 2 (default 30)",
+    )
+    p.add_argument(
+        "--frf-poles",
+        type=_floats,
+        metavar="F1,F2,...",
+        help="measured FRFs: approximate frequencies [Hz] of the modes to take (default: "
+        "every pole stable over the last orders, docs/modal-test.md)",
+    )
+
+
+def _frf_modes(args):
+    """The modes extracted from a measured-FRF test file (None: the file holds modes)."""
+    from ufmt.calibration.frf_file import is_frf_file
+    from ufmt.calibration.frf_modes import extract_modes
+
+    if not is_frf_file(args.test):
+        return None
+    band = args.frf_band or (None, None)
+    return extract_modes(args.test, *band, order=args.frf_order, approx_hz=args.frf_poles)
 
 
 def cmd_calibrate(args) -> int:
@@ -150,7 +208,9 @@ def _calibrate_test(args) -> int:
         read_update_settings(args.settings, prior) if args.settings else (None, None)
     )
     t0 = time.perf_counter()
-    update = update_model(prior, args.test, parameters, settings)
+    extracted = _frf_modes(args)
+    test = args.test if extracted is None else extracted.test
+    update = update_model(prior, test, parameters, settings)
     stem = "ufmt" if args.prior is None else Path(args.prior).stem
     folder = results_dir(args.prior, "calibration", Path("results") / "calibration")
     output = write_model(update, args.output or folder / f"{stem}-calibrated.toml", args.settings)
@@ -221,7 +281,7 @@ def cmd_validate(args) -> int:
     model = load(args.model)
     out = Path(args.output_dir or results_dir(args.model, "validation", RESULTS))
     if args.test:
-        return _validate_test(model, args.test, out, args.json)
+        return _validate_test(model, args, out)
     if args.json:
         raise UfmtError("--json: only with --test FILE (the validation against a modal test)")
     reference = read_reference(packaged_path("paper_reference.toml"))
@@ -257,18 +317,29 @@ def cmd_validate(args) -> int:
     return 0
 
 
-def _validate_test(model, test: str, out: Path, as_json: bool) -> int:
+def _validate_test(model, args, out: Path) -> int:
     """Pair the model's modes with the test's, write correlation.csv, mac.csv and mac.png in
-    ``out``, print the pair table (or, with ``as_json``, one JSON object)."""
+    ``out`` (measured FRFs: the extraction's and the overlay's files too), print the pair
+    table (or, with ``--json``, one JSON object)."""
     from ufmt.calibration.correlation import correlate
+    from ufmt.calibration.frf_overlay import overlay
     from ufmt.jsonout import dumps_strict
 
-    result = correlate(model, test)
+    test = args.test
+    extracted = _frf_modes(args)
+    result = correlate(model, test if extracted is None else extracted.test)
     written = result.save(out)
-    if as_json:
-        print(dumps_strict(result.to_dict()))
+    frf = {}
+    if extracted is not None:
+        both = overlay(model, extracted.measured)
+        written += extracted.save(out) + both.save(out)
+        frf = {"frf": _frf_json(extracted, both)}
+    if args.json:
+        print(dumps_strict(result.to_dict() | frf))
         return 0
     s = result.summary()
+    if extracted is not None:
+        print(f"{extracted!r}; {both!r}")
     print(result.table.to_string(index=False, float_format=lambda v: f"{v:.4g}"))
     mac = "no shapes" if math.isnan(s["min_mac"]) else f"lowest MAC {s['min_mac']:.3f}"
     print(
@@ -278,6 +349,19 @@ def _validate_test(model, test: str, out: Path, as_json: bool) -> int:
     )
     print(f"wrote {', '.join(p.name for p in written)} in {out}")
     return 0
+
+
+def _frf_json(extracted, both) -> dict:
+    """The ``frf`` object of ``validate --test FRFS --json``."""
+    return {
+        "frfs": len(extracted.measured.outputs),
+        "kind": extracted.measured.kind,
+        "band_hz": list(extracted.band_hz),
+        "modes": int(extracted.test.modes.size),
+        "frequencies_hz": extracted.test.frequencies_hz.tolist(),
+        "damping_ratios": extracted.test.damping_ratio.tolist(),
+        "overlay_median_log10_ratio": both.log_ratio(),
+    }
 
 
 def _csv(table, float_format: str) -> bytes:
