@@ -23,6 +23,7 @@ import pytest
 from ufmt.errors import ModelError
 from ufmt.machining.machine_frame import in_machine_frame
 from ufmt.machining.process import Process
+from ufmt.machining.static import gravity_deflection
 from ufmt.model.load import model_from_dict
 from ufmt.model.orientation import frame_matrix
 from ufmt.mstmm.solve import solve_modes
@@ -248,3 +249,62 @@ def test_cli_refuses_a_bad_direction_in_one_line(tmp_path):
     assert done.returncode == 2
     lines = done.stderr.strip().splitlines()
     assert len(lines) == 1 and "field 'feed_direction'" in lines[0] and "Traceback" not in lines[0]
+
+
+@pytest.mark.parametrize(
+    "base, q",
+    [(bridge, ABOUT_Y), (lambda: isotropic(bridge()), arbitrary_rotation())],
+    ids=["horizontal", "arbitrary"],
+)
+def test_weight_deflection_rotates_with_the_machine(base, q):
+    """Oracle: the static deflection under gravity of a rotated machine, gravity rotated too,
+    is the original's rotated (in the file's frame) and the original's (in the machine
+    frame); gravity left along -z gives another one (the direction is used)."""
+    bodies = ("head", "table")
+    original = model_from_dict(base(), "b.toml")
+    turned = model_from_dict(rotated(base(), q), "b.toml")
+    want = gravity_deflection(original, bodies).reshape(4, 3)
+    scale = np.abs(want).max()
+    assert scale > 0
+    got = gravity_deflection(turned, bodies).reshape(4, 3)
+    assert got == pytest.approx(want @ q.T, abs=1e-9 * scale)
+    framed = gravity_deflection(in_machine_frame(turned), bodies).reshape(4, 3)
+    assert framed == pytest.approx(want, abs=1e-9 * scale)
+    data = rotated(base(), q)
+    data["machine"]["gravity_direction"] = "-z"
+    other = gravity_deflection(model_from_dict(data, "b.toml"), bodies).reshape(4, 3)
+    assert np.abs(other - want @ q.T).max() > 1e-3 * scale
+
+
+def test_weight_deflection_is_linear_in_the_gravity_direction():
+    """Oracle: linearity: the deflection along a unit direction d is sum_i d_i u_i, u_i the
+    deflection under gravity along global axis i."""
+    bodies = ("head", "table")
+    d = np.array([0.48, -0.6, 0.64])
+
+    def under(direction):
+        model = model_from_dict(bridge(gravity_direction=list(direction)), "b.toml")
+        return gravity_deflection(model, bodies)
+
+    axes = np.array([under(e) for e in np.eye(3)])
+    want = d @ axes
+    assert under(d) == pytest.approx(want, abs=1e-9 * np.abs(axes).max())
+
+
+def test_frf_of_a_horizontal_spindle_is_the_vertical_one():
+    """Oracle: the tool-workpiece receptance along the spindle axis and a point FRF given in
+    the file's frame are unchanged by the rotation (their axes are the machine frame's)."""
+    from ufmt.machining.frf import frf
+
+    options = {"fmin_hz": 50.0, "fmax_hz": 3000.0, "points": 64}
+    original = model_from_dict(bridge(), "b.toml")
+    turned = model_from_dict(rotated(bridge(), ABOUT_Y), "b.toml")
+    for direction in ("z", "xy"):
+        want = frf(original, direction, **options).to_frame().filter(like="_m_per_N").to_numpy()
+        got = frf(turned, direction, **options).to_frame().filter(like="_m_per_N").to_numpy()
+        assert got == pytest.approx(want, rel=1e-9, abs=1e-9 * np.abs(want).max())
+    point = ("head", (0.1, 0.05, 0.965))
+    want = frf(original, "z", output=point, **options).to_frame().filter(like="_m_per_N").to_numpy()
+    moved = ("head", tuple(ABOUT_Y @ point[1]))
+    got = frf(turned, "z", output=moved, **options).to_frame().filter(like="_m_per_N").to_numpy()
+    assert got == pytest.approx(want, rel=1e-9, abs=1e-9 * np.abs(want).max())
