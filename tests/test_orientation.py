@@ -308,3 +308,18 @@ def test_frf_of_a_horizontal_spindle_is_the_vertical_one():
     moved = ("head", tuple(ABOUT_Y @ point[1]))
     got = frf(turned, "z", output=moved, **options).to_frame().filter(like="_m_per_N").to_numpy()
     assert got == pytest.approx(want, rel=1e-9, abs=1e-9 * np.abs(want).max())
+
+
+def test_tool_tip_along_the_spindle_is_unchanged_by_the_rotation():
+    """Oracle: the calibration's tool-tip participation (translation along the spindle axis)
+    of every mode is the same for the horizontal copy (up to each shape's sign)."""
+    from ufmt.calibration.frequencies import modeset_from_mstmm
+
+    def tip(data):
+        model = model_from_dict(data, "b.toml")
+        return modeset_from_mstmm(model, solve_modes(model, fmax_hz=3000.0).shapes).tool_tip_z
+
+    want = tip(bridge())
+    got = tip(rotated(bridge(), ABOUT_Y))
+    assert np.abs(want).max() > 0
+    assert np.abs(got) == pytest.approx(np.abs(want), abs=1e-9 * np.abs(want).max())
