@@ -74,7 +74,7 @@ def tool_workpiece_end(machine: Machine, tool_angle: float = 0.0, slide_y: float
 
 
 def point_end(body: str, point) -> End:
-    """A point [m] (global frame) on a rigid body."""
+    """A point [m] (machine frame) on a rigid body."""
     p = tuple(float(v) for v in point)
     return End(f"{body}({','.join(f'{v:g}' for v in p)})", ((body, p, 1.0),))
 

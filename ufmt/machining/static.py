@@ -43,7 +43,8 @@ class ResidualFlexibility:
     Attributes
     ----------
     matrix : (12, 12) [m/N, m/(N m), rad/(N m)]: rows and columns [r_tool, theta_tool,
-        r_work, theta_work] at the bodies' centres of mass (global frame).
+        r_work, theta_work] at the bodies' centres of mass (machine frame: the model's,
+        :func:`residual_flexibility` rotates it in).
     centers : (2, 3) centres of mass of the tool and the workpiece body [m].
     static : (12, 12) the full static flexibility it was made from (for reports and tests).
     """
