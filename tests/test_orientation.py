@@ -323,3 +323,16 @@ def test_tool_tip_along_the_spindle_is_unchanged_by_the_rotation():
     got = tip(rotated(bridge(), ABOUT_Y))
     assert np.abs(want).max() > 0
     assert np.abs(got) == pytest.approx(np.abs(want), abs=1e-9 * np.abs(want).max())
+
+
+def test_report_lists_the_directions_a_file_gives():
+    """The report's machine table shows the directions written in the file (and only then:
+    an upright file's table is unchanged)."""
+    from ufmt.report import machine_table
+
+    turned = machine_table(model_from_dict(rotated(bridge(), ABOUT_Y), "b.toml"))
+    rows = turned.set_index("field")
+    assert rows.loc["spindle_direction", "value"] == "1, 0, 0"
+    assert rows.loc["gravity_direction", "value"] == "-1, 0, 0"
+    upright = machine_table(model_from_dict(bridge(), "b.toml"))
+    assert "spindle_direction" not in set(upright["field"])
