@@ -371,3 +371,14 @@ def test_evaluate_sets_a_design_on_the_horizontal_machine_as_on_the_example():
     assert want["status"] == got["status"] == "ok"
     for key in ("pv_nm", "pv_measured_nm", "zre_peak_nm", "psd1_rms_nm", "f1_hz", "f6_hz"):
         assert got[key] == pytest.approx(want[key], rel=RTOL), key
+
+
+def test_machine_frame_model_reads_back_as_itself():
+    """The rotated model's [machine] table, read again (a design or a fit re-reads it), gives
+    the machine-frame machine: no second rotation."""
+    from ufmt.model.machine import read_machine
+
+    framed = in_machine_frame(model_from_dict(rotated(bridge(), ABOUT_Y), "b.toml"))
+    again = read_machine(framed.machine.table, "b.toml")
+    assert again.upright and in_machine_frame(framed) is framed
+    assert again.gravity_direction == pytest.approx(framed.machine.gravity_direction, abs=0)

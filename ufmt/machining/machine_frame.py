@@ -55,11 +55,15 @@ def _rotated(model: Model) -> Model:
         (model.bodies, frame.tobytes()), lambda: tuple(_body(b, frame) for b in model.bodies)
     )
     hinges = tuple(_hinge(h, frame, model.source) for h in model.hinges)
+    gravity = tuple(float(g) for g in frame.T @ machine.gravity_direction)
+    table = {k: v for k, v in machine.table.items() if k not in DIRECTION_FIELDS}
+    table["gravity_direction"] = list(gravity)  # the table reads back as this machine
     machine = replace(
         machine,
         spindle_direction=DIRECTION_FIELDS["spindle_direction"],
         feed_direction=DIRECTION_FIELDS["feed_direction"],
-        gravity_direction=tuple(float(g) for g in frame.T @ machine.gravity_direction),
+        gravity_direction=gravity,
+        table=table,
     )
     return replace(model, bodies=bodies, hinges=hinges, machine=machine)
 
