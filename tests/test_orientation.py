@@ -382,3 +382,17 @@ def test_machine_frame_model_reads_back_as_itself():
     again = read_machine(framed.machine.table, "b.toml")
     assert again.upright and in_machine_frame(framed) is framed
     assert again.gravity_direction == pytest.approx(framed.machine.gravity_direction, abs=0)
+
+
+def test_machine_frame_keeps_a_beam_section_turned_as_the_file_has_it():
+    """Oracle: a rotation changes no natural frequency: the rotated model in its machine frame
+    has the file's frequencies, also for a beam whose section is not round and whose local y
+    axis is the default (the machine frame must keep the file's, not take its own default)."""
+    data = rotated(isotropic(bridge()), arbitrary_rotation())
+    shaft = next(b for b in data["body"] if b["name"] == "shaft")
+    del shaft["diameter"]
+    shaft.update(area=0.0113, second_moment_y=4e-6, second_moment_z=2e-5, polar_moment=2.4e-5)
+    model = model_from_dict(data, "b.toml")
+    want = solve_modes(model, fmax_hz=3000.0).frequencies_hz
+    got = solve_modes(in_machine_frame(model), fmax_hz=3000.0).frequencies_hz
+    assert got == pytest.approx(want, rel=1e-9)
