@@ -351,6 +351,7 @@ def cli(*args) -> dict:
     return json.loads(done.stdout)
 
 
+@pytest.mark.slow  # four CLI runs; the in-process twin: test_horizontal_spindle_cuts_...
 def test_cli_runs_the_horizontal_model_file_as_the_example():
     """Oracle: tests/models/horizontal_bridge.toml is examples/bridge.toml turned 90 degrees
     about y with its gravity; ``ufmt modes`` and ``ufmt simulate`` give the example's."""
