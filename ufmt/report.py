@@ -26,7 +26,7 @@ import pandas as pd
 
 from ufmt import files
 from ufmt.machining.process import TABLE1_RANGE
-from ufmt.model.machine import MACHINE_FIELDS, OPTIONAL_FIELDS
+from ufmt.model.machine import DIRECTIONS, MACHINE_FIELDS, OPTIONAL_FIELDS
 from ufmt.model.schema import Model
 from ufmt.report_summary import summary_parts
 
@@ -285,6 +285,10 @@ def machine_table(model: Model, calibration=None) -> pd.DataFrame:
                 "set by": how,
             }
         )
+    for key in (k for k in DIRECTIONS if k in written):  # a spindle's orientation, if given
+        value = _value(getattr(machine, key))
+        how = "as written in the model file"
+        rows.append({"field": key, "value": value, "unit": "-", "band": "unit", "set by": how})
     return pd.DataFrame(rows)
 
 

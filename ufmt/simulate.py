@@ -33,6 +33,7 @@ from ufmt.machining.instruments import (
     interferometer_metrics,
     scallop_roughness,
 )
+from ufmt.machining.machine_frame import in_machine_frame
 from ufmt.machining.periodic_path import periodic_response, record_tip_acceleration
 from ufmt.machining.process import Process
 from ufmt.machining.psd import band_rms
@@ -129,7 +130,7 @@ def simulate(
     (:mod:`ufmt.machining.validity`); ProcessError for a size outside :mod:`ufmt.limits`.
     """
     model, process = simulate_inputs(model, process)
-    model = _loaded(model, n_modes, n_phi, table_rows, sources)
+    model = in_machine_frame(_loaded(model, n_modes, n_phi, table_rows, sources))
     machine = _machine(model)
     validity.check_case(process, machine, spacing, aperture_margin, psd2_patch)
     basis = _basis(model, machine, basis, n_modes, basis_cutoff_hz)

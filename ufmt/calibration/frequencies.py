@@ -210,14 +210,18 @@ def _masses(model: Model) -> np.ndarray:
 
 
 def _tool_tip_z(model: Model, motion: np.ndarray) -> np.ndarray:
-    """z translation (n,) of the tool tip at spindle angle TIP_ANGLE, from rigid motions."""
+    """Translation (n,) of the tool tip at spindle angle TIP_ANGLE along the spindle axis
+    (z of the machine frame, :mod:`ufmt.model.orientation`), from rigid motions (n, B, 6)
+    in the file's frame."""
     machine = machine_of(model)
     body = model.body(machine.tool_body)
     if not MOVES_AS_ONE_FRAME[body.kind]:
         return np.zeros(motion.shape[0])
     v = motion[:, [b.name for b in model.bodies].index(body.name)]
-    arm = tool_tip(TIP_ANGLE, machine) - body.center_of_mass
-    return v[:, 2] + v[:, 3] * arm[1] - v[:, 4] * arm[0]
+    frame = machine.frame
+    r, turn = v[:, :3] @ frame, v[:, 3:6] @ frame  # in the machine frame
+    arm = tool_tip(TIP_ANGLE, machine) - body.center_of_mass @ frame
+    return r[:, 2] + turn[:, 0] * arm[1] - turn[:, 1] * arm[0]
 
 
 def modeset_from_mstmm(model: Model, shapes) -> ModeSet:

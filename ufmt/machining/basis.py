@@ -29,7 +29,8 @@ class ModalBasis:
     omega : (n,) natural angular frequencies [rad/s], ascending, > 0.
     modal_mass : (n,) modal masses <V^s, M V^s> [kg] (paper eq. 3.11).
     body_shapes : body name -> (n, 6) rigid motion per mode, [r_C (3) [m]; theta (3) [rad]],
-        global frame, at the body's centre of mass (same normalisation as ``modal_mass``).
+        machine frame (:mod:`ufmt.machining.machine_frame`; the global frame of an upright
+        spindle), at the body's centre of mass (same normalisation as ``modal_mass``).
     body_centers : body name -> (3,) centre of mass [m].
     hinge_damping : (n, n) Phi_rel^T C_hinge Phi_rel [kg/s], the hinge dampers projected on the
         modes (same normalisation; :mod:`ufmt.machining.damping`), or None: no hinge damps
@@ -108,7 +109,7 @@ class ModalBasis:
         Parameters
         ----------
         body : body name (a key of ``body_shapes``).
-        points : (P, 3) or (3,) points [m], global frame.
+        points : (P, 3) or (3,) points [m], machine frame (as ``body_centers``).
 
         Returns
         -------

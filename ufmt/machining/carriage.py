@@ -27,7 +27,7 @@ removal it would act as a spindle tilt of its slope (the plate tilts with the ca
 the tool's circle does not).
 
 Slide position Y (0 halfway, :mod:`ufmt.machining.cutting`): the carriage sits at -Y from the
-file's position, so the pads' centre is at the global y c(Y) = y_s + offset - Y (y_s the
+file's position, so the pads' centre is at the machine-frame y c(Y) = y_s + offset - Y (y_s the
 spindle axis's y, where the workpiece centre is halfway). The workpiece point cut at (phi, Y)
 has the material y = Y + R cos(phi) on the plate; its lever arm from the pads' centre along y
 is that y minus the offset (the Abbe offset), so the point sits h + theta (Y + R cos(phi) -
@@ -49,7 +49,7 @@ from ufmt.model.machine import Machine
 
 
 def pad_centre(slide_y, machine: Machine) -> np.ndarray:
-    """Global y [m] of the pads' centre c(Y) at slide positions ``slide_y`` [m]."""
+    """y [m] (machine frame) of the pads' centre c(Y) at slide positions ``slide_y`` [m]."""
     y = np.asarray(slide_y, dtype=float)
     return machine.spindle_axis_xy[1] + machine.carriage_pad_offset_m - y
 

@@ -31,6 +31,7 @@ import numpy as np
 from scipy.interpolate import CubicSpline
 
 from ufmt.machining.cutting import tool_tip
+from ufmt.machining.machine_frame import in_machine_frame
 from ufmt.machining.slide import cut_slide_position, model_at_slide
 from ufmt.machining.static import gravity_deflection
 from ufmt.model.machine import Machine
@@ -99,5 +100,7 @@ class CarriageLoad:
 
 def carriage_load(model, machine: Machine, knots: int = KNOTS) -> CarriageLoad:
     """The :class:`CarriageLoad` profile of ``model`` and ``machine`` (cached per model,
-    machine and knots: one per design of a study)."""
+    machine and knots: one per design of a study); the model in its machine frame
+    (:mod:`ufmt.machining.machine_frame`)."""
+    model = in_machine_frame(model)
     return _PROFILES.get((model, machine, knots), lambda: CarriageLoad(model, machine, knots))

@@ -2,7 +2,9 @@
 
 Frames and conventions
 ----------------------
-Global frame of the model: z opposite to the depth of cut, y opposite to the feed. The tool tip
+Machine frame (:mod:`ufmt.model.orientation`; the model's global frame for the default upright
+spindle): z along the spindle axis, opposite to the depth of cut, y opposite to the feed. The
+tool tip
 sits at radius R on the fly-cutting head; the spindle angle is phi = 2 pi f t, with phi = 0 when
 the tip points along +y. Seen from +z, eq. 4.1 (x = R sin phi, y = R cos phi) turns clockwise:
 ``rotation = "cw"`` follows eq. 4.1 literally, ``"ccw"`` mirrors x (x = -R sin phi).
@@ -98,7 +100,7 @@ def part_amplitude(process, machine: Machine, part: str) -> float:
 
 
 def tool_tip(phi, machine: Machine) -> np.ndarray:
-    """Tool-tip position at spindle angle ``phi`` [rad], global frame (eq. 4.1): (..., 3) [m]."""
+    """Tool-tip position at spindle angle ``phi`` [rad], machine frame (eq. 4.1): (..., 3) [m]."""
     phi = np.asarray(phi, dtype=float)
     x0, y0 = machine.spindle_axis_xy
     r = machine.tool_radius

@@ -32,6 +32,7 @@ from ufmt.kinematics import point_motion
 from ufmt.machining.basis import ModalBasis
 from ufmt.machining.cutting import tool_tip
 from ufmt.machining.damping import damped_modes
+from ufmt.machining.machine_frame import in_machine_frame
 from ufmt.machining.modal import modal_basis
 from ufmt.machining.recurrence import DEFAULT_ZETA, modal_damping
 from ufmt.machining.slide import model_at_slide
@@ -73,7 +74,7 @@ def tool_workpiece_end(machine: Machine, tool_angle: float = 0.0, slide_y: float
 
 
 def point_end(body: str, point) -> End:
-    """A point [m] (global frame) on a rigid body."""
+    """A point [m] (machine frame) on a rigid body."""
     p = tuple(float(v) for v in point)
     return End(f"{body}({','.join(f'{v:g}' for v in p)})", ((body, p, 1.0),))
 
@@ -261,7 +262,8 @@ def frf(
     Parameters
     ----------
     direction : output axis then input axis, e.g. ``"xz"`` (x response to a z force); one
-        letter means both (``"z"`` = ``"zz"``).
+        letter means both (``"z"`` = ``"zz"``); axes of the machine frame (z along the
+        spindle, :mod:`ufmt.model.orientation`), the global ones for an upright spindle.
     kind : ``"receptance"`` [m/N], ``"mobility"`` [m/(s N)] or ``"accelerance"`` [m/(s^2 N)].
     output, input : ``None`` for the tool-workpiece end (relative displacement at the tool
         tip, force pair; needs ``[machine]``), or ``(body, (x, y, z))`` a point [m] on a rigid
@@ -274,6 +276,8 @@ def frf(
     tool_angle : spindle angle of the tool tip [rad] (0: along +y).
     """
     model = as_model(model)
+    frame = np.eye(3) if model.machine is None else model.machine.frame
+    model = in_machine_frame(model)
     axes = _directions(direction)
     if kind not in KINDS:
         raise UfmtError(f"FRF kind {kind!r}: one of {', '.join(KINDS)}")
@@ -291,8 +295,8 @@ def frf(
     basis = modal_basis(model, n_modes, basis_cutoff_hz)
     if machine is not None:
         basis = with_tool(basis, machine)
-    out = _end(model, output, tool_angle, basis.slide_y)
-    inp = out if input is None else _end(model, input, tool_angle, basis.slide_y)
+    out = _end(model, output, tool_angle, basis.slide_y, frame)
+    inp = out if input is None else _end(model, input, tool_angle, basis.slide_y, frame)
     freq = np.geomspace(fmin_hz, fmax_hz, int(points))
     d_out, d_in = (AXES[a] for a in axes)
     c_out, c_in = participation(basis, out, d_out), participation(basis, inp, d_in)
@@ -316,12 +320,14 @@ def _directions(direction: str) -> tuple[str, str]:
     return axes
 
 
-def _end(model, spec, tool_angle: float, slide_y: float) -> End:
+def _end(model, spec, tool_angle: float, slide_y: float, frame: np.ndarray) -> End:
+    """The FRF end ``spec`` of ``model`` (in its machine frame); a point given in the file's
+    global frame is carried to the machine frame by ``frame``."""
     if spec is None:
         return tool_workpiece_end(machine_of(model), tool_angle, slide_y)
     try:
         body, point = spec
-        point = np.asarray(point, dtype=float).reshape(3)
+        point = np.asarray(point, dtype=float).reshape(3) @ frame
     except (TypeError, ValueError):
         raise UfmtError(f"FRF point {spec!r}: expected (body name, (x, y, z) [m])") from None
     names = [b.name for b in model.bodies]

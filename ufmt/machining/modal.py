@@ -19,6 +19,7 @@ from ufmt.defaults import DEFAULT_BASIS_CUTOFF_HZ
 from ufmt.errors import UfmtError
 from ufmt.machining.basis import ModalBasis
 from ufmt.machining.damping import hinge_damping_matrix
+from ufmt.machining.machine_frame import in_machine_frame
 from ufmt.machining.slide import carriage, cut_slide_position, model_at_slide
 from ufmt.model.schema import Model
 from ufmt.mstmm.modes import ModeShapes
@@ -47,7 +48,9 @@ def modal_basis(
 
 def model_where_it_cuts(model: Model, slide_y: float | None = None) -> tuple[float, Model]:
     """The slide position the modes are solved at [m] (``slide_y``, or by default half way
-    through the cut; 0 without a ``[machine]`` table) and ``model`` moved there."""
+    through the cut; 0 without a ``[machine]`` table) and ``model`` moved there, in its machine
+    frame (:mod:`ufmt.machining.machine_frame`)."""
+    model = in_machine_frame(model)
     machine = model.machine
     if slide_y is None:
         slide_y = 0.0 if machine is None else cut_slide_position(machine)
@@ -58,6 +61,7 @@ def basis_at_slide(model: Model, moved: Model, slide_y: float, solution) -> Moda
     """ModalBasis of ``model`` from the MSTMM ``solution`` (with shapes) of ``moved``, the
     model at slide position ``slide_y`` [m] (:func:`model_where_it_cuts`); body centres back
     in the file's coordinates."""
+    model = in_machine_frame(model)
     shapes = solution.shapes
     if shapes is None or shapes.frequencies_hz.size == 0:
         raise UfmtError(f"{model.source}: the model has no elastic modes")

@@ -29,8 +29,10 @@ import scipy.linalg as sla
 from ufmt.assembled import point_motion
 from ufmt.errors import ModelError
 from ufmt.machining.basis import ModalBasis
+from ufmt.machining.machine_frame import in_machine_frame
 from ufmt.machining.slide import model_at_slide
 from ufmt.model.machine import Machine
+from ufmt.model.orientation import DIRECTION_FIELDS
 from ufmt.recent import Recent
 
 
@@ -41,7 +43,8 @@ class ResidualFlexibility:
     Attributes
     ----------
     matrix : (12, 12) [m/N, m/(N m), rad/(N m)]: rows and columns [r_tool, theta_tool,
-        r_work, theta_work] at the bodies' centres of mass (global frame).
+        r_work, theta_work] at the bodies' centres of mass (machine frame: the model's,
+        :func:`residual_flexibility` rotates it in).
     centers : (2, 3) centres of mass of the tool and the workpiece body [m].
     static : (12, 12) the full static flexibility it was made from (for reports and tests).
     """
@@ -95,7 +98,7 @@ class _Structure:
     weight: np.ndarray
 
 
-#: Standard acceleration of gravity, along -z [m/s^2].
+#: Standard acceleration of gravity [m/s^2], along ``[machine] gravity_direction`` (-z).
 GRAVITY = 9.81
 
 STRUCTURE_CACHE = 16  # the residual's slide position and the carriage-load profile's knots
@@ -107,8 +110,16 @@ _STRUCTURES = Recent(STRUCTURE_CACHE)
 def _structure(model, bodies: tuple[str, ...]) -> _Structure:
     """The :class:`_Structure` of ``model`` (assembled once per
     :meth:`~ufmt.model.schema.Model.structure_key` and bodies)."""
-    key = (model.structure_key(), bodies)
+    key = (model.structure_key(), bodies, _gravity(model))
     return _STRUCTURES.get(key, lambda: _build_structure(model, bodies))
+
+
+def _gravity(model) -> tuple[float, float, float]:
+    """Unit direction of gravity in the model's frame (``[machine] gravity_direction``;
+    -z without a ``[machine]`` table)."""
+    if model.machine is None:
+        return DIRECTION_FIELDS["gravity_direction"]
+    return model.machine.gravity_direction
 
 
 #: Frame elements per beam of a model with zero-frequency modes: the inertia relief loads
@@ -175,15 +186,17 @@ def _build_structure(model, bodies: tuple[str, ...]) -> _Structure:
         rigid=zero,
         relief=mass @ zero,
         mass_trace=float(np.trace(mass)),
-        weight=basis.T @ (springs.M @ _fall(springs)),
+        weight=basis.T @ (springs.M @ _fall(springs, _gravity(model))),
     )
 
 
-def _fall(am) -> np.ndarray:
-    """Every node of ``am`` translated by -GRAVITY along z [m/s^2]: M times it is the weight
-    of every mass (for a beam the consistent load of its distributed weight)."""
+def _fall(am, direction) -> np.ndarray:
+    """Every node of ``am`` translated by GRAVITY [m/s^2] along the unit vector ``direction``:
+    M times it is the weight of every mass (for a beam the consistent load of its distributed
+    weight)."""
     fall = np.zeros(len(am.dof_labels))
-    fall[[label[2] == "z" for label in am.dof_labels]] = -GRAVITY
+    for axis, share in zip("xyz", direction, strict=True):
+        fall[[label[2] == axis for label in am.dof_labels]] = GRAVITY * share
     return fall
 
 
@@ -209,7 +222,8 @@ def static_flexibility(model, bodies: tuple[str, ...]) -> np.ndarray:
 
 def gravity_deflection(model, bodies: tuple[str, ...]) -> np.ndarray:
     """Static deflection (6B,) [m, rad] of the listed bodies' coordinates (translation of the
-    centre of mass, rotation) under the weight of every mass of ``model`` (GRAVITY along -z),
+    centre of mass, rotation) under the weight of every mass of ``model`` (GRAVITY along the
+    machine's ``gravity_direction``, -z by default),
     solved as :func:`static_flexibility` (elastic modes only where zero modes exist)."""
     st = _structure(model, tuple(bodies))
     return st.loads.T @ _elastic_solve(model, st, st.weight)
@@ -251,6 +265,7 @@ def residual_flexibility(model, basis: ModalBasis, machine: Machine) -> Residual
     (:mod:`ufmt.machining.tool`, the tool body's shapes the carrier's) the basis' sum holds c
     exactly, and the residual is the head's alone.
     """
+    model = in_machine_frame(model)
     bodies = (machine.tool_body, machine.workpiece_body)
     static = static_flexibility(model_at_slide(model, machine, basis.slide_y), bodies)
     v = np.concatenate([basis.body_shapes[b] for b in bodies], axis=1)  # (n, 12)

@@ -1,7 +1,8 @@
 """A measured straightness profile of the slide's guideway: the ``straightness_profile`` CSV.
 
 The file (columns ``position_m,height_m``, a header line, one sample a row) gives the
-guideway's height z_g(s) [m] at global y positions s [m] of the bed, in the model's frame.
+guideway's height z_g(s) [m] at y positions s [m] of the bed, in the machine frame (the model's
+global frame for an upright spindle, :mod:`ufmt.model.orientation`).
 Positions must increase strictly, every value must be finite, and the profile must cover the
 guideway under the carriage's pads over the whole cut (checked by
 :func:`ufmt.model.machine.read_machine`). Between samples the profile is linear; the

@@ -34,6 +34,7 @@ from ufmt.model.machine import (
     read_machine,
     unit_hint,
 )
+from ufmt.model.orientation import check_spindle
 from ufmt.model.rules import TOP_FIELDS
 from ufmt.model.schema import Beam, Model, RigidBody
 from ufmt.tables import Where, type_name
@@ -95,6 +96,7 @@ def model_from_dict(data: Mapping[str, Any], source: str = "<dict>") -> Model:
     check_connected(source, bodies, hinges)
     if machine is not None:
         check_machine_bodies(machine, bodies, source)
+        check_spindle(machine, bodies, hinges, source)
         check_machine_geometry(machine, bodies.values(), source)
     return Model(
         name=name,

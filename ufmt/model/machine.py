@@ -19,6 +19,7 @@ import numpy as np
 
 from ufmt.errors import ModelError
 from ufmt.model.guideway import GuidewayProfile, read_guideway_profile
+from ufmt.model.orientation import DIRECTION_FIELDS, frame_matrix, read_directions
 from ufmt.tables import Where
 
 
@@ -29,8 +30,8 @@ class Machine:
     Attributes
     ----------
     tool_body, workpiece_body : body names carrying the tool and the workpiece.
-    spindle_axis_xy : (x, y) of the vertical spindle axis [m].
-    cutting_plane_z : z of the tool tip = workpiece top surface [m].
+    spindle_axis_xy : (x_m, y_m) of the spindle axis [m], machine frame.
+    cutting_plane_z : z_m of the tool tip = workpiece top surface [m], machine frame.
     tool_radius : fly-cutting radius R [m].
     workpiece_size : (x, y) size of the workpiece [m].
     workpiece_center_xy : workpiece centre when the cut is halfway (under the spindle) [m].
@@ -115,7 +116,24 @@ class Machine:
     accelerometer_damping_ratio: float = 0.03
     recorder_sampling_hz: float = 10e3
     straightness_profile: GuidewayProfile | None = None
+    spindle_direction: tuple[float, float, float] = DIRECTION_FIELDS["spindle_direction"]
+    feed_direction: tuple[float, float, float] = DIRECTION_FIELDS["feed_direction"]
+    gravity_direction: tuple[float, float, float] = DIRECTION_FIELDS["gravity_direction"]
     table: Mapping = dataclasses.field(default_factory=dict, compare=False, repr=False)
+
+    @property
+    def frame(self) -> np.ndarray:
+        """(3, 3) columns x_m, y_m, z_m of the machine frame, global frame
+        (:func:`ufmt.model.orientation.frame_matrix`)."""
+        return frame_matrix(self.spindle_direction, self.feed_direction)
+
+    @property
+    def upright(self) -> bool:
+        """True when the machine frame is the global frame (the default directions)."""
+        return (self.spindle_direction, self.feed_direction) == (
+            DIRECTION_FIELDS["spindle_direction"],
+            DIRECTION_FIELDS["feed_direction"],
+        )
 
     @property
     def sense(self) -> float:
@@ -214,6 +232,8 @@ OPTIONAL_FIELDS = {
 #: Optional ``[machine]`` keys that name a file (relative to the model file): the guideway's
 #: measured straightness profile (:mod:`ufmt.model.guideway`).
 PATH_FIELDS = ("straightness_profile",)
+#: Optional ``[machine]`` directions (:mod:`ufmt.model.orientation`).
+DIRECTIONS = tuple(DIRECTION_FIELDS)
 
 
 def read_machine(machine: Mapping, source: str = "<memory>") -> Machine:
@@ -223,7 +243,9 @@ def read_machine(machine: Mapping, source: str = "<memory>") -> Machine:
     ``ufmt.toml: machine: field 'tool_radius': -0.2 is not positive (allowed: > 0 [m])``.
     """
     where = Where(source, "machine", error=ModelError)
-    where.keys(machine, (*MACHINE_FIELDS, *OPTIONAL_FIELDS, *PATH_FIELDS), MACHINE_FIELDS)
+    where.keys(
+        machine, (*MACHINE_FIELDS, *OPTIONAL_FIELDS, *PATH_FIELDS, *DIRECTIONS), MACHINE_FIELDS
+    )
     rotation = where.choice("rotation", machine["rotation"], ROTATIONS, "rotation")
     m = Machine(
         tool_body=where.string("tool_body", machine["tool_body"]),
@@ -238,6 +260,7 @@ def read_machine(machine: Mapping, source: str = "<memory>") -> Machine:
         rotation=rotation,
         **{field: _optional(where, machine, field) for field in OPTIONAL_FIELDS},
         straightness_profile=_profile(where, machine, source),
+        **read_directions(where, machine),
         table=copy.deepcopy(dict(machine)),
     )
     _check_pads(where, m)
@@ -311,14 +334,17 @@ def check_machine_geometry(machine: Machine, bodies, source: str) -> None:
     that a length typed in mm or cm is caught with its field and the likely unit:
 
     * ``tool_radius`` <= the larger of the machine's extent E (the largest span, along x, y or
-      z, of the bodies' centres of mass and beam ends) and the tool body's size;
+      z of the machine frame, of the bodies' centres of mass and beam ends) and the tool body's
+      size;
     * ``cutting_plane_z`` within the tool body's size + ``tool_radius`` + E / 4 of the tool
-      body (its centre of mass, or its beam) in z: the tip is on the tool body;
+      body (its centre of mass, or its beam) along the spindle axis: the tip is on the tool
+      body;
     * the workpiece (``workpiece_size`` and its centre) within E of the workpiece body.
     """
     where = Where(source, "machine", error=ModelError)
     bodies = list(bodies)
     points = np.concatenate([body_points(b) for b in bodies] + [np.zeros((0, 3))])
+    points = points @ machine.frame  # machine frame: z along the spindle
     extent = float(np.max(np.ptp(points, axis=0))) if len(points) else 0.0
     tool = next(b for b in bodies if b.name == machine.tool_body)
     limit = max(extent, body_size(tool))
@@ -344,7 +370,7 @@ def check_machine_geometry(machine: Machine, bodies, source: str) -> None:
 
 def _plane_near_tool(where: Where, machine: Machine, tool, extent: float) -> None:
     """``cutting_plane_z`` near the tool body in z (see :func:`check_machine_geometry`)."""
-    points = body_points(tool)
+    points = body_points(tool) @ machine.frame
     if not len(points):
         return
     low, high = points[:, 2].min(), points[:, 2].max()

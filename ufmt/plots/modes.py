@@ -192,7 +192,7 @@ def _tool_tip(model: Model, shapes, index: int):
     machine = model.machine
     if machine is None or machine.tool_body not in shapes.rigid:
         return None
-    tip = tool_tip(0.0, machine)
+    tip = machine.frame @ tool_tip(0.0, machine)  # machine frame -> the file's
     body = model.body(machine.tool_body)
     return tip, _rigid_points(tip[None, :], body.center_of_mass, shapes.rigid[body.name][index])[0]
 
@@ -204,6 +204,7 @@ def _workpiece_point(model: Model, shapes, index: int):
     if machine is None or machine.workpiece_body not in shapes.rigid:
         return None
     point = np.array([*machine.workpiece_center_xy, machine.cutting_plane_z], dtype=float)
+    point = machine.frame @ point  # machine frame -> the file's
     body = model.body(machine.workpiece_body)
     motion = shapes.rigid[body.name][index]
     return point, _rigid_points(point[None, :], body.center_of_mass, motion)[0]
