@@ -2,7 +2,7 @@
 hinge on it meets, the state its motion is read from, its motion in a mode and its mass
 products.
 
-:data:`BODY_RULES` maps each body type of :mod:`ufmt.model.schema` to its :class:`BodyRules`:
+:data:`BODY_RULES` maps each body kind of :mod:`ufmt.kinds` to its :class:`BodyRules`:
 adding a body kind to the MSTMM is one more entry (the assembled model has its own table,
 :mod:`ufmt.assembled.bodies`). Every node of the transfer graph carries one of two transfer
 rules: a rigid body's (:data:`RIGID_NODE`, eqs. 2.8, 2.9, 2.5) or a massless point's
@@ -129,8 +129,8 @@ class BodyRules:
 
 
 def rules_of(body: Body) -> BodyRules:
-    """The handlers of ``body``'s type."""
-    return BODY_RULES[type(body)]
+    """The handlers of ``body``'s kind."""
+    return BODY_RULES[body.kind]
 
 
 def apply_state(state, z: np.ndarray) -> np.ndarray:
@@ -320,9 +320,9 @@ def _gauss_legendre(points: int) -> tuple[np.ndarray, np.ndarray]:
     return x, w
 
 
-#: body type -> how the MSTMM treats it
-BODY_RULES: dict[type, BodyRules] = {
-    RigidBody: BodyRules(
+#: body kind -> how the MSTMM treats it
+BODY_RULES: dict[str, BodyRules] = {
+    "rigid": BodyRules(
         graph=_rigid_graph,
         hinge_end=_own_node,
         reference=lambda body, point: body.center_of_mass,
@@ -330,7 +330,7 @@ BODY_RULES: dict[type, BodyRules] = {
         shape=_rigid_shape,
         kinetic=_rigid_kinetic,
     ),
-    VirtualBody: BodyRules(
+    "virtual": BodyRules(
         graph=_virtual_graph,
         hinge_end=_own_node,
         reference=_at_point,
@@ -338,7 +338,7 @@ BODY_RULES: dict[type, BodyRules] = {
         shape=_virtual_shape,
         kinetic=_no_mass,
     ),
-    Beam: BodyRules(
+    "beam": BodyRules(
         graph=_beam_graph,
         hinge_end=beam_end_node,
         reference=_at_point,

@@ -1,0 +1,221 @@
+"""The beam kind (paper eqs. 2.12, 3.3): a straight prismatic beam, axial, torsion and bending
+in two planes between two end points.
+
+Two nodes (its ends), six small motions each; no mass block of its own: its inertia is in its
+formulations, the exact transfer matrix (:func:`ufmt.mstmm.elements.beam`), the exact member
+stiffness with its clamped-clamped count (:mod:`ufmt.mstmm.members`) and the frame
+elements of the assembled model (:func:`ufmt.assembled.mesh.frame_element`). Hinges act on
+its ends only.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import replace
+
+import numpy as np
+
+from ufmt.errors import ModelError
+from ufmt.kinematics import point_motion
+from ufmt.model.rules import (
+    BEAM_END_RTOL,
+    PARALLEL_RTOL,
+    SECTION_FIELDS,
+    derived,
+    real,
+    vector,
+)
+from ufmt.model.schema import Beam, frozen_array
+from ufmt.tables import Where, short_number, short_vector
+
+NAME = "beam"
+CLASS = Beam
+CIRCLE_FIELDS = ("diameter", "inner_diameter")
+REQUIRED = ("start", "end", "density", "youngs_modulus", "shear_modulus")
+FIELDS = REQUIRED + CIRCLE_FIELDS + SECTION_FIELDS + ("torsion_constant", "orientation")
+WRITTEN = REQUIRED + SECTION_FIELDS + ("torsion_constant", "orientation")
+ONE_FRAME = False  # its motion is a field along it
+MASSLESS = False
+MEMBER = True  # an exact member stiffness with a clamped-clamped count
+MESHED = True  # the assembled model meshes it
+HINGES_AT_ENDS = True  # a hinge on it sits at an end (and stays there)
+
+
+def parse(where: Where, name: str, table: Mapping, number: int | None) -> Beam:
+    start = vector(where, "start", table["start"], "finite", "[m]", "coordinate")
+    end = vector(where, "end", table["end"], "finite", "[m]", "coordinate")
+    axis = end - start
+    length = float(np.linalg.norm(axis))
+    if length <= 0:
+        where.fail(
+            "end", f"beam length is 0: start and end are both {short_vector(start)} (allowed: > 0)"
+        )
+    density = real(where, "density", table["density"], "positive", "[kg/m^3]", "density")
+    youngs = real(where, "youngs_modulus", table["youngs_modulus"], "positive", "[Pa]", "modulus")
+    shear = real(where, "shear_modulus", table["shear_modulus"], "positive", "[Pa]", "modulus")
+    section = _section(where, table)
+    orientation = None
+    if "orientation" in table:
+        orientation = vector(where, "orientation", table["orientation"], "finite")
+        size = np.linalg.norm(orientation)
+        sine = np.linalg.norm(np.cross(orientation, axis)) / (size * length) if size > 0 else 0.0
+        if sine <= PARALLEL_RTOL:
+            where.fail(
+                "orientation",
+                f"{short_vector(orientation)} is zero or parallel to the beam axis "
+                f"{derived(axis / length)} "
+                "(allowed: any vector not parallel to the axis; it fixes local y)",
+            )
+    return Beam(
+        name=name,
+        start=start,
+        end=end,
+        density=density,
+        youngs_modulus=youngs,
+        shear_modulus=shear,
+        orientation=orientation,
+        number=number,
+        **section,
+    )
+
+
+_SECTION_LIMITS = {
+    "area": "area",
+    "second_moment_y": "second_moment",
+    "second_moment_z": "second_moment",
+    "polar_moment": "second_moment",
+}
+
+
+def _section(where: Where, table: Mapping) -> dict[str, float]:
+    """Section properties from ``diameter`` (solid/hollow circle) or the explicit fields."""
+    explicit = [k for k in SECTION_FIELDS + ("torsion_constant",) if k in table]
+    if "diameter" in table:
+        if explicit:
+            where.fail(
+                explicit[0],
+                "give either 'diameter' (circular section) or the explicit section "
+                f"({', '.join(SECTION_FIELDS)}), not both",
+            )
+        return _circle(where, table)
+    if "inner_diameter" in table:
+        where.fail("inner_diameter", "needs 'diameter' (hollow circular section)")
+    if not explicit:
+        where.missing("diameter", f"a section: give 'diameter', or {', '.join(SECTION_FIELDS)}")
+    for key in SECTION_FIELDS:
+        if key not in table:
+            where.missing(key, f"an explicit section needs {', '.join(SECTION_FIELDS)}")
+    units = {"area": "[m^2]"}
+    section = {
+        k: real(where, k, table[k], "positive", units.get(k, "[m^4]"), _SECTION_LIMITS.get(k, ""))
+        for k in SECTION_FIELDS
+    }
+    section["torsion_constant"] = (
+        real(
+            where,
+            "torsion_constant",
+            table["torsion_constant"],
+            "positive",
+            "[m^4]",
+            "second_moment",
+        )
+        if "torsion_constant" in table
+        else section["polar_moment"]
+    )
+    return section
+
+
+def _circle(where: Where, table: Mapping) -> dict[str, float]:
+    """Section of a solid or hollow circle (``diameter``, ``inner_diameter``)."""
+    outer = real(where, "diameter", table["diameter"], "positive", "[m]", "diameter")
+    inner = 0.0
+    if "inner_diameter" in table:
+        inner = real(
+            where, "inner_diameter", table["inner_diameter"], "nonnegative", "[m]", "diameter"
+        )
+        if inner >= outer:
+            where.fail(
+                "inner_diameter",
+                f"{short_number(inner)} is not less than diameter {short_number(outer)} "
+                "(allowed: 0 <= inner_diameter < diameter)",
+            )
+    second = math.pi * (outer**4 - inner**4) / 64.0
+    return {
+        "area": math.pi * (outer**2 - inner**2) / 4.0,
+        "second_moment_y": second,
+        "second_moment_z": second,
+        "polar_moment": 2.0 * second,
+        "torsion_constant": 2.0 * second,
+    }
+
+
+def points(body: Beam) -> dict[str, np.ndarray]:
+    """The points [m] the body's fields place (field -> point)."""
+    return {"start": body.start, "end": body.end}
+
+
+def section_width(body: Beam) -> float:
+    """Width [m] of its section: the equivalent diameter sqrt(4 A / pi)."""
+    return math.sqrt(4.0 * body.area / math.pi)
+
+
+def check_hinge_point(where: Where, at: np.ndarray, beam: Beam) -> None:
+    """A hinge on a beam must sit at one of its ends (within BEAM_END_RTOL of its length)."""
+    length = beam.length
+    distance = min(np.linalg.norm(at - beam.start), np.linalg.norm(at - beam.end))
+    if distance > BEAM_END_RTOL * length:
+        where.fail(
+            "at",
+            f"{short_vector(at)} is not at an end of beam {beam.name!r} (start "
+            f"{short_vector(beam.start)}, end {short_vector(beam.end)}; {derived(distance)} m "
+            f"away; allowed: within {BEAM_END_RTOL:g} x length {short_number(length)} m of an "
+            "end)",
+        )
+
+
+def node_points(model, body: Beam) -> np.ndarray:
+    """Its two nodes (2, 3) [m]: start and end."""
+    return np.array([body.start, body.end], dtype=float)
+
+
+def point_map(body: Beam, nodes: np.ndarray, point, source: str) -> tuple[int, np.ndarray]:
+    """(node index, T): a hinge acts on the end at ``point`` itself (ModelError elsewhere)."""
+    gap = np.linalg.norm(nodes - np.asarray(point, dtype=float), axis=1)
+    node = int(np.argmin(gap))
+    if gap[node] > BEAM_END_RTOL * body.length:
+        raise ModelError(
+            f"{source}: body {body.name!r}: a hinge at {np.asarray(point).tolist()} is not at "
+            "an end of the beam"
+        )
+    return node, np.eye(6)
+
+
+def node_mass(body: Beam) -> None:
+    """No mass block: the member carries its inertia."""
+    return None
+
+
+def rigidity(body: Beam) -> np.ndarray:
+    """(6, 12) rows on its two nodes' motions that vanish when it moves rigidly (end =
+    start carried, eq. 2.5)."""
+    return np.hstack([-point_motion(body.end - body.start), np.eye(6)])
+
+
+def moved(body: Beam, shift: np.ndarray) -> Beam:
+    """The beam translated by ``shift`` [m]."""
+    return replace(body, start=frozen_array(body.start + shift), end=frozen_array(body.end + shift))
+
+
+def hinge_motion(body: Beam, shapes, ends, point) -> np.ndarray:
+    """Motion ``[r; θ]`` (6, n) of the end at ``point`` [m]; ``ends`` = (positions (2, 3),
+    motion (n, 2, 6)) of its two ends in each mode."""
+    positions, motion = ends
+    end = int(np.argmin(np.linalg.norm(positions - point, axis=1)))
+    return motion[:, end, :].T
+
+
+def sensor_motion(body: Beam, shapes, point, field_point) -> np.ndarray:
+    """Motion (n, 6) of ``point`` [m] carried by the section nearest it
+    (``field_point(point)``: the field's motion there)."""
+    return field_point(point)
