@@ -35,7 +35,7 @@ def test_each_body_kind_has_one_entry_per_table():
 #: what every kind module defines (the plug-in's interface, docs/architecture.md)
 KIND_INTERFACE = (
     "NAME CLASS FIELDS REQUIRED WRITTEN ONE_FRAME MASSLESS MEMBER MESHED HINGES_AT_ENDS "
-    "parse points section_width check_hinge_point node_points point_map node_mass rigidity "
+    "parse written points section_width check_hinge_point node_points point_map node_mass rigidity "
     "moved hinge_motion sensor_motion"
 ).split()
 

@@ -17,6 +17,7 @@ from dataclasses import replace
 import numpy as np
 
 from ufmt.errors import ModelError
+from ufmt.kinds.timoshenko import cowper_circle
 from ufmt.kinematics import point_motion
 from ufmt.model.rules import (
     BEAM_END_RTOL,
@@ -32,9 +33,13 @@ from ufmt.tables import Where, short_number, short_vector
 NAME = "beam"
 CLASS = Beam
 CIRCLE_FIELDS = ("diameter", "inner_diameter")
+THEORIES = ("euler-bernoulli", "timoshenko")
 REQUIRED = ("start", "end", "density", "youngs_modulus", "shear_modulus")
-FIELDS = REQUIRED + CIRCLE_FIELDS + SECTION_FIELDS + ("torsion_constant", "orientation")
-WRITTEN = REQUIRED + SECTION_FIELDS + ("torsion_constant", "orientation")
+OPTIONAL = ("torsion_constant", "orientation", "theory", "shear_coefficient")
+FIELDS = REQUIRED + CIRCLE_FIELDS + SECTION_FIELDS + OPTIONAL
+WRITTEN = REQUIRED + SECTION_FIELDS + OPTIONAL  # theory and κ: only when Timoshenko
+#: shear coefficient κ allowed in a model file (Cowper 1966: 0.5 to 0.9 for usual sections)
+SHEAR_COEFFICIENT_BAND = (0.05, 1.0)
 ONE_FRAME = False  # its motion is a field along it
 MASSLESS = False
 MEMBER = True  # an exact member stiffness with a clamped-clamped count
@@ -67,6 +72,9 @@ def parse(where: Where, name: str, table: Mapping, number: int | None) -> Beam:
                 f"{derived(axis / length)} "
                 "(allowed: any vector not parallel to the axis; it fixes local y)",
             )
+    theory = table.get("theory", "euler-bernoulli")
+    where.choice("theory", where.string("theory", theory), THEORIES, "theory", "theories")
+    kappa = _shear_coefficient(where, table, theory, youngs / (2.0 * shear) - 1.0)
     return Beam(
         name=name,
         start=start,
@@ -76,8 +84,36 @@ def parse(where: Where, name: str, table: Mapping, number: int | None) -> Beam:
         shear_modulus=shear,
         orientation=orientation,
         number=number,
+        theory=theory,
+        shear_coefficient=kappa,
         **section,
     )
+
+
+def _shear_coefficient(where: Where, table: Mapping, theory: str, poisson: float):
+    """κ of a Timoshenko beam: the file's ``shear_coefficient``, or Cowper's (1966) for a
+    circular section (``diameter``, ``inner_diameter``) with ν = E/(2G) - 1; None for an
+    Euler-Bernoulli beam."""
+    if theory != "timoshenko":
+        if "shear_coefficient" in table:
+            where.fail("shear_coefficient", 'applies to theory = "timoshenko" only')
+        return None
+    if "shear_coefficient" in table:
+        low, high = SHEAR_COEFFICIENT_BAND
+        kappa = real(where, "shear_coefficient", table["shear_coefficient"], "positive")
+        if not low <= kappa <= high:
+            where.outside("shear_coefficient", kappa, low, high)
+        return kappa
+    if "diameter" not in table:
+        where.missing("shear_coefficient", "a Timoshenko beam with an explicit section")
+    if not -1.0 < poisson <= 0.5:
+        where.fail(
+            "shear_modulus",
+            f"Poisson's ratio E/(2G) - 1 = {poisson:.4g} is not physical (allowed: -1 < nu <= "
+            "0.5) for the default shear coefficient; give shear_coefficient",
+        )
+    ratio = float(table.get("inner_diameter", 0.0)) / float(table["diameter"])
+    return cowper_circle(poisson, ratio)
 
 
 _SECTION_LIMITS = {
@@ -148,6 +184,13 @@ def _circle(where: Where, table: Mapping) -> dict[str, float]:
         "polar_moment": 2.0 * second,
         "torsion_constant": 2.0 * second,
     }
+
+
+def written(body: Beam) -> list[tuple[str, object]]:
+    """(field, value) written back after name, kind and number (the theory and the shear
+    coefficient only for a Timoshenko beam: an Euler-Bernoulli file reads as before)."""
+    skipped = () if body.timoshenko else ("theory", "shear_coefficient")
+    return [(k, getattr(body, k)) for k in WRITTEN if k not in skipped]
 
 
 def points(body: Beam) -> dict[str, np.ndarray]:

@@ -96,6 +96,11 @@ def _inertia(where: Where, value) -> np.ndarray:
     return frozen_array(matrix)
 
 
+def written(body: RigidBody) -> list[tuple[str, object]]:
+    """(field, value) written back after name, kind and number."""
+    return [(k, getattr(body, k)) for k in WRITTEN]
+
+
 def points(body: RigidBody) -> dict[str, np.ndarray]:
     """The points [m] the body's fields place (field -> point)."""
     return {"center_of_mass": body.center_of_mass}

@@ -31,6 +31,11 @@ def parse(where: Where, name: str, table: Mapping, number: int | None) -> Virtua
     return VirtualBody(name=name, number=number)
 
 
+def written(body: VirtualBody) -> list[tuple[str, object]]:
+    """(field, value) written back after name, kind and number."""
+    return [(k, getattr(body, k)) for k in WRITTEN]
+
+
 def points(body: VirtualBody) -> dict[str, np.ndarray]:
     """No points of its own (its hinges place it)."""
     return {}

@@ -117,7 +117,7 @@ def _pairs(pairs: list[tuple[str, Any]]) -> list[str]:
 def _body_lines(body: Body) -> list[str]:
     pairs: list[tuple[str, Any]] = [("name", body.name), ("kind", body.kind)]
     pairs.append(("number", body.number))
-    pairs += [(k, getattr(body, k)) for k in kind_of(body).WRITTEN]
+    pairs += kind_of(body).written(body)
     return _pairs(pairs)
 
 

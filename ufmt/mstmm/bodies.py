@@ -19,6 +19,7 @@ import numpy as np
 from scipy.special import gammaln
 
 from ufmt.errors import ModelError
+from ufmt.kinds.timoshenko import planes
 from ufmt.kinematics import skew
 from ufmt.model.schema import Beam, Body, Model, RigidBody, VirtualBody
 from ufmt.mstmm import elements
@@ -239,7 +240,8 @@ def _beam_shape(system, body: Beam, states, z, omega, parts: ShapeParts) -> None
 
 def _beam_kinetic(body: Beam, rigid_a, beams_a, rigid_b, beams_b, out) -> None:
     """∫ρA u_a·u_b ds per axis and ∫ρJp τ_a τ_b ds (τ the twist about the beam axis) split
-    over the global axes by the squared axis components."""
+    over the global axes by the squared axis components; a Timoshenko beam adds its sections'
+    rotary inertia likewise."""
     _, wts, ma = beams_a[body.name]
     mb = beams_b[body.name][2]
     rho = body.density
@@ -247,6 +249,11 @@ def _beam_kinetic(body: Beam, rigid_a, beams_a, rigid_b, beams_b, out) -> None:
     axis = (body.end - body.start) / body.length
     twist = (ma[..., 3:] @ axis) * (mb[..., 3:] @ axis) @ wts
     out[:, 3:] = rho * body.polar_moment * twist[:, None] * axis[None, :] ** 2
+    if body.timoshenko:  # rotary inertia of the sections: ∫ρI θ_a θ_b about e2 (I_y), e3 (I_z)
+        frame = elements.beam_frame(body, body.start, body.end)
+        for e, second in ((frame[:, 1], body.second_moment_y), (frame[:, 2], body.second_moment_z)):
+            turn = (ma[..., 3:] @ e) * (mb[..., 3:] @ e) @ wts
+            out[:, 3:] += rho * second * turn[:, None] * e[None, :] ** 2
 
 
 def beam_field(system, beam: Beam, states, z, omega, fractions=None):
@@ -306,7 +313,12 @@ def gauss_points(beam: Beam, omega_max: float) -> int:
     bending = rho * beam.area * w2 / (e_mod * min(beam.second_moment_y, beam.second_moment_z))
     axial = rho * w2 / e_mod
     torsion = rho * beam.polar_moment * w2 / (beam.shear_modulus * beam.torsion_constant)
-    c = 2.0 * beam.length * max(bending**0.25, np.sqrt(axial), np.sqrt(torsion), 1e-3)
+    shear = (
+        max((p.wavenumber(omega_max) for p in planes(beam)), default=0.0)
+        if beam.timoshenko
+        else 0.0
+    )
+    c = 2.0 * beam.length * max(bending**0.25, np.sqrt(axial), np.sqrt(torsion), shear, 1e-3)
     log_error = (2 * _GAUSS_ORDERS + 1) * np.log(c) + _GAUSS_LOG_FACTOR
     fine = _GAUSS_ORDERS[log_error <= np.log(GAUSS_RTOL)]
     return int(fine[0]) if fine.size else GAUSS_POINTS
