@@ -150,10 +150,13 @@ class Members:
         # EI f / (δ Lᵖ) for f = (a1, p2, -t1, u2, a3, v3) (module docstring), (6, len(ω), m)
         bend = ei * (f[self._bend_rows] * self._bend_signs[:, None, None])
         bend /= f[0] * self._bend_powers[:, None, :]
-        shear = [
-            plane.stiffness(omega[:, 0], length)[:, [0, 0, 0, 0, 1, 1], [0, 1, 2, 3, 1, 3]]
-            for plane, length, _, _ in self.shear_planes
-        ]
+        shear, done = [], {}  # equal planes (a circle's two) computed once
+        for plane, length, _, _ in self.shear_planes:
+            key = (plane.key, length)
+            if key not in done:
+                k = plane.stiffness(omega[:, 0], length)
+                done[key] = k[:, [0, 0, 0, 0, 1, 1], [0, 1, 2, 3, 1, 3]]
+            shear.append(done[key])
         bend = bend.transpose(1, 2, 0).reshape(omega.size, -1)
         return np.concatenate([rod, bend, *shear], axis=1)
 
@@ -171,8 +174,12 @@ class Members:
         with np.errstate(over="ignore"):
             sign = np.where(lam < 2.0, 1.0, np.sign(1.0 - np.cos(lam) * np.cosh(lam)))
         count += (i - np.rint((1 - (-1.0) ** i * sign) / 2).astype(int)).sum(axis=1)
+        done = {}  # equal planes (a circle's two) counted once
         for plane, length, density, kg in self.shear_planes:  # by subdivision
-            count += plane.clamped(omega[:, 0], length, density, kg)
+            key = (plane.key, length, density, kg)
+            if key not in done:
+                done[key] = plane.clamped(omega[:, 0], length, density, kg)
+            count += done[key]
         return count
 
 
