@@ -172,9 +172,11 @@ def test_infinite_shear_stiffness_and_no_rotary_inertia_give_the_euler_bernoulli
     krylov = elements.beam_local(omega, beam)[:, xy][:, :, xy]
     np.testing.assert_allclose(plane.transfer(omega**2, beam.length), krylov, rtol=1e-12, atol=0)
     ends = [1, 5, 7, 11]  # v, θz of both ends
+    omega = np.r_[omega, 2e5]  # λL ≈ 45: the whole member's transfer has lost every digit
     closed = member_stiffness(omega, beam)[:, ends][:, :, ends]
-    scale = np.abs(closed).max(axis=(1, 2))[:, None, None]
-    assert np.abs(plane.stiffness(omega, beam.length) - closed).max() <= 1e-12 * scale.max()
+    scale = np.abs(closed).max(axis=(1, 2))
+    gap = np.abs(plane.stiffness(omega, beam.length) - closed).max(axis=(1, 2))
+    assert np.all(gap <= 1e-11 * scale)
 
 
 def test_batched_exponential_is_the_series_of_a_diagonalisable_matrix():
@@ -195,8 +197,7 @@ def test_clamped_count_counts_the_zeros_of_the_clamped_determinant():
     t = plane.transfer(omega**2, length)
     det = np.linalg.det(t[:, :2, 2:] / np.abs(t[:, :2, 2:]).max(axis=(1, 2))[:, None, None])
     zeros = np.cumsum(np.r_[0, np.diff(np.sign(det)) != 0])
-    kg = plane.kga / (math.pi * 0.15**2 / 4)
-    counted = plane.clamped(omega, length, RHO, kg)
+    counted = plane.clamped(omega, length)
     far = np.abs(det) > 1e-6  # away from a root, where the grid resolves the sign
     assert zeros[-1] >= 6 and np.array_equal(counted[far], zeros[far])
 

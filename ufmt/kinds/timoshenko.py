@@ -9,15 +9,15 @@ flipped). κGA → ∞ and ρI → 0 give the Euler-Bernoulli plane. The transfe
 exponential of that first-order system over the length, computed in scaled variables
 (``[v/L, θ, mL/EI, qL²/EI]``) by scaling and squaring of its Taylor series, batched over ω.
 
-The clamped-clamped count J₀(ω) (the member frequencies with both ends clamped below ω,
-which the Wittrick-Williams count adds to s{K}) is the Wittrick-Williams count of the member
-cut into m equal pieces, each so short that ω is below its own first clamped-clamped
-frequency: J₀ = s{K_interior(ω)}, the negative eigenvalues of the pieces' assembled dynamic
-stiffness on the interior nodes (Howson and Williams 1973 count by subdivision in the same
-way). A piece of length ℓ has no clamped-clamped frequency below ω when
-``ω² < min(κGπ²/(2ρℓ²), Eπ²/(ρℓ²) - κGA/(ρI))`` (a lower bound of its Rayleigh quotient:
-Poincaré's inequality on v and θ and (v' - θ)² ≥ v'²/2 - θ²); the pieces are chosen with
-half of it.
+The dynamic stiffness and the clamped-clamped count J₀(ω) (the member frequencies with both
+ends clamped below ω, which the Wittrick-Williams count adds to s{K}) come from 2ᵖ equal
+pieces joined pairwise: each piece's stiffness from its transfer matrix, two joined pieces'
+by condensing their middle node, whose 2x2 stiffness adds its negative eigenvalues to the
+count (J₀(2ℓ) = 2 J₀(ℓ) + s{K_mm}: the Wittrick-Williams count of the two pieces clamped at
+their outer ends). Short pieces keep the stiffness accurate where the transfer matrix of a
+long member would lose digits to its growing waves, and start the count at zero: a piece
+of length ℓ has no clamped-clamped frequency below ω when ω² is below the lower bound of
+:meth:`Plane.lowest_clamped`; the pieces are chosen with half of it.
 
 The shear coefficient of a circular section by default: Cowper (1966), "The shear
 coefficient in Timoshenko's beam theory", J. Appl. Mech. 33, 335-340, Table 1:
@@ -32,7 +32,8 @@ import math
 import numpy as np
 
 TAYLOR_TERMS = 14  # ‖Â/2ˢ‖ ≤ 1/2: the remainder (1/2)¹⁵/15! is below eps/10
-PIECE_MARGIN = 0.5  # pieces of the count: ω² below this fraction of the bound above
+PIECE_MARGIN = 0.5  # pieces of the count: ω² below this fraction of the bound below
+MAX_HALVINGS = 40  # pieces down to 2⁻⁴⁰ of the member (far beyond any frequency asked)
 _END_SIGNS = np.array([1.0, -1.0, -1.0, 1.0])
 
 
@@ -80,7 +81,35 @@ class Plane:
         """Exact dynamic stiffness (n, 4, 4) on the end motions ``[v₁, θ₁, v₂, θ₂]`` of a member
         of ``length`` [m] at ω [rad/s], in the sign convention of
         :mod:`ufmt.mstmm.members` (end forces and moments on the member)."""
+        return self._halved(omega, length)[0]
+
+    def clamped(self, omega, length: float) -> np.ndarray:
+        """J₀ (n,): the member's clamped-clamped frequencies below ω [rad/s]."""
+        return self._halved(omega, length)[1]
+
+    def _halved(self, omega, length: float) -> tuple[np.ndarray, np.ndarray]:
+        """(dynamic stiffness (n, 4, 4), J₀ (n,)) of the member as 2ᵖ equal pieces joined
+        pairwise (module docstring): each piece has no clamped-clamped frequency below ω and
+        is at most a radian of the bending wave long (its transfer is accurate)."""
         omega = np.atleast_1d(np.asarray(omega, dtype=float))
+        pieces = length / 2.0 ** np.arange(MAX_HALVINGS + 1)[:, None]  # (levels, 1)
+        fine = (PIECE_MARGIN * self.lowest_clamped(pieces) > omega**2) & (
+            self.wavenumber(omega) * pieces <= 1.0
+        )
+        levels = np.argmax(fine, axis=0)  # the fewest halvings that make the pieces fine
+        k = np.empty((omega.size, 4, 4))
+        count = np.zeros(omega.size, dtype=int)
+        for p in np.unique(levels):
+            at = np.flatnonzero(levels == p)
+            k[at] = self._direct(omega[at], length / 2.0**p)
+            for _ in range(p):
+                k[at], negative = _joined(k[at])
+                count[at] = 2 * count[at] + negative
+        return k, count
+
+    def _direct(self, omega: np.ndarray, length: float) -> np.ndarray:
+        """:meth:`stiffness` from the transfer matrix of the whole ``length`` (accurate while
+        its bending wave is short of a few radians over it)."""
         t = expm_batched(self.scaled_system(omega**2, np.full(omega.size, length)))
         t11, t12, t21, t22 = t[:, :2, :2], t[:, :2, 2:], t[:, 2:, :2], t[:, 2:, 2:]
         inv = np.linalg.inv(t12)  # scaled [m, q]₁ = t12⁻¹ ([v, θ]₂ - t11 [v, θ]₁)
@@ -92,30 +121,6 @@ class Plane:
         g *= force[:, None] / motion[None, :]
         # end loads on the member [F₁, M₁, F₂, M₂] = [q₁, -m₁, -q₂, m₂]
         return g[:, [1, 0, 3, 2]] * _END_SIGNS[:, None]
-
-    def piece_count(
-        self, omega: np.ndarray, length: float, density: float, kg: float
-    ) -> np.ndarray:
-        """Pieces (n,) so short that ω is below each one's first clamped-clamped frequency
-        (module docstring); ``density`` [kg/m³], ``kg`` κG [Pa]."""
-        w2 = PIECE_MARGIN**-1 * np.asarray(omega, dtype=float) ** 2
-        modulus = self.ei * density / self.rho_i  # E = EI ρ / (ρI)
-        with np.errstate(divide="ignore"):
-            shear = math.pi * np.sqrt(kg / (2.0 * density * w2))
-            bending = math.pi * np.sqrt(modulus / (density * (w2 + self.kga / self.rho_i)))
-        return np.maximum(1, np.floor(length / np.minimum(shear, bending)).astype(int) + 1)
-
-    def clamped(self, omega, length: float, density: float, kg: float) -> np.ndarray:
-        """J₀ (n,): the member's clamped-clamped frequencies below ω [rad/s] (module
-        docstring), ``density`` [kg/m³] and κG [Pa] for the pieces' bound."""
-        omega = np.atleast_1d(np.asarray(omega, dtype=float))
-        pieces = self.piece_count(omega, length, density, kg)
-        out = np.zeros(omega.size, dtype=int)
-        for m in np.unique(pieces[pieces > 1]):
-            at = np.flatnonzero(pieces == m)
-            k = self.stiffness(omega[at], length / m)
-            out[at] = np.count_nonzero(np.linalg.eigvalsh(_interior(k, m)) < 0.0, axis=1)
-        return out
 
     def element(self, h: float) -> tuple[np.ndarray, np.ndarray]:
         """Stiffness and consistent mass (4, 4) of a two-node element of length ``h`` [m] on
@@ -145,28 +150,40 @@ class Plane:
         ) * (self.rho_i / ((1 + phi) ** 2 * h))
         return k, translation + rotary
 
-    def wavenumber(self, omega: float) -> float:
-        """The larger bending wavenumber [1/m] at ω [rad/s] (the propagating one)."""
-        w2 = omega * omega
+    def lowest_clamped(self, length):
+        """A lower bound [rad²/s²] of the squared first clamped-clamped frequency of a piece
+        of ``length`` [m]: the Rayleigh quotient's, with Poincaré's inequality on v and θ
+        and (v' - θ)² ≥ (1 - ε) v'² - (1/ε - 1) θ², 1/ε - 1 = a = EIπ²/(2κGAℓ²):
+        ``min(EIπ⁴ / (2ρAℓ⁴(1 + a)), EIπ² / (2ρIℓ²))``."""
+        length = np.asarray(length, dtype=float)
+        a = self.ei * math.pi**2 / (2.0 * self.kga * length**2)
+        bending = self.ei * math.pi**4 / (2.0 * self.rho_a * length**4 * (1.0 + a))
+        return np.minimum(bending, self.ei * math.pi**2 / (2.0 * self.rho_i * length**2))
+
+    def wavenumber(self, omega):
+        """The larger bending wavenumber [1/m] at ω [rad/s] (the propagating one): the root
+        k² of EI k⁴ - ω²(ρI + EIρA/κGA) k² - ρAω² + ρIρAω⁴/κGA = 0."""
+        w2 = np.asarray(omega, dtype=float) ** 2
         s = self.rho_i / self.ei + self.rho_a / self.kga
         dif = self.rho_i / self.ei - self.rho_a / self.kga
-        k2 = 0.5 * w2 * s + math.sqrt(0.25 * w2 * w2 * dif * dif + self.rho_a * w2 / self.ei)
-        return math.sqrt(k2)
+        k2 = 0.5 * w2 * s + np.sqrt(0.25 * w2 * w2 * dif * dif + self.rho_a * w2 / self.ei)
+        return np.sqrt(k2)
 
 
-def _interior(k: np.ndarray, m: int) -> np.ndarray:
-    """(n, 2(m-1), 2(m-1)) stiffness on the interior nodes of m equal pieces of stiffness
-    ``k`` (n, 4, 4) in a row, both outer ends clamped."""
-    n, size = k.shape[0], 2 * (m - 1)
-    out = np.zeros((n, size, size))
-    for j in range(m):  # piece j joins nodes j and j + 1 (interior nodes 1 .. m - 1)
-        for a, node in ((0, j), (1, j + 1)):
-            for b, other in ((0, j), (1, j + 1)):
-                if 0 < node < m and 0 < other < m:
-                    rows = slice(2 * (node - 1), 2 * node)
-                    cols = slice(2 * (other - 1), 2 * other)
-                    out[:, rows, cols] += k[:, 2 * a : 2 * a + 2, 2 * b : 2 * b + 2]
-    return out
+def _joined(k: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Two equal members ``k`` (n, 4, 4) in a row, their middle node condensed: (the
+    stiffness of the joined member (n, 4, 4), s{K_mm} (n,), the negative eigenvalues of the
+    middle node's 2x2 stiffness, which the count adds)."""
+    k11, k12, k21, k22 = k[:, :2, :2], k[:, :2, 2:], k[:, 2:, :2], k[:, 2:, 2:]
+    middle = k22 + k11
+    det = middle[:, 0, 0] * middle[:, 1, 1] - middle[:, 0, 1] * middle[:, 1, 0]
+    trace = middle[:, 0, 0] + middle[:, 1, 1]
+    negative = np.where(det < 0, 1, np.where(trace < 0, 2, 0))
+    left, right = np.linalg.solve(middle, k21), np.linalg.solve(middle, k12)
+    out = np.empty_like(k)
+    out[:, :2, :2], out[:, :2, 2:] = k11 - k12 @ left, -k12 @ right
+    out[:, 2:, :2], out[:, 2:, 2:] = -k21 @ left, k22 - k21 @ right
+    return out, negative
 
 
 def expm_batched(a: np.ndarray) -> np.ndarray:

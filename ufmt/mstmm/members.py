@@ -107,13 +107,12 @@ class Members:
 
     def __init__(self, beams):
         rods, bends, patterns, owner = [], [], [], []
-        self.shear_planes = []  # Timoshenko planes: (Plane, L, ρ, κG)
+        self.shear_planes = []  # Timoshenko planes: (Plane, L)
         for j, beam in enumerate(beams):
             for dofs, kind, stiffness, inertia in _parts(beam):
                 sign = XZ_SIGN if dofs == BENDING_XZ else np.ones(len(dofs))
                 if kind == "timoshenko":
-                    kg = beam.shear_coefficient * beam.shear_modulus
-                    self.shear_planes.append((stiffness, beam.length, beam.density, kg))
+                    self.shear_planes.append((stiffness, beam.length))
                 else:
                     (rods if kind == "rod" else bends).append((stiffness, inertia, beam.length))
                 for entries in ROD_ENTRIES if kind == "rod" else BENDING_ENTRIES:
@@ -151,7 +150,7 @@ class Members:
         bend = ei * (f[self._bend_rows] * self._bend_signs[:, None, None])
         bend /= f[0] * self._bend_powers[:, None, :]
         shear, done = [], {}  # equal planes (a circle's two) computed once
-        for plane, length, _, _ in self.shear_planes:
+        for plane, length in self.shear_planes:
             key = (plane.key, length)
             if key not in done:
                 k = plane.stiffness(omega[:, 0], length)
@@ -175,10 +174,10 @@ class Members:
             sign = np.where(lam < 2.0, 1.0, np.sign(1.0 - np.cos(lam) * np.cosh(lam)))
         count += (i - np.rint((1 - (-1.0) ** i * sign) / 2).astype(int)).sum(axis=1)
         done = {}  # equal planes (a circle's two) counted once
-        for plane, length, density, kg in self.shear_planes:  # by subdivision
-            key = (plane.key, length, density, kg)
+        for plane, length in self.shear_planes:  # by subdivision
+            key = (plane.key, length)
             if key not in done:
-                done[key] = plane.clamped(omega[:, 0], length, density, kg)
+                done[key] = plane.clamped(omega[:, 0], length)
             count += done[key]
         return count
 
