@@ -29,7 +29,8 @@ from ufmt.model.schema import Beam
 from ufmt.model.write import model_to_toml
 from ufmt.mstmm import elements
 from ufmt.mstmm.members import member_stiffness
-from ufmt.mstmm.modes import kinetic_terms
+from ufmt.mstmm.modes import beam_shape, kinetic_terms
+from ufmt.mstmm.overall import TransferSystem
 from ufmt.mstmm.solve import solve_modes
 from ufmt.mstmm.wittrick import RootCounter
 
@@ -328,3 +329,18 @@ def test_timoshenko_modes_are_mass_orthogonal_with_the_rotary_inertia():
     scale = np.sqrt(np.outer(np.diag(gram), np.diag(gram)))
     distinct = np.abs(shapes.frequencies_hz[:, None] - shapes.frequencies_hz[None]) > 1e-6
     assert np.abs(gram / scale)[distinct].max() < 1e-8
+
+
+def test_timoshenko_beam_field_is_finite_and_continuous_up_to_its_ends():
+    """The field at fractions of the length (the hinge dampers read it at 0 and 1): zero at
+    the clamp, finite, and continuous at the ends (a transfer over zero length is the
+    identity)."""
+    model = load_model(CANTILEVER)
+    shapes = solve_modes(model, count=6).shapes
+    system = TransferSystem(model)
+    _, motion = beam_shape(system, shapes, "shaft", [0.0, 1e-9, 1.0 - 1e-9, 1.0])
+    assert np.all(np.isfinite(motion))
+    scale = np.abs(motion).max(axis=(1, 2))[:, None]
+    assert np.all(np.abs(motion[:, 0]).max(axis=1) <= 1e-12 * scale[:, 0])
+    np.testing.assert_allclose(motion[:, 0], motion[:, 1], atol=1e-7 * scale.max())
+    np.testing.assert_allclose(motion[:, 3], motion[:, 2], atol=1e-7 * scale.max())

@@ -53,25 +53,27 @@ class Plane:
         self.key = (ei, rho_a, rho_i, kga)  # equal keys: equal formulations
 
     def scaled_system(self, w2: np.ndarray, length) -> np.ndarray:
-        """Â (n, 4, 4): the first-order system times the length in scaled variables."""
+        """Â (n, 4, 4): the first-order system times the length in the variables scaled by
+        :meth:`scales` (a zero length gives Â = 0: the identity transfer)."""
         w2 = np.asarray(w2, dtype=float)
         length = np.broadcast_to(np.asarray(length, dtype=float), w2.shape)
+        s = _scale_length(length)
         a = np.zeros((w2.size, 4, 4))
-        a[:, 0, 1] = a[:, 1, 2] = a[:, 2, 3] = 1.0
-        a[:, 0, 3] = -self.ei / (self.kga * length**2)
-        a[:, 2, 1] = -self.rho_i * w2 * length**2 / self.ei
-        a[:, 3, 0] = self.rho_a * w2 * length**4 / self.ei
+        a[:, 0, 1] = a[:, 1, 2] = a[:, 2, 3] = length / s
+        a[:, 0, 3] = -self.ei * length / (self.kga * s**3)
+        a[:, 2, 1] = -self.rho_i * w2 * s * length / self.ei
+        a[:, 3, 0] = self.rho_a * w2 * s**3 * length / self.ei
         return a
 
     def scales(self, length) -> np.ndarray:
-        """The state scales (n, 4): ``[L, 1, EI/L, EI/L²]`` (the state is scales × scaled)."""
-        length = np.atleast_1d(np.asarray(length, dtype=float))
-        one = np.ones_like(length)
-        return np.stack([length, one, self.ei / length, self.ei / length**2], axis=-1)
+        """The state scales (n, 4): ``[s, 1, EI/s, EI/s²]``, s the length (1 m where it is 0)
+        (the state is scales × scaled)."""
+        s = _scale_length(np.atleast_1d(np.asarray(length, dtype=float)))
+        return np.stack([s, np.ones_like(s), self.ei / s, self.ei / s**2], axis=-1)
 
     def transfer(self, w2: np.ndarray, length) -> np.ndarray:
         """Transfer matrix (n, 4, 4) of ``[v, θ, m, q]`` over ``length`` [m] (scalar or one per
-        ω) at ω² ``w2`` [rad²/s²] (module docstring)."""
+        ω, 0 allowed) at ω² ``w2`` [rad²/s²] (module docstring)."""
         w2 = np.atleast_1d(np.asarray(w2, dtype=float))
         length = np.broadcast_to(np.asarray(length, dtype=float), w2.shape)
         d = self.scales(length)
@@ -168,6 +170,11 @@ class Plane:
         dif = self.rho_i / self.ei - self.rho_a / self.kga
         k2 = 0.5 * w2 * s + np.sqrt(0.25 * w2 * w2 * dif * dif + self.rho_a * w2 / self.ei)
         return np.sqrt(k2)
+
+
+def _scale_length(length: np.ndarray) -> np.ndarray:
+    """The scaling length [m] of a transfer over ``length``: itself, 1 m where it is 0."""
+    return np.where(length > 0.0, length, 1.0)
 
 
 def _joined(k: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
