@@ -2,18 +2,24 @@
 solvers (the mode plots, the mode classification), and the report reads a body's kind and
 mass from the body record.
 
-Oracles: the kind list of the model schema (``ufmt.model.rules.KINDS``); the kinds written in
+Oracles: the kind list of the registry (``ufmt.kinds.KINDS``); the kinds written in
 the packaged model file; the rigid motion of a rigid body, which the mode
 classification must pass through unchanged while other kinds carry none.
 """
 
 from __future__ import annotations
 
-import numpy as np
+import ast
+from pathlib import Path
 
+import numpy as np
+import pytest
+
+from ufmt.assembled.bodies import BODY_KINDS as ASSEMBLED_KINDS
 from ufmt.calibration.frequencies import MOVES_AS_ONE_FRAME, modeset_from_mstmm
+from ufmt.kinds import BODY_KINDS, KINDS
 from ufmt.model.load import load_model, packaged_path
-from ufmt.model.rules import KINDS
+from ufmt.mstmm.bodies import BODY_RULES
 from ufmt.mstmm.solve import solve_modes
 from ufmt.plots.modes import BODY_DRAWINGS
 from ufmt.tomlfile import read_toml
@@ -22,6 +28,54 @@ from ufmt.tomlfile import read_toml
 def test_each_body_kind_has_one_entry_per_table():
     assert set(BODY_DRAWINGS) == set(KINDS)
     assert set(MOVES_AS_ONE_FRAME) == set(KINDS)
+    assert set(BODY_RULES) == set(KINDS)
+    assert set(ASSEMBLED_KINDS) == set(KINDS)
+
+
+#: what every kind module defines (the plug-in's interface, docs/architecture.md)
+KIND_INTERFACE = (
+    "NAME CLASS FIELDS REQUIRED WRITTEN ONE_FRAME MASSLESS MEMBER MESHED HINGES_AT_ENDS "
+    "parse written points section_width check_hinge_point node_points point_map node_mass rigidity "
+    "moved hinge_motion sensor_motion"
+).split()
+
+
+@pytest.mark.parametrize("name", KINDS)
+def test_each_kind_module_has_the_whole_interface(name):
+    module = BODY_KINDS[name]
+    missing = [a for a in KIND_INTERFACE if not hasattr(module, a)]
+    assert not missing and module.NAME == name
+    assert set(module.REQUIRED) <= set(module.FIELDS)
+    assert module.CLASS.__dataclass_fields__["kind"].default == name
+
+
+def _body_type_checks(source: str) -> list[int]:
+    """Lines of ``isinstance(x, <a body class>)`` in a module's source."""
+    classes = {"RigidBody", "VirtualBody", "Beam", "Body"}
+    return [
+        node.lineno
+        for node in ast.walk(ast.parse(source))
+        if isinstance(node, ast.Call)
+        and getattr(node.func, "id", None) == "isinstance"
+        and {getattr(n, "id", getattr(n, "attr", None)) for n in ast.walk(node.args[1])} & classes
+    ]
+
+
+def test_no_module_outside_the_kinds_asks_a_body_its_type():
+    package = Path(__file__).resolve().parents[1] / "ufmt"
+    hits = [
+        f"{path.relative_to(package)}:{line}"
+        for path in package.rglob("*.py")
+        if "kinds" not in path.relative_to(package).parts
+        for line in _body_type_checks(path.read_text(encoding="utf-8"))
+    ]
+    assert not hits, hits
+
+
+def test_the_type_check_finder_can_fail():
+    assert _body_type_checks("if isinstance(b, Beam):\n    pass\n") == [1]
+    assert _body_type_checks("isinstance(b, (RigidBody, float))\n") == [1]
+    assert _body_type_checks("isinstance(b, float)\n") == []
 
 
 def test_each_body_record_carries_its_file_kind_and_a_mass():

@@ -1,7 +1,7 @@
 """How each body kind enters the assembled model: its mesh nodes (6 dofs each), its mass,
 stiffness and massless dofs, and the node a hinge on it acts on.
 
-:data:`BODY_KINDS` maps each body type of :mod:`ufmt.model.schema` to its :class:`BodyKind`:
+:data:`BODY_KINDS` maps each body kind of :mod:`ufmt.kinds` to its :class:`BodyKind`:
 adding a body kind to the assembled model is one more entry (the MSTMM has its own table,
 :mod:`ufmt.mstmm.bodies`).
 """
@@ -41,8 +41,8 @@ class BodyKind:
 
 
 def body_kind(body: Body) -> BodyKind:
-    """The handlers of ``body``'s type."""
-    return BODY_KINDS[type(body)]
+    """The handlers of ``body``'s kind."""
+    return BODY_KINDS[body.kind]
 
 
 def _rigid_nodes(model: Model, body: RigidBody, mesh) -> tuple[np.ndarray, None]:
@@ -134,9 +134,9 @@ def _beam_end(model: Model, hinge, beam: Beam, nodes: np.ndarray) -> int:
     return node
 
 
-#: body type -> how the assembled model treats it
-BODY_KINDS: dict[type, BodyKind] = {
-    RigidBody: BodyKind(_rigid_nodes, _add_rigid, _first_node, meshed=False),
-    VirtualBody: BodyKind(_virtual_nodes, _add_virtual, _first_node, meshed=False),
-    Beam: BodyKind(_beam_nodes, _add_beam, _beam_end, meshed=True),
+#: body kind -> how the assembled model treats it
+BODY_KINDS: dict[str, BodyKind] = {
+    "rigid": BodyKind(_rigid_nodes, _add_rigid, _first_node, meshed=False),
+    "virtual": BodyKind(_virtual_nodes, _add_virtual, _first_node, meshed=False),
+    "beam": BodyKind(_beam_nodes, _add_beam, _beam_end, meshed=True),
 }

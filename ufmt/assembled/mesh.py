@@ -1,5 +1,6 @@
-"""Beams of the assembled model: 3-D Euler-Bernoulli frame elements (stiffness and consistent
-mass) and the automatic mesh that keeps their frequency error below a target."""
+"""Beams of the assembled model: 3-D frame elements (stiffness and consistent mass;
+Euler-Bernoulli, or a Timoshenko beam's bending from :mod:`ufmt.kinds.timoshenko`) and the
+automatic mesh that keeps their frequency error below a target."""
 
 from __future__ import annotations
 
@@ -7,6 +8,7 @@ import math
 
 import numpy as np
 
+from ufmt.kinds.timoshenko import planes
 from ufmt.model.schema import Beam
 
 DEFAULT_ELEMENTS_PER_BEAM = 8  # mesh when neither elements_per_beam nor a frequency is given
@@ -87,6 +89,11 @@ def frame_element(beam: Beam, h: float) -> tuple[np.ndarray, np.ndarray]:
     ) * (rho * a * h / 420.0)
     flip = np.array([1.0, -1.0, 1.0, -1.0])  # theta_y = -dw/dx
     flip = flip[:, None] * flip
+    if beam.timoshenko:  # shear deformation and rotary inertia (Przemieniecki's element)
+        (k_xy, m_xy), (k_xz, m_xz) = (plane.element(h) for plane in planes(beam))
+        k[BENDING_XY], m[BENDING_XY] = k_xy, m_xy
+        k[BENDING_XZ], m[BENDING_XZ] = k_xz * flip, m_xz * flip
+        return k, m
     k[BENDING_XY] += e * beam.second_moment_z * bend_k  # x-y plane: v, theta_z
     m[BENDING_XY] += bend_m
     k[BENDING_XZ] += e * beam.second_moment_y * (bend_k * flip)  # x-z plane: w, theta_y
@@ -100,6 +107,8 @@ def _wavenumbers(beam: Beam, fmax_hz: float) -> tuple[float, float]:
     rho, e = beam.density, beam.youngs_modulus
     weakest = min(beam.second_moment_y, beam.second_moment_z)
     bending = (omega**2 * rho * beam.area / (e * weakest)) ** 0.25
+    if beam.timoshenko:  # shear makes the bending waves shorter
+        bending = max(bending, *(plane.wavenumber(omega) for plane in planes(beam)))
     axial = omega * math.sqrt(rho / e)
     torsion = omega * math.sqrt(
         rho * beam.polar_moment / (beam.shear_modulus * beam.torsion_constant)

@@ -32,9 +32,10 @@ from ufmt.assembled import assembled_modes
 from ufmt.calibration.modal_test import AXES, ModalTest, modal_test
 from ufmt.calibration.test_file import read_test
 from ufmt.errors import StudyError
+from ufmt.kinds import kind_of
 from ufmt.kinematics import carried_motion
 from ufmt.model.load import as_model
-from ufmt.model.schema import Beam, Model, RigidBody
+from ufmt.model.schema import Beam, Model
 from ufmt.mstmm.modes import ModeShapes, beam_shape
 from ufmt.mstmm.overall import TransferSystem
 from ufmt.mstmm.solve import solve_modes
@@ -59,12 +60,14 @@ def sensor_shapes(model: Model, shapes: ModeShapes, sensors, source: str = "") -
         where.choice(field, sensor.body, names, "body")
         body = model.body(sensor.body)
         point = np.asarray(sensor.point, dtype=float)
-        if isinstance(body, RigidBody):
-            motion = carried_motion(shapes.rigid[body.name], body.center_of_mass, point)
-        elif isinstance(body, Beam):
+
+        def along(p, body=body, field=field):  # a point carried by a field body's section
+            nonlocal system
             system = system or TransferSystem(model)
-            motion = _beam_point(system, shapes, body, point, where, field)
-        else:
+            return _beam_point(system, shapes, body, p, where, field)
+
+        motion = kind_of(body).sensor_motion(body, shapes, point, along)
+        if motion is None:
             where.fail(field, f"body {body.name!r} is {body.kind}: it has no material point")
         out[:, j] = motion[:, AXES.index(sensor.direction)]
     return out
@@ -254,7 +257,7 @@ def assembled_test(model, sensors, count: int, source: str = "assembled model") 
         point = np.asarray(sensor.point, dtype=float)
         nodes = am.node_positions[body.name]
         node = int(np.argmin(np.linalg.norm(nodes - point, axis=1)))
-        if isinstance(body, Beam) and np.linalg.norm(nodes[node] - point) > BEAM_TOLERANCE:
+        if kind_of(body).MESHED and np.linalg.norm(nodes[node] - point) > BEAM_TOLERANCE:
             raise StudyError(f"sensor {sensor.label}: not on a mesh node of beam {body.name!r}")
         motion = carried_motion(shapes[:, am.body_dofs[body.name][node]], nodes[node], point)
         out[:, j] = motion[:, AXES.index(sensor.direction)]

@@ -17,13 +17,13 @@ import pandas as pd
 
 from ufmt.calibration.frf_file import MeasuredFrf
 from ufmt.defaults import DEFAULT_BASIS_CUTOFF_HZ
+from ufmt.kinds import kind_of
 from ufmt.kinematics import point_motion
 from ufmt.machining.frf import AXES, modal_receptance, participation, point_end
 from ufmt.machining.modal import modal_basis
 from ufmt.machining.recurrence import DEFAULT_ZETA
 from ufmt.machining.static import static_flexibility
 from ufmt.model.load import as_model
-from ufmt.model.schema import RigidBody
 
 
 def model_frfs(model, outputs, inputs, freq_hz, kind="receptance", zeta=None, cutoff_hz=None):
@@ -36,7 +36,7 @@ def model_frfs(model, outputs, inputs, freq_hz, kind="receptance", zeta=None, cu
     basis = modal_basis(model, None, cutoff_hz or DEFAULT_BASIS_CUTOFF_HZ, slide_y=0.0)
     freq = np.asarray(freq_hz, dtype=float)
     out = np.full((len(outputs), freq.size), np.nan, dtype=complex)
-    rigid = {b.name for b in model.bodies if isinstance(b, RigidBody)}
+    rigid = {b.name for b in model.bodies if kind_of(b).ONE_FRAME}
     pairs = [
         p for p, (o, i) in enumerate(zip(outputs, inputs, strict=True)) if {o.body, i.body} <= rigid
     ]

@@ -43,10 +43,10 @@ import numpy as np
 from threadpoolctl import ThreadpoolController
 
 from ufmt.errors import UfmtError
-from ufmt.kinematics import point_motion
+from ufmt.kinds import kind_of
 from ufmt.machining.basis import ModalBasis
 from ufmt.machining.recurrence import modal_damping
-from ufmt.model.schema import GROUND, Beam, Model, RigidBody
+from ufmt.model.schema import GROUND, Model
 from ufmt.mstmm.modes import ModeShapes, beam_shape
 from ufmt.mstmm.overall import TransferSystem
 
@@ -74,10 +74,10 @@ def hinge_damping_matrix(model: Model, shapes: ModeShapes) -> np.ndarray | None:
     damped = [h for h in model.hinges if np.any(h.damping6[~h.rigid] != 0.0)]
     if not damped:
         return None
-    beams = {}  # beam -> (n, 2, 6) motion at its start and end
+    beams = {}  # body with a field -> its two ends' positions and motion (n, 2, 6)
     for hinge in damped:
         for side in hinge.between:
-            if side != GROUND and isinstance(model.body(side), Beam) and side not in beams:
+            if side != GROUND and kind_of(model.body(side)).HINGES_AT_ENDS:
                 beams[side] = None
     if beams:
         system = TransferSystem(model)
@@ -100,13 +100,7 @@ def _side_motion(model: Model, shapes: ModeShapes, beams, hinge, side: int) -> n
     if name == GROUND:
         return np.zeros((6, n))
     body = model.body(name)
-    if isinstance(body, RigidBody):
-        return point_motion(hinge.at - body.center_of_mass) @ shapes.rigid[name].T
-    if isinstance(body, Beam):
-        positions, motion = beams[name]
-        end = int(np.argmin(np.linalg.norm(positions - hinge.at, axis=1)))
-        return motion[:, end, :].T
-    return shapes.virtual[name].T
+    return kind_of(body).hinge_motion(body, shapes, beams.get(name), hinge.at)
 
 
 def damping_matrix(basis: ModalBasis, zeta) -> np.ndarray:

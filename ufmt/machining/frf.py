@@ -28,6 +28,7 @@ import pandas as pd
 from ufmt import limits
 from ufmt.defaults import DEFAULT_BASIS_CUTOFF_HZ
 from ufmt.errors import UfmtError
+from ufmt.kinds import kind_of
 from ufmt.kinematics import point_motion
 from ufmt.machining.basis import ModalBasis
 from ufmt.machining.cutting import tool_tip
@@ -40,7 +41,6 @@ from ufmt.machining.static import ResidualFlexibility, static_flexibility
 from ufmt.machining.tool import with_tool
 from ufmt.model.load import as_model
 from ufmt.model.machine import MAX_LENGTH_M, Machine, machine_of
-from ufmt.model.schema import RigidBody
 
 AXES = {"x": (1.0, 0.0, 0.0), "y": (0.0, 1.0, 0.0), "z": (0.0, 0.0, 1.0)}
 #: kind -> (factor on the receptance as a function of i W, unit of the columns)
@@ -117,7 +117,7 @@ def residual_receptance(
     (:mod:`ufmt.machining.tool`; its residual is then the head's alone)."""
     bodies = tuple(dict.fromkeys(b for b, _, _ in out.terms + inp.terms))
     for name in bodies:
-        if not isinstance(model.body(name), RigidBody):
+        if not kind_of(model.body(name)).ONE_FRAME:
             raise UfmtError(f"{model.source}: FRF point on body {name!r}: a rigid body is needed")
     moved = model if machine is None else model_at_slide(model, machine, basis.slide_y)
     g = static_flexibility(moved, bodies)
@@ -331,8 +331,8 @@ def _end(model, spec, tool_angle: float, slide_y: float, frame: np.ndarray) -> E
     except (TypeError, ValueError):
         raise UfmtError(f"FRF point {spec!r}: expected (body name, (x, y, z) [m])") from None
     names = [b.name for b in model.bodies]
-    if body not in names or not isinstance(model.body(body), RigidBody):
-        rigid = [b.name for b in model.bodies if isinstance(b, RigidBody)]
+    if body not in names or not kind_of(model.body(body)).ONE_FRAME:
+        rigid = [b.name for b in model.bodies if kind_of(b).ONE_FRAME]
         raise UfmtError(
             f"FRF point on {limits.shown(body)}: not a rigid body (rigid bodies: {rigid})"
         )

@@ -21,9 +21,9 @@ from dataclasses import replace
 import numpy as np
 
 from ufmt.errors import ModelError
+from ufmt.kinds import kind_of
 from ufmt.model.orientation import DIRECTION_FIELDS
-from ufmt.model.schema import Beam, Model, RigidBody, frozen_array
-from ufmt.mstmm.elements import beam_frame
+from ufmt.model.schema import Model, frozen_array
 from ufmt.recent import Recent
 from ufmt.tables import short_vector
 
@@ -74,22 +74,8 @@ def to_machine(points, frame: np.ndarray) -> np.ndarray:
 
 
 def _body(body, frame: np.ndarray):
-    """``body`` rotated into the machine frame."""
-    if isinstance(body, RigidBody):
-        return replace(
-            body,
-            center_of_mass=frozen_array(to_machine(body.center_of_mass, frame)),
-            inertia=frozen_array(frame.T @ body.inertia @ frame),
-        )
-    if isinstance(body, Beam):
-        section = beam_frame(body, body.start, body.end)[:, 1]  # the local y axis, explicit
-        return replace(
-            body,
-            start=frozen_array(to_machine(body.start, frame)),
-            end=frozen_array(to_machine(body.end, frame)),
-            orientation=frozen_array(to_machine(section, frame)),
-        )
-    return body  # a virtual body has no place of its own
+    """``body`` rotated into the machine frame (its kind's own rotation)."""
+    return kind_of(body).rotated(body, frame)
 
 
 def _hinge(hinge, frame: np.ndarray, source: str):

@@ -27,8 +27,9 @@ from dataclasses import replace
 
 import numpy as np
 
+from ufmt.kinds import kind_of
 from ufmt.model.machine import Machine
-from ufmt.model.schema import GROUND, Beam, Model, RigidBody, frozen_array
+from ufmt.model.schema import GROUND, Model, frozen_array
 from ufmt.recent import Recent
 
 #: Moved bodies per (bodies of a loaded model, its hinges' places, the shift): the designs of
@@ -92,17 +93,11 @@ def _rides(model: Model, hinge, moved: frozenset[str]) -> bool:
     if not moved.intersection(hinge.between):
         return False
     return not any(
-        name != GROUND and name not in moved and isinstance(model.body(name), Beam)
+        name != GROUND and name not in moved and kind_of(model.body(name)).HINGES_AT_ENDS
         for name in hinge.between
     )
 
 
 def _moved(body, shift: np.ndarray):
-    """``body`` translated by ``shift`` [m]."""
-    if isinstance(body, RigidBody):
-        return replace(body, center_of_mass=frozen_array(body.center_of_mass + shift))
-    if isinstance(body, Beam):
-        return replace(
-            body, start=frozen_array(body.start + shift), end=frozen_array(body.end + shift)
-        )
-    return body  # a virtual body has no place of its own: its hinges carry it
+    """``body`` translated by ``shift`` [m] (a virtual body: unchanged, its hinges carry it)."""
+    return kind_of(body).moved(body, shift)

@@ -8,18 +8,11 @@ from collections.abc import Mapping
 import numpy as np
 
 from ufmt.errors import ModelError
+from ufmt.kinds import kind_of
 from ufmt.limits import MAX_NAME_CHARS
-from ufmt.model.rules import (
-    BEAM_END_RTOL,
-    HINGE_FIELDS,
-    HINGE_REQUIRED,
-    POINT_RTOL,
-    derived,
-    label,
-    vector,
-)
-from ufmt.model.schema import GROUND, Beam, Body, Hinge, Model, RigidBody, VirtualBody
-from ufmt.tables import Where, short_number, short_vector
+from ufmt.model.rules import HINGE_FIELDS, HINGE_REQUIRED, POINT_RTOL, derived, label, vector
+from ufmt.model.schema import GROUND, Body, Hinge, Model
+from ufmt.tables import Where, short_vector
 
 
 def parse_hinges(source: str, tables: list[Mapping], bodies: dict[str, Body]) -> list[Hinge]:
@@ -47,9 +40,8 @@ def _parse_hinge(where: Where, table: Mapping, bodies: dict[str, Body]) -> Hinge
     between = _between(where, table["between"], bodies)
     at = vector(where, "at", table["at"], "finite", "[m]", "coordinate")
     for side in between:
-        body = bodies.get(side)
-        if isinstance(body, Beam):
-            _check_at_beam_end(where, at, body)
+        if side != GROUND:
+            kind_of(bodies[side]).check_hinge_point(where, at, bodies[side])
     zeros = np.zeros(3)
     return Hinge(
         name=name,
@@ -109,39 +101,23 @@ def _between(where: Where, value, bodies: dict[str, Body]) -> tuple[str, str]:
     return (a, b)
 
 
-def _check_at_beam_end(where: Where, at: np.ndarray, beam: Beam) -> None:
-    length = beam.length
-    distance = min(np.linalg.norm(at - beam.start), np.linalg.norm(at - beam.end))
-    if distance > BEAM_END_RTOL * length:
-        where.fail(
-            "at",
-            f"{short_vector(at)} is not at an end of beam {beam.name!r} (start "
-            f"{short_vector(beam.start)}, end {short_vector(beam.end)}; {derived(distance)} m "
-            f"away; allowed: within {BEAM_END_RTOL:g} x length {short_number(length)} m of an "
-            "end)",
-        )
-
-
 def _check_virtual_points(source: str, hinges: list[Hinge], bodies: dict[str, Body]) -> None:
-    """Every hinge on a virtual body must be at one point (the body has no size)."""
+    """Every hinge on a massless point body (a virtual body) must be at one point."""
     points = [h.at for h in hinges]
     for b in bodies.values():
-        if isinstance(b, RigidBody):
-            points.append(b.center_of_mass)
-        elif isinstance(b, Beam):
-            points += [b.start, b.end]
+        points += list(kind_of(b).points(b).values())
     scale = float(np.max(np.abs(points))) if points else 0.0
     first: dict[str, Hinge] = {}
     for hinge in hinges:
         for side in hinge.between:
-            if not isinstance(bodies.get(side), VirtualBody):
+            if side == GROUND or not kind_of(bodies[side]).MASSLESS:
                 continue
             ref = first.setdefault(side, hinge)
             distance = float(np.linalg.norm(hinge.at - ref.at))
             if distance > POINT_RTOL * scale:
                 Where(source, f"hinge {hinge.name!r}", error=ModelError).fail(
                     "at",
-                    f"impossible geometry: virtual body {side!r} is a point, but hinge "
+                    f"impossible geometry: {bodies[side].kind} body {side!r} is a point, but hinge "
                     f"{ref.name!r} puts it at {short_vector(ref.at)} and this hinge at "
                     f"{short_vector(hinge.at)} ({derived(distance)} m apart; allowed: all "
                     "hinges on a virtual body at one point)",

@@ -14,7 +14,6 @@ model back so that loading the text gives the same model.
 from __future__ import annotations
 
 import functools
-import math
 from collections.abc import Mapping
 from importlib import resources
 from pathlib import Path
@@ -24,6 +23,7 @@ import numpy as np
 
 from ufmt import limits
 from ufmt.errors import ModelError
+from ufmt.kinds import kind_of
 from ufmt.model.bodies import parse_bodies
 from ufmt.model.design import parse_design
 from ufmt.model.hinges import check_connected, check_numbers, parse_hinges
@@ -36,7 +36,7 @@ from ufmt.model.machine import (
 )
 from ufmt.model.orientation import check_spindle
 from ufmt.model.rules import TOP_FIELDS
-from ufmt.model.schema import Beam, Model, RigidBody
+from ufmt.model.schema import Model
 from ufmt.tables import Where, type_name
 from ufmt.tomlfile import parse_toml, read_text
 
@@ -114,21 +114,15 @@ def check_extent(source: str, bodies, hinges) -> None:
     (equivalent diameter sqrt(4 A / pi)); a model typed in mm or cm fails here, with a hint.
     Only spans are checked: the model may sit anywhere in its frame."""
     named = [
-        (f"body {b.name!r}", "center_of_mass", b.center_of_mass)
+        (f"body {b.name!r}", field, point)
         for b in bodies
-        if isinstance(b, RigidBody)
-    ]
-    named += [
-        (f"body {b.name!r}", end, getattr(b, end))
-        for b in bodies
-        if isinstance(b, Beam)
-        for end in ("start", "end")
+        for field, point in kind_of(b).points(b).items()
     ]
     named += [(f"hinge {h.name!r}", "at", h.at) for h in hinges]
     fits = lambda v: v <= MAX_LENGTH_M  # noqa: E731
-    for body in (b for b in bodies if isinstance(b, Beam)):
-        width = math.sqrt(4.0 * body.area / math.pi)
-        if not fits(width):
+    for body in bodies:
+        width = kind_of(body).section_width(body)
+        if width is not None and not fits(width):
             Where(source, f"body {body.name!r}", error=ModelError).fail(
                 "diameter",
                 f"a section {width:g} m wide (diameter, or sqrt(4 area / pi); at most"

@@ -12,16 +12,9 @@ from ufmt.limits import MAX_NAME_CHARS
 from ufmt.model.schema import frozen_array
 from ufmt.tables import Where
 
-KINDS = ("rigid", "virtual", "beam")
 TOP_FIELDS = ("name", "description", "body", "hinge", "machine", "design")
 BODY_FIELDS = ("name", "kind", "number")
-RIGID_FIELDS = ("mass", "center_of_mass", "inertia")
-CIRCLE_FIELDS = ("diameter", "inner_diameter")
 SECTION_FIELDS = ("area", "second_moment_y", "second_moment_z", "polar_moment")
-BEAM_REQUIRED = ("start", "end", "density", "youngs_modulus", "shear_modulus")
-BEAM_FIELDS = BEAM_REQUIRED + CIRCLE_FIELDS + SECTION_FIELDS + ("torsion_constant", "orientation")
-KIND_FIELDS = {"rigid": RIGID_FIELDS, "virtual": (), "beam": BEAM_FIELDS}
-KIND_REQUIRED = {"rigid": RIGID_FIELDS, "virtual": (), "beam": BEAM_REQUIRED}
 HINGE_REQUIRED = ("name", "between", "at", "stiffness", "rotational_stiffness")
 HINGE_FIELDS = HINGE_REQUIRED + ("damping", "rotational_damping", "number")
 

@@ -56,13 +56,16 @@ class VirtualBody:
 
 @dataclass(frozen=True, eq=False)
 class Beam:
-    """Euler-Bernoulli beam: axial, torsion, bending in two planes (paper eqs. 2.12, 3.3).
+    """Straight beam: axial, torsion, bending in two planes (paper eqs. 2.12, 3.3), by
+    Euler-Bernoulli or Timoshenko bending theory.
 
     start, end [m] end points; density [kg/m^3]; youngs_modulus, shear_modulus [Pa];
     area [m^2]; second_moment_y, second_moment_z [m^4] about the local y and z axes;
     polar_moment [m^4] (rotary inertia in torsion, rho*J_p); torsion_constant [m^4]
     (torsional stiffness G*J_t); orientation: a vector fixing the local y axis, or None for
-    the default (global z projected off the axis; global x when the axis is vertical).
+    the default (global z projected off the axis; global x when the axis is vertical);
+    theory: "euler-bernoulli" or "timoshenko" (shear deformation and rotary inertia in
+    bending); shear_coefficient: κ of the section (Timoshenko only, else None).
     """
 
     name: str
@@ -78,7 +81,14 @@ class Beam:
     torsion_constant: float
     orientation: np.ndarray | None = None
     number: int | None = None
+    theory: str = "euler-bernoulli"
+    shear_coefficient: float | None = None
     kind: str = field(default="beam", init=False)
+
+    @property
+    def timoshenko(self) -> bool:
+        """Whether bending takes shear deformation and rotary inertia."""
+        return self.theory == "timoshenko"
 
     @property
     def length(self) -> float:

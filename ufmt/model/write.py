@@ -11,8 +11,9 @@ from typing import Any
 
 import numpy as np
 
-from ufmt.model.rules import HINGE_FIELDS, SECTION_FIELDS
-from ufmt.model.schema import Beam, Body, DesignParameter, Hinge, Model, RigidBody, VirtualBody
+from ufmt.kinds import kind_of
+from ufmt.model.rules import HINGE_FIELDS
+from ufmt.model.schema import Body, DesignParameter, Hinge, Model
 
 
 def model_to_toml(model: Model) -> str:
@@ -113,27 +114,10 @@ def _pairs(pairs: list[tuple[str, Any]]) -> list[str]:
     return [f"{k} = {toml_value(v)}" for k, v in pairs if v is not None]
 
 
-#: body type -> the fields written after name, kind and number
-_BODY_FIELDS = {
-    RigidBody: ("mass", "center_of_mass", "inertia"),
-    VirtualBody: (),
-    Beam: (
-        "start",
-        "end",
-        "density",
-        "youngs_modulus",
-        "shear_modulus",
-        *SECTION_FIELDS,
-        "torsion_constant",
-        "orientation",
-    ),
-}
-
-
 def _body_lines(body: Body) -> list[str]:
     pairs: list[tuple[str, Any]] = [("name", body.name), ("kind", body.kind)]
     pairs.append(("number", body.number))
-    pairs += [(k, getattr(body, k)) for k in _BODY_FIELDS[type(body)]]
+    pairs += kind_of(body).written(body)
     return _pairs(pairs)
 
 

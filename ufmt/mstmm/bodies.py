@@ -2,7 +2,7 @@
 hinge on it meets, the state its motion is read from, its motion in a mode and its mass
 products.
 
-:data:`BODY_RULES` maps each body type of :mod:`ufmt.model.schema` to its :class:`BodyRules`:
+:data:`BODY_RULES` maps each body kind of :mod:`ufmt.kinds` to its :class:`BodyRules`:
 adding a body kind to the MSTMM is one more entry (the assembled model has its own table,
 :mod:`ufmt.assembled.bodies`). Every node of the transfer graph carries one of two transfer
 rules: a rigid body's (:data:`RIGID_NODE`, eqs. 2.8, 2.9, 2.5) or a massless point's
@@ -19,6 +19,7 @@ import numpy as np
 from scipy.special import gammaln
 
 from ufmt.errors import ModelError
+from ufmt.kinds.timoshenko import planes
 from ufmt.kinematics import skew
 from ufmt.model.schema import Beam, Body, Model, RigidBody, VirtualBody
 from ufmt.mstmm import elements
@@ -129,8 +130,8 @@ class BodyRules:
 
 
 def rules_of(body: Body) -> BodyRules:
-    """The handlers of ``body``'s type."""
-    return BODY_RULES[type(body)]
+    """The handlers of ``body``'s kind."""
+    return BODY_RULES[body.kind]
 
 
 def apply_state(state, z: np.ndarray) -> np.ndarray:
@@ -239,7 +240,8 @@ def _beam_shape(system, body: Beam, states, z, omega, parts: ShapeParts) -> None
 
 def _beam_kinetic(body: Beam, rigid_a, beams_a, rigid_b, beams_b, out) -> None:
     """∫ρA u_a·u_b ds per axis and ∫ρJp τ_a τ_b ds (τ the twist about the beam axis) split
-    over the global axes by the squared axis components."""
+    over the global axes by the squared axis components; a Timoshenko beam adds its sections'
+    rotary inertia likewise."""
     _, wts, ma = beams_a[body.name]
     mb = beams_b[body.name][2]
     rho = body.density
@@ -247,6 +249,11 @@ def _beam_kinetic(body: Beam, rigid_a, beams_a, rigid_b, beams_b, out) -> None:
     axis = (body.end - body.start) / body.length
     twist = (ma[..., 3:] @ axis) * (mb[..., 3:] @ axis) @ wts
     out[:, 3:] = rho * body.polar_moment * twist[:, None] * axis[None, :] ** 2
+    if body.timoshenko:  # rotary inertia of the sections: ∫ρI θ_a θ_b about e2 (I_y), e3 (I_z)
+        frame = elements.beam_frame(body, body.start, body.end)
+        for e, second in ((frame[:, 1], body.second_moment_y), (frame[:, 2], body.second_moment_z)):
+            turn = (ma[..., 3:] @ e) * (mb[..., 3:] @ e) @ wts
+            out[:, 3:] += rho * second * turn[:, None] * e[None, :] ** 2
 
 
 def beam_field(system, beam: Beam, states, z, omega, fractions=None):
@@ -306,7 +313,12 @@ def gauss_points(beam: Beam, omega_max: float) -> int:
     bending = rho * beam.area * w2 / (e_mod * min(beam.second_moment_y, beam.second_moment_z))
     axial = rho * w2 / e_mod
     torsion = rho * beam.polar_moment * w2 / (beam.shear_modulus * beam.torsion_constant)
-    c = 2.0 * beam.length * max(bending**0.25, np.sqrt(axial), np.sqrt(torsion), 1e-3)
+    shear = (
+        max((p.wavenumber(omega_max) for p in planes(beam)), default=0.0)
+        if beam.timoshenko
+        else 0.0
+    )
+    c = 2.0 * beam.length * max(bending**0.25, np.sqrt(axial), np.sqrt(torsion), shear, 1e-3)
     log_error = (2 * _GAUSS_ORDERS + 1) * np.log(c) + _GAUSS_LOG_FACTOR
     fine = _GAUSS_ORDERS[log_error <= np.log(GAUSS_RTOL)]
     return int(fine[0]) if fine.size else GAUSS_POINTS
@@ -320,9 +332,9 @@ def _gauss_legendre(points: int) -> tuple[np.ndarray, np.ndarray]:
     return x, w
 
 
-#: body type -> how the MSTMM treats it
-BODY_RULES: dict[type, BodyRules] = {
-    RigidBody: BodyRules(
+#: body kind -> how the MSTMM treats it
+BODY_RULES: dict[str, BodyRules] = {
+    "rigid": BodyRules(
         graph=_rigid_graph,
         hinge_end=_own_node,
         reference=lambda body, point: body.center_of_mass,
@@ -330,7 +342,7 @@ BODY_RULES: dict[type, BodyRules] = {
         shape=_rigid_shape,
         kinetic=_rigid_kinetic,
     ),
-    VirtualBody: BodyRules(
+    "virtual": BodyRules(
         graph=_virtual_graph,
         hinge_end=_own_node,
         reference=_at_point,
@@ -338,7 +350,7 @@ BODY_RULES: dict[type, BodyRules] = {
         shape=_virtual_shape,
         kinetic=_no_mass,
     ),
-    Beam: BodyRules(
+    "beam": BodyRules(
         graph=_beam_graph,
         hinge_end=beam_end_node,
         reference=_at_point,

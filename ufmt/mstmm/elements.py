@@ -13,6 +13,7 @@ import math
 
 import numpy as np
 
+from ufmt.kinds.timoshenko import bending_transfer
 from ufmt.kinematics import I3, inertia_about, skew
 from ufmt.model.schema import Beam
 
@@ -149,7 +150,8 @@ _ROWS, _COLS = np.array(_TWIST + tuple((a, b) for p in _PLANES for a in p for b 
 
 
 def beam_local(omega: np.ndarray, beam: Beam, length: float | None = None) -> np.ndarray:
-    """Transfer matrix of an Euler-Bernoulli beam in its own axes (paper eqs. 2.12, 3.3).
+    """Transfer matrix of a beam in its own axes (paper eqs. 2.12, 3.3); a Timoshenko beam's
+    bending from :mod:`ufmt.kinds.timoshenko`.
 
     Derived from eq. 3.3 in the state conventions of this module (the printed eq. 2.12 mixes
     λy and λz and has sign slips). Local axes: x1 along the beam from input to output; axial
@@ -195,6 +197,8 @@ def _beam_blocks(w2: np.ndarray, beam: Beam, length, rows: int):
     c, sl, bs = _axial(w2, k, np.array([[rho * A], [rho * beam.polar_moment]]), L)
     sgn = np.array([[-1.0], [1.0]])
     twist = [c, sgn * sl / k, -sgn * k * bs, c][:rows]
+    if beam.timoshenko:
+        return np.stack(twist, axis=1), bending_transfer(w2, beam, L, rows)
     # bending with EI_z (x1-y plane, sign +1) and EI_y (x1-z plane, sign -1)
     ei = np.array([[E * beam.second_moment_z], [E * beam.second_moment_y]])
     sgn = np.array([[1.0], [-1.0]])

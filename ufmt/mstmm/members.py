@@ -1,4 +1,5 @@
-"""Exact dynamic stiffness of an Euler-Bernoulli beam member and its clamped-clamped count.
+"""Exact dynamic stiffness of a beam member and its clamped-clamped count (a Timoshenko
+beam's bending planes from :mod:`ufmt.kinds.timoshenko`).
 
 The two ingredients a beam brings to the Wittrick-Williams count (:mod:`ufmt.mstmm.wittrick`):
 its exact dynamic stiffness matrix (12x12 on the six small motions of each end, no mesh;
@@ -18,6 +19,7 @@ import math
 
 import numpy as np
 
+from ufmt.kinds.timoshenko import planes
 from ufmt.model.schema import Beam
 from ufmt.mstmm.elements import beam_frame
 
@@ -105,10 +107,14 @@ class Members:
 
     def __init__(self, beams):
         rods, bends, patterns, owner = [], [], [], []
+        self.shear_planes = []  # Timoshenko planes: (Plane, L)
         for j, beam in enumerate(beams):
             for dofs, kind, stiffness, inertia in _parts(beam):
                 sign = XZ_SIGN if dofs == BENDING_XZ else np.ones(len(dofs))
-                (rods if kind == "rod" else bends).append((stiffness, inertia, beam.length))
+                if kind == "timoshenko":
+                    self.shear_planes.append((stiffness, beam.length))
+                else:
+                    (rods if kind == "rod" else bends).append((stiffness, inertia, beam.length))
                 for entries in ROD_ENTRIES if kind == "rod" else BENDING_ENTRIES:
                     e = np.zeros((12, 12))
                     for a, b, s in entries:
@@ -117,8 +123,9 @@ class Members:
                     owner.append(j)
         self.rods = np.array(rods, dtype=float).reshape(-1, 3)  # (k or GJ, ρA or ρI_p, L)
         self.bends = np.array(bends, dtype=float).reshape(-1, 3)  # (EI, ρA, L)
-        # terms are computed rods first, then bending planes: patterns in that order
-        order = [i for kind in ("rod", "bending") for i, p in enumerate(patterns) if p[0] == kind]
+        # terms are computed rods first, then bending planes, then Timoshenko planes
+        kinds = ("rod", "bending", "timoshenko")
+        order = [i for kind in kinds for i, p in enumerate(patterns) if p[0] == kind]
         self.patterns = np.array([patterns[i][1] for i in order]).reshape(-1, 12, 12)
         self.owner = np.array(owner, dtype=int)[order]
         k, mu, _ = self.rods.T
@@ -142,7 +149,15 @@ class Members:
         # EI f / (δ Lᵖ) for f = (a1, p2, -t1, u2, a3, v3) (module docstring), (6, len(ω), m)
         bend = ei * (f[self._bend_rows] * self._bend_signs[:, None, None])
         bend /= f[0] * self._bend_powers[:, None, :]
-        return np.concatenate([rod, bend.transpose(1, 2, 0).reshape(omega.size, -1)], axis=1)
+        shear, done = [], {}  # equal planes (a circle's two) computed once
+        for plane, length in self.shear_planes:
+            key = (plane.key, length)
+            if key not in done:
+                k = plane.stiffness(omega[:, 0], length)
+                done[key] = k[:, [0, 0, 0, 0, 1, 1], [0, 1, 2, 3, 1, 3]]
+            shear.append(done[key])
+        bend = bend.transpose(1, 2, 0).reshape(omega.size, -1)
+        return np.concatenate([rod, bend, *shear], axis=1)
 
     def clamped(self, omega) -> np.ndarray:
         """J₀: the number (len(ω),) of clamped-clamped member frequencies below ω [rad/s], all
@@ -157,15 +172,29 @@ class Members:
         # δ = λ⁴/6 + ... > 0 below λ = 2 (the first zero is at 4.73): the closed form above
         with np.errstate(over="ignore"):
             sign = np.where(lam < 2.0, 1.0, np.sign(1.0 - np.cos(lam) * np.cosh(lam)))
-        return count + (i - np.rint((1 - (-1.0) ** i * sign) / 2).astype(int)).sum(axis=1)
+        count += (i - np.rint((1 - (-1.0) ** i * sign) / 2).astype(int)).sum(axis=1)
+        done = {}  # equal planes (a circle's two) counted once
+        for plane, length in self.shear_planes:  # by subdivision
+            key = (plane.key, length)
+            if key not in done:
+                done[key] = plane.clamped(omega[:, 0], length)
+            count += done[key]
+        return count
 
 
 def _parts(beam: Beam):
-    """(dofs, kind, stiffness, inertia per length) of the beam's four deformations."""
+    """(dofs, kind, stiffness, inertia per length) of the beam's four deformations; a
+    Timoshenko plane: (dofs, "timoshenko", its :class:`~ufmt.kinds.timoshenko.Plane`, None)."""
     rho, a = beam.density, beam.area
-    return (
+    rods = (
         (AXIAL, "rod", beam.youngs_modulus * a, rho * a),
         (TORSION, "rod", beam.shear_modulus * beam.torsion_constant, rho * beam.polar_moment),
+    )
+    if beam.timoshenko:
+        xy, xz = planes(beam)
+        return (*rods, (BENDING_XY, "timoshenko", xy, None), (BENDING_XZ, "timoshenko", xz, None))
+    return (
+        *rods,
         (BENDING_XY, "bending", beam.youngs_modulus * beam.second_moment_z, rho * a),
         (BENDING_XZ, "bending", beam.youngs_modulus * beam.second_moment_y, rho * a),
     )

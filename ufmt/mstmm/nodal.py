@@ -27,13 +27,12 @@ import numpy as np
 import scipy.linalg as sla
 
 from ufmt.errors import ModelError
-from ufmt.kinematics import point_motion
-from ufmt.model.schema import GROUND, Beam, Model, RigidBody, VirtualBody
+from ufmt.kinds import kind_of
+from ufmt.model.schema import GROUND, Model
 from ufmt.mstmm.members import Members, local_to_global, member_stiffness
 from ufmt.recent import Recent
 
 RANK_RTOL = 1e-9  # rank of geometric (unit-row) matrices, relative to the largest value
-END_RTOL = 1e-9  # a hinge point within this (relative to the beam length) of a beam end
 COMPONENTS = ("x", "y", "z", "rx", "ry", "rz")
 CHUNK = 32  # frequencies per block of the condensation's products (temporaries stay in cache)
 T = TypeVar("T")
@@ -338,35 +337,16 @@ class _Layout:
 
     def point_map(self, name: str, point) -> tuple[np.ndarray, np.ndarray]:
         """(dofs (6,), T (6, 6)): the motion ``[r; θ]`` at ``point`` of body ``name`` is
-        ``T u[dofs]``."""
+        ``T u[dofs]`` (the body's kind places the point on one of its nodes)."""
         body = self.model.body(name)
         first, points = self.nodes[name]
-        point = np.asarray(point, dtype=float)
-        if isinstance(body, RigidBody):
-            return first + np.arange(6), point_motion(point - body.center_of_mass)
-        node = 0
-        if isinstance(body, Beam):
-            gap = np.linalg.norm(points - point, axis=1)
-            node = int(np.argmin(gap))
-            if gap[node] > END_RTOL * body.length:
-                raise ModelError(
-                    f"{self.model.source}: body {name!r}: a hinge at {point.tolist()} is not "
-                    "at an end of the beam"
-                )
-        return first + 6 * node + np.arange(6), np.eye(6)
+        node, t = kind_of(body).point_map(body, points, point, self.model.source)
+        return first + 6 * node + np.arange(6), t
 
 
 def _node_points(model: Model, body) -> np.ndarray:
     """The points (k, 3) [m] of a body's nodes."""
-    if isinstance(body, RigidBody):
-        return np.asarray(body.center_of_mass, dtype=float)[None]
-    if isinstance(body, Beam):
-        return np.array([body.start, body.end], dtype=float)
-    if isinstance(body, VirtualBody):
-        for hinge in model.hinges:
-            if body.name in hinge.between:
-                return np.asarray(hinge.at, dtype=float)[None]
-    raise ModelError(f"{model.source}: body {body.name!r}: no hinge names it")
+    return kind_of(body).node_points(model, body)
 
 
 def _hinge_rows(layout: _Layout, hinge) -> np.ndarray:
@@ -406,12 +386,15 @@ def _rank(a: np.ndarray) -> int:
     return int(np.count_nonzero(s > RANK_RTOL * max(s[0], 1.0)))
 
 
-def _beam_rigidity(layout: _Layout, beam: Beam) -> np.ndarray:
-    """(6, size) rows that vanish when the beam moves rigidly (end = start carried)."""
-    first, _ = layout.nodes[beam.name]
-    rows = np.zeros((6, layout.size))
-    rows[:, first : first + 6] = -point_motion(beam.end - beam.start)
-    rows[:, first + 6 : first + 12] = np.eye(6)
+def _rigidity(layout: _Layout, body) -> np.ndarray:
+    """(r, size) rows that vanish when the body moves rigidly (none for a body that cannot
+    deform)."""
+    rows = np.zeros((0, layout.size))
+    local = kind_of(body).rigidity(body)
+    if local is not None:
+        first, _ = layout.nodes[body.name]
+        rows = np.zeros((len(local), layout.size))
+        rows[:, first : first + local.shape[1]] = local
     return rows
 
 
@@ -481,10 +464,11 @@ def _structure(model: Model) -> _Structure:
         unit = springs / np.where(norms > 0, norms, 1.0)
         massless = np.zeros(layout.size, dtype=bool)
         for body in model.bodies:
-            if isinstance(body, VirtualBody):
-                massless[layout.nodes[body.name][0] + np.arange(6)] = True
+            if kind_of(body).MASSLESS:
+                first, points = layout.nodes[body.name]
+                massless[first : first + 6 * len(points)] = True
         _check_massless_mechanism(layout, basis, unit, massless)
-        rigidity = [_beam_rigidity(layout, b) for b in model.bodies if isinstance(b, Beam)]
+        rigidity = [_rigidity(layout, b) for b in model.bodies]
         zero_modes = basis.shape[1] - _rank(np.concatenate([unit, *rigidity]) @ basis)
         k = np.concatenate([np.zeros(0), *k])
         mass, beams = _bodies(model, layout, basis)
@@ -494,16 +478,17 @@ def _structure(model: Model) -> _Structure:
 
 
 def _bodies(model: Model, layout: _Layout, basis: np.ndarray) -> tuple[np.ndarray, tuple]:
-    """(the rigid bodies' mass (n, n) on the constrained motions, the beams as
+    """(the bodies' node masses (n, n) on the constrained motions, the members (beams) as
     :attr:`NodalStiffness.beams`)."""
     mass = np.zeros((layout.size, layout.size))
     beams = []
     for body in model.bodies:
         first, _ = layout.nodes[body.name]
-        if isinstance(body, RigidBody):
-            mass[first + np.arange(3), first + np.arange(3)] = body.mass
-            mass[first + 3 : first + 6, first + 3 : first + 6] = body.inertia
-        elif isinstance(body, Beam):
+        kind = kind_of(body)
+        block = kind.node_mass(body)
+        if block is not None:
+            mass[first : first + len(block), first : first + len(block)] = block
+        if kind.MEMBER:
             g = local_to_global(body) @ basis[first : first + 12]
             columns = np.flatnonzero(np.any(g != 0.0, axis=0))
             beams.append((body, columns, g[:, columns]))

@@ -1,0 +1,24 @@
+"""Body kinds as plug-ins: one module per kind, one registry line each.
+
+A kind module owns everything the kind has: its model-file fields and reader, the fields
+written back, its points (extent and hinge checks), its nodes and their point motion, its
+mass block or exact member, how it moves with the carriage, and which solver formulation it
+takes (transfer matrix, exact member stiffness with its clamped count, finite-element blocks).
+The solvers, the machining and the calibration ask a body's kind (:func:`kind_of`), never its
+type. Adding a kind is one module and one line in :data:`BODY_KINDS`.
+"""
+
+from __future__ import annotations
+
+from types import ModuleType
+
+from ufmt.kinds import beam, rigid, virtual
+
+#: kind name (the model file's ``kind``) -> its module
+BODY_KINDS: dict[str, ModuleType] = {"rigid": rigid, "virtual": virtual, "beam": beam}
+KINDS = tuple(BODY_KINDS)
+
+
+def kind_of(body) -> ModuleType:
+    """The module of ``body``'s kind."""
+    return BODY_KINDS[body.kind]

@@ -1,0 +1,290 @@
+"""The beam kind (paper eqs. 2.12, 3.3): a straight prismatic beam, axial, torsion and bending
+in two planes between two end points.
+
+Two nodes (its ends), six small motions each; no mass block of its own: its inertia is in its
+formulations, the exact transfer matrix (:func:`ufmt.mstmm.elements.beam`), the exact member
+stiffness with its clamped-clamped count (:mod:`ufmt.mstmm.members`) and the frame
+elements of the assembled model (:func:`ufmt.assembled.mesh.frame_element`). Hinges act on
+its ends only.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import replace
+
+import numpy as np
+
+from ufmt.errors import ModelError
+from ufmt.kinds.timoshenko import cowper_circle
+from ufmt.kinematics import point_motion
+from ufmt.model.rules import (
+    BEAM_END_RTOL,
+    PARALLEL_RTOL,
+    SECTION_FIELDS,
+    derived,
+    real,
+    vector,
+)
+from ufmt.model.schema import Beam, frozen_array
+from ufmt.tables import Where, short_number, short_vector
+
+NAME = "beam"
+CLASS = Beam
+CIRCLE_FIELDS = ("diameter", "inner_diameter")
+THEORIES = ("euler-bernoulli", "timoshenko")
+REQUIRED = ("start", "end", "density", "youngs_modulus", "shear_modulus")
+OPTIONAL = ("torsion_constant", "orientation", "theory", "shear_coefficient")
+FIELDS = REQUIRED + CIRCLE_FIELDS + SECTION_FIELDS + OPTIONAL
+WRITTEN = REQUIRED + SECTION_FIELDS + OPTIONAL  # theory and κ: only when Timoshenko
+#: shear coefficient κ allowed in a model file (Cowper 1966: 0.5 to 0.9 for usual sections)
+SHEAR_COEFFICIENT_BAND = (0.05, 1.0)
+ONE_FRAME = False  # its motion is a field along it
+MASSLESS = False
+MEMBER = True  # an exact member stiffness with a clamped-clamped count
+MESHED = True  # the assembled model meshes it
+HINGES_AT_ENDS = True  # a hinge on it sits at an end (and stays there)
+
+
+def parse(where: Where, name: str, table: Mapping, number: int | None) -> Beam:
+    start = vector(where, "start", table["start"], "finite", "[m]", "coordinate")
+    end = vector(where, "end", table["end"], "finite", "[m]", "coordinate")
+    axis = end - start
+    length = float(np.linalg.norm(axis))
+    if length <= 0:
+        where.fail(
+            "end", f"beam length is 0: start and end are both {short_vector(start)} (allowed: > 0)"
+        )
+    density = real(where, "density", table["density"], "positive", "[kg/m^3]", "density")
+    youngs = real(where, "youngs_modulus", table["youngs_modulus"], "positive", "[Pa]", "modulus")
+    shear = real(where, "shear_modulus", table["shear_modulus"], "positive", "[Pa]", "modulus")
+    section = _section(where, table)
+    orientation = None
+    if "orientation" in table:
+        orientation = vector(where, "orientation", table["orientation"], "finite")
+        size = np.linalg.norm(orientation)
+        sine = np.linalg.norm(np.cross(orientation, axis)) / (size * length) if size > 0 else 0.0
+        if sine <= PARALLEL_RTOL:
+            where.fail(
+                "orientation",
+                f"{short_vector(orientation)} is zero or parallel to the beam axis "
+                f"{derived(axis / length)} "
+                "(allowed: any vector not parallel to the axis; it fixes local y)",
+            )
+    theory = table.get("theory", "euler-bernoulli")
+    where.choice("theory", where.string("theory", theory), THEORIES, "theory", "theories")
+    kappa = _shear_coefficient(where, table, theory, youngs / (2.0 * shear) - 1.0)
+    return Beam(
+        name=name,
+        start=start,
+        end=end,
+        density=density,
+        youngs_modulus=youngs,
+        shear_modulus=shear,
+        orientation=orientation,
+        number=number,
+        theory=theory,
+        shear_coefficient=kappa,
+        **section,
+    )
+
+
+def _shear_coefficient(where: Where, table: Mapping, theory: str, poisson: float):
+    """κ of a Timoshenko beam: the file's ``shear_coefficient``, or Cowper's (1966) for a
+    circular section (``diameter``, ``inner_diameter``) with ν = E/(2G) - 1; None for an
+    Euler-Bernoulli beam."""
+    if theory != "timoshenko":
+        if "shear_coefficient" in table:
+            where.fail("shear_coefficient", 'applies to theory = "timoshenko" only')
+        return None
+    if "shear_coefficient" in table:
+        low, high = SHEAR_COEFFICIENT_BAND
+        kappa = real(where, "shear_coefficient", table["shear_coefficient"], "positive")
+        if not low <= kappa <= high:
+            where.outside("shear_coefficient", kappa, low, high)
+        return kappa
+    if "diameter" not in table:
+        where.missing("shear_coefficient", "a Timoshenko beam with an explicit section")
+    if not -1.0 < poisson <= 0.5:
+        where.fail(
+            "shear_modulus",
+            f"Poisson's ratio E/(2G) - 1 = {poisson:.4g} is not physical (allowed: -1 < nu <= "
+            "0.5) for the default shear coefficient; give shear_coefficient",
+        )
+    ratio = float(table.get("inner_diameter", 0.0)) / float(table["diameter"])
+    return cowper_circle(poisson, ratio)
+
+
+_SECTION_LIMITS = {
+    "area": "area",
+    "second_moment_y": "second_moment",
+    "second_moment_z": "second_moment",
+    "polar_moment": "second_moment",
+}
+
+
+def _section(where: Where, table: Mapping) -> dict[str, float]:
+    """Section properties from ``diameter`` (solid/hollow circle) or the explicit fields."""
+    explicit = [k for k in SECTION_FIELDS + ("torsion_constant",) if k in table]
+    if "diameter" in table:
+        if explicit:
+            where.fail(
+                explicit[0],
+                "give either 'diameter' (circular section) or the explicit section "
+                f"({', '.join(SECTION_FIELDS)}), not both",
+            )
+        return _circle(where, table)
+    if "inner_diameter" in table:
+        where.fail("inner_diameter", "needs 'diameter' (hollow circular section)")
+    if not explicit:
+        where.missing("diameter", f"a section: give 'diameter', or {', '.join(SECTION_FIELDS)}")
+    for key in SECTION_FIELDS:
+        if key not in table:
+            where.missing(key, f"an explicit section needs {', '.join(SECTION_FIELDS)}")
+    units = {"area": "[m^2]"}
+    section = {
+        k: real(where, k, table[k], "positive", units.get(k, "[m^4]"), _SECTION_LIMITS.get(k, ""))
+        for k in SECTION_FIELDS
+    }
+    section["torsion_constant"] = (
+        real(
+            where,
+            "torsion_constant",
+            table["torsion_constant"],
+            "positive",
+            "[m^4]",
+            "second_moment",
+        )
+        if "torsion_constant" in table
+        else section["polar_moment"]
+    )
+    return section
+
+
+def _circle(where: Where, table: Mapping) -> dict[str, float]:
+    """Section of a solid or hollow circle (``diameter``, ``inner_diameter``)."""
+    outer = real(where, "diameter", table["diameter"], "positive", "[m]", "diameter")
+    inner = 0.0
+    if "inner_diameter" in table:
+        inner = real(
+            where, "inner_diameter", table["inner_diameter"], "nonnegative", "[m]", "diameter"
+        )
+        if inner >= outer:
+            where.fail(
+                "inner_diameter",
+                f"{short_number(inner)} is not less than diameter {short_number(outer)} "
+                "(allowed: 0 <= inner_diameter < diameter)",
+            )
+    second = math.pi * (outer**4 - inner**4) / 64.0
+    return {
+        "area": math.pi * (outer**2 - inner**2) / 4.0,
+        "second_moment_y": second,
+        "second_moment_z": second,
+        "polar_moment": 2.0 * second,
+        "torsion_constant": 2.0 * second,
+    }
+
+
+def written(body: Beam) -> list[tuple[str, object]]:
+    """(field, value) written back after name, kind and number (the theory and the shear
+    coefficient only for a Timoshenko beam: an Euler-Bernoulli file reads as before)."""
+    skipped = () if body.timoshenko else ("theory", "shear_coefficient")
+    return [(k, getattr(body, k)) for k in WRITTEN if k not in skipped]
+
+
+def points(body: Beam) -> dict[str, np.ndarray]:
+    """The points [m] the body's fields place (field -> point)."""
+    return {"start": body.start, "end": body.end}
+
+
+def section_width(body: Beam) -> float:
+    """Width [m] of its section: the equivalent diameter sqrt(4 A / pi)."""
+    return math.sqrt(4.0 * body.area / math.pi)
+
+
+def check_hinge_point(where: Where, at: np.ndarray, beam: Beam) -> None:
+    """A hinge on a beam must sit at one of its ends (within BEAM_END_RTOL of its length)."""
+    length = beam.length
+    distance = min(np.linalg.norm(at - beam.start), np.linalg.norm(at - beam.end))
+    if distance > BEAM_END_RTOL * length:
+        where.fail(
+            "at",
+            f"{short_vector(at)} is not at an end of beam {beam.name!r} (start "
+            f"{short_vector(beam.start)}, end {short_vector(beam.end)}; {derived(distance)} m "
+            f"away; allowed: within {BEAM_END_RTOL:g} x length {short_number(length)} m of an "
+            "end)",
+        )
+
+
+def node_points(model, body: Beam) -> np.ndarray:
+    """Its two nodes (2, 3) [m]: start and end."""
+    return np.array([body.start, body.end], dtype=float)
+
+
+def point_map(body: Beam, nodes: np.ndarray, point, source: str) -> tuple[int, np.ndarray]:
+    """(node index, T): a hinge acts on the end at ``point`` itself (ModelError elsewhere)."""
+    gap = np.linalg.norm(nodes - np.asarray(point, dtype=float), axis=1)
+    node = int(np.argmin(gap))
+    if gap[node] > BEAM_END_RTOL * body.length:
+        raise ModelError(
+            f"{source}: body {body.name!r}: a hinge at {np.asarray(point).tolist()} is not at "
+            "an end of the beam"
+        )
+    return node, np.eye(6)
+
+
+def node_mass(body: Beam) -> None:
+    """No mass block: the member carries its inertia."""
+    return None
+
+
+def rigidity(body: Beam) -> np.ndarray:
+    """(6, 12) rows on its two nodes' motions that vanish when it moves rigidly (end =
+    start carried, eq. 2.5)."""
+    return np.hstack([-point_motion(body.end - body.start), np.eye(6)])
+
+
+def moved(body: Beam, shift: np.ndarray) -> Beam:
+    """The beam translated by ``shift`` [m]."""
+    return replace(body, start=frozen_array(body.start + shift), end=frozen_array(body.end + shift))
+
+
+VERTICAL_SINE = 1e-9  # an axis this close to global z counts as vertical (the solvers' rule)
+
+
+def section_axis(body: Beam) -> np.ndarray:
+    """The section's local y axis in global coordinates: ``orientation`` (default global z, or
+    global x for a vertical beam) made orthogonal to the axis, as the solvers take it."""
+    e1 = (body.end - body.start) / np.linalg.norm(body.end - body.start)
+    ref = body.orientation
+    if ref is None:
+        vertical = np.linalg.norm(np.cross(e1, [0.0, 0.0, 1.0])) <= VERTICAL_SINE
+        ref = np.array([1.0, 0.0, 0.0]) if vertical else np.array([0.0, 0.0, 1.0])
+    e2 = ref - (ref @ e1) * e1
+    return e2 / np.linalg.norm(e2)
+
+
+def rotated(body: Beam, frame: np.ndarray) -> Beam:
+    """The beam in the frame whose axes are the columns of ``frame`` (global coordinates):
+    its ends and its section's local y axis, written out so the section keeps its place."""
+    return replace(
+        body,
+        start=frozen_array(body.start @ frame),
+        end=frozen_array(body.end @ frame),
+        orientation=frozen_array(section_axis(body) @ frame),
+    )
+
+
+def hinge_motion(body: Beam, shapes, ends, point) -> np.ndarray:
+    """Motion ``[r; θ]`` (6, n) of the end at ``point`` [m]; ``ends`` = (positions (2, 3),
+    motion (n, 2, 6)) of its two ends in each mode."""
+    positions, motion = ends
+    end = int(np.argmin(np.linalg.norm(positions - point, axis=1)))
+    return motion[:, end, :].T
+
+
+def sensor_motion(body: Beam, shapes, point, field_point) -> np.ndarray:
+    """Motion (n, 6) of ``point`` [m] carried by the section nearest it
+    (``field_point(point)``: the field's motion there)."""
+    return field_point(point)

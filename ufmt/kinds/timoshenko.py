@@ -1,0 +1,234 @@
+"""Bending of a Timoshenko beam (shear deformation and rotary inertia) in one plane: its exact
+transfer matrix, exact dynamic stiffness and clamped-clamped count, and its finite element.
+
+One bending plane in the beam's local axes, the state ``[v, θ, m, q]`` of the Euler-Bernoulli
+plane of :func:`ufmt.mstmm.elements.beam_local` (x1-y plane: v, θz, mz, qy), θ now the
+rotation of the section: ``v' = θ - q/(κGA)``, ``θ' = m/EI``, ``m' = q - ρIω²θ``,
+``q' = ρAω² v`` (Timoshenko 1921; the x1-z plane is the same with the signs of θ and m
+flipped). κGA → ∞ and ρI → 0 give the Euler-Bernoulli plane. The transfer matrix is the
+exponential of that first-order system over the length, computed in scaled variables
+(``[v/L, θ, mL/EI, qL²/EI]``) by scaling and squaring of its Taylor series, batched over ω.
+
+The dynamic stiffness and the clamped-clamped count J₀(ω) (the member frequencies with both
+ends clamped below ω, which the Wittrick-Williams count adds to s{K}) come from 2ᵖ equal
+pieces joined pairwise: each piece's stiffness from its transfer matrix, two joined pieces'
+by condensing their middle node, whose 2x2 stiffness adds its negative eigenvalues to the
+count (J₀(2ℓ) = 2 J₀(ℓ) + s{K_mm}: the Wittrick-Williams count of the two pieces clamped at
+their outer ends). Short pieces keep the stiffness accurate where the transfer matrix of a
+long member would lose digits to its growing waves, and start the count at zero: a piece
+of length ℓ has no clamped-clamped frequency below ω when ω² is below the lower bound of
+:meth:`Plane.lowest_clamped`; the pieces are chosen with half of it.
+
+The shear coefficient of a circular section by default: Cowper (1966), "The shear
+coefficient in Timoshenko's beam theory", J. Appl. Mech. 33, 335-340, Table 1:
+solid ``6(1+ν)/(7+6ν)``, hollow (m = inner/outer diameter)
+``6(1+ν)(1+m²)² / ((7+6ν)(1+m²)² + (20+12ν)m²)``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+TAYLOR_TERMS = 14  # ‖Â/2ˢ‖ ≤ 1/2: the remainder (1/2)¹⁵/15! is below eps/10
+PIECE_MARGIN = 0.5  # pieces of the count: ω² below this fraction of the bound below
+MAX_HALVINGS = 40  # pieces down to 2⁻⁴⁰ of the member (far beyond any frequency asked)
+_END_SIGNS = np.array([1.0, -1.0, -1.0, 1.0])
+
+
+def cowper_circle(poisson: float, ratio: float = 0.0) -> float:
+    """Shear coefficient κ of a solid (``ratio`` 0) or hollow circle (``ratio`` = inner /
+    outer diameter) of Poisson's ratio ``poisson`` (Cowper 1966, Table 1)."""
+    m2 = ratio * ratio
+    p = (1.0 + m2) ** 2
+    return 6.0 * (1.0 + poisson) * p / ((7.0 + 6.0 * poisson) * p + (20.0 + 12.0 * poisson) * m2)
+
+
+class Plane:
+    """One bending plane of a Timoshenko beam: EI [N m²], ρA [kg/m], ρI [kg m], κGA [N]."""
+
+    def __init__(self, ei: float, rho_a: float, rho_i: float, kga: float):
+        self.ei, self.rho_a, self.rho_i, self.kga = ei, rho_a, rho_i, kga
+        self.key = (ei, rho_a, rho_i, kga)  # equal keys: equal formulations
+
+    def scaled_system(self, w2: np.ndarray, length) -> np.ndarray:
+        """Â (n, 4, 4): the first-order system times the length in the variables scaled by
+        :meth:`scales` (a zero length gives Â = 0: the identity transfer)."""
+        w2 = np.asarray(w2, dtype=float)
+        length = np.broadcast_to(np.asarray(length, dtype=float), w2.shape)
+        s = _scale_length(length)
+        a = np.zeros((w2.size, 4, 4))
+        a[:, 0, 1] = a[:, 1, 2] = a[:, 2, 3] = length / s
+        a[:, 0, 3] = -self.ei * length / (self.kga * s**3)
+        a[:, 2, 1] = -self.rho_i * w2 * s * length / self.ei
+        a[:, 3, 0] = self.rho_a * w2 * s**3 * length / self.ei
+        return a
+
+    def scales(self, length) -> np.ndarray:
+        """The state scales (n, 4): ``[s, 1, EI/s, EI/s²]``, s the length (1 m where it is 0)
+        (the state is scales × scaled)."""
+        s = _scale_length(np.atleast_1d(np.asarray(length, dtype=float)))
+        return np.stack([s, np.ones_like(s), self.ei / s, self.ei / s**2], axis=-1)
+
+    def transfer(self, w2: np.ndarray, length) -> np.ndarray:
+        """Transfer matrix (n, 4, 4) of ``[v, θ, m, q]`` over ``length`` [m] (scalar or one per
+        ω, 0 allowed) at ω² ``w2`` [rad²/s²] (module docstring)."""
+        w2 = np.atleast_1d(np.asarray(w2, dtype=float))
+        length = np.broadcast_to(np.asarray(length, dtype=float), w2.shape)
+        d = self.scales(length)
+        return d[:, :, None] * expm_batched(self.scaled_system(w2, length)) / d[:, None, :]
+
+    def stiffness(self, omega, length: float) -> np.ndarray:
+        """Exact dynamic stiffness (n, 4, 4) on the end motions ``[v₁, θ₁, v₂, θ₂]`` of a member
+        of ``length`` [m] at ω [rad/s], in the sign convention of
+        :mod:`ufmt.mstmm.members` (end forces and moments on the member)."""
+        return self._halved(omega, length)[0]
+
+    def clamped(self, omega, length: float) -> np.ndarray:
+        """J₀ (n,): the member's clamped-clamped frequencies below ω [rad/s]."""
+        return self._halved(omega, length)[1]
+
+    def _halved(self, omega, length: float) -> tuple[np.ndarray, np.ndarray]:
+        """(dynamic stiffness (n, 4, 4), J₀ (n,)) of the member as 2ᵖ equal pieces joined
+        pairwise (module docstring): each piece has no clamped-clamped frequency below ω and
+        is at most a radian of the bending wave long (its transfer is accurate)."""
+        omega = np.atleast_1d(np.asarray(omega, dtype=float))
+        pieces = length / 2.0 ** np.arange(MAX_HALVINGS + 1)[:, None]  # (levels, 1)
+        fine = (PIECE_MARGIN * self.lowest_clamped(pieces) > omega**2) & (
+            self.wavenumber(omega) * pieces <= 1.0
+        )
+        levels = np.argmax(fine, axis=0)  # the fewest halvings that make the pieces fine
+        k = np.empty((omega.size, 4, 4))
+        count = np.zeros(omega.size, dtype=int)
+        for p in np.unique(levels):
+            at = np.flatnonzero(levels == p)
+            k[at] = self._direct(omega[at], length / 2.0**p)
+            for _ in range(p):
+                k[at], negative = _joined(k[at])
+                count[at] = 2 * count[at] + negative
+        return k, count
+
+    def _direct(self, omega: np.ndarray, length: float) -> np.ndarray:
+        """:meth:`stiffness` from the transfer matrix of the whole ``length`` (accurate while
+        its bending wave is short of a few radians over it)."""
+        t = expm_batched(self.scaled_system(omega**2, np.full(omega.size, length)))
+        t11, t12, t21, t22 = t[:, :2, :2], t[:, :2, 2:], t[:, 2:, :2], t[:, 2:, 2:]
+        inv = np.linalg.inv(t12)  # scaled [m, q]₁ = t12⁻¹ ([v, θ]₂ - t11 [v, θ]₁)
+        g = np.empty((omega.size, 4, 4))  # scaled [m₁, q₁, m₂, q₂] from [v₁, θ₁, v₂, θ₂]
+        g[:, :2, :2], g[:, :2, 2:] = -inv @ t11, inv
+        g[:, 2:, :2], g[:, 2:, 2:] = t21 - t22 @ inv @ t11, t22 @ inv
+        force = np.array([1.0 / length, 1.0 / length**2] * 2) * self.ei
+        motion = np.array([length, 1.0] * 2)
+        g *= force[:, None] / motion[None, :]
+        # end loads on the member [F₁, M₁, F₂, M₂] = [q₁, -m₁, -q₂, m₂]
+        return g[:, [1, 0, 3, 2]] * _END_SIGNS[:, None]
+
+    def element(self, h: float) -> tuple[np.ndarray, np.ndarray]:
+        """Stiffness and consistent mass (4, 4) of a two-node element of length ``h`` [m] on
+        ``[v₁, θ₁, v₂, θ₂]``: the interdependent-interpolation element (exact static
+        stiffness; Przemieniecki 1968, Theory of Matrix Structural Analysis, sections 5.6 and
+        11.5), φ = 12EI/(κGAh²)."""
+        phi = 12.0 * self.ei / (self.kga * h * h)
+        k = np.array(
+            [
+                [12.0, 6 * h, -12.0, 6 * h],
+                [6 * h, (4 + phi) * h * h, -6 * h, (2 - phi) * h * h],
+                [-12.0, -6 * h, 12.0, -6 * h],
+                [6 * h, (2 - phi) * h * h, -6 * h, (4 + phi) * h * h],
+            ]
+        ) * (self.ei / ((1 + phi) * h**3))
+        p2 = phi * phi
+        a, b = 13 / 35 + 7 * phi / 10 + p2 / 3, (11 / 210 + 11 * phi / 120 + p2 / 24) * h
+        c, d = 9 / 70 + 3 * phi / 10 + p2 / 6, (13 / 420 + 3 * phi / 40 + p2 / 24) * h
+        e, f = (1 / 105 + phi / 60 + p2 / 120) * h * h, (1 / 140 + phi / 60 + p2 / 120) * h * h
+        translation = np.array([[a, b, c, -d], [b, e, d, -f], [c, d, a, -b], [-d, -f, -b, e]]) * (
+            self.rho_a * h / (1 + phi) ** 2
+        )
+        g, r = (1 / 10 - phi / 2) * h, (2 / 15 + phi / 6 + p2 / 3) * h * h
+        s = (-1 / 30 - phi / 6 + p2 / 6) * h * h
+        rotary = np.array(
+            [[6 / 5, g, -6 / 5, g], [g, r, -g, s], [-6 / 5, -g, 6 / 5, -g], [g, s, -g, r]]
+        ) * (self.rho_i / ((1 + phi) ** 2 * h))
+        return k, translation + rotary
+
+    def lowest_clamped(self, length):
+        """A lower bound [rad²/s²] of the squared first clamped-clamped frequency of a piece
+        of ``length`` [m]: the Rayleigh quotient's, with Poincaré's inequality on v and θ
+        and (v' - θ)² ≥ (1 - ε) v'² - (1/ε - 1) θ², 1/ε - 1 = a = EIπ²/(2κGAℓ²):
+        ``min(EIπ⁴ / (2ρAℓ⁴(1 + a)), EIπ² / (2ρIℓ²))``."""
+        length = np.asarray(length, dtype=float)
+        a = self.ei * math.pi**2 / (2.0 * self.kga * length**2)
+        bending = self.ei * math.pi**4 / (2.0 * self.rho_a * length**4 * (1.0 + a))
+        return np.minimum(bending, self.ei * math.pi**2 / (2.0 * self.rho_i * length**2))
+
+    def wavenumber(self, omega):
+        """The larger bending wavenumber [1/m] at ω [rad/s] (the propagating one): the root
+        k² of EI k⁴ - ω²(ρI + EIρA/κGA) k² - ρAω² + ρIρAω⁴/κGA = 0."""
+        w2 = np.asarray(omega, dtype=float) ** 2
+        s = self.rho_i / self.ei + self.rho_a / self.kga
+        dif = self.rho_i / self.ei - self.rho_a / self.kga
+        k2 = 0.5 * w2 * s + np.sqrt(0.25 * w2 * w2 * dif * dif + self.rho_a * w2 / self.ei)
+        return np.sqrt(k2)
+
+
+def _scale_length(length: np.ndarray) -> np.ndarray:
+    """The scaling length [m] of a transfer over ``length``: itself, 1 m where it is 0."""
+    return np.where(length > 0.0, length, 1.0)
+
+
+def _joined(k: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Two equal members ``k`` (n, 4, 4) in a row, their middle node condensed: (the
+    stiffness of the joined member (n, 4, 4), s{K_mm} (n,), the negative eigenvalues of the
+    middle node's 2x2 stiffness, which the count adds)."""
+    k11, k12, k21, k22 = k[:, :2, :2], k[:, :2, 2:], k[:, 2:, :2], k[:, 2:, 2:]
+    middle = k22 + k11
+    det = middle[:, 0, 0] * middle[:, 1, 1] - middle[:, 0, 1] * middle[:, 1, 0]
+    trace = middle[:, 0, 0] + middle[:, 1, 1]
+    negative = np.where(det < 0, 1, np.where(trace < 0, 2, 0))
+    left, right = np.linalg.solve(middle, k21), np.linalg.solve(middle, k12)
+    out = np.empty_like(k)
+    out[:, :2, :2], out[:, :2, 2:] = k11 - k12 @ left, -k12 @ right
+    out[:, 2:, :2], out[:, 2:, 2:] = -k21 @ left, k22 - k21 @ right
+    return out, negative
+
+
+def expm_batched(a: np.ndarray) -> np.ndarray:
+    """exp(a) (n, k, k) of a batch of small matrices: each scaled by 2⁻ˢ to norm ≤ 1/2,
+    Taylor series (TAYLOR_TERMS), then squared s times (its own s per matrix)."""
+    norm = np.abs(a).sum(axis=2).max(axis=1)
+    with np.errstate(divide="ignore"):
+        s = np.maximum(0, np.ceil(np.log2(np.maximum(norm, 1e-300) / 0.5))).astype(int)
+    x = a * (0.5**s)[:, None, None]
+    eye = np.broadcast_to(np.eye(a.shape[1]), a.shape)
+    out = eye + x / TAYLOR_TERMS
+    for j in range(TAYLOR_TERMS - 1, 0, -1):  # Horner: I + x/1 (I + x/2 (I + ...))
+        out = eye + (x @ out) / j
+    for step in range(1, s.max(initial=0) + 1):
+        more = s >= step
+        out[more] = out[more] @ out[more]
+    return out
+
+
+#: the x1-z plane's state is the x1-y plane's with θ and m negated
+PLANE_SIGNS = (np.ones(4), np.array([1.0, -1.0, -1.0, 1.0]))
+
+
+def planes(beam) -> tuple[Plane, Plane]:
+    """The x1-y (I_z) and x1-z (I_y) bending planes of a Timoshenko ``beam``."""
+    rho, a = beam.density, beam.area
+    kga = beam.shear_coefficient * beam.shear_modulus * a
+    return tuple(
+        Plane(beam.youngs_modulus * i, rho * a, rho * i, kga)
+        for i in (beam.second_moment_z, beam.second_moment_y)
+    )
+
+
+def bending_transfer(w2: np.ndarray, beam, length, rows: int) -> np.ndarray:
+    """The two planes' transfer entries (2, 4 rows, n), first ``rows`` rows of each 4x4
+    (row-major), in the order of :func:`ufmt.mstmm.elements.beam_local`'s bending block."""
+    out = []
+    for plane, sign in zip(planes(beam), PLANE_SIGNS, strict=True):
+        t = plane.transfer(w2, length) * sign[:, None] * sign[None, :]
+        out.append(t[:, :rows, :].reshape(w2.size, 4 * rows).T)
+    return np.stack(out)
