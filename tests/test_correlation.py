@@ -119,60 +119,6 @@ def test_validate_without_a_test_on_a_users_model_is_one_line(capsys):
     assert "--test FILE" in err and "\n" not in err
 
 
-def _write_uff(path, test, points, complex_modes=False):
-    """A universal file of ``test`` (one node per point, x y z each) written by pyuff, and its
-    node map."""
-    import pyuff
-
-    uff = pyuff.UFF(str(path))
-    xyz = np.array([p for _, p in points])
-    nodes = np.arange(1, len(points) + 1)
-    uff.write_sets(
-        pyuff.prepare_15(nodes, [0] * len(nodes), [0] * len(nodes), [1] * len(nodes), *xyz.T),
-        mode="overwrite",
-    )
-    for k, (f, shape) in enumerate(zip(test.frequencies_hz, test.shapes, strict=True)):
-        r = shape.reshape(len(points), 3)
-        common = {"id1": "t", "id2": "t", "id3": "t", "id4": "t", "id5": "t", "load_case": 1}
-        common |= {"model_type": 1, "data_ch": 2, "spec_data_type": 8, "n_data_per_node": 3}
-        if complex_modes:
-            w, zeta = 2 * np.pi * f, 0.02
-            eig = complex(-zeta * w, w * np.sqrt(1 - zeta**2))
-            r = r * np.exp(0.7j)  # an arbitrary complex scaling of a real mode
-            extra = {"analysis_type": 3, "data_type": 5, "eig": eig, "modal_a": 0j, "modal_b": 0j}
-        else:
-            extra = {"analysis_type": 2, "data_type": 2, "freq": f, "modal_m": 1.0}
-            extra |= {"modal_damp_vis": 0.01, "modal_damp_his": 0.0}
-        data = pyuff.prepare_55(
-            **common, **extra, mode_n=k + 1, node_nums=nodes, r1=r[:, 0], r2=r[:, 1], r3=r[:, 2]
-        )
-        uff.write_sets(data, mode="add")
-    Path(path).with_suffix(".nodes.csv").write_text(
-        "node,body\n" + "".join(f"{n},{b}\n" for n, (b, _) in zip(nodes, points, strict=True))
-    )
-
-
-@pytest.mark.parametrize("complex_modes", [False, True])
-def test_a_universal_file_reads_as_the_same_test(tmp_path, complex_modes):
-    """Oracle: the test written to UFF by pyuff (datasets 15 and 55) and read back pairs with
-    the MSTMM exactly as the test itself; complex modes give their frequency and damping from
-    the eigenvalue and the real mode back (MAC 1)."""
-    points = [("head", (0.15, 0.0, 0.93)), ("bridge", (0.5, 0.2, 1.6)), ("table", (0, 0.05, 0.8))]
-    sensors = [Sensor(b, p, d) for b, p in points for d in "xyz"]
-    model = ufmt.load_model(BRIDGE)
-    test = assembled_test(model, sensors, count=6)
-    _write_uff(tmp_path / "test.uff", test, points, complex_modes)
-    back = read_modal_test(tmp_path / "test.uff")
-    assert back.sensors == test.sensors
-    digits = 1e-5  # UFF's E13.5 fields hold 6 significant digits
-    np.testing.assert_allclose(back.frequencies_hz, test.frequencies_hz, rtol=digits)
-    expected_zeta = 0.02 if complex_modes else 0.01
-    np.testing.assert_allclose(back.damping_ratio, expected_zeta, rtol=digits)
-    result = correlate(model, back)
-    assert (result.table["mac"] > 1 - 1e-6).all()
-    assert list(result.table["model_mode"]) == list(range(1, 7))
-
-
 def test_table3_tags_of_bodies_a_model_lacks_are_mismatches_not_a_crash():
     """The API's Table 3 validation of a user's model: tags naming absent bodies say so."""
     from ufmt.calibration.frequencies import modeset_from_mstmm, validation_table

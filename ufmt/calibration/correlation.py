@@ -54,7 +54,7 @@ def sensor_shapes(model: Model, shapes: ModeShapes, sensors, source: str = "") -
         field = f"sensor {sensor.label}"
         where.choice(field, sensor.body, names, "body")
         body = model.body(sensor.body)
-        point = np.asarray(sensor.point, dtype=float)
+        point = np.asarray(sensor.position, dtype=float)
         if isinstance(body, RigidBody):
             motion = carried_motion(shapes.rigid[body.name], body.center_of_mass, point)
         elif isinstance(body, Beam):
@@ -241,7 +241,7 @@ def assembled_test(model, sensors, count: int, source: str = "assembled model") 
     out = np.zeros((modes.frequencies_hz.size, len(sensors)))
     for j, sensor in enumerate(sensors):
         body = model.body(sensor.body)
-        point = np.asarray(sensor.point, dtype=float)
+        point = np.asarray(sensor.position, dtype=float)
         nodes = am.node_positions[body.name]
         node = int(np.argmin(np.linalg.norm(nodes - point, axis=1)))
         if isinstance(body, Beam) and np.linalg.norm(nodes[node] - point) > BEAM_TOLERANCE:
