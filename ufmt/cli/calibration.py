@@ -60,6 +60,7 @@ def register(subparsers) -> None:
         help="your modal-test file, CSV or UFF (docs/modal-test.md): calibrate --prior against it; "
         "--settings is then a model-update file (docs/modal-test.md), optional",
     )
+    _test_unit_option(p)
     p.add_argument("--settings", help="calibration file (default: packaged calibration.toml)")
     p.add_argument(
         "--output",
@@ -79,6 +80,7 @@ def register(subparsers) -> None:
         help="modal-test file, CSV or UFF (docs/modal-test.md): pair the modes by MAC or "
         "order, write correlation.csv, mac.csv, mac.png",
     )
+    _test_unit_option(p)
     p.add_argument("--json", action="store_true", help="with --test: one JSON object on stdout")
     p.add_argument(
         "--output-dir",
@@ -87,8 +89,8 @@ def register(subparsers) -> None:
     p.add_argument(
         "--modes",
         type=_mode_list,
-        default=_mode_list(DEFAULT_PLOTTED_MODES),
-        help=f"modes to draw, comma-separated (default {DEFAULT_PLOTTED_MODES})",
+        help=f"model modes to draw, comma-separated (default {DEFAULT_PLOTTED_MODES}; with "
+        "--test: none)",
     )
     p.set_defaults(func=cmd_validate)
 
@@ -106,10 +108,29 @@ def register(subparsers) -> None:
     p.set_defaults(func=cmd_plot_mode)
 
 
+def _test_unit_option(p) -> None:
+    """``--test-unit``: the length unit of the test file's positions."""
+    from ufmt.calibration.uff import LENGTH_UNITS
+
+    p.add_argument(
+        "--test-unit",
+        choices=tuple(LENGTH_UNITS),
+        help="length unit of the test's positions (a UFF without units dataset 164 needs it; "
+        "default: the file's, metres for a CSV)",
+    )
+
+
 def cmd_calibrate(args) -> int:
     """Identify, fit the response parameters, write the model and the log, print the result."""
     from ufmt.calibration.pipeline import calibrate
 
+    if args.prior and args.output and Path(args.output).resolve() == Path(args.prior).resolve():
+        raise UfmtError(
+            f"--output {args.output}: the prior itself; a calibration never overwrites its prior "
+            "(a rerun would compound the factors): choose another output path"
+        )
+    if args.test_unit and not args.test:
+        raise UfmtError("--test-unit: only with --test FILE")
     if args.test:
         return _calibrate_test(args)
     t0 = time.perf_counter()
@@ -143,14 +164,16 @@ def cmd_calibrate(args) -> int:
 def _calibrate_test(args) -> int:
     """Calibrate a model against its modal test (:mod:`ufmt.calibration.model_update`): write
     the calibrated model, parameters.csv, residuals.csv and its correlation; print them."""
+    from ufmt.calibration.modal_test import read_modal_test
     from ufmt.calibration.model_update import read_update_settings, update_model, write_model
 
     prior = load(args.prior)
+    test = read_modal_test(args.test, args.test_unit)
     settings, parameters = (
         read_update_settings(args.settings, prior) if args.settings else (None, None)
     )
     t0 = time.perf_counter()
-    update = update_model(prior, args.test, parameters, settings)
+    update = update_model(prior, test, parameters, settings)
     stem = "ufmt" if args.prior is None else Path(args.prior).stem
     folder = results_dir(args.prior, "calibration", Path("results") / "calibration")
     output = write_model(update, args.output or folder / f"{stem}-calibrated.toml", args.settings)
@@ -221,7 +244,9 @@ def cmd_validate(args) -> int:
     model = load(args.model)
     out = Path(args.output_dir or results_dir(args.model, "validation", RESULTS))
     if args.test:
-        return _validate_test(model, args.test, out, args.json)
+        return _validate_test(model, args, out)
+    if args.test_unit:
+        raise UfmtError("--test-unit: only with --test FILE")
     if args.json:
         raise UfmtError("--json: only with --test FILE (the validation against a modal test)")
     reference = read_reference(packaged_path("paper_reference.toml"))
@@ -232,6 +257,7 @@ def cmd_validate(args) -> int:
             f"describes the packaged UFMT: bodies {', '.join(missing)} are not in this model; "
             "give your machine's test with --test FILE (docs/modal-test.md)"
         )
+    args.modes = args.modes or _mode_list(DEFAULT_PLOTTED_MODES)
     result = validate(model, reference, PAPER_MODES)
     lines = describe(model, result.modes.shares, top=3)
     response = None
@@ -257,15 +283,17 @@ def cmd_validate(args) -> int:
     return 0
 
 
-def _validate_test(model, test: str, out: Path, as_json: bool) -> int:
-    """Pair the model's modes with the test's, write correlation.csv, mac.csv and mac.png in
-    ``out``, print the pair table (or, with ``as_json``, one JSON object)."""
+def _validate_test(model, args, out: Path) -> int:
+    """Pair the model's modes with the test's, write correlation.csv, mac.csv, mac.png and
+    ``mode-N.png`` of the ``--modes`` in ``out``, print the pair table (or, with ``--json``, one
+    JSON object)."""
     from ufmt.calibration.correlation import correlate
     from ufmt.jsonout import dumps_strict
 
-    result = correlate(model, test)
-    written = result.save(out)
-    if as_json:
+    test = args.test
+    result = correlate(model, test, unit=args.test_unit)
+    written = result.save(out) + _mode_plots(model, args.modes or [], out)
+    if args.json:
         print(dumps_strict(result.to_dict()))
         return 0
     s = result.summary()
@@ -278,6 +306,28 @@ def _validate_test(model, test: str, out: Path, as_json: bool) -> int:
     )
     print(f"wrote {', '.join(p.name for p in written)} in {out}")
     return 0
+
+
+def _mode_plots(model, modes: list[int], out: Path) -> list[Path]:
+    """``mode-N.png`` of each model mode N in ``modes`` (``validate --test --modes``)."""
+    if not modes:
+        return []
+    from ufmt.mstmm.solve import describe, solve_modes
+    from ufmt.plots import save_figure
+    from ufmt.plots.modes import plot_mode
+
+    solution = solve_modes(model, count=max(modes), shapes=True)
+    have = solution.frequencies_hz.size
+    if max(modes) > have:
+        raise UfmtError(f"{model.source}: --modes {max(modes)}: the model has only {have} modes")
+    lines = describe(model, solution.energy_shares(model), top=3)
+    return [
+        save_figure(
+            plot_mode(model, solution.shapes, n - 1, description=lines[n - 1]),
+            out / f"mode-{n}.png",
+        )
+        for n in modes
+    ]
 
 
 def _csv(table, float_format: str) -> bytes:
