@@ -180,6 +180,14 @@ def _calibrate_test(args) -> int:
     written = update.save(Path(args.output).parent if args.output else folder)
     print(f"{update!r} in {time.perf_counter() - t0:.1f} s ({update.evaluations} MSTMM solves)")
     print(update.to_frame().to_string(index=False, float_format=lambda v: f"{v:.4g}"))
+    paired = update.before.summary()["paired"]
+    print(
+        f"data rank {update.rank} for {len(update.parameters)} factors ({paired} paired test "
+        f"modes); singular values of d ln f / d ln s: "
+        + ", ".join(f"{v:.3g}" for v in update.singular_values)
+    )
+    if update.held:
+        print(f"held at the prior (the test cannot identify them): {', '.join(update.held)}")
     if update.at_bound:
         print(f"AT BOUND (the test asks for more than the band): {', '.join(update.at_bound)}")
     print(update.residuals().to_string(index=False, float_format=lambda v: f"{v:.4g}"))
