@@ -34,6 +34,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from ufmt.calibration.uff import AXES, length_scale, read_uff
 from ufmt.errors import StudyError
 from ufmt.tables import Where
 from ufmt.tomlfile import read_text
@@ -41,7 +42,6 @@ from ufmt.tomlfile import read_text
 REQUIRED = ("mode", "frequency_hz")
 SHAPE_COLUMNS = ("body", "x_m", "y_m", "z_m", "direction", "shape")
 COLUMNS = (*REQUIRED, "damping_ratio", *SHAPE_COLUMNS)
-AXES = ("x", "y", "z")
 UFF_SUFFIXES = (".uff", ".unv")
 NODE_COLUMNS = ("node", "body")
 
@@ -147,10 +147,9 @@ def read_modal_test(path, unit: str | None = None) -> ModalTest:
     the row as a spreadsheet numbers it, header = row 1, and the column) or a universal file
     (``.uff``/``.unv``, :func:`ufmt.calibration.uff.read_uff`). ``unit``: the length unit of
     the positions (``m``, ``cm``, ``mm``, ``in``, ``ft``; a UFF without dataset 164 needs it)."""
-    from ufmt.calibration.uff import length_scale, read_uff
-
     if Path(path).suffix.lower() in UFF_SUFFIXES:
-        return read_uff(path, unit)
+        read = read_uff(path, unit, node_map)
+        return modal_test(**read | {"sensors": [Sensor(*s) for s in read["sensors"]]})
     where = Where(str(path), error=StudyError)
     scale = length_scale(where, unit) or 1.0
     frame = _read_csv(where, path, str)  # cell by cell: one text cell blames its own row

@@ -29,11 +29,11 @@ scaling of it), 0 for real and imaginary parts of equal norm in quadrature.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 
-from ufmt.calibration.modal_test import AXES, ModalTest, Sensor, modal_test, node_map
 from ufmt.errors import StudyError
 from ufmt.limits import MAX_INPUT_BYTES
 from ufmt.tables import Where
@@ -42,6 +42,7 @@ LENGTH_UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001, "in": 0.0254, "ft": 0.3048}  
 NODE_SETS = (15, 2411)
 MODE_SET = 55
 NORMAL, COMPLEX = 2, 3  # dataset 55 analysis types read
+AXES = ("x", "y", "z")  # the translations r1, r2, r3: global axes
 
 
 def length_scale(where: Where, unit: str | None) -> float | None:
@@ -51,8 +52,10 @@ def length_scale(where: Where, unit: str | None) -> float | None:
     return LENGTH_UNITS[where.choice("unit", unit, tuple(LENGTH_UNITS), "length unit")]
 
 
-def read_uff(path, unit: str | None = None) -> ModalTest:
-    """A :class:`ModalTest` from a universal file (module docstring) and its node map."""
+def read_uff(path, unit: str | None, node_map: Callable[[Path], dict[int, str]]) -> dict:
+    """The arguments of :func:`ufmt.calibration.modal_test.modal_test` from a universal file
+    (module docstring; ``sensors`` as (body, position [m], axis) triples) and its node map,
+    read by ``node_map``."""
     where = Where(str(path), error=StudyError)
     sets = _read_sets(where, Path(path))
     modes = [d for d in sets if d.get("type") == MODE_SET]
@@ -74,18 +77,16 @@ def read_uff(path, unit: str | None = None) -> ModalTest:
     if not measured.any():
         where.fail_table(f"no measured node of the file is in its node map {mapping.name}")
     placed = [(n, a) for n in listed for a in AXES]
-    sensors = [
-        Sensor(bodies[n], nodes[n], a) for (n, a), m in zip(placed, measured, strict=True) if m
-    ]
-    return modal_test(
-        numbers,
-        [r[1] for r in read],
-        [r[2] for r in read],
-        sensors,
-        values[:, measured],
-        str(path),
-        mpc=[r[3] for r in read],
-    )
+    sensors = [(bodies[n], nodes[n], a) for (n, a), m in zip(placed, measured, strict=True) if m]
+    return {
+        "modes": numbers,
+        "frequencies_hz": [r[1] for r in read],
+        "damping_ratio": [r[2] for r in read],
+        "sensors": sensors,
+        "shapes": values[:, measured],
+        "source": str(path),
+        "mpc": [r[3] for r in read],
+    }
 
 
 def _read_sets(where: Where, path: Path) -> list[dict]:
