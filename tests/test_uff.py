@@ -1,6 +1,7 @@
 """Universal files (UFF) of a modal test as vendors write them: nodes (15, 2411), units (164 or
 declared), unmeasured directions, complex modes and their MPC, malformed files."""
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -238,3 +239,22 @@ def test_mpc_properties():
     real = rng.standard_normal(9)
     assert modal_phase_collinearity(real * np.exp(1.1j)) == pytest.approx(1.0)
     assert modal_phase_collinearity(np.array([1.0, 1j])) == pytest.approx(0.0)
+
+
+def test_validate_reads_a_uff_with_the_declared_unit(tmp_path, monkeypatch, capsys):
+    """CLI: a UFF in mm without dataset 164 exits 2 with one line asking for the unit; with
+    --test-unit mm it pairs every mode by MAC (MAC 1: the assembled model's own shapes)."""
+    from ufmt.cli import main
+
+    monkeypatch.chdir(tmp_path)
+    _, test = bridge_test(count=4)
+    mm = [(b, tuple(1000 * c for c in p)) for b, p in POINTS]
+    path = write_uff(tmp_path / "t.uff", test, mm)
+    assert main(["validate", str(BRIDGE), "--test", str(path), "--json"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "--test-unit" in err and str(path) in err
+    args = ["validate", str(BRIDGE), "--test", str(path), "--test-unit", "mm", "--json"]
+    assert main(args) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert [p["paired_by"] for p in out["pairs"]] == ["mac"] * 4
+    assert out["min_mac"] > 1 - 1e-6
