@@ -258,3 +258,23 @@ def test_validate_reads_a_uff_with_the_declared_unit(tmp_path, monkeypatch, caps
     out = json.loads(capsys.readouterr().out)
     assert [p["paired_by"] for p in out["pairs"]] == ["mac"] * 4
     assert out["min_mac"] > 1 - 1e-6
+
+
+def test_real_exports_without_units_or_in_local_systems():
+    """Public exports (tests/data/uff/SOURCE.md): ARTeMIS geometry (dataset 15, 74 nodes, no
+    dataset 164) asks for the unit and reads 74 nodes when it is declared; Test.Lab (dataset
+    164 in metres, 36 nodes each measuring in a local system of dataset 18) is refused."""
+    import pyuff
+
+    artemis = pyuff.UFF(str(DATA / "artemis-geometry.uff")).read_sets()
+    where = Where("artemis-geometry.uff", error=StudyError)
+    with pytest.raises(StudyError, match="no units \\(dataset 164\\)"):
+        uff_nodes(where, artemis, None)
+    raw = next(d for d in artemis if d["type"] == 15)
+    nodes = uff_nodes(where, artemis, "cm")
+    assert len(nodes) == 74
+    first = int(raw["node_nums"][0])
+    np.testing.assert_allclose(nodes[first], np.array([raw[k][0] for k in "xyz"]) / 100)
+    testlab = pyuff.UFF(str(DATA / "testlab-164-18-15.uff")).read_sets()
+    with pytest.raises(StudyError, match="dataset 15: field 'disp_cs': node 1 measures in"):
+        uff_nodes(Where("testlab", error=StudyError), testlab, None)
