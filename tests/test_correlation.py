@@ -7,7 +7,13 @@ import numpy as np
 import pytest
 
 import ufmt
-from ufmt.calibration.correlation import assembled_test, correlate, mac_matrix, pair_modes
+from ufmt.calibration.correlation import (
+    FREQUENCY_WINDOW,
+    assembled_test,
+    correlate,
+    mac_matrix,
+    pair_modes,
+)
 from ufmt.calibration.frequencies import read_reference
 from ufmt.calibration.modal_test import Sensor, modal_test, read_modal_test
 from ufmt.cli import main
@@ -58,7 +64,7 @@ def test_pairing_follows_the_shapes_when_modes_swap_and_the_order_without_shapes
     model = np.eye(4)
     test = modal_test([1, 2, 3], [10.0, 20.0, 30.0], sensors=SENSORS[:4], shapes=model[[0, 2, 1]])
     index, how = pair_modes(test, mac_matrix(test.shapes, model), 4)
-    assert index.tolist() == [0, 2, 1] and how == ["MAC"] * 3
+    assert index.tolist() == [0, 2, 1] and how == ["mac"] * 3
     plain = modal_test([1, 3], [10.0, 30.0])
     index, how = pair_modes(plain, np.full((2, 4), np.nan), 4)
     assert index.tolist() == [0, 2] and how == ["order", "order"]
@@ -107,8 +113,10 @@ def test_validate_test_cli_writes_the_users_folder(tmp_path, monkeypatch, capsys
     test = ROOT / "examples" / "bridge-modal-test.csv"
     assert main(["validate", str(BRIDGE), "--test", str(test), "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
-    assert {"max_abs_error_percent", "mean_abs_error_percent", "pairs"} <= set(out)
+    assert {"paired", "max_abs_error_percent", "mean_abs_error_percent", "min_mac"} <= set(out)
     assert len(out["pairs"]) == read_modal_test(test).modes.size
+    keys = {"test_mode", "model_mode", "paired_by", "mac", "error_percent"}
+    assert all(keys <= set(pair) and pair["paired_by"] == "mac" for pair in out["pairs"])
     folder = tmp_path / "results" / "bridge" / "validation"
     assert {p.name for p in folder.iterdir()} == {"correlation.csv", "mac.csv", "mac.png"}
 
@@ -117,60 +125,6 @@ def test_validate_without_a_test_on_a_users_model_is_one_line(capsys):
     assert main(["validate", str(BRIDGE), "--output-dir", "/nonexistent/v"]) == 2
     err = capsys.readouterr().err.strip()
     assert "--test FILE" in err and "\n" not in err
-
-
-def _write_uff(path, test, points, complex_modes=False):
-    """A universal file of ``test`` (one node per point, x y z each) written by pyuff, and its
-    node map."""
-    import pyuff
-
-    uff = pyuff.UFF(str(path))
-    xyz = np.array([p for _, p in points])
-    nodes = np.arange(1, len(points) + 1)
-    uff.write_sets(
-        pyuff.prepare_15(nodes, [0] * len(nodes), [0] * len(nodes), [1] * len(nodes), *xyz.T),
-        mode="overwrite",
-    )
-    for k, (f, shape) in enumerate(zip(test.frequencies_hz, test.shapes, strict=True)):
-        r = shape.reshape(len(points), 3)
-        common = {"id1": "t", "id2": "t", "id3": "t", "id4": "t", "id5": "t", "load_case": 1}
-        common |= {"model_type": 1, "data_ch": 2, "spec_data_type": 8, "n_data_per_node": 3}
-        if complex_modes:
-            w, zeta = 2 * np.pi * f, 0.02
-            eig = complex(-zeta * w, w * np.sqrt(1 - zeta**2))
-            r = r * np.exp(0.7j)  # an arbitrary complex scaling of a real mode
-            extra = {"analysis_type": 3, "data_type": 5, "eig": eig, "modal_a": 0j, "modal_b": 0j}
-        else:
-            extra = {"analysis_type": 2, "data_type": 2, "freq": f, "modal_m": 1.0}
-            extra |= {"modal_damp_vis": 0.01, "modal_damp_his": 0.0}
-        data = pyuff.prepare_55(
-            **common, **extra, mode_n=k + 1, node_nums=nodes, r1=r[:, 0], r2=r[:, 1], r3=r[:, 2]
-        )
-        uff.write_sets(data, mode="add")
-    Path(path).with_suffix(".nodes.csv").write_text(
-        "node,body\n" + "".join(f"{n},{b}\n" for n, (b, _) in zip(nodes, points, strict=True))
-    )
-
-
-@pytest.mark.parametrize("complex_modes", [False, True])
-def test_a_universal_file_reads_as_the_same_test(tmp_path, complex_modes):
-    """Oracle: the test written to UFF by pyuff (datasets 15 and 55) and read back pairs with
-    the MSTMM exactly as the test itself; complex modes give their frequency and damping from
-    the eigenvalue and the real mode back (MAC 1)."""
-    points = [("head", (0.15, 0.0, 0.93)), ("bridge", (0.5, 0.2, 1.6)), ("table", (0, 0.05, 0.8))]
-    sensors = [Sensor(b, p, d) for b, p in points for d in "xyz"]
-    model = ufmt.load_model(BRIDGE)
-    test = assembled_test(model, sensors, count=6)
-    _write_uff(tmp_path / "test.uff", test, points, complex_modes)
-    back = read_modal_test(tmp_path / "test.uff")
-    assert back.sensors == test.sensors
-    digits = 1e-5  # UFF's E13.5 fields hold 6 significant digits
-    np.testing.assert_allclose(back.frequencies_hz, test.frequencies_hz, rtol=digits)
-    expected_zeta = 0.02 if complex_modes else 0.01
-    np.testing.assert_allclose(back.damping_ratio, expected_zeta, rtol=digits)
-    result = correlate(model, back)
-    assert (result.table["mac"] > 1 - 1e-6).all()
-    assert list(result.table["model_mode"]) == list(range(1, 7))
 
 
 def test_table3_tags_of_bodies_a_model_lacks_are_mismatches_not_a_crash():
@@ -194,3 +148,99 @@ def test_unreadable_test_files_are_one_line(tmp_path):
         read_modal_test(tmp_path / "empty.csv")
     with pytest.raises(StudyError, match="t.uff: file not found"):
         read_modal_test(tmp_path / "t.uff")
+
+
+def test_a_model_mode_the_sensors_cannot_see_keeps_mac_pairing():
+    """Property: a model mode with no motion at the sensors (a NaN MAC column) is MAC 0 there;
+    the crossed test modes still pair by MAC (not by order)."""
+    model = np.array([[1.0, 0, 0, 0], [0, 0, 0, 0], [0, 1.0, 0, 0], [0, 0, 1.0, 0]])
+    test = modal_test([1, 2, 3], [10.0, 20.0, 30.0], sensors=SENSORS[:4], shapes=model[[0, 3, 2]])
+    mac = mac_matrix(test.shapes, model)
+    assert np.isnan(mac[:, 1]).all()
+    index, how = pair_modes(test, mac, 4)
+    assert index.tolist() == [0, 3, 2] and how == ["mac"] * 3
+
+
+def test_candidates_lie_in_the_tests_frequency_window():
+    """Oracle: the window definition. A test numbered from 2000 pairs by MAC with the model's
+    first modes, and no candidate lies above 2 x the highest test frequency; a frequency-only
+    mode numbered 2000 has no candidate of that number and stays unpaired."""
+    model = ufmt.load_model(BRIDGE)
+    test = assembled_test(model, SENSORS, count=6)
+    renumbered = modal_test(test.modes + 1999, test.frequencies_hz, None, SENSORS, test.shapes)
+    result = correlate(model, renumbered)
+    assert list(result.table["model_mode"]) == list(range(1, 7))
+    assert set(result.table["paired_by"]) == {"mac"}
+    assert result.model_hz.max() <= FREQUENCY_WINDOW * test.frequencies_hz.max()
+    plain = correlate(model, modal_test([2000], [test.frequencies_hz[0]]))
+    assert plain.table["model_mode"].isna().all() and plain.summary()["paired"] == 0
+
+
+def _scaled_test(tmp_path, factor, name="mm.csv"):
+    """The bridge example's test with every position times ``factor``."""
+    frame = read_modal_test(ROOT / "examples" / "bridge-modal-test.csv").to_frame()
+    frame[["x_m", "y_m", "z_m"]] *= factor
+    path = tmp_path / name
+    frame.to_csv(path, index=False)
+    return path
+
+
+def test_a_unit_slip_is_one_line_with_a_hint_and_the_declared_unit_fixes_it(
+    tmp_path, monkeypatch, capsys
+):
+    """The bridge's test with positions in mm: exit 2, one line naming the file and a sensor,
+    "did you mean --test-unit mm"; declared, the result equals the metre file's
+    (invariance under the unit)."""
+    monkeypatch.chdir(tmp_path)
+    mm = _scaled_test(tmp_path, 1000.0)
+    assert main(["validate", str(BRIDGE), "--test", str(mm), "--json"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and str(mm) in err and "did you mean --test-unit mm" in err
+    assert main(["validate", str(BRIDGE), "--test", str(mm), "--test-unit", "mm", "--json"]) == 0
+    declared = json.loads(capsys.readouterr().out)
+    metres = ROOT / "examples" / "bridge-modal-test.csv"
+    assert main(["validate", str(BRIDGE), "--test", str(metres), "--json"]) == 0
+    reference = json.loads(capsys.readouterr().out)
+    for a, b in zip(declared["pairs"], reference["pairs"], strict=True):
+        assert a["model_mode"] == b["model_mode"] and a["mac"] == pytest.approx(b["mac"])
+
+
+@pytest.mark.parametrize(
+    ("sensor", "message"),
+    [
+        (Sensor("head", (0.0, 0.0, 0.965 + 1e6), "z"), "outside the machine"),
+        (Sensor("shaft", (1.0, 0.0, 1.2), "x"), "from the axis of beam 'shaft'"),
+        (Sensor("head", (0.9, 0.0, 0.965), "x"), "from the centre of mass of 'head'"),
+        (Sensor("shaft", (0.0, 0.0, 1.5), "x"), "along beam 'shaft'"),
+        (Sensor("joint", (0.0, 0.0, 1.3), "x"), "virtual"),
+    ],
+)
+def test_a_sensor_off_its_body_or_outside_the_machine_is_refused(sensor, message):
+    """Each rule of ufmt.calibration.sensors: 1000 km away, 1 m off the shaft's axis (section
+    radius 0.06 m), 0.9 m from the head (radius 0.22 m), past the shaft's end, on a virtual
+    body."""
+    model = ufmt.load_model(BRIDGE)
+    test = modal_test([1], [100.0], None, [sensor, SENSORS[0]], [[1.0, 0.5]], "t.csv")
+    with pytest.raises(StudyError) as err:
+        correlate(model, test)
+    assert str(err.value).startswith("t.csv: field 'sensor ") and message in str(err.value)
+    assert "did you mean" not in str(err.value)
+
+
+def test_validate_test_honours_modes(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    test = ROOT / "examples" / "bridge-modal-test.csv"
+    out = tmp_path / "v"
+    args = [
+        "validate",
+        str(BRIDGE),
+        "--test",
+        str(test),
+        "--modes",
+        "1,3",
+        "--output-dir",
+        str(out),
+    ]
+    assert main(args) == 0
+    assert {"mode-1.png", "mode-3.png"} <= {p.name for p in out.iterdir()}
+    assert "mode-2.png" not in {p.name for p in out.iterdir()}

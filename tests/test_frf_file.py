@@ -79,8 +79,8 @@ def test_nodes_without_units_ask_for_the_unit(tmp_path):
     pyuff.UFF(str(path), "w").write_sets(sets, mode="overwrite")
     refused(path, "declare their unit")
     back = read_measured_frf(path, unit="mm")
-    assert back.outputs[0].point == pytest.approx(HEAD.point, rel=1e-12)
-    assert back.outputs[1].point == pytest.approx(TABLE.point, rel=1e-12)
+    assert back.outputs[0].position == pytest.approx(HEAD.position, rel=1e-12)
+    assert back.outputs[1].position == pytest.approx(TABLE.position, rel=1e-12)
 
 
 def test_negative_directions_flip_the_sign(tmp_path):

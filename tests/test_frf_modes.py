@@ -95,7 +95,7 @@ def test_modes_from_the_bridges_frfs_within_half_a_percent(bridge, files, visibl
     assert np.all(nearest_error_percent(visible(1e-4), found) < 0.5)
     np.testing.assert_allclose(result.test.damping_ratio, 0.01, rtol=0.02)  # the model's zeta
     pairs = correlate(bridge, result.test).table
-    assert (pairs["paired_by"] == "MAC").all()
+    assert (pairs["paired_by"] == "mac").all()
     assert pairs["mac"].min() > 0.99 and pairs["error_percent"].abs().max() < 0.5
 
 

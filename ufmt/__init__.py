@@ -16,7 +16,9 @@ Public entry points:
   tool-workpiece or point-to-point FRF in any direction (:class:`ufmt.FrfResult`);
 - ``ufmt.read_surface(path, feed_direction="y", ...)``: a measured height map (MetroPro, x3p,
   SDF, xyz, ufmt's exports) through the instrument pipeline
-  (:class:`ufmt.measured.analysis.MeasuredSurface`).
+  (:class:`ufmt.measured.analysis.MeasuredSurface`);
+- ``ufmt.read_modal_test(path, unit=None)``: a modal test (CSV or universal file) with its
+  sensors (positions [m]), frequencies, damping ratios and shapes (docs/modal-test.md).
 
 Every ``model`` argument takes a path, a loaded model or None (the packaged UFMT); a model
 in another argument's place is refused with the order (:mod:`ufmt.arguments`); every request
@@ -40,6 +42,7 @@ _PUBLIC = {
     "frf": "ufmt.machining.frf",
     "load_model": "ufmt.model.load",
     "packaged_path": "ufmt.model.load",
+    "read_modal_test": "ufmt.calibration.modal_test",
     "read_surface": "ufmt.measured.analysis",
     "simulate": "ufmt.simulate",
     "solve_modes": "ufmt.solvers",

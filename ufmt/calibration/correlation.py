@@ -11,10 +11,14 @@ mode i is measured is
 1 for proportional shapes, 0 for orthogonal ones; it is blind to the scale and sign of either
 shape, so a test's arbitrary normalisation does not matter.
 
-Pairing. Test modes measured at two sensors or more are paired by MAC: the one-to-one
-assignment of model modes that maximises the sum of their MACs (the Hungarian method,
-:func:`scipy.optimize.linear_sum_assignment`). Test modes without a shape are paired by order:
-test mode k with model mode k, unless MAC pairing took it (then unpaired). The frequency error
+Pairing. The candidates are the model modes below FREQUENCY_WINDOW (2) times the highest
+test frequency: a test covers a band, and a model mode far above it is no partner whatever
+its shape at a few sensors. Test modes measured at two sensors or more are paired by MAC:
+the one-to-one assignment of candidates that maximises the sum of their MACs (the Hungarian
+method, :func:`scipy.optimize.linear_sum_assignment`); a model mode the sensors cannot see (a
+NaN MAC: zero motion at every sensor) counts as MAC 0 there. Test modes without a shape are
+paired by order: test mode k with candidate k, unless MAC pairing took it (then unpaired).
+Each pair says how it was paired (``paired_by``: ``mac`` or ``order``). The frequency error
 of a pair is ``100 (f_model / f_test - 1)`` [%].
 """
 
@@ -27,9 +31,9 @@ import numpy as np
 import pandas as pd
 from scipy.optimize import linear_sum_assignment
 
-from ufmt import limits
 from ufmt.assembled import assembled_modes
 from ufmt.calibration.modal_test import AXES, ModalTest, modal_test
+from ufmt.calibration.sensors import BEAM_END, check_sensors
 from ufmt.calibration.test_file import read_test
 from ufmt.errors import StudyError
 from ufmt.kinds import kind_of
@@ -39,51 +43,38 @@ from ufmt.model.schema import Beam, Model
 from ufmt.mstmm.modes import ModeShapes, beam_shape
 from ufmt.mstmm.overall import TransferSystem
 from ufmt.mstmm.solve import solve_modes
-from ufmt.tables import Where
 
-EXTRA_MODES = 5  # model modes solved beyond the highest test mode number (room to pair)
-MAX_MODEL_HZ = 1e6  # [Hz] highest model frequency solved for a pairing
-WINDOW = 1.5  # model modes up to this factor times the highest test frequency are candidates
-BEAM_TOLERANCE = 1e-6  # how far past a beam's end [m] a sensor may sit and still be on it
+FREQUENCY_WINDOW = 2.0  # [-] model modes up to this times the highest test frequency pair
 
 
 def sensor_shapes(model: Model, shapes: ModeShapes, sensors, source: str = "") -> np.ndarray:
     """(n_modes, S) model shapes at the sensors (the translation along each sensor's axis,
-    in the normalisation of ``shapes``); an unknown or virtual body is one line naming the
-    test file ``source``."""
-    where = Where(source or "modal test", error=StudyError)
-    names = [b.name for b in model.bodies]
+    in the normalisation of ``shapes``); sensors off their bodies or outside the machine are
+    one line naming the test file ``source`` (:func:`ufmt.calibration.sensors.check_sensors`)."""
+    check_sensors(model, sensors, source)
     out = np.zeros((shapes.frequencies_hz.size, len(sensors)))
     system = None
     for j, sensor in enumerate(sensors):
-        field = f"sensor {sensor.label}"
-        where.choice(field, sensor.body, names, "body")
         body = model.body(sensor.body)
-        point = np.asarray(sensor.point, dtype=float)
+        point = np.asarray(sensor.position, dtype=float)
 
-        def along(p, body=body, field=field):  # a point carried by a field body's section
+        def along(p, body=body):  # a point carried by a field body's section
             nonlocal system
             system = system or TransferSystem(model)
-            return _beam_point(system, shapes, body, p, where, field)
+            return _beam_point(system, shapes, body, p)
 
         motion = kind_of(body).sensor_motion(body, shapes, point, along)
-        if motion is None:
-            where.fail(field, f"body {body.name!r} is {body.kind}: it has no material point")
+        if motion is None:  # check_sensors refuses these first
+            raise StudyError(f"sensor {sensor.label}: body {body.name!r} has no material point")
         out[:, j] = motion[:, AXES.index(sensor.direction)]
     return out
 
 
-def _beam_point(system, shapes, beam: Beam, point, where: Where, field: str) -> np.ndarray:
+def _beam_point(system, shapes, beam: Beam, point) -> np.ndarray:
     """Motion (n, 6) of ``point`` carried by the beam section nearest to it."""
     start, end = np.asarray(beam.start, float), np.asarray(beam.end, float)
     axis = end - start
-    length = float(np.linalg.norm(axis))
-    s = float((point - start) @ axis) / length
-    if not -BEAM_TOLERANCE <= s <= length + BEAM_TOLERANCE:
-        where.fail(
-            field, f"the point is {s:.4g} m along beam {beam.name!r} of length {length:.4g} m"
-        )
-    fraction = min(max(s / length, 0.0), 1.0)
+    fraction = min(max(float((point - start) @ axis) / float(axis @ axis), 0.0), 1.0)
     positions, motion = beam_shape(system, shapes, beam.name, [fraction])
     return carried_motion(motion[:, 0], positions[0], point)
 
@@ -104,16 +95,17 @@ def mac_matrix(test_shapes: np.ndarray, model_shapes: np.ndarray) -> np.ndarray:
 
 def pair_modes(test: ModalTest, mac: np.ndarray, n_model: int) -> tuple[np.ndarray, list[str]]:
     """Model mode index (0-based, -1: unpaired) per test mode and how each was paired
-    (``"MAC"``, ``"order"`` or ``""``), as in the module docstring."""
-    shaped = test.has_shape() & np.isfinite(mac).all(axis=1)
+    (``"mac"``, ``"order"`` or ``""``), as in the module docstring; ``mac`` (n_test, n_model)
+    over the candidate model modes, NaN entries (a model mode the sensors cannot see) as 0."""
+    shaped = test.has_shape() & np.isfinite(mac).any(axis=1)
     index = np.full(test.modes.size, -1)
     how = [""] * test.modes.size
     rows = np.flatnonzero(shaped)
-    if rows.size:
-        r, c = linear_sum_assignment(np.nan_to_num(mac[rows]), maximize=True)
+    if rows.size and n_model:
+        r, c = linear_sum_assignment(np.nan_to_num(mac[rows], nan=0.0), maximize=True)
         index[rows[r]] = c
         for i in rows[r]:
-            how[i] = "MAC"
+            how[i] = "mac"
     taken = set(index[index >= 0].tolist())
     for i in np.flatnonzero(~shaped):
         j = int(test.modes[i]) - 1
@@ -198,23 +190,18 @@ class Correlation:
         return [written.directory / n for n in ("correlation.csv", "mac.csv", "mac.png")]
 
 
-def correlate(model, test, count: int | None = None) -> Correlation:
+def correlate(model, test, count: int | None = None, unit: str | None = None) -> Correlation:
     """Pair the MSTMM modes of ``model`` (a path or a :class:`~ufmt.model.schema.Model`) with
-    the modes of ``test`` (a path or a :class:`ModalTest`).
+    the modes of ``test`` (a path, read in length ``unit``, or a :class:`ModalTest`).
 
-    ``count``: model modes to solve (default: the highest test mode number plus EXTRA_MODES,
-    and at least every mode below WINDOW times the highest test frequency (modes extracted
-    from FRFs are numbered 1..m whatever the model's numbering), at most MAX_MODE_COUNT,
-    or as many as the model has).
+    The candidates are the model modes below FREQUENCY_WINDOW times the highest test
+    frequency (``count``: at most that many of them); a measured-FRF file is reduced to its
+    modes first (:func:`ufmt.calibration.test_file.read_test`).
     """
     model = as_model(model)
-    test = test if isinstance(test, ModalTest) else read_test(test)
-    if not count:
-        fmax = min(WINDOW * test.frequencies_hz.max(), limits.MAX_MODE_FREQUENCY_HZ)
-        window = solve_modes(model, fmax_hz=fmax, shapes=False).frequencies_hz.size
-        count = max(int(max(test.modes.max(), test.modes.size)), window) + EXTRA_MODES
-        count = min(count, limits.MAX_MODE_COUNT)
-    solution = solve_modes(model, fmax_hz=MAX_MODEL_HZ, count=count, shapes=bool(test.sensors))
+    test = test if isinstance(test, ModalTest) else read_test(test, unit)
+    fmax = FREQUENCY_WINDOW * float(test.frequencies_hz.max())
+    solution = solve_modes(model, fmax_hz=fmax, count=count, shapes=bool(test.sensors))
     model_hz = solution.frequencies_hz
     if test.sensors:
         model_shapes = sensor_shapes(model, solution.shapes, test.sensors, test.source)
@@ -254,10 +241,10 @@ def assembled_test(model, sensors, count: int, source: str = "assembled model") 
     out = np.zeros((modes.frequencies_hz.size, len(sensors)))
     for j, sensor in enumerate(sensors):
         body = model.body(sensor.body)
-        point = np.asarray(sensor.point, dtype=float)
+        point = np.asarray(sensor.position, dtype=float)
         nodes = am.node_positions[body.name]
         node = int(np.argmin(np.linalg.norm(nodes - point, axis=1)))
-        if kind_of(body).MESHED and np.linalg.norm(nodes[node] - point) > BEAM_TOLERANCE:
+        if kind_of(body).MESHED and np.linalg.norm(nodes[node] - point) > BEAM_END:
             raise StudyError(f"sensor {sensor.label}: not on a mesh node of beam {body.name!r}")
         motion = carried_motion(shapes[:, am.body_dofs[body.name][node]], nodes[node], point)
         out[:, j] = motion[:, AXES.index(sensor.direction)]

@@ -110,10 +110,11 @@ class MeasuredFrf:
         from ufmt import files
 
         numbers = nodes_of(self) if nodes is None else nodes
-        at = {(s.body, s.point): n for n, s in numbers.items()}
+        at = {(s.body, s.position): n for n, s in numbers.items()}
         cols = {"frequency_hz": self.frequencies_hz}
         for o, i, h in zip(self.outputs, self.inputs, self.values, strict=True):
-            name = f"{at[(o.body, o.point)]}{o.direction}/{at[(i.body, i.point)]}{i.direction}"
+            out_node, in_node = at[(o.body, o.position)], at[(i.body, i.position)]
+            name = f"{out_node}{o.direction}/{in_node}{i.direction}"
             cols[name] = [repr(complex(v)) for v in h]
         text = f"# kind = {self.kind}\n" + pd.DataFrame(cols).to_csv(index=False)
         table = node_frame(numbers)
@@ -132,9 +133,9 @@ def save_uff(measured: MeasuredFrf, path, nodes: dict[int, Sensor] | None = None
     from ufmt import files
 
     numbers = nodes_of(measured) if nodes is None else nodes
-    at = {(s.body, s.point): n for n, s in numbers.items()}
+    at = {(s.body, s.position): n for n, s in numbers.items()}
     code = {v: k for k, v in KINDS.items()}[measured.kind]
-    points = np.array([s.point for s in numbers.values()])
+    points = np.array([s.position for s in numbers.values()])
     sets = [
         pyuff.prepare_164(
             units_code=1,
@@ -160,9 +161,9 @@ def save_uff(measured: MeasuredFrf, path, nodes: dict[int, Sensor] | None = None
             pyuff.prepare_58(
                 func_type=FRF_FUNCTION,
                 id1="FRF",
-                rsp_node=at[(o.body, o.point)],
+                rsp_node=at[(o.body, o.position)],
                 rsp_dir=AXES.index(o.direction) + 1,
-                ref_node=at[(i.body, i.point)],
+                ref_node=at[(i.body, i.position)],
                 ref_dir=AXES.index(i.direction) + 1,
                 data=np.asarray(h, complex),
                 x=measured.frequencies_hz,
@@ -180,14 +181,14 @@ def save_uff(measured: MeasuredFrf, path, nodes: dict[int, Sensor] | None = None
 
 def nodes_of(measured: MeasuredFrf) -> dict[int, Sensor]:
     """Node numbers 1, 2, ... for the points of ``measured`` in order of first appearance."""
-    points = dict.fromkeys((s.body, s.point) for s in measured.outputs + measured.inputs)
+    points = dict.fromkeys((s.body, s.position) for s in measured.outputs + measured.inputs)
     return {k + 1: Sensor(b, p, "x") for k, (b, p) in enumerate(points)}
 
 
 def node_frame(nodes: dict[int, Sensor]) -> pd.DataFrame:
     """The node map table: node, body, x_m, y_m, z_m."""
     rows = [
-        {"node": n, "body": s.body} | dict(zip(POSITION_COLUMNS, s.point, strict=True))
+        {"node": n, "body": s.body} | dict(zip(POSITION_COLUMNS, s.position, strict=True))
         for n, s in nodes.items()
     ]
     return pd.DataFrame(rows, columns=[*NODE_COLUMNS, *POSITION_COLUMNS])

@@ -47,8 +47,8 @@ def model_frfs(model, outputs, inputs, freq_hz, kind="receptance", zeta=None, cu
     for p in pairs:
         o, i = outputs[p], inputs[p]
         d_out, d_in = AXES[o.direction], AXES[i.direction]
-        c_out = participation(basis, point_end(o.body, o.point), d_out)
-        c_in = participation(basis, point_end(i.body, i.point), d_in)
+        c_out = participation(basis, point_end(o.body, o.position), d_out)
+        c_in = participation(basis, point_end(i.body, i.position), d_in)
         h = modal_receptance(basis, c_out, c_in, freq, zeta)
         row_out, row_in = (_row(basis, bodies, s, d) for s, d in ((o, d_out), (i, d_in)))
         out[p] = h + row_out @ flexibility @ row_in
@@ -67,7 +67,7 @@ def _row(basis, bodies, sensor, direction) -> np.ndarray:
     """(6B,) map from the bodies' centre-of-mass motions to the sensor's translation."""
     row = np.zeros(6 * len(bodies))
     i = bodies.index(sensor.body)
-    arm = np.asarray(sensor.point) - basis.body_centers[sensor.body]
+    arm = np.asarray(sensor.position) - basis.body_centers[sensor.body]
     row[6 * i : 6 * i + 6] = np.asarray(direction) @ point_motion(arm)[:3, :]
     return row
 

@@ -18,12 +18,8 @@ column             required  meaning
 A file with only ``mode`` and ``frequency_hz`` (one row per mode) is a frequency-only test.
 Lines starting with ``#`` are comments (the test's source, its conditions).
 
-A universal file (UFF, ``.uff``/``.unv``, read with pyuff) works too: dataset 15 gives the
-node positions [m], each dataset 55 one mode (normal modes: its frequency and viscous damping
-ratio; complex modes: from the eigenvalue, the shape rotated to its largest component and its
-real part taken); the translations r1, r2, r3 of each node are the sensors x, y, z. Which body
-a node is on is not in the UFF: the file ``<name>.nodes.csv`` beside it (columns ``node``,
-``body``) says, and nodes it does not list are left out.
+Positions are in metres unless a length unit is declared (``unit``: then in that unit).
+A universal file (UFF, ``.uff``/``.unv``) is read by :mod:`ufmt.calibration.uff`.
 A sensor is the triple (body, point, direction); a mode need not be measured at every sensor
 (missing components are NaN and left out of that mode's MAC).
 """
@@ -38,39 +34,39 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from ufmt.calibration.uff import AXES, length_scale, read_uff
 from ufmt.errors import StudyError
-from ufmt.limits import MAX_INPUT_BYTES
 from ufmt.tables import Where
 from ufmt.tomlfile import read_text
 
 REQUIRED = ("mode", "frequency_hz")
 SHAPE_COLUMNS = ("body", "x_m", "y_m", "z_m", "direction", "shape")
 COLUMNS = (*REQUIRED, "damping_ratio", *SHAPE_COLUMNS)
-AXES = ("x", "y", "z")
 UFF_SUFFIXES = (".uff", ".unv")
 NODE_COLUMNS = ("node", "body")
 
 
 @dataclass(frozen=True)
 class Sensor:
-    """A measured translation: the ``body`` it sits on, its ``point`` (x, y, z) [m] in the
+    """A measured translation: the ``body`` it sits on, its ``position`` (x, y, z) [m] in the
     global frame and its ``direction`` (``x``, ``y`` or ``z``)."""
 
     body: str
-    point: tuple[float, float, float]
+    position: tuple[float, float, float]
     direction: str
 
     @property
     def label(self) -> str:
         """Short name, e.g. ``head(0,0,0.965)z``."""
-        return f"{self.body}({','.join(f'{c:g}' for c in self.point)}){self.direction}"
+        return f"{self.body}({','.join(f'{c:g}' for c in self.position)}){self.direction}"
 
 
 @dataclass(frozen=True, eq=False)
 class ModalTest:
     """A modal test: ``modes`` (n,) test mode numbers, ascending; ``frequencies_hz`` (n,) [Hz];
     ``damping_ratio`` (n,) [-] (NaN: not measured); ``sensors`` (S,); ``shapes`` (n, S) real
-    shape components (NaN: not measured at that sensor); ``source`` the file."""
+    shape components (NaN: not measured at that sensor); ``source`` the file; ``mpc`` (n,)
+    modal phase collinearity of complex test modes [-] (NaN: a real mode; None: all NaN)."""
 
     source: str
     modes: np.ndarray
@@ -78,12 +74,18 @@ class ModalTest:
     damping_ratio: np.ndarray
     sensors: tuple[Sensor, ...]
     shapes: np.ndarray
+    mpc: np.ndarray | None = None
+
+    def __post_init__(self):
+        if self.mpc is None:
+            object.__setattr__(self, "mpc", np.full(self.modes.size, np.nan))
 
     def __repr__(self) -> str:
-        f = self.frequencies_hz
+        f, mpc = self.frequencies_hz, self.mpc[np.isfinite(self.mpc)]
+        complex_ = f", lowest MPC {mpc.min():.3f}" if mpc.size else ""
         return (
             f"ModalTest({self.source!r}, modes={f.size} ({f.min():.4g}-{f.max():.4g} Hz), "
-            f"sensors={len(self.sensors)}, shaped={int(self.has_shape().sum())})"
+            f"sensors={len(self.sensors)}, shaped={int(self.has_shape().sum())}{complex_})"
         )
 
     def has_shape(self, minimum: int = 2) -> np.ndarray:
@@ -104,7 +106,7 @@ class ModalTest:
                 rows.append(base)
             for j in measured:
                 s = self.sensors[j]
-                x, y, z = s.point
+                x, y, z = s.position
                 rows.append(
                     base
                     | {"body": s.body, "x_m": x, "y_m": y, "z_m": z, "direction": s.direction}
@@ -120,7 +122,9 @@ class ModalTest:
         return files.write_with(path, lambda b: table.to_csv(b, index=False, float_format="%.10g"))
 
 
-def modal_test(modes, frequencies_hz, damping_ratio=None, sensors=(), shapes=None, source=""):
+def modal_test(
+    modes, frequencies_hz, damping_ratio=None, sensors=(), shapes=None, source="", mpc=None
+):
     """A :class:`ModalTest` from arrays (a synthetic or converted test); shapes (n, S)."""
     modes = np.asarray(modes, dtype=int)
     n = modes.size
@@ -134,16 +138,20 @@ def modal_test(modes, frequencies_hz, damping_ratio=None, sensors=(), shapes=Non
         damping[order],
         tuple(sensors),
         shapes[order].reshape(n, len(sensors)),
+        None if mpc is None else np.asarray(mpc, dtype=float)[order],
     )
 
 
-def read_modal_test(path) -> ModalTest:
+def read_modal_test(path, unit: str | None = None) -> ModalTest:
     """Read a modal-test file: a CSV (module docstring; a mistake is one line naming the file,
     the row as a spreadsheet numbers it, header = row 1, and the column) or a universal file
-    (``.uff``/``.unv``, :func:`read_uff`)."""
+    (``.uff``/``.unv``, :func:`ufmt.calibration.uff.read_uff`). ``unit``: the length unit of
+    the positions (``m``, ``cm``, ``mm``, ``in``, ``ft``; a UFF without dataset 164 needs it)."""
     if Path(path).suffix.lower() in UFF_SUFFIXES:
-        return read_uff(path)
+        read = read_uff(path, unit, node_map)
+        return modal_test(**read | {"sensors": [Sensor(*s) for s in read["sensors"]]})
     where = Where(str(path), error=StudyError)
+    scale = length_scale(where, unit) or 1.0
     frame = _read_csv(where, path, str)  # cell by cell: one text cell blames its own row
     where.keys(dict.fromkeys(frame.columns), valid=COLUMNS, required=REQUIRED)
     shaped = [c for c in SHAPE_COLUMNS if c in frame.columns]
@@ -155,7 +163,7 @@ def read_modal_test(path) -> ModalTest:
     by_mode: dict[int, dict] = {}
     sensors: dict[Sensor, int] = {}
     for i, row in enumerate(frame.to_dict("records")):
-        _read_row(where.sub(f"row {i + 2}"), row, shaped, by_mode, sensors)
+        _read_row(where.sub(f"row {i + 2}"), row, shaped, by_mode, sensors, scale)
     modes = sorted(by_mode)
     shapes = np.full((len(modes), len(sensors)), np.nan)
     for i, k in enumerate(modes):
@@ -174,8 +182,9 @@ def read_modal_test(path) -> ModalTest:
 MAX_TEST_MODE = 10**6  # [-] highest test mode number (an int64 array holds the numbers)
 
 
-def _read_row(where: Where, row: dict, shaped, by_mode: dict, sensors: dict) -> None:
-    """Check one CSV row and add it to ``by_mode`` (mode -> frequency, damping, shape)."""
+def _read_row(where: Where, row: dict, shaped, by_mode: dict, sensors: dict, scale) -> None:
+    """Check one CSV row and add it to ``by_mode`` (mode -> frequency, damping, shape);
+    positions times ``scale`` [m per file unit]."""
     k = where.integer("mode", _cell(row["mode"]), low=1, high=MAX_TEST_MODE)
     f = where.number("frequency_hz", _cell(row["frequency_hz"]), sign="positive", unit="[Hz]")
     zeta = _cell(row.get("damping_ratio"))
@@ -190,7 +199,7 @@ def _read_row(where: Where, row: dict, shaped, by_mode: dict, sensors: dict) -> 
     if not shaped or _cell(row["body"]) is None:
         return
     body = where.string("body", row["body"]).strip()
-    point = tuple(where.number(c, _cell(row[c]), unit="[m]") for c in ("x_m", "y_m", "z_m"))
+    point = tuple(scale * where.number(c, _cell(row[c])) for c in ("x_m", "y_m", "z_m"))
     direction = where.choice("direction", _cell(row["direction"]), AXES, "direction")
     sensor = Sensor(body, point, direction)
     j = sensors.setdefault(sensor, len(sensors))
@@ -224,46 +233,8 @@ def _cell(value):
     return value.item() if isinstance(value, np.generic) else value
 
 
-def read_uff(path) -> ModalTest:
-    """A :class:`ModalTest` from a universal file (module docstring) and its node map."""
-    import pyuff
-
-    where = Where(str(path), error=StudyError)
-    if not Path(path).is_file():
-        where.fail_table("file not found" if not Path(path).exists() else "not a file")
-    if Path(path).stat().st_size > MAX_INPUT_BYTES:
-        where.fail_table(
-            f"{Path(path).stat().st_size:,} bytes; an input file holds at most {MAX_INPUT_BYTES:,}"
-        )
-    try:
-        sets = pyuff.UFF(str(path)).read_sets()
-    except Exception as exc:  # pyuff raises bare exceptions on malformed files
-        where.fail_table(f"not a readable universal file ({type(exc).__name__}: {exc})")
-    sets = sets if isinstance(sets, list) else [sets]
-    nodes = {}
-    for d in (d for d in sets if d.get("type") == 15):
-        for n, x, y, z in zip(d["node_nums"], d["x"], d["y"], d["z"], strict=True):
-            nodes[int(n)] = (float(x), float(y), float(z))
-    shapes = [d for d in sets if d.get("type") == 55]
-    if not shapes:
-        where.fail_table("no mode shapes (dataset 55)")
-    bodies = _node_map(Path(path).with_suffix(".nodes.csv"))
-    placed = [(n, axis) for n in sorted(bodies) if n in nodes for axis in AXES]
-    sensors = [Sensor(bodies[n], nodes[n], axis) for n, axis in placed]
-    modes, freq, zeta, rows = [], [], [], []
-    for i, d in enumerate(shapes):
-        f, z = _uff_frequency(where.sub(f"dataset 55 [{i}]"), d)
-        values = _uff_shape(d, placed)
-        modes.append(int(d.get("mode_n", i + 1)))
-        freq.append(f)
-        zeta.append(z)
-        rows.append(values)
-    where.unique("mode_n", modes)
-    return modal_test(modes, freq, zeta, sensors, np.array(rows).reshape(len(modes), -1), str(path))
-
-
-def _node_map(path: Path) -> dict[int, str]:
-    """node -> body from the node-map CSV beside a universal file."""
+def node_map(path: Path) -> dict[int, str]:
+    """node -> body from the node-map CSV beside a universal file (columns node, body)."""
     where = Where(str(path), error=StudyError)
     if not path.exists():
         where.fail_table("file not found (a universal file needs its node map: node, body)")
@@ -273,29 +244,7 @@ def _node_map(path: Path) -> dict[int, str]:
     for i, row in enumerate(frame.to_dict("records")):
         here = where.sub(f"row {i + 2}")
         node = here.integer("node", _cell(row["node"]), low=0)
+        if node in out:
+            here.fail("node", f"node {node} is listed more than once")
         out[node] = here.string("body", _cell(row["body"])).strip()
     return out
-
-
-def _uff_frequency(where: Where, d: dict) -> tuple[float, float]:
-    """(frequency [Hz], damping ratio) of a dataset 55: normal or complex mode."""
-    if d.get("analysis_type") == 3:
-        lam = complex(d["eig"])
-        return abs(lam) / (2 * math.pi), -lam.real / abs(lam)
-    f = where.number("freq", float(d.get("freq", math.nan)), sign="positive", unit="[Hz]")
-    return f, float(d.get("modal_damp_vis", math.nan))
-
-
-def _uff_shape(d: dict, placed) -> np.ndarray:
-    """The translations of a dataset 55 at the (node, axis) sensors (NaN where a node is not
-    in it); a complex shape rotated to its largest component, real part."""
-    at = {int(n): i for i, n in enumerate(d["node_nums"])}
-    parts = np.stack([np.asarray(d[k]) for k in ("r1", "r2", "r3")], axis=1)
-    if np.iscomplexobj(parts):
-        big = parts.flat[np.argmax(np.abs(parts))]
-        parts = (parts * np.conj(big) / abs(big)).real
-    values = np.full(len(placed), np.nan)
-    for j, (node, axis) in enumerate(placed):
-        if node in at:
-            values[j] = parts[at[node], AXES.index(axis)]
-    return values

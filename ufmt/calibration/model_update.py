@@ -14,11 +14,17 @@ evaluation), f_m by the MSTMM. scipy's bounded trust-region least squares solves
 finite-difference sensitivities. rho (``regularisation``) keeps parameters the test cannot
 see at the prior.
 
-Identifiability. At the solution the sensitivity matrix S = d ln f / d u gives each
-parameter's standard deviation ``sigma_f sqrt(diag((S^T S + rho^2 I)^-1))`` for a frequency
-uncertainty sigma_f (``frequency_error_percent``, relative): a parameter whose deviation is
-comparable to its band is not identified by this test. Every residual (before and after) and
-every factor with its band, bound flag and deviation is reported.
+Identifiability, before the fit. The sensitivity matrix S = d ln f / d u at the prior
+(forward differences, one row per paired test mode) gives each factor's standard deviation
+``sigma_f sqrt(diag((S^T S + rho^2 I)^-1))`` for a frequency uncertainty sigma_f
+(``frequency_error_percent``, relative). A factor whose deviation exceeds IDENTIFIED_SHARE of
+its band's width ``ln(band[1] / band[0])`` is not identified by this test: the one with the
+largest such ratio is held at its prior, the deviations of the rest computed again, until every
+factor left is identified; only those are fitted. The data's rank is the number of singular
+values s_i of S with ``sigma_f / s_i`` below IDENTIFIED_SHARE of the median band width (the
+directions of factor space the test pins down); it is never more than the number of paired
+modes. Every residual (before and after), every factor with its band, bound flag, deviation
+(after the fit for the fitted ones) and whether it was held is reported.
 """
 
 from __future__ import annotations
@@ -45,6 +51,7 @@ from ufmt.tomlfile import read_toml
 
 DEFAULT_BAND = (0.5, 2.0)  # default band of each factor: a stiffness known to a factor of two
 AT_BOUND = 1e-3  # |u - ln bound| below this: the factor sits at its bound
+IDENTIFIED_SHARE = 0.25  # [-] largest deviation of an identified factor, share of its band
 SETTINGS_KEYS = ("settings", "parameter")
 
 
@@ -107,7 +114,8 @@ class ModelUpdate:
     """A calibrated model and how it was found: ``parameters`` with their identified
     ``scales`` s, ``deviation`` (the relative standard deviation of each s, module docstring),
     ``at_bound`` (names), the correlation ``before`` (prior) and ``after``, ``model`` the
-    calibrated model, ``evaluations`` of the MSTMM."""
+    calibrated model, ``evaluations`` of the MSTMM, ``held`` (names of the factors the test
+    cannot identify, at their prior), ``rank`` of the data and the ``singular_values`` of S."""
 
     prior: Model
     model: Model
@@ -119,18 +127,22 @@ class ModelUpdate:
     after: Correlation
     settings: UpdateSettings
     evaluations: int
+    held: tuple[str, ...]
+    rank: int
+    singular_values: np.ndarray
 
     def __repr__(self) -> str:
         b, a = self.before.summary(), self.after.summary()
         return (
-            f"ModelUpdate({self.prior.name!r}: {len(self.parameters)} factors, mean |error| "
+            f"ModelUpdate({self.prior.name!r}: {len(self.parameters)} factors, data rank "
+            f"{self.rank}, {len(self.held)} held, mean |error| "
             f"{b['mean_abs_error_percent']:.3g} % -> {a['mean_abs_error_percent']:.3g} %, "
             f"max {b['max_abs_error_percent']:.3g} % -> {a['max_abs_error_percent']:.3g} %)"
         )
 
     def to_frame(self) -> pd.DataFrame:
         """One row per parameter: name, hinges, field, components, band, scale, deviation
-        (relative std of s), at_bound."""
+        (relative std of s), at_bound, held (not identified: at the prior)."""
         return pd.DataFrame(
             {
                 "parameter": [p.name for p in self.parameters],
@@ -142,6 +154,7 @@ class ModelUpdate:
                 "scale": self.scales,
                 "deviation": self.deviation,
                 "at_bound": [p.name in self.at_bound for p in self.parameters],
+                "held": [p.name in self.held for p in self.parameters],
             }
         )
 
@@ -189,27 +202,37 @@ def update_model(
     target = np.log(test.frequencies_hz)
     count = [0]
 
-    def residual(u):
+    def frequencies(u):
         count[0] += 1
         table = correlate(apply_parameters(prior, parameters, u), test).table
         f = table["model_hz"].to_numpy(dtype=float)
-        r = np.where(np.isfinite(f), np.log(np.where(np.isfinite(f), f, 1.0)) - target, 0.0)
-        return np.concatenate([r, settings.regularisation * np.asarray(u)])
+        return np.where(np.isfinite(f), np.log(np.where(np.isfinite(f), f, 1.0)) - target, 0.0)
 
-    u0 = np.clip(np.zeros(len(parameters)), lower + 1e-12, upper - 1e-12)
+    start = frequencies(np.zeros(len(parameters)))
+    sensitivity = _sensitivity(frequencies, start, len(parameters), settings.step)
+    keep, deviation, rank, values = _identifiable(sensitivity, upper - lower, settings)
+    if not keep.any():
+        raise StudyError(
+            f"{test.source}: the test identifies none of the {len(parameters)} factors (data "
+            f"rank {rank}): every one would be held at its prior; add modes or sensors"
+        )
+    u = np.zeros(len(parameters))
+
+    def residual(v):
+        u[keep] = v
+        return np.concatenate([frequencies(u), settings.regularisation * v])
+
     fit = least_squares(
         residual,
-        u0,
-        bounds=(lower, upper + 1e-15 * (upper == lower)),
+        np.zeros(int(keep.sum())),
+        bounds=(lower[keep], upper[keep] + 1e-15 * (upper[keep] == lower[keep])),
         diff_step=settings.step,
         max_nfev=settings.max_evaluations,
         x_scale=1.0,
     )
-    u = fit.x
-    s = fit.jac[: target.size]
-    info = s.T @ s + settings.regularisation**2 * np.eye(len(parameters))
-    sigma = settings.frequency_error_percent / 100.0
-    deviation = sigma * np.sqrt(np.diag(np.linalg.pinv(info)))
+    u[keep] = fit.x
+    u[~keep] = 0.0
+    deviation[keep] = _deviation(fit.jac[: target.size], settings)
     at_bound = tuple(
         p.name
         for p, ui, lo, hi in zip(parameters, u, lower, upper, strict=True)
@@ -217,6 +240,7 @@ def update_model(
     )
     model = apply_parameters(prior, parameters, u)
     model = replace(model, name=f"{prior.name} (calibrated against {Path(test.source).name})")
+    held = tuple(p.name for p, k in zip(parameters, keep, strict=True) if not k)
     return ModelUpdate(
         prior,
         model,
@@ -228,7 +252,47 @@ def update_model(
         correlate(model, test),
         settings,
         count[0],
+        held,
+        rank,
+        values,
     )
+
+
+def _sensitivity(frequencies, start: np.ndarray, n: int, step: float) -> np.ndarray:
+    """S = d ln f / d u at u = 0 (m, n) by forward differences of step ``step``."""
+    columns = []
+    for k in range(n):
+        u = np.zeros(n)
+        u[k] = step
+        columns.append((frequencies(u) - start) / step)
+    return np.stack(columns, axis=1)
+
+
+def _deviation(sensitivity: np.ndarray, settings: UpdateSettings) -> np.ndarray:
+    """Relative standard deviation of each factor (module docstring)."""
+    n = sensitivity.shape[1]
+    info = sensitivity.T @ sensitivity + settings.regularisation**2 * np.eye(n)
+    sigma = settings.frequency_error_percent / 100.0
+    return sigma * np.sqrt(np.diag(np.linalg.pinv(info)))
+
+
+def _identifiable(sensitivity: np.ndarray, width: np.ndarray, settings: UpdateSettings):
+    """(identified mask, deviation at the prior, data rank, singular values of S): factors
+    held one at a time, the least identified first (module docstring)."""
+    keep = width > 0
+    deviation = np.full(width.size, np.inf)
+    while keep.any():
+        deviation[keep] = _deviation(sensitivity[:, keep], settings)
+        ratio = np.where(keep, deviation / np.where(keep, width, 1.0), -np.inf)
+        worst = int(np.argmax(ratio))
+        if ratio[worst] <= IDENTIFIED_SHARE:
+            break
+        keep[worst] = False
+    values = np.linalg.svd(sensitivity, compute_uv=False)
+    sigma = settings.frequency_error_percent / 100.0
+    limit = IDENTIFIED_SHARE * float(np.median(width))
+    rank = int(np.sum(sigma < limit * values))
+    return keep, deviation, rank, values
 
 
 def write_model(update: ModelUpdate, path, settings_path=None) -> Path:
@@ -244,11 +308,14 @@ def write_model(update: ModelUpdate, path, settings_path=None) -> Path:
         f"# Test modes paired: {a['paired']}; mean |error| {b['mean_abs_error_percent']:.4g} % "
         f"(prior) -> {a['mean_abs_error_percent']:.4g} %, max {b['max_abs_error_percent']:.4g}"
         f" % -> {a['max_abs_error_percent']:.4g} %; lowest MAC {a['min_mac']:.4g}.",
+        f"# Data rank {update.rank} for {len(update.parameters)} factors; held at the prior (the "
+        f"test cannot identify them): {', '.join(update.held) or 'none'}.",
         "# Factors (k = s * k_prior; band; relative std at "
         f"{update.settings.frequency_error_percent:g} % frequency error):",
     ]
     for p, s, d in zip(update.parameters, update.scales, update.deviation, strict=True):
         flag = "  AT BOUND" if p.name in update.at_bound else ""
+        flag += "  HELD (not identified)" if p.name in update.held else ""
         lines.append(f"#   {p.name}  s = {s:.6g}  [{p.band[0]:g}, {p.band[1]:g}]  +-{d:.2g}{flag}")
     from ufmt import files
 

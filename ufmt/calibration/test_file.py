@@ -16,4 +16,4 @@ def read_test(path, unit: str | None = None, **extraction) -> ModalTest:
     node positions' unit when the file does not say)."""
     if is_frf_file(path):
         return extract_modes(path, unit=unit, **extraction).test
-    return read_modal_test(path)
+    return read_modal_test(path, unit)

@@ -62,6 +62,7 @@ def register(subparsers) -> None:
         "--settings is then a model-update file (docs/modal-test.md), optional",
     )
     _add_frf_options(p)
+    _test_unit_option(p)
     p.add_argument("--settings", help="calibration file (default: packaged calibration.toml)")
     p.add_argument(
         "--output",
@@ -83,6 +84,7 @@ def register(subparsers) -> None:
         "mac.png (FRFs: also frf-modes.csv, stabilisation.csv/png, frf-overlay.csv/png)",
     )
     _add_frf_options(p)
+    _test_unit_option(p)
     p.add_argument("--json", action="store_true", help="with --test: one JSON object on stdout")
     p.add_argument(
         "--output-dir",
@@ -91,8 +93,8 @@ def register(subparsers) -> None:
     p.add_argument(
         "--modes",
         type=_mode_list,
-        default=_mode_list(DEFAULT_PLOTTED_MODES),
-        help=f"modes to draw, comma-separated (default {DEFAULT_PLOTTED_MODES})",
+        help=f"model modes to draw, comma-separated (default {DEFAULT_PLOTTED_MODES}; with "
+        "--test: none)",
     )
     p.set_defaults(func=cmd_validate)
 
@@ -161,13 +163,34 @@ def _frf_modes(args):
     if not is_frf_file(args.test):
         return None
     band = args.frf_band or (None, None)
-    return extract_modes(args.test, *band, order=args.frf_order, approx_hz=args.frf_poles)
+    return extract_modes(
+        args.test, *band, order=args.frf_order, approx_hz=args.frf_poles, unit=args.test_unit
+    )
+
+
+def _test_unit_option(p) -> None:
+    """``--test-unit``: the length unit of the test file's positions."""
+    from ufmt.calibration.uff import LENGTH_UNITS
+
+    p.add_argument(
+        "--test-unit",
+        choices=tuple(LENGTH_UNITS),
+        help="length unit of the test's positions (a UFF without units dataset 164 needs it; "
+        "default: the file's, metres for a CSV)",
+    )
 
 
 def cmd_calibrate(args) -> int:
     """Identify, fit the response parameters, write the model and the log, print the result."""
     from ufmt.calibration.pipeline import calibrate
 
+    if args.prior and args.output and Path(args.output).resolve() == Path(args.prior).resolve():
+        raise UfmtError(
+            f"--output {args.output}: the prior itself; a calibration never overwrites its prior "
+            "(a rerun would compound the factors): choose another output path"
+        )
+    if args.test_unit and not args.test:
+        raise UfmtError("--test-unit: only with --test FILE")
     if args.test:
         return _calibrate_test(args)
     t0 = time.perf_counter()
@@ -201,15 +224,16 @@ def cmd_calibrate(args) -> int:
 def _calibrate_test(args) -> int:
     """Calibrate a model against its modal test (:mod:`ufmt.calibration.model_update`): write
     the calibrated model, parameters.csv, residuals.csv and its correlation; print them."""
+    from ufmt.calibration.modal_test import read_modal_test
     from ufmt.calibration.model_update import read_update_settings, update_model, write_model
 
     prior = load(args.prior)
+    extracted = _frf_modes(args)
+    test = read_modal_test(args.test, args.test_unit) if extracted is None else extracted.test
     settings, parameters = (
         read_update_settings(args.settings, prior) if args.settings else (None, None)
     )
     t0 = time.perf_counter()
-    extracted = _frf_modes(args)
-    test = args.test if extracted is None else extracted.test
     update = update_model(prior, test, parameters, settings)
     stem = "ufmt" if args.prior is None else Path(args.prior).stem
     folder = results_dir(args.prior, "calibration", Path("results") / "calibration")
@@ -217,6 +241,14 @@ def _calibrate_test(args) -> int:
     written = update.save(Path(args.output).parent if args.output else folder)
     print(f"{update!r} in {time.perf_counter() - t0:.1f} s ({update.evaluations} MSTMM solves)")
     print(update.to_frame().to_string(index=False, float_format=lambda v: f"{v:.4g}"))
+    paired = update.before.summary()["paired"]
+    print(
+        f"data rank {update.rank} for {len(update.parameters)} factors ({paired} paired test "
+        f"modes); singular values of d ln f / d ln s: "
+        + ", ".join(f"{v:.3g}" for v in update.singular_values)
+    )
+    if update.held:
+        print(f"held at the prior (the test cannot identify them): {', '.join(update.held)}")
     if update.at_bound:
         print(f"AT BOUND (the test asks for more than the band): {', '.join(update.at_bound)}")
     print(update.residuals().to_string(index=False, float_format=lambda v: f"{v:.4g}"))
@@ -282,6 +314,8 @@ def cmd_validate(args) -> int:
     out = Path(args.output_dir or results_dir(args.model, "validation", RESULTS))
     if args.test:
         return _validate_test(model, args, out)
+    if args.test_unit:
+        raise UfmtError("--test-unit: only with --test FILE")
     if args.json:
         raise UfmtError("--json: only with --test FILE (the validation against a modal test)")
     reference = read_reference(packaged_path("paper_reference.toml"))
@@ -292,6 +326,7 @@ def cmd_validate(args) -> int:
             f"describes the packaged UFMT: bodies {', '.join(missing)} are not in this model; "
             "give your machine's test with --test FILE (docs/modal-test.md)"
         )
+    args.modes = args.modes or _mode_list(DEFAULT_PLOTTED_MODES)
     result = validate(model, reference, PAPER_MODES)
     lines = describe(model, result.modes.shares, top=3)
     response = None
@@ -318,17 +353,20 @@ def cmd_validate(args) -> int:
 
 
 def _validate_test(model, args, out: Path) -> int:
-    """Pair the model's modes with the test's, write correlation.csv, mac.csv and mac.png in
-    ``out`` (measured FRFs: the extraction's and the overlay's files too), print the pair
-    table (or, with ``--json``, one JSON object)."""
+    """Pair the model's modes with the test's, write correlation.csv, mac.csv, mac.png and
+    ``mode-N.png`` of the ``--modes`` in ``out`` (measured FRFs: the extraction's and the
+    overlay's files too), print the pair table (or, with ``--json``, one JSON object)."""
     from ufmt.calibration.correlation import correlate
     from ufmt.calibration.frf_overlay import overlay
     from ufmt.jsonout import dumps_strict
 
     test = args.test
     extracted = _frf_modes(args)
-    result = correlate(model, test if extracted is None else extracted.test)
-    written = result.save(out)
+    if extracted is None:
+        result = correlate(model, test, unit=args.test_unit)
+    else:
+        result = correlate(model, extracted.test)
+    written = result.save(out) + _mode_plots(model, args.modes or [], out)
     frf = {}
     if extracted is not None:
         both = overlay(model, extracted.measured)
@@ -362,6 +400,28 @@ def _frf_json(extracted, both) -> dict:
         "damping_ratios": extracted.test.damping_ratio.tolist(),
         "overlay_median_log10_ratio": both.log_ratio(),
     }
+
+
+def _mode_plots(model, modes: list[int], out: Path) -> list[Path]:
+    """``mode-N.png`` of each model mode N in ``modes`` (``validate --test --modes``)."""
+    if not modes:
+        return []
+    from ufmt.mstmm.solve import describe, solve_modes
+    from ufmt.plots import save_figure
+    from ufmt.plots.modes import plot_mode
+
+    solution = solve_modes(model, count=max(modes), shapes=True)
+    have = solution.frequencies_hz.size
+    if max(modes) > have:
+        raise UfmtError(f"{model.source}: --modes {max(modes)}: the model has only {have} modes")
+    lines = describe(model, solution.energy_shares(model), top=3)
+    return [
+        save_figure(
+            plot_mode(model, solution.shapes, n - 1, description=lines[n - 1]),
+            out / f"mode-{n}.png",
+        )
+        for n in modes
+    ]
 
 
 def _csv(table, float_format: str) -> bytes:

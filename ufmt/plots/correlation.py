@@ -30,7 +30,7 @@ def plot_mac(correlation, ax=None):
                     fill=False,
                     edgecolor="tab:red",
                     linewidth=1.6,
-                    linestyle="-" if row.paired_by == "MAC" else "--",
+                    linestyle="-" if row.paired_by == "mac" else "--",
                 )
             )
     labels = [
