@@ -13,7 +13,7 @@ from ufmt.model.schema import frozen_array
 from ufmt.tables import Where
 
 KINDS = ("rigid", "virtual", "beam")
-TOP_FIELDS = ("name", "description", "body", "hinge", "machine", "design")
+TOP_FIELDS = ("name", "description", "body", "hinge", "machine", "design", "uncertain")
 BODY_FIELDS = ("name", "kind", "number")
 RIGID_FIELDS = ("mass", "center_of_mass", "inertia")
 CIRCLE_FIELDS = ("diameter", "inner_diameter")

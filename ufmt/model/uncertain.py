@@ -1,0 +1,125 @@
+"""Reading a model file's ``[[uncertain]]`` tables: the inputs of that machine which nothing
+measures, each with its band and the band's source (what ``ufmt simulate --uncertainty``, the
+uncertainty and the tolerance studies sample on this model).
+
+One table per input::
+
+    [[uncertain]]
+    name = "machine.force_scale"     # a parameter of this model (ufmt.design): machine.<key>,
+                                     #   hinge.<name>.stiffness[i], a [design] name, or
+                                     #   damping.hinge_factor (a factor on every hinge damper)
+    band = [0.8, 1.25]               # [low, high] [SI], or
+    # scale = [0.5, 2.0]             #   times the model's own value
+    distribution = "loguniform"      # uniform (default) | loguniform: how it is sampled
+    source = "..."                   # where the band comes from (required)
+
+Every end of a band must be a value the model file could hold (the ``[machine]`` key's range,
+the hinge limits of :data:`ufmt.model.rules.LIMITS`), so that every sample is a valid model.
+A band is kept absolute: ``scale`` is resolved against the file's own value when it is read.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+
+from ufmt.errors import ModelError, StudyError
+from ufmt.model.machine import OPTIONAL_FIELDS
+from ufmt.model.rules import LIMITS
+from ufmt.model.schema import Model, UncertainInput
+from ufmt.tables import Where
+
+UNCERTAIN_FIELDS = ("name", "band", "scale", "distribution", "source")
+DISTRIBUTIONS = ("uniform", "loguniform")
+#: the factor on every hinge damper (``damping`` and ``rotational_damping``) of the model
+HINGE_DAMPING_FACTOR = "damping.hinge_factor"
+
+
+def parse_uncertain(source: str, tables, model: Model) -> tuple[UncertainInput, ...]:
+    """The ``[[uncertain]]`` tables of the file ``source`` for the loaded ``model``.
+
+    Raises
+    ------
+    ModelError
+        One line naming the file, the entry and the field: an unknown name, NaN, low >= high,
+        an end outside what the model allows, a missing source, a name given twice.
+    """
+    top = Where(source, "", error=ModelError)
+    entries = top.tables("uncertain", tables)
+    out: list[UncertainInput] = []
+    for i, table in enumerate(entries):
+        where = Where(source, f"uncertain[{i}]", error=ModelError)
+        where.keys(table, UNCERTAIN_FIELDS, required=("name", "source"))
+        name = where.string("name", table["name"])
+        where = Where(source, f"uncertain {name!r}", error=ModelError)
+        if name in [u.name for u in out]:
+            top.fail("uncertain", f"{name!r} appears more than once")
+        value = _value(where, name, model)
+        low, high = _band(where, table, value)
+        log = where.choice(
+            "distribution", table.get("distribution", "uniform"), DISTRIBUTIONS, "distribution"
+        )
+        if log == "loguniform" and low <= 0:
+            where.fail("band", f"[{low:g}, {high:g}]: a log-uniform band needs low > 0")
+        for end in (low, high):
+            _check_end(where, name, end, model)
+        text = where.string("source", table["source"])
+        out.append(UncertainInput(name, low, high, log == "loguniform", text))
+    return tuple(out)
+
+
+def _value(where: Where, name: str, model: Model) -> float:
+    """The model's own value of parameter ``name`` (1 for the hinge damping factor)."""
+    from ufmt.design import PROCESS_PARAMETERS, design_value, unknown_design_parameter
+
+    if name == HINGE_DAMPING_FACTOR:
+        return 1.0
+    if name in PROCESS_PARAMETERS:
+        where.fail("name", f"{name!r} is a process parameter, not an input of the machine")
+    problem = unknown_design_parameter(name, model)
+    if problem:
+        where.fail("name", f"{problem}; or {HINGE_DAMPING_FACTOR}")
+    return design_value(model, name)
+
+
+def _band(where: Where, table: Mapping, value: float) -> tuple[float, float]:
+    """[low, high] of the entry: its ``band``, or its ``scale`` times the model's ``value``."""
+    given = [key for key in ("band", "scale") if key in table]
+    if len(given) != 1:
+        where.fail_table("give exactly one of band = [low, high] or scale = [low, high]")
+    if given == ["band"]:
+        return where.interval("band", table["band"])
+    low, high = where.interval("scale", table["scale"], sign="positive")
+    if not (math.isfinite(value) and value > 0):
+        where.fail(
+            "scale",
+            f"the model's value is {value!r} (released, rigid or not positive): a scale of it"
+            " is meaningless; give band",
+        )
+    return low * value, high * value
+
+
+def _check_end(where: Where, name: str, end: float, model: Model) -> None:
+    """``end`` is a value the model file could hold for ``name``."""
+    from ufmt.design import MACHINE_PREFIX, apply_design, design_target, machine_target
+
+    field = "band"
+    if name == HINGE_DAMPING_FACTOR:
+        largest = max((float(max(h.damping6)) for h in model.hinges), default=0.0)
+        most = LIMITS["damping"][1] / largest if largest > 0 else math.inf
+        if not 0.0 <= end <= most:
+            where.outside(field, end, 0.0, most, "(times every hinge damper)")
+        return
+    target = machine_target(name) if name.startswith(MACHINE_PREFIX) else None
+    if target is not None and target[1] is None:
+        _, low, high, unit = OPTIONAL_FIELDS[target[0]]
+        where.within(field, end, low, high, "" if unit == "-" else f"[{unit}]")
+        return
+    if target is None:
+        _, kind, _ = design_target(name, model.design)
+        low, high, unit = LIMITS[kind]
+        where.within(field, end, low, high, unit)
+    try:  # the remaining rules (a plate inside the tool circle, ...)
+        apply_design(model, {name: end})
+    except (ModelError, StudyError) as exc:
+        where.fail(field, f"{end:g} is not a value the model can take: {exc}")
