@@ -126,8 +126,7 @@ def _register_simulate(subparsers) -> None:
         default=None,
         metavar="N",
         help=f"also simulate N <= {MAX_UNCERTAINTY_SAMPLES} Latin-hypercube samples of the "
-        "model's documented bands (its [[uncertain]] tables; the packaged machine's own) and "
-        "print each metric's 5-95 %% interval (JSON: 'uncertainty')",
+        "model's documented bands ([[uncertain]]) and print each metric's 5-95 %% interval",
     )
     p.add_argument(
         "--uncertainty-inputs",

@@ -22,12 +22,17 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from typing import NoReturn
 
-from ufmt.errors import ModelError, StudyError
-from ufmt.model.machine import OPTIONAL_FIELDS
+import numpy as np
+
+from ufmt.defaults import REFERENCE_PROCESS
+from ufmt.errors import ModelError
+from ufmt.model.design import MACHINE_PREFIX, design_target, machine_target, parameter_value
+from ufmt.model.machine import OPTIONAL_FIELDS, read_machine
 from ufmt.model.rules import LIMITS
 from ufmt.model.schema import Model, UncertainInput
-from ufmt.tables import Where
+from ufmt.tables import Where, did_you_mean
 
 UNCERTAIN_FIELDS = ("name", "band", "scale", "distribution", "source")
 DISTRIBUTIONS = ("uniform", "loguniform")
@@ -70,16 +75,36 @@ def parse_uncertain(source: str, tables, model: Model) -> tuple[UncertainInput, 
 
 def _value(where: Where, name: str, model: Model) -> float:
     """The model's own value of parameter ``name`` (1 for the hinge damping factor)."""
-    from ufmt.design import PROCESS_PARAMETERS, design_value, unknown_design_parameter
-
     if name == HINGE_DAMPING_FACTOR:
         return 1.0
-    if name in PROCESS_PARAMETERS:
+    if name in REFERENCE_PROCESS:
         where.fail("name", f"{name!r} is a process parameter, not an input of the machine")
-    problem = unknown_design_parameter(name, model)
-    if problem:
-        where.fail("name", f"{problem}; or {HINGE_DAMPING_FACTOR}")
-    return design_value(model, name)
+    if name.startswith(MACHINE_PREFIX) and name not in model.design:
+        if model.machine is None:
+            where.fail("name", f"{name!r}: the model has no [machine] table")
+        if machine_target(name) is None:
+            _unknown(where, name, [f"{MACHINE_PREFIX}{key}" for key in OPTIONAL_FIELDS])
+        return parameter_value(model, name, model.design)
+    try:
+        hinge, _, _ = design_target(name, model.design)
+    except KeyError:
+        _unknown(where, name, [*model.design, HINGE_DAMPING_FACTOR])
+    hinges = [h.name for h in model.hinges]
+    if hinge not in hinges:
+        hint = did_you_mean(hinge, hinges) or f"hinges: {', '.join(hinges)}"
+        where.fail("name", f"{name!r}: the model has no hinge {hinge!r} ({hint})")
+    return parameter_value(model, name, model.design)
+
+
+def _unknown(where: Where, name: str, names) -> NoReturn:
+    """Raise: ``name`` is no parameter of the model (with the closest of ``names``)."""
+    hint = did_you_mean(name, names) or f"declared: {', '.join(names)}"
+    where.fail(
+        "name",
+        f"unknown parameter {name!r} ({hint}) (allowed: machine.<key>,"
+        f" hinge.<name>.stiffness[i] or .rotational_stiffness[i], a [design] name,"
+        f" {HINGE_DAMPING_FACTOR})",
+    )
 
 
 def _band(where: Where, table: Mapping, value: float) -> tuple[float, float]:
@@ -100,26 +125,36 @@ def _band(where: Where, table: Mapping, value: float) -> tuple[float, float]:
 
 
 def _check_end(where: Where, name: str, end: float, model: Model) -> None:
-    """``end`` is a value the model file could hold for ``name``."""
-    from ufmt.design import MACHINE_PREFIX, apply_design, design_target, machine_target
-
-    field = "band"
+    """``end`` is a value the model file could hold for ``name`` (every component it sets)."""
     if name == HINGE_DAMPING_FACTOR:
         largest = max((float(max(h.damping6)) for h in model.hinges), default=0.0)
         most = LIMITS["damping"][1] / largest if largest > 0 else math.inf
         if not 0.0 <= end <= most:
-            where.outside(field, end, 0.0, most, "(times every hinge damper)")
+            where.outside("band", end, 0.0, most, "(times every hinge damper)")
         return
-    target = machine_target(name) if name.startswith(MACHINE_PREFIX) else None
-    if target is not None and target[1] is None:
-        _, low, high, unit = OPTIONAL_FIELDS[target[0]]
-        where.within(field, end, low, high, "" if unit == "-" else f"[{unit}]")
-        return
+    target = machine_target(name) if name not in model.design else None
     if target is None:
-        _, kind, _ = design_target(name, model.design)
-        low, high, unit = LIMITS[kind]
-        where.within(field, end, low, high, unit)
-    try:  # the remaining rules (a plate inside the tool circle, ...)
-        apply_design(model, {name: end})
-    except (ModelError, StudyError) as exc:
-        where.fail(field, f"{end:g} is not a value the model can take: {exc}")
+        hinge, field, components = design_target(name, model.design)
+        low, high, unit = LIMITS[field]
+        where.within("band", end, low, high, unit)
+        old = np.asarray(getattr(model.hinge(hinge), field))[list(components)]
+        mean = old.mean()  # a mean over components scales them in proportion (ufmt.design)
+        for value in old * (end / mean) if np.isfinite(mean) and mean > 0 else [end]:
+            if not low <= value <= high:
+                where.fail(
+                    "band",
+                    f"{end:g} sets a component to {value:g}, outside [{low:g}, {high:g}] {unit}",
+                )
+        return
+    key, index = target
+    if index is None:
+        _, low, high, unit = OPTIONAL_FIELDS[key]
+        where.within("band", end, low, high, "" if unit == "-" else f"[{unit}]")
+        return
+    table = dict(model.machine.table)
+    pair = list(table.get(key, getattr(model.machine, key)))
+    pair[index] = end
+    try:  # the [machine] reader's own rules (the plate inside the tool circle)
+        read_machine({**table, key: pair}, model.source)
+    except ModelError as exc:
+        where.fail("band", f"{end:g} is not a value the model can take ({exc})")
