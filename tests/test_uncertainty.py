@@ -507,9 +507,14 @@ source = "test"
 """
 
 
+def plain_bridge() -> str:
+    """The bridge example's text without the [[uncertain]] tables it declares."""
+    return BRIDGE.read_text(encoding="utf-8").split("\n[[uncertain]]")[0]
+
+
 def bridge_with(text: str):
-    """The bridge example with ``text`` appended (its own [[uncertain]] tables)."""
-    return load_model_text(BRIDGE.read_text(encoding="utf-8") + text, str(BRIDGE))
+    """The bridge example with ``text`` as its only [[uncertain]] tables."""
+    return load_model_text(plain_bridge() + text, str(BRIDGE))
 
 
 def test_bridge_interval_over_its_own_band_contains_the_nominal_and_widens_with_the_band():
@@ -567,9 +572,11 @@ def test_another_model_never_borrows_the_packaged_machines_bands():
 @pytest.mark.parametrize(
     "extra", [["--uncertainty", "8"], ["--uncertainty", "2", "--uncertainty-inputs", "machine.*"]]
 )
-def test_simulate_uncertainty_on_a_model_without_bands_is_one_line_before_the_cut(extra):
+def test_simulate_uncertainty_on_a_model_without_bands_is_one_line_before_the_cut(extra, tmp_path):
+    plain = tmp_path / "bridge.toml"
+    plain.write_text(plain_bridge(), encoding="utf-8")
     res = subprocess.run(
-        [sys.executable, "-m", "ufmt.cli", "simulate", str(BRIDGE), *extra],
+        [sys.executable, "-m", "ufmt.cli", "simulate", str(plain), *extra],
         cwd=REPO,
         capture_output=True,
         text=True,
@@ -587,7 +594,7 @@ def bridge_stiffness_study(design, process, model=None):
 def test_uncertainty_study_scale_on_a_users_hinge_is_its_own_value_times_the_scale(tmp_path):
     """Oracle: the model's own value (4e8 N/m) times scale = [0.5, 2]: every sample inside,
     both halves of the band sampled; a pattern over a model without bands is one line."""
-    (tmp_path / "bridge.toml").write_bytes(BRIDGE.read_bytes())
+    (tmp_path / "bridge.toml").write_text(plain_bridge(), encoding="utf-8")
     body = """\
         model = "bridge.toml"
         samples = 4
@@ -614,7 +621,7 @@ def test_uncertainty_study_patterns_match_the_models_own_bands(tmp_path):
     """A pattern over a model with [[uncertain]] tables gives its bands (the damping factor,
     outside what a study sets, left out)."""
     damping = '\n[[uncertain]]\nname = "damping.hinge_factor"\nband = [0.5, 2.0]\nsource = "t"\n'
-    text = BRIDGE.read_text() + FORCE_BAND.format(low=0.8, high=1.25) + damping
+    text = plain_bridge() + FORCE_BAND.format(low=0.8, high=1.25) + damping
     (tmp_path / "bridge.toml").write_text(text, encoding="utf-8")
     body = 'model = "bridge.toml"\n[[input]]\nparameter = "*"\n'
     path = write_study(tmp_path, "own", body, "bridge_stiffness_study")
@@ -622,3 +629,14 @@ def test_uncertainty_study_patterns_match_the_models_own_bands(tmp_path):
     assert [(b.parameter, b.low, b.high) for b in study.bounds] == [
         ("machine.force_scale", 0.8, 1.25)
     ]
+
+
+def test_the_bridge_example_samples_its_own_declared_bands(capsys):
+    """The example's ``machine.*`` is its own force band (log-symmetric about its nominal 1):
+    the interval brackets the point value; none of the packaged machine's bands appears."""
+    argv = ["simulate", str(BRIDGE), "--json", "--sources", "dynamic", "--uncertainty", "2"]
+    assert main([*argv, "--uncertainty-inputs", "machine.*"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["uncertainty"]["inputs"] == ["machine.force_scale"]
+    band = out["uncertainty"]["metrics"]["pv_dynamic_nm"]
+    assert band["q05"] < out["pv_dynamic_nm"] < band["q95"]

@@ -123,6 +123,8 @@ def test_report_of_a_users_model_goes_to_its_own_folder(tmp_path, monkeypatch):
 # ---------------------------------------------------------------------------------------------
 # a model's own uncertain inputs ([[uncertain]])
 
+#: the bridge without the uncertain inputs its example file declares
+PLAIN = TEXT.split("\n[[uncertain]]")[0]
 UNCERTAIN = """
 [[uncertain]]
 name = "machine.force_scale"
@@ -150,7 +152,7 @@ def test_uncertain_tables_read_scale_against_the_files_own_value_and_write_back(
     inverse)."""
     from ufmt.model.write import model_to_toml
 
-    model = load_model_text(TEXT + UNCERTAIN, "bridge.toml")
+    model = load_model_text(PLAIN + UNCERTAIN, "bridge.toml")
     force, axial, radial = model.uncertain
     assert (force.low, force.high, force.log) == (0.8, 1.25, True)
     axial_k = model.hinge("air_bearing").stiffness[2]
@@ -158,7 +160,7 @@ def test_uncertain_tables_read_scale_against_the_files_own_value_and_write_back(
     radial_k = np.mean(model.hinge("air_bearing").stiffness[:2])
     assert (radial.low, radial.high) == pytest.approx((0.8 * radial_k, 1.2 * radial_k))
     assert load_model_text(model_to_toml(model)).uncertain == model.uncertain
-    assert load_model_text(TEXT).uncertain == ()
+    assert load_model_text(PLAIN).uncertain == ()
 
 
 @pytest.mark.parametrize(
@@ -183,7 +185,7 @@ def test_uncertain_tables_read_scale_against_the_files_own_value_and_write_back(
     ],
 )
 def test_uncertain_table_mistakes_are_one_line_naming_the_entry_and_field(entry, field, phrase):
-    text = f'{TEXT}\n[[uncertain]]\n{entry}\nsource = "test"\n'
+    text = f'{PLAIN}\n[[uncertain]]\n{entry}\nsource = "test"\n'
     with pytest.raises(ModelError) as err:
         load_model_text(text, "bridge.toml")
     message = str(err.value)
@@ -201,11 +203,11 @@ def test_uncertain_table_mistakes_are_one_line_naming_the_entry_and_field(entry,
 )
 def test_uncertain_table_shape_mistakes_are_one_line(entry, phrase):
     with pytest.raises(ModelError) as err:
-        load_model_text(f"{TEXT}\n[[uncertain]]\n{entry}\n", "bridge.toml")
+        load_model_text(f"{PLAIN}\n[[uncertain]]\n{entry}\n", "bridge.toml")
     assert "\n" not in str(err.value) and phrase in str(err.value)
 
 
 def test_an_uncertain_input_given_twice_is_refused():
     entry = '\n[[uncertain]]\nname = "machine.force_scale"\nband = [1, 2]\nsource = "x"\n'
     with pytest.raises(ModelError, match="appears more than once"):
-        load_model_text(TEXT + entry + entry, "bridge.toml")
+        load_model_text(PLAIN + entry + entry, "bridge.toml")
