@@ -176,6 +176,7 @@ def test_uncertain_tables_read_scale_against_the_files_own_value_and_write_back(
         ('name = "hinge.air_bearing.stiffness[0]"\nband = [1e8, 1e16]', "band", "outside"),
         ('name = "machine.workpiece_size[0]"\nband = [0.05, 0.5]', "band", "tool circle"),
         ('name = "hinge.shaft_top.stiffness[0]"\nscale = [0.5, 2]', "scale", "meaningless"),
+        ('name = "machine.force_scale"\nscale = [0.1, 2]', "scale", "outside the allowed range"),
         ('name = "machine.force_scale"\nband = [-1, 2]\ndistribution = "loguniform"', "band", ">"),
         (
             'name = "machine.force_scale"\nband = [1, 2]\ndistribution = "normal"',

@@ -64,10 +64,11 @@ def parse_uncertain(source: str, tables, model: Model) -> tuple[UncertainInput, 
         log = where.choice(
             "distribution", table.get("distribution", "uniform"), DISTRIBUTIONS, "distribution"
         )
+        given = "scale" if "scale" in table else "band"  # the field a message names
         if log == "loguniform" and low <= 0:
-            where.fail("band", f"[{low:g}, {high:g}]: a log-uniform band needs low > 0")
+            where.fail(given, f"[{low:g}, {high:g}]: a log-uniform band needs low > 0")
         for end in (low, high):
-            _check_end(where, name, end, model)
+            _check_end(where, given, name, end, model)
         text = where.string("source", table["source"])
         out.append(UncertainInput(name, low, high, log == "loguniform", text))
     return tuple(out)
@@ -124,32 +125,33 @@ def _band(where: Where, table: Mapping, value: float) -> tuple[float, float]:
     return low * value, high * value
 
 
-def _check_end(where: Where, name: str, end: float, model: Model) -> None:
-    """``end`` is a value the model file could hold for ``name`` (every component it sets)."""
+def _check_end(where: Where, given: str, name: str, end: float, model: Model) -> None:
+    """``end`` is a value the model file could hold for ``name`` (every component it sets);
+    ``given``: the field that gave it (band or scale)."""
     if name == HINGE_DAMPING_FACTOR:
         largest = max((float(max(h.damping6)) for h in model.hinges), default=0.0)
         most = LIMITS["damping"][1] / largest if largest > 0 else math.inf
         if not 0.0 <= end <= most:
-            where.outside("band", end, 0.0, most, "(times every hinge damper)")
+            where.outside(given, end, 0.0, most, "(times every hinge damper)")
         return
     target = machine_target(name) if name not in model.design else None
     if target is None:
         hinge, field, components = design_target(name, model.design)
-        low, high, unit = LIMITS[field]
-        where.within("band", end, low, high, unit)
+        low, high, unit = LIMITS[field]  # field: the hinge's stiffness or rotational_stiffness
+        where.within(given, end, low, high, unit)
         old = np.asarray(getattr(model.hinge(hinge), field))[list(components)]
         mean = old.mean()  # a mean over components scales them in proportion (ufmt.design)
         for value in old * (end / mean) if np.isfinite(mean) and mean > 0 else [end]:
             if not low <= value <= high:
                 where.fail(
-                    "band",
+                    given,
                     f"{end:g} sets a component to {value:g}, outside [{low:g}, {high:g}] {unit}",
                 )
         return
     key, index = target
     if index is None:
         _, low, high, unit = OPTIONAL_FIELDS[key]
-        where.within("band", end, low, high, "" if unit == "-" else f"[{unit}]")
+        where.within(given, end, low, high, "" if unit == "-" else f"[{unit}]")
         return
     table = dict(model.machine.table)
     pair = list(table.get(key, getattr(model.machine, key)))
@@ -157,4 +159,4 @@ def _check_end(where: Where, name: str, end: float, model: Model) -> None:
     try:  # the [machine] reader's own rules (the plate inside the tool circle)
         read_machine({**table, key: pair}, model.source)
     except ModelError as exc:
-        where.fail("band", f"{end:g} is not a value the model can take ({exc})")
+        where.fail(given, f"{end:g} is not a value the model can take ({exc})")
