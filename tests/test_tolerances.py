@@ -270,3 +270,30 @@ def test_probability_needs_uncertain_bands_and_a_probability(tmp_path):
         with pytest.raises(StudyError, match=phrase) as err:
             parse_study(text, path)
         assert "\n" not in str(err.value)
+
+
+def test_uncertain_bands_are_the_study_models_own(tmp_path):
+    """On a model with [[uncertain]] tables the patterns match its bands (the declared band,
+    log scale as declared); on one without, one line saying how to declare them."""
+    bridge = (Path(__file__).resolve().parents[1] / "examples" / "bridge.toml").read_text()
+    bridge = bridge.split("\n[[uncertain]]")[0]  # without the example's own tables
+    declared = (
+        '\n[[uncertain]]\nname = "machine.force_scale"\nband = [0.8, 1.25]\n'
+        'distribution = "loguniform"\nsource = "test"\n'
+    )
+    text = (
+        f'kind = "optimise-tolerances"\nfunction = "{HERE}:linear_budget"\nmodel = "m.toml"\n'
+        'limit = 50.0\nuncertain = ["machine.*"]\n[[variable]]\n'
+        'parameter = "machine.straightness_m"\nrange = [2e-9, 2e-7]\ncost = [1.0, 1.0]\n'
+        'reason = "test"\n'
+    )
+    path = tmp_path / "s.toml"
+    (tmp_path / "m.toml").write_text(bridge + declared, encoding="utf-8")
+    study = parse_study(text, path)
+    uncertain = [b for b in study.bounds if b.parameter == "machine.force_scale"]
+    assert [(b.low, b.high, b.log) for b in uncertain] == [(0.8, 1.25, True)]
+    assert study.options["uncertain"] == ["machine.force_scale"]
+    (tmp_path / "m.toml").write_text(bridge, encoding="utf-8")
+    with pytest.raises(StudyError, match="declares no uncertain inputs") as err:
+        parse_study(text, path)
+    assert "\n" not in str(err.value)

@@ -9,6 +9,7 @@ inputs are the process parameters mapped linearly onto the unit interval (or [-p
 
 from __future__ import annotations
 
+import fnmatch
 import json
 import math
 import os
@@ -24,10 +25,11 @@ import pandas as pd
 import pytest
 
 from ufmt.cli import main
+from ufmt.design import apply_design
 from ufmt.errors import StudyError
 from ufmt.machining.modal import modal_basis
 from ufmt.machining.process import Process
-from ufmt.model.load import load_model, packaged_path
+from ufmt.model.load import load_model, load_model_text, packaged_path
 from ufmt.simulate import simulate
 from ufmt.studies.bands import documented_bands
 from ufmt.studies.intervals import (
@@ -490,3 +492,148 @@ def test_rerun_that_computes_nothing_rewrites_nothing(tmp_path):
     first = {p: p.read_bytes() for p in sorted(results.rglob("*")) if p.is_file()}
     run(study, results)
     assert {p: p.read_bytes() for p in sorted(results.rglob("*")) if p.is_file()} == first
+
+
+# ---------------------------------------------------------------------------------------------
+# a model's own bands: declared in its file, the packaged machine's for the packaged machine
+
+BRIDGE = REPO / "examples" / "bridge.toml"
+FORCE_BAND = """
+[[uncertain]]
+name = "machine.force_scale"
+band = [{low!r}, {high!r}]
+distribution = "loguniform"
+source = "test"
+"""
+
+
+def plain_bridge() -> str:
+    """The bridge example's text without the [[uncertain]] tables it declares."""
+    return BRIDGE.read_text(encoding="utf-8").split("\n[[uncertain]]")[0]
+
+
+def bridge_with(text: str):
+    """The bridge example with ``text`` as its only [[uncertain]] tables."""
+    return load_model_text(plain_bridge() + text, str(BRIDGE))
+
+
+def test_bridge_interval_over_its_own_band_contains_the_nominal_and_widens_with_the_band():
+    """Oracles: the dynamic surface is linear in the force factor (each sample's PV is its
+    factor times the nominal PV, the bridge's force_scale being 1); the Latin hypercube puts
+    one sample on each side of the log-centre 1 of a band log-symmetric about it, so the 5-95 %
+    interval contains the nominal; with the same seed a wider band gives a wider interval."""
+    process = Process(300.0, 15.0, 4.0)
+    options = {"sources": ["dynamic"], "n_phi": 512}
+    nominal = simulate(bridge_with(""), process, **options).metrics["pv_dynamic_nm"]
+    widths = []
+    for low, high in ((0.8, 1.25), (0.5, 2.0)):
+        model = bridge_with(FORCE_BAND.format(low=low, high=high))
+        intervals = headline_intervals(model, process, 4, **options)
+        assert intervals.inputs == ("machine.force_scale",)
+        samples = intervals.samples
+        np.testing.assert_allclose(
+            samples["pv_dynamic_nm"], samples["machine.force_scale"] * nominal, rtol=1e-9
+        )
+        band = intervals.to_dict()["metrics"]["pv_dynamic_nm"]
+        assert band["q05"] < nominal < band["q95"]
+        widths.append(band["q95"] - band["q05"])
+    assert widths[1] > widths[0]
+
+
+def test_the_packaged_machine_keeps_its_bands_and_samples_wherever_its_file_lies(tmp_path):
+    """Oracle: the code path before models declared bands, rebuilt here: the calibration
+    file's bands and the assumed damping bands matching DEFAULT_INPUTS, in that order; the
+    packaged model, loaded or copied elsewhere, samples them bitwise alike."""
+    from ufmt.studies.bands import damping_bands
+    from ufmt.studies.intervals import DEFAULT_INPUTS
+
+    everything = {**documented_bands(), **damping_bands()}
+    names = [n for p in DEFAULT_INPUTS for n in everything if fnmatch.fnmatchcase(n, p)]
+    before = sample_designs({n: everything[n] for n in dict.fromkeys(names)}, 5, seed=3)
+    copy = tmp_path / "ufmt.toml"
+    copy.write_bytes(packaged_path().read_bytes())
+    for model in (None, load_model(), load_model(copy)):
+        pd.testing.assert_frame_equal(sample_designs(input_bands(None, model), 5, 3), before)
+
+
+def test_another_model_never_borrows_the_packaged_machines_bands():
+    """The bridge without tables has no bands (one line saying how to declare them); with
+    tables exactly its own; a packaged model with a stiffness changed is another machine."""
+    with pytest.raises(StudyError, match="declares no uncertain inputs") as err:
+        input_bands(["machine.*"], bridge_with(""))
+    assert "[[uncertain]]" in str(err.value) and "\n" not in str(err.value)
+    own = input_bands(None, bridge_with(FORCE_BAND.format(low=0.8, high=1.25)))
+    assert list(own) == ["machine.force_scale"] and (own["machine.force_scale"].low) == 0.8
+    changed = apply_design(load_model(), {"hinge.h31.stiffness[2]": 1e9})
+    with pytest.raises(StudyError, match="declares no uncertain inputs"):
+        input_bands(None, changed)
+
+
+@pytest.mark.parametrize(
+    "extra", [["--uncertainty", "8"], ["--uncertainty", "2", "--uncertainty-inputs", "machine.*"]]
+)
+def test_simulate_uncertainty_on_a_model_without_bands_is_one_line_before_the_cut(
+    extra, tmp_path, capsys
+):
+    plain = tmp_path / "bridge.toml"
+    plain.write_text(plain_bridge(), encoding="utf-8")
+    assert main(["simulate", str(plain), *extra]) == 2
+    out, err = capsys.readouterr()
+    assert out == "" and len(err.strip().splitlines()) == 1
+    assert "declares no uncertain inputs" in err and "h31" not in err
+
+
+def bridge_stiffness_study(design, process, model=None):
+    """The sampled axial stiffness of the bridge's air bearing [N/m] as pv_measured_nm."""
+    return {"pv_measured_nm": design["hinge.air_bearing.stiffness[2]"]}
+
+
+def test_uncertainty_study_scale_on_a_users_hinge_is_its_own_value_times_the_scale(tmp_path):
+    """Oracle: the model's own value (4e8 N/m) times scale = [0.5, 2]: every sample inside,
+    both halves of the band sampled; a pattern over a model without bands is one line."""
+    (tmp_path / "bridge.toml").write_text(plain_bridge(), encoding="utf-8")
+    body = """\
+        model = "bridge.toml"
+        samples = 4
+        metrics = ["pv_measured_nm"]
+        [[input]]
+        parameter = "hinge.air_bearing.stiffness[2]"
+        scale = [0.5, 2.0]
+        """
+    out = run(write_study(tmp_path, "scaled", body, "bridge_stiffness_study"), tmp_path / "r")
+    values = read_table(out / "samples.csv")["pv_measured_nm"].to_numpy()
+    assert np.all((values >= 2e8) & (values <= 8e8)) and values.min() < 4e8 < values.max()
+    bad = write_study(
+        tmp_path,
+        "bad",
+        'model = "bridge.toml"\n[[input]]\nparameter = "machine.*"\n',
+        "bridge_stiffness_study",
+    )
+    with pytest.raises(StudyError, match="declares no uncertain inputs") as err:
+        parse_study(bad.read_text(), bad)
+    assert "\n" not in str(err.value)
+
+
+def test_uncertainty_study_patterns_match_the_models_own_bands(tmp_path):
+    """A pattern over a model with [[uncertain]] tables gives its bands (the damping factor,
+    outside what a study sets, left out)."""
+    damping = '\n[[uncertain]]\nname = "damping.hinge_factor"\nband = [0.5, 2.0]\nsource = "t"\n'
+    text = plain_bridge() + FORCE_BAND.format(low=0.8, high=1.25) + damping
+    (tmp_path / "bridge.toml").write_text(text, encoding="utf-8")
+    body = 'model = "bridge.toml"\n[[input]]\nparameter = "*"\n'
+    path = write_study(tmp_path, "own", body, "bridge_stiffness_study")
+    study = parse_study(path.read_text(), path)
+    assert [(b.parameter, b.low, b.high) for b in study.bounds] == [
+        ("machine.force_scale", 0.8, 1.25)
+    ]
+
+
+def test_the_bridge_example_samples_its_own_declared_bands(capsys):
+    """The example's ``machine.*`` is its own force band (log-symmetric about its nominal 1):
+    the interval brackets the point value; none of the packaged machine's bands appears."""
+    argv = ["simulate", str(BRIDGE), "--json", "--sources", "dynamic", "--uncertainty", "2"]
+    assert main([*argv, "--uncertainty-inputs", "machine.*"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["uncertainty"]["inputs"] == ["machine.force_scale"]
+    band = out["uncertainty"]["metrics"]["pv_dynamic_nm"]
+    assert band["q05"] < out["pv_dynamic_nm"] < band["q95"]

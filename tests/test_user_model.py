@@ -118,3 +118,97 @@ def test_report_of_a_users_model_goes_to_its_own_folder(tmp_path, monkeypatch):
     assert main(["report", str(BRIDGE)]) == 0
     assert (tmp_path / "results" / "bridge" / "report.html").exists()
     assert not (tmp_path / "results" / "report.html").exists()
+
+
+# ---------------------------------------------------------------------------------------------
+# a model's own uncertain inputs ([[uncertain]])
+
+#: the bridge without the uncertain inputs its example file declares
+PLAIN = TEXT.split("\n[[uncertain]]")[0]
+UNCERTAIN = """
+[[uncertain]]
+name = "machine.force_scale"
+band = [0.8, 1.25]
+distribution = "loguniform"
+source = "assumed: the cutting coefficient of another tool, within 25 %"
+
+[[uncertain]]
+name = "hinge.air_bearing.stiffness[2]"
+scale = [0.5, 2.0]
+source = "assumed: an air bearing's axial stiffness known to a factor of two"
+
+[[uncertain]]
+name = "spindle_radial_stiffness_N_m"
+scale = [0.8, 1.2]
+distribution = "loguniform"
+source = "assumed"
+"""
+
+
+def test_uncertain_tables_read_scale_against_the_files_own_value_and_write_back():
+    """Oracles: a scale is the file's own value times the factors (the air bearing's axial
+    4e8 N/m; a [design] name's value is the mean of its components, 2e8 N/m); writing the
+    model and reading the text back gives the same inputs (the writer is the loader's
+    inverse)."""
+    from ufmt.model.write import model_to_toml
+
+    model = load_model_text(PLAIN + UNCERTAIN, "bridge.toml")
+    force, axial, radial = model.uncertain
+    assert (force.low, force.high, force.log) == (0.8, 1.25, True)
+    axial_k = model.hinge("air_bearing").stiffness[2]
+    assert (axial.low, axial.high, axial.log) == (0.5 * axial_k, 2.0 * axial_k, False)
+    radial_k = np.mean(model.hinge("air_bearing").stiffness[:2])
+    assert (radial.low, radial.high) == pytest.approx((0.8 * radial_k, 1.2 * radial_k))
+    assert load_model_text(model_to_toml(model)).uncertain == model.uncertain
+    assert load_model_text(PLAIN).uncertain == ()
+
+
+@pytest.mark.parametrize(
+    ("entry", "field", "phrase"),
+    [
+        ('name = "hinge.h31.stiffness[0]"\nband = [1e8, 2e8]', "name", "no hinge 'h31'"),
+        ('name = "machine.force_scal"\nband = [1, 2]', "name", "did you mean"),
+        ('name = "rpm"\nband = [200, 400]', "name", "process parameter"),
+        ('name = "machine.force_scale"\nband = [nan, 2]', "band[0]", "nan is not a number"),
+        ('name = "machine.force_scale"\nband = [2, 1]', "band", "reversed bounds"),
+        ('name = "machine.force_scale"\nband = [1, 1]', "band", "empty range"),
+        ('name = "machine.force_scale"\nband = [0.1, 2]', "band", "outside the allowed range"),
+        ('name = "hinge.air_bearing.stiffness[0]"\nband = [1e8, 1e16]', "band", "outside"),
+        ('name = "machine.workpiece_size[0]"\nband = [0.05, 0.5]', "band", "tool circle"),
+        ('name = "hinge.shaft_top.stiffness[0]"\nscale = [0.5, 2]', "scale", "meaningless"),
+        ('name = "machine.force_scale"\nscale = [0.1, 2]', "scale", "outside the allowed range"),
+        ('name = "machine.force_scale"\nband = [-1, 2]\ndistribution = "loguniform"', "band", ">"),
+        (
+            'name = "machine.force_scale"\nband = [1, 2]\ndistribution = "normal"',
+            "distribution",
+            "",
+        ),
+    ],
+)
+def test_uncertain_table_mistakes_are_one_line_naming_the_entry_and_field(entry, field, phrase):
+    text = f'{PLAIN}\n[[uncertain]]\n{entry}\nsource = "test"\n'
+    with pytest.raises(ModelError) as err:
+        load_model_text(text, "bridge.toml")
+    message = str(err.value)
+    assert "\n" not in message and message.startswith("bridge.toml: uncertain '")
+    assert f"field '{field}'" in message and phrase in message
+
+
+@pytest.mark.parametrize(
+    ("entry", "phrase"),
+    [
+        ('name = "machine.force_scale"\nband = [1, 2]', "field 'source': missing"),
+        ('name = "machine.force_scale"\nband = [1, 2]\nscale = [1, 2]\nsource = "x"', "exactly"),
+        ('name = "machine.force_scale"\nrange = [1, 2]\nsource = "x"', "unknown field 'range'"),
+    ],
+)
+def test_uncertain_table_shape_mistakes_are_one_line(entry, phrase):
+    with pytest.raises(ModelError) as err:
+        load_model_text(f"{PLAIN}\n[[uncertain]]\n{entry}\n", "bridge.toml")
+    assert "\n" not in str(err.value) and phrase in str(err.value)
+
+
+def test_an_uncertain_input_given_twice_is_refused():
+    entry = '\n[[uncertain]]\nname = "machine.force_scale"\nband = [1, 2]\nsource = "x"\n'
+    with pytest.raises(ModelError, match="appears more than once"):
+        load_model_text(PLAIN + entry + entry, "bridge.toml")

@@ -32,7 +32,6 @@ one takes the paper's reference case (300 rpm, 15 mm/min, 4 um; Table 4).
 
 from __future__ import annotations
 
-import re
 from collections.abc import Mapping
 from dataclasses import replace
 
@@ -41,6 +40,13 @@ import numpy as np
 from ufmt.defaults import REFERENCE_PROCESS
 from ufmt.errors import ModelError, StudyError, closest_name
 from ufmt.machining.sources import SOURCES
+from ufmt.model.design import (
+    MACHINE_PAIRS,
+    MACHINE_PREFIX,
+    design_target,
+    machine_target,
+    parameter_value,
+)
 from ufmt.model.hinges import check_hinge_values
 from ufmt.model.machine import OPTIONAL_FIELDS, read_machine
 from ufmt.model.schema import DesignParameter, Model
@@ -75,28 +81,6 @@ METRICS = tuple(name for name, _ in _METRICS_FINITE)
 ALWAYS_FINITE = tuple(name for name, finite in _METRICS_FINITE if finite)
 FREQUENCIES = tuple(f"f{i}_hz" for i in range(1, N_FREQUENCIES + 1))
 
-_HINGE_PARAMETER = re.compile(
-    r"hinge\.(?P<hinge>[^.\[\]]+)\.(?P<field>stiffness|rotational_stiffness)\[(?P<index>[012])\]"
-)
-MACHINE_PREFIX = "machine."
-#: ``[machine]`` pairs whose components are parameters ``machine.<key>[i]``.
-MACHINE_PAIRS = ("workpiece_size",)
-_MACHINE_PARAMETER = re.compile(r"machine\.(?P<key>[A-Za-z_]+)(\[(?P<index>[01])\])?")
-
-
-def machine_target(name: str) -> tuple[str, int | None] | None:
-    """([machine] key, pair index or None) that parameter ``name`` sets, or None if ``name``
-    is not a ``machine.`` parameter."""
-    match = _MACHINE_PARAMETER.fullmatch(name)
-    if match is None:
-        return None
-    key, index = match["key"], match["index"]
-    if index is None and key in OPTIONAL_FIELDS:
-        return key, None
-    if index is not None and key in MACHINE_PAIRS:
-        return key, int(index)
-    return None
-
 
 def machine_parameters() -> tuple[str, ...]:
     """Every ``machine.`` parameter name (optional numbers, then pair components)."""
@@ -117,25 +101,6 @@ def parameter_names(model: Model, extra: Mapping[str, DesignParameter] | None = 
     pattern."""
     machine = machine_parameters() if model.machine is not None else ()
     return (*design_parameters(model, extra), *machine, *PROCESS_PARAMETERS)
-
-
-def design_target(
-    name: str, parameters: Mapping[str, DesignParameter]
-) -> tuple[str, str, tuple[int, ...]]:
-    """(hinge, field, components) that design parameter ``name`` sets.
-
-    Raises
-    ------
-    KeyError
-        ``name`` is neither a declared design parameter nor ``hinge.<name>.<field>[i]``.
-    """
-    if name in parameters:
-        p = parameters[name]
-        return p.hinge, p.field, p.components
-    match = _HINGE_PARAMETER.fullmatch(name)
-    if match is None:
-        raise KeyError(name)
-    return match["hinge"], match["field"], (int(match["index"]),)
 
 
 def unknown_design_parameter(
@@ -243,10 +208,4 @@ def design_value(
 ) -> float:
     """The value of design parameter ``name`` in ``model``: the mean of its components [SI]
     (a ``machine.`` parameter: the ``[machine]`` value)."""
-    target = machine_target(name) if name not in design_parameters(model, parameters) else None
-    if target is not None:
-        key, index = target
-        value = getattr(model.machine, key)
-        return float(value if index is None else value[index])
-    hinge, field, components = design_target(name, design_parameters(model, parameters))
-    return float(np.mean(getattr(model.hinge(hinge), field)[list(components)]))
+    return parameter_value(model, name, design_parameters(model, parameters))

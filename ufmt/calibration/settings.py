@@ -13,6 +13,10 @@ mistake raises one line naming the file, the table and the field
 * ``[response]`` (optional) -> :class:`ResponseSettings`, the ``[machine]`` parameters and the
   response measurements of the response fit (:mod:`ufmt.calibration.response_fit`, whose
   docstring explains the fields); :func:`read_response_settings` reads this table alone.
+
+The bands of ``[[parameter]]`` and ``[[response.parameter]]`` are also the packaged machine's
+documented uncertainty bands (:mod:`ufmt.studies.bands`): they apply to the packaged machine
+only; another model declares its own in ``[[uncertain]]`` tables (:mod:`ufmt.model.uncertain`).
 """
 
 from __future__ import annotations

@@ -126,14 +126,14 @@ def _register_simulate(subparsers) -> None:
         default=None,
         metavar="N",
         help=f"also simulate N <= {MAX_UNCERTAINTY_SAMPLES} Latin-hypercube samples of the "
-        "documented bands and print each metric's 5-95 %% interval (JSON: 'uncertainty')",
+        "model's documented bands ([[uncertain]]) and print each metric's 5-95 %% interval",
     )
     p.add_argument(
         "--uncertainty-inputs",
-        default=",".join(DEFAULT_INPUTS),
+        default=None,
         metavar="PATTERNS",
-        help="documented bands sampled, comma-separated shell patterns "
-        f"({','.join(DEFAULT_INPUTS)})",
+        help="bands sampled, comma-separated shell patterns (default: every [[uncertain]] "
+        f"input of the model; the packaged machine: {','.join(DEFAULT_INPUTS)})",
     )
     p.add_argument("--json", action="store_true", help="one strict JSON object on stdout")
     p.add_argument(
@@ -231,6 +231,7 @@ def cmd_simulate(args) -> int:
     check_revolutions(process, machine_of(model))
     for warning in caught:
         warnings.warn(warning.message, warning.category, stacklevel=1)
+    patterns = _uncertainty_inputs(args, model)  # a model without bands: before the cut
     options = {} if args.zeta is None else {"zeta": args.zeta}
     if args.psd2_patch is not None:
         options["psd2_patch"] = args.psd2_patch * 1e-3
@@ -249,7 +250,7 @@ def cmd_simulate(args) -> int:
     if args.save:
         result.save(args.save)
     summary = {"model": model.name, **result.to_dict()}
-    intervals = _intervals(args, model, process, options)
+    intervals = _intervals(args, model, process, patterns, options)
     if intervals is not None:
         summary["uncertainty"] = intervals
     if args.json:
@@ -280,13 +281,25 @@ def cmd_simulate(args) -> int:
     return 0
 
 
-def _intervals(args, model, process, options) -> dict | None:
+def _uncertainty_inputs(args, model) -> list[str] | None:
+    """The patterns of ``--uncertainty-inputs`` (None: the model's default), checked against
+    the model's bands when ``--uncertainty`` is given."""
+    patterns = args.uncertainty_inputs
+    if patterns is not None:
+        patterns = [p.strip() for p in patterns.split(",") if p.strip()]
+    if args.uncertainty is not None:
+        from ufmt.studies.intervals import input_bands
+
+        input_bands(patterns, model)
+    return patterns
+
+
+def _intervals(args, model, process, patterns, options) -> dict | None:
     """The 5-95 % intervals of ``--uncertainty N`` (None without it)."""
     if args.uncertainty is None:
         return None
     from ufmt.studies.intervals import headline_intervals
 
-    patterns = [p.strip() for p in args.uncertainty_inputs.split(",") if p.strip()]
     intervals = headline_intervals(
         model, process, args.uncertainty, patterns, progress=True, **options
     )

@@ -250,6 +250,35 @@ def moved(body: Beam, shift: np.ndarray) -> Beam:
     return replace(body, start=frozen_array(body.start + shift), end=frozen_array(body.end + shift))
 
 
+SENSOR_MARGIN = 2.0  # [-] section radii from the axis a modal-test sensor may sit
+SENSOR_END = 1e-6  # [m] how far past an end a sensor may sit and still be on the beam
+
+
+def radius(model, body: Beam) -> float:
+    """The section's radius [m], sqrt(2 (I_y + I_z) / A) (a solid round section's)."""
+    return float(np.sqrt(2.0 * (body.second_moment_y + body.second_moment_z) / body.area))
+
+
+def check_sensor(where: Where, field: str, model, body: Beam, point) -> None:
+    """A sensor between the beam's ends and within SENSOR_MARGIN section radii of its axis."""
+    start, end = np.asarray(body.start, float), np.asarray(body.end, float)
+    length = float(np.linalg.norm(end - start))
+    axis = (end - start) / length
+    s = float((point - start) @ axis)
+    if not -SENSOR_END <= s <= length + SENSOR_END:
+        where.fail(
+            field, f"the point is {s:.4g} m along beam {body.name!r} of length {length:.4g} m"
+        )
+    off = float(np.linalg.norm(point - start - s * axis))
+    size = radius(model, body)
+    if off > SENSOR_MARGIN * size:
+        where.fail(
+            field,
+            f"{off:.3g} m from the axis of beam {body.name!r} of section radius {size:.3g} m "
+            f"(allowed: <= {SENSOR_MARGIN:g} x that)",
+        )
+
+
 VERTICAL_SINE = 1e-9  # an axis this close to global z counts as vertical (the solvers' rule)
 
 

@@ -152,6 +152,31 @@ def rotated(body: RigidBody, frame: np.ndarray) -> RigidBody:
     )
 
 
+SENSOR_MARGIN = 1.5  # [-] body radii from the centre of mass a modal-test sensor may sit
+
+
+def radius(model, body: RigidBody) -> float:
+    """The body's radius [m]: the larger of the half-diagonal of the uniform box with its
+    inertia, sqrt(1.5 tr(I) / m), and the distance from its centre of mass to its farthest
+    hinge point (a rigid body carries no other geometry)."""
+    box = np.sqrt(1.5 * np.trace(body.inertia) / body.mass)
+    centre = np.asarray(body.center_of_mass, dtype=float)
+    hinges = [np.linalg.norm(h.at - centre) for h in model.hinges if body.name in h.between]
+    return float(max([box, *hinges]))
+
+
+def check_sensor(where: Where, field: str, model, body: RigidBody, point) -> None:
+    """A sensor within SENSOR_MARGIN radii of the centre of mass."""
+    size = radius(model, body)
+    off = float(np.linalg.norm(point - body.center_of_mass))
+    if off > SENSOR_MARGIN * size:
+        where.fail(
+            field,
+            f"{off:.3g} m from the centre of mass of {body.name!r}, whose points lie "
+            f"within {size:.3g} m of it (allowed: <= {SENSOR_MARGIN:g} x that)",
+        )
+
+
 def hinge_motion(body: RigidBody, shapes, ends, point) -> np.ndarray:
     """Motion ``[r; θ]`` (6, n) at ``point`` [m] in each mode of ``shapes`` (``ends``: unused,
     the motion of a field's ends)."""

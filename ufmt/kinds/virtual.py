@@ -83,6 +83,16 @@ def rotated(body: VirtualBody, frame: np.ndarray) -> VirtualBody:
     return body
 
 
+def radius(model, body: VirtualBody) -> None:
+    """None: it has no extent."""
+    return None
+
+
+def check_sensor(where: Where, field: str, model, body: VirtualBody, point) -> None:
+    """Refused: a virtual body has no material point to carry a sensor."""
+    where.fail(field, f"body {body.name!r} is {body.kind}: it has no material point")
+
+
 def hinge_motion(body: VirtualBody, shapes, ends, point) -> np.ndarray:
     """Motion ``[r; θ]`` (6, n) of the point in each mode."""
     return shapes.virtual[body.name].T

@@ -1,13 +1,17 @@
 """Reading a ``[design]`` table (model or study file): the named design parameters, each a
-set of components of one hinge's stiffness."""
+set of components of one hinge's stiffness; and the grammar of the parameter names a model
+takes (``machine.<key>``, ``hinge.<name>.<field>[i]``, a declared name) with their values."""
 
 from __future__ import annotations
 
 import re
 from collections.abc import Mapping
 
+import numpy as np
+
 from ufmt.errors import ModelError
-from ufmt.model.schema import DesignParameter, Hinge
+from ufmt.model.machine import OPTIONAL_FIELDS
+from ufmt.model.schema import DesignParameter, Hinge, Model
 from ufmt.tables import Where, type_name
 
 #: Process parameters (names a design parameter may not take): see ufmt.evaluate.
@@ -66,3 +70,60 @@ def _parameter(here: Where, name, entry, hinges: Mapping[str, Hinge]) -> DesignP
         here.fail("components", f"{list(components)} repeats an index")
     description = here.string("description", entry.get("description", ""), True)
     return DesignParameter(str(name), hinge, field, tuple(int(c) for c in components), description)
+
+
+# ---------------------------------------------------------------------------------------------
+# the parameter names a model takes (the design vocabulary's grammar, ufmt.design)
+
+_HINGE_PARAMETER = re.compile(
+    r"hinge\.(?P<hinge>[^.\[\]]+)\.(?P<field>stiffness|rotational_stiffness)\[(?P<index>[012])\]"
+)
+MACHINE_PREFIX = "machine."
+#: ``[machine]`` pairs whose components are parameters ``machine.<key>[i]``.
+MACHINE_PAIRS = ("workpiece_size",)
+_MACHINE_PARAMETER = re.compile(r"machine\.(?P<key>[A-Za-z_]+)(\[(?P<index>[01])\])?")
+
+
+def machine_target(name: str) -> tuple[str, int | None] | None:
+    """([machine] key, pair index or None) that parameter ``name`` sets, or None if ``name``
+    is not a ``machine.`` parameter."""
+    match = _MACHINE_PARAMETER.fullmatch(name)
+    if match is None:
+        return None
+    key, index = match["key"], match["index"]
+    if index is None and key in OPTIONAL_FIELDS:
+        return key, None
+    if index is not None and key in MACHINE_PAIRS:
+        return key, int(index)
+    return None
+
+
+def design_target(
+    name: str, parameters: Mapping[str, DesignParameter]
+) -> tuple[str, str, tuple[int, ...]]:
+    """(hinge, field, components) that design parameter ``name`` sets.
+
+    Raises
+    ------
+    KeyError
+        ``name`` is neither a declared design parameter nor ``hinge.<name>.<field>[i]``.
+    """
+    if name in parameters:
+        p = parameters[name]
+        return p.hinge, p.field, p.components
+    match = _HINGE_PARAMETER.fullmatch(name)
+    if match is None:
+        raise KeyError(name)
+    return match["hinge"], match["field"], (int(match["index"]),)
+
+
+def parameter_value(model: Model, name: str, parameters: Mapping[str, DesignParameter]) -> float:
+    """The value of parameter ``name`` in ``model`` (``parameters``: the declared design
+    parameters): the mean of its components [SI], or the ``[machine]`` value."""
+    target = machine_target(name) if name not in parameters else None
+    if target is not None:
+        key, index = target
+        value = getattr(model.machine, key)
+        return float(value if index is None else value[index])
+    hinge, field, components = design_target(name, parameters)
+    return float(np.mean(getattr(model.hinge(hinge), field)[list(components)]))

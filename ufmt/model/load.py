@@ -7,7 +7,8 @@ line naming the file, the element and the field, e.g.
 released, inf = rigid)``. Vector components are indexed from 0 (``[2]`` is z). The bodies are
 read by :mod:`ufmt.model.bodies`, the hinges and the connection graph by
 :mod:`ufmt.model.hinges`, the ``[machine]`` table by :mod:`ufmt.model.machine`, the
-``[design]`` table by :mod:`ufmt.model.design`; :func:`ufmt.model.write.model_to_toml` writes a
+``[design]`` table by :mod:`ufmt.model.design`, the ``[[uncertain]]`` tables by
+:mod:`ufmt.model.uncertain`; :func:`ufmt.model.write.model_to_toml` writes a
 model back so that loading the text gives the same model.
 """
 
@@ -15,6 +16,7 @@ from __future__ import annotations
 
 import functools
 from collections.abc import Mapping
+from dataclasses import replace
 from importlib import resources
 from pathlib import Path
 from typing import Any
@@ -37,6 +39,7 @@ from ufmt.model.machine import (
 from ufmt.model.orientation import check_spindle
 from ufmt.model.rules import TOP_FIELDS
 from ufmt.model.schema import Model
+from ufmt.model.uncertain import parse_uncertain
 from ufmt.tables import Where, type_name
 from ufmt.tomlfile import parse_toml, read_text
 
@@ -98,7 +101,7 @@ def model_from_dict(data: Mapping[str, Any], source: str = "<dict>") -> Model:
         check_machine_bodies(machine, bodies, source)
         check_spindle(machine, bodies, hinges, source)
         check_machine_geometry(machine, bodies.values(), source)
-    return Model(
+    model = Model(
         name=name,
         bodies=tuple(bodies.values()),
         hinges=tuple(hinges),
@@ -106,6 +109,9 @@ def model_from_dict(data: Mapping[str, Any], source: str = "<dict>") -> Model:
         design=parse_design(source, data.get("design", {}), {h.name: h for h in hinges}),
         source=source,
     )
+    if "uncertain" not in data:
+        return model
+    return replace(model, uncertain=parse_uncertain(source, data["uncertain"], model))
 
 
 def check_extent(source: str, bodies, hinges) -> None:

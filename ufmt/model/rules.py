@@ -12,7 +12,7 @@ from ufmt.limits import MAX_NAME_CHARS
 from ufmt.model.schema import frozen_array
 from ufmt.tables import Where
 
-TOP_FIELDS = ("name", "description", "body", "hinge", "machine", "design")
+TOP_FIELDS = ("name", "description", "body", "hinge", "machine", "design", "uncertain")
 BODY_FIELDS = ("name", "kind", "number")
 SECTION_FIELDS = ("area", "second_moment_y", "second_moment_z", "polar_moment")
 HINGE_REQUIRED = ("name", "between", "at", "stiffness", "rotational_stiffness")

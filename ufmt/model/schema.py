@@ -159,6 +159,20 @@ class DesignParameter:
     description: str = ""
 
 
+@dataclass(frozen=True)
+class UncertainInput:
+    """One uncertain input the model file declares (its ``[[uncertain]]`` table): the
+    parameter ``name`` (a name :func:`ufmt.design.apply_design` sets, or
+    ``damping.hinge_factor``), its band [low, high] [SI], ``log``: sampled log-uniform (else
+    uniform), and ``source``: where the band comes from."""
+
+    name: str
+    low: float
+    high: float
+    log: bool
+    source: str
+
+
 @dataclass(frozen=True, eq=False)
 class Model:
     """A validated machine model: bodies, hinges, the machine geometry and design parameters.
@@ -166,7 +180,9 @@ class Model:
     ``machine`` is the validated ``[machine]`` table (tool and workpiece geometry used by the
     cutting dynamics, :class:`~ufmt.model.machine.Machine`), or None when the file has none;
     ``design`` the named design parameters of the ``[design]`` table (name ->
-    :class:`DesignParameter`); ``source`` is the file it came from (for messages).
+    :class:`DesignParameter`); ``uncertain`` the uncertain inputs the file declares (its
+    ``[[uncertain]]`` tables, :mod:`ufmt.model.uncertain`); ``source`` is the file it came
+    from (for messages).
     """
 
     name: str
@@ -174,12 +190,14 @@ class Model:
     hinges: tuple[Hinge, ...]
     machine: Machine | None = None
     design: dict[str, DesignParameter] = field(default_factory=dict)
+    uncertain: tuple[UncertainInput, ...] = ()
     source: str = "<memory>"
 
     def __repr__(self) -> str:
         """One line (the full tables would flood a notebook): name, counts and the file."""
         extras = [f"{len(self.design)} design parameters"] if self.design else []
         extras += ["[machine]"] if self.machine is not None else []
+        extras += [f"{len(self.uncertain)} uncertain inputs"] if self.uncertain else []
         return (
             f"Model({self.name!r}: {len(self.bodies)} bodies, {len(self.hinges)} hinges"
             f"{''.join(', ' + e for e in extras)}; source={self.source!r})"

@@ -13,7 +13,7 @@ import numpy as np
 
 from ufmt.kinds import kind_of
 from ufmt.model.rules import HINGE_FIELDS
-from ufmt.model.schema import Body, DesignParameter, Hinge, Model
+from ufmt.model.schema import Body, DesignParameter, Hinge, Model, UncertainInput
 
 
 def model_to_toml(model: Model) -> str:
@@ -23,7 +23,8 @@ def model_to_toml(model: Model) -> str:
     written with their explicit section (area, second moments, polar moment, torsion constant);
     the ``[machine]`` table as it was read (its keys in their order, their TOML types).
     A file's ``description`` is not kept (``Model`` has no field for it); the ``[design]``
-    declarations are (the calibration writes the identified model through this function).
+    declarations are (the calibration writes the identified model through this function), and
+    the ``[[uncertain]]`` inputs with their bands absolute.
     """
     lines = [f"name = {toml_value(model.name)}"]
     for body in model.bodies:
@@ -34,6 +35,8 @@ def model_to_toml(model: Model) -> str:
         lines += _table_lines(("machine",), model.machine.table)
     for parameter in model.design.values():
         lines += design_lines(parameter)
+    for entry in model.uncertain:
+        lines += ["", "[[uncertain]]", *_uncertain_lines(entry)]
     return "\n".join(lines) + "\n"
 
 
@@ -46,6 +49,17 @@ def design_lines(parameter: DesignParameter) -> list[str]:
         ("description", parameter.description or None),
     ]
     return ["", f"[design.{_toml_key(parameter.name)}]", *_pairs(pairs)]
+
+
+def _uncertain_lines(entry: UncertainInput) -> list[str]:
+    """One ``[[uncertain]]`` table (its band absolute, as the loader keeps it)."""
+    pairs = [
+        ("name", entry.name),
+        ("band", [entry.low, entry.high]),
+        ("distribution", "loguniform" if entry.log else "uniform"),
+        ("source", entry.source),
+    ]
+    return _pairs(pairs)
 
 
 _BARE_KEY = re.compile(r"^[A-Za-z0-9_-]+$")

@@ -1,9 +1,15 @@
-"""The documented bands of the model's uncertain inputs, read from where they are documented
+"""The documented bands of a model's uncertain inputs, read from where they are documented
 (never restated here), so that a band added there is an input of the uncertainty and
-tolerance studies at once.
+tolerance studies at once (:func:`model_bands`).
 
-Two sources, both in the packaged calibration file (``ufmt/data/calibration.toml``, reasons
-in docs/ufmt-model.md):
+A model file that declares ``[[uncertain]]`` tables (:mod:`ufmt.model.uncertain`) has those
+inputs and no others. The packaged machine's bands belong to the packaged machine alone: a
+model without its own tables gets them only if its content is the packaged model's
+(:func:`is_packaged_machine`: the same :func:`ufmt.fingerprint.model_sha256`, wherever the
+file lies); any other model has no uncertain inputs until it declares them.
+
+The packaged machine's bands come from two sources, both in the packaged calibration file
+(``ufmt/data/calibration.toml``, reasons in docs/ufmt-model.md):
 
 * ``[[response.parameter]]``: the physically uncertain ``[machine]`` numbers (force
   coefficient, spindle tilt, error motion and its phase, straightness and its wavelength, and
@@ -45,13 +51,18 @@ damping factor).
 from __future__ import annotations
 
 import fnmatch
+import functools
 from dataclasses import dataclass
 from pathlib import Path
 
 from ufmt.calibration.settings import load_calibration
-from ufmt.design import MACHINE_PREFIX
-from ufmt.model.load import packaged_path
+from ufmt.design import MACHINE_PREFIX, design_target, machine_target
+from ufmt.errors import StudyError
+from ufmt.fingerprint import file_sha256, model_sha256
+from ufmt.model.load import load_model, packaged_path
 from ufmt.model.machine import OPTIONAL_FIELDS
+from ufmt.model.schema import Model
+from ufmt.model.uncertain import HINGE_DAMPING_FACTOR
 
 CALIBRATION = "calibration.toml"  # the packaged file holding the bands
 _COMPONENTS = "xyz"
@@ -80,7 +91,7 @@ DAMPING_BANDS = (
         " the 1-5 % measured on precision machines; assumption, ufmt.studies.bands)",
     ),
     (
-        f"{DAMPING_PREFIX}hinge_factor",
+        HINGE_DAMPING_FACTOR,
         0.5,
         2.0,
         "factor on every hinge damper (a joint's damping ratio known to"
@@ -135,3 +146,51 @@ def matching(pattern: str, bands: dict[str, DocumentedBand]) -> list[str]:
     """The band names matching a shell-style ``pattern`` (``machine.*``, ``hinge.h31.*``), in
     the bands' order."""
     return [name for name in bands if fnmatch.fnmatchcase(name, pattern)]
+
+
+def is_packaged_machine(model: Model) -> bool:
+    """Whether ``model``'s content is the packaged model's (its file anywhere, or loaded)."""
+    return model_sha256(model) == _packaged_sha256(file_sha256(packaged_path()))
+
+
+@functools.lru_cache(maxsize=2)
+def _packaged_sha256(file_sha: str) -> str:
+    """The packaged model's content hash (keyed by its file's bytes: a recalibration
+    rewrites it)."""
+    return model_sha256(load_model())
+
+
+def model_bands(model: Model | None = None, damping: bool = True) -> dict[str, DocumentedBand]:
+    """The bands of ``model``'s uncertain inputs (default: the packaged machine): its own
+    ``[[uncertain]]`` tables; else, for the packaged machine, :func:`documented_bands` (and
+    :func:`damping_bands` if ``damping``); else none. ``damping=False`` leaves out the inputs
+    outside the design vocabulary (``damping.*``, which a study cannot set)."""
+    if model is not None and model.uncertain:
+        return {
+            u.name: DocumentedBand(u.name, u.low, u.high, u.log, _unit(model, u.name), u.source)
+            for u in model.uncertain
+            if damping or not u.name.startswith(DAMPING_PREFIX)
+        }
+    if model is not None and not is_packaged_machine(model):
+        return {}
+    return {**documented_bands(), **(damping_bands() if damping else {})}
+
+
+def no_bands(model: Model) -> StudyError:
+    """The one-line error of a model that declares no uncertain inputs."""
+    return StudyError(
+        f"model {model.source} declares no uncertain inputs: add [[uncertain]] tables to it"
+        " (name, band or scale, source; docs/model-files.md); the documented bands of"
+        " ufmt/data/calibration.toml belong to the packaged machine only"
+    )
+
+
+def _unit(model: Model, name: str) -> str:
+    """The unit of parameter ``name`` of ``model``."""
+    if name == HINGE_DAMPING_FACTOR:
+        return "-"
+    target = machine_target(name) if name.startswith(MACHINE_PREFIX) else None
+    if target is not None:
+        return "m" if target[1] is not None else OPTIONAL_FIELDS[target[0]][3]
+    _, field, _ = design_target(name, model.design)
+    return "N/m" if field == "stiffness" else "N m/rad"

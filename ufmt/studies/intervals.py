@@ -1,6 +1,7 @@
 """Intervals on the headline numbers of one cut: the cut simulated at a Latin hypercube of the
-documented bands (:mod:`ufmt.studies.bands`), each metric's quantiles beside its point value
-(``ufmt simulate --uncertainty N``).
+model's documented bands (:func:`ufmt.studies.bands.model_bands`: the model file's own
+``[[uncertain]]`` inputs, or the packaged machine's bands on the packaged machine), each
+metric's quantiles beside its point value (``ufmt simulate --uncertainty N``).
 
 Each input is sampled on its band's natural scale (log-uniform for the bands documented on a
 log scale: stiffnesses, the force factor, the straightness wavelength; uniform otherwise),
@@ -28,10 +29,11 @@ from ufmt import limits
 from ufmt.design import MACHINE_PREFIX, apply_design, machine_target
 from ufmt.errors import StudyError
 from ufmt.machining.modal import modal_basis
-from ufmt.studies.bands import DAMPING_PREFIX, damping_bands, documented_bands, matching
+from ufmt.studies.bands import DAMPING_PREFIX, matching, model_bands, no_bands
 from ufmt.studies.uncertainty import quantile_column, summarise, unit_sample
 
-#: [machine] bands, both bearings, the assumed damping bands
+#: the packaged machine's: [machine] bands, both bearings, the assumed damping bands (a
+#: model's own [[uncertain]] inputs: all of them)
 DEFAULT_INPUTS = ("machine.*", "hinge.h31.*", "hinge.h25.*", "damping.*")
 INTERVAL = (0.05, 0.95)
 
@@ -73,10 +75,15 @@ class Intervals:
         }
 
 
-def input_bands(patterns: Sequence[str] = DEFAULT_INPUTS) -> dict:
-    """The documented bands matching the shell ``patterns`` (in the bands' order), the assumed
-    damping bands included."""
-    bands = {**documented_bands(), **damping_bands()}
+def input_bands(patterns: Sequence[str] | None = None, model=None) -> dict:
+    """The bands of ``model`` (default: the packaged machine; :func:`model_bands`, the damping
+    bands included) matching the shell ``patterns``, in the bands' order (None: every input
+    the model declares, or :data:`DEFAULT_INPUTS` on the packaged machine)."""
+    bands = model_bands(model)
+    if not bands:
+        raise no_bands(model)
+    if patterns is None:
+        patterns = ["*"] if model is not None and model.uncertain else list(DEFAULT_INPUTS)
     if not patterns:
         raise StudyError(
             f"--uncertainty-inputs: names no band (at least one pattern of: {', '.join(bands)})"
@@ -86,6 +93,7 @@ def input_bands(patterns: Sequence[str] = DEFAULT_INPUTS) -> dict:
     if unknown:
         raise StudyError(
             f"--uncertainty-inputs: {', '.join(map(repr, unknown))} matches no documented band"
+            f" of {'the packaged machine' if model is None else model.source}"
             f" (bands: {', '.join(bands)})"
         )
     return {n: bands[n] for n in dict.fromkeys(names)}
@@ -109,19 +117,20 @@ def headline_intervals(
     model,
     process,
     n: int,
-    patterns: Sequence[str] = DEFAULT_INPUTS,
+    patterns: Sequence[str] | None = None,
     seed: int = 1,
     progress: bool = False,
     **options,
 ) -> Intervals:
     """The cut of ``process`` on ``model`` (a loaded Model) simulated at ``n`` Latin-hypercube
-    samples (1 to :data:`ufmt.limits.MAX_UNCERTAINTY_SAMPLES`) of the documented bands
-    matching ``patterns``; ``options`` go to :func:`ufmt.simulate.simulate` (method, sources,
+    samples (1 to :data:`ufmt.limits.MAX_UNCERTAINTY_SAMPLES`) of the model's bands matching
+    ``patterns`` (:func:`input_bands`; a model that declares none: one line saying how);
+    ``options`` go to :func:`ufmt.simulate.simulate` (method, sources,
     basis size...). ``progress``: a progress bar on stderr (when it is a terminal)."""
     from ufmt.simulate import simulate
 
     n = limits.count("--uncertainty", n, 1, limits.MAX_UNCERTAINTY_SAMPLES, StudyError)
-    bands = input_bands(patterns)
+    bands = input_bands(patterns, model)
     designs = sample_designs(bands, n, seed)
     shared_basis = all(
         machine_target(name) is not None or name.startswith(DAMPING_PREFIX) for name in bands

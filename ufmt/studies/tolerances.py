@@ -9,8 +9,9 @@ Fields::
     levels = 6                       # specification levels of the trade-off curve
     corrections = 3                  # model-checked corrections of the level per optimum
     seed = 1
-    uncertain = ["machine.force_scale"]  # optional: documented bands (shell patterns) sampled
-                                     #   at the optimum for its interval (a Latin hypercube)
+    uncertain = ["machine.force_scale"]  # optional: the model's documented bands (shell
+                                     #   patterns, ufmt.studies.bands.model_bands) sampled at
+                                     #   the optimum for its interval (a Latin hypercube)
     uncertain_samples = 32
     probability = 0.9                # optional: the specification is P(metric <= limit) >= p
                                      #   over the uncertain_samples (needs uncertain)
@@ -84,7 +85,7 @@ from ufmt.design import METRICS, PROCESS_PARAMETERS
 from ufmt.errors import StudyError
 from ufmt.plots.uncertainty import plot_tradeoff
 from ufmt.studies import chance, outputs
-from ufmt.studies.bands import documented_bands, matching
+from ufmt.studies.bands import matching, model_bands, no_bands
 from ufmt.studies.fields import Parameters
 from ufmt.studies.intervals import sample_designs
 from ufmt.studies.outputs import short
@@ -111,7 +112,7 @@ NOMINAL = "nominal"  # the allocation meeting the limit with the uncertain input
 def parse(where: Where, data: Mapping, parameters: Parameters) -> dict:
     """The variables (as bounds, then the uncertain inputs) and the specification."""
     tables = where.tables("variable", data.get("variable", []), required=True)
-    bands = documented_bands()
+    bands = model_bands(parameters.model, damping=False)
     bounds, variables = [], []
     for i, table in enumerate(tables):
         bound, variable = _variable(where, i, table, bands, parameters)
@@ -154,6 +155,8 @@ def _uncertain(where: Where, data: Mapping, bands, designed, parameters) -> list
     for i, pattern in enumerate(patterns):
         pattern = where.string(f"uncertain[{i}]", pattern)
         found = matching(pattern, bands)
+        if not found and not bands:
+            where.fail(f"uncertain[{i}]", str(no_bands(parameters.model)))
         if not found:
             where.fail(f"uncertain[{i}]", f"{pattern!r} matches no documented band")
         for name in found:

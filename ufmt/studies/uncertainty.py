@@ -1,11 +1,15 @@
 """Study kind ``uncertainty``: every metric as a distribution over the model's documented
 bands, with its quantiles, its Sobol indices and the probability of meeting a specification.
 
+The documented bands are the study model's (:func:`ufmt.studies.bands.model_bands`: its file's
+``[[uncertain]]`` tables, or the packaged machine's on the packaged machine); an input given
+by its name with ``range`` or ``scale`` needs no documented band.
+
 Fields::
 
     [[input]]                        # one per uncertain input (at least one)
-    parameter = "machine.*"          # a parameter, or a shell pattern over the documented bands
-                                     #   (ufmt.studies.bands: [machine] keys, bearing stiffnesses)
+    parameter = "machine.*"          # a parameter, or a shell pattern over the model's documented
+                                     #   bands (ufmt.studies.bands.model_bands)
     distribution = "uniform"         # uniform (default) | loguniform | normal | triangular
     range = [0.0, 1e-7]              # optional: the band [SI] (default: the documented one);
                                      #   or scale = [lo, hi] times the calibrated value
@@ -55,10 +59,10 @@ import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
 
-from ufmt.design import METRICS
+from ufmt.design import METRICS, PROCESS_PARAMETERS, unknown_design_parameter
 from ufmt.plots.uncertainty import plot_convergence, plot_distributions, plot_sobol
 from ufmt.studies import contrasts, outputs
-from ufmt.studies.bands import documented_bands, matching
+from ufmt.studies.bands import matching, model_bands, no_bands
 from ufmt.studies.contrasts import CONTRAST, evaluate_contrasts, parse_contrasts, sentence
 from ufmt.studies.fields import MAX_POINTS, Parameters
 from ufmt.studies.optimise import Space
@@ -125,7 +129,7 @@ def _inputs(
 ) -> tuple[tuple[Bound, ...], list[dict]]:
     """The ``[[input]]`` tables: bounds (documented band or the file's) and distributions."""
     tables = where.tables("input", data.get("input", []), required=True)
-    bands = documented_bands()
+    bands = model_bands(parameters.model, damping=False)
     found: dict[str, tuple[Bound, dict, bool]] = {}  # name -> (bound, input, from a pattern)
     for i, table in enumerate(tables):
         at = where.sub(f"input[{i}]")
@@ -133,10 +137,12 @@ def _inputs(
         pattern = at.string("parameter", table["parameter"])
         distribution = table.get("distribution", "uniform")
         distribution = at.choice("distribution", distribution, DISTRIBUTIONS, "distribution")
-        is_pattern = any(c in pattern for c in "*?[") and pattern not in bands
+        is_pattern = any(c in pattern for c in "*?[") and not _is_name(pattern, bands, parameters)
         names = matching(pattern, bands) if is_pattern else [pattern]
+        if not names and not bands:
+            at.fail("parameter", str(no_bands(parameters.model)))
         if not names:
-            at.fail("parameter", f"{pattern!r} matches no documented band")
+            at.fail("parameter", f"{pattern!r} matches no documented band ({', '.join(bands)})")
         for name in names:
             parameters.check(at, "parameter", name)
             if name in found and not found[name][2]:
@@ -148,6 +154,14 @@ def _inputs(
             entry = {"parameter": name, "distribution": distribution, "band": reason}
             found[name] = (bound, entry, is_pattern)
     return tuple(b for b, _, _ in found.values()), [e for _, e, _ in found.values()]
+
+
+def _is_name(text: str, bands, parameters: Parameters) -> bool:
+    """Whether ``text`` names one parameter (a band, or a parameter of the study's model such
+    as ``hinge.h3.stiffness[0]``) rather than a shell pattern over the bands."""
+    if text in bands or text in PROCESS_PARAMETERS:
+        return True
+    return unknown_design_parameter(text, parameters.model, parameters.declared) is None
 
 
 def _bound(at: Where, name: str, table: Mapping, bands, distribution: str) -> Bound:
@@ -164,7 +178,7 @@ def _bound(at: Where, name: str, table: Mapping, bands, distribution: str) -> Bo
         low, high = at.interval("scale", table["scale"], sign="positive")
         return Bound(name, low, high, log, relative=True)
     if name not in bands:
-        at.missing("range", "no documented band: give range or scale")
+        at.missing("range", "no documented band on this model: give range or scale")
     band = bands[name]
     if log and band.low <= 0:
         at.fail("distribution", f"loguniform needs a band > 0, not [{band.low:g}, {band.high:g}]")
