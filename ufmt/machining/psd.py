@@ -3,7 +3,8 @@
 KDP optics for large lasers specify mid-spatial-frequency errors as band RMS of 1-D PSDs
 (ISO 10110-8; the PSD practice of NIF/LLNL for large optics): PSD1 over spatial wavelengths
 2.5-33 mm, PSD2 over 0.12-2.5 mm (:data:`BANDS`). Here, on the evenly spaced (core) grid of a
-:class:`~ufmt.machining.surface.Surface`:
+:class:`~ufmt.machining.surface.Surface` (:mod:`ufmt.machining.lines` the same on fine line
+profiles over the whole plate, :func:`spectra_band_rms`):
 
 1. Form removed: the least-squares Legendre fit up to 2nd order (piston, tilt, power,
    astigmatism, twist; :func:`~ufmt.machining.surface.legendre_fit`). A shop reports the

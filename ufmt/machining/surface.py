@@ -29,9 +29,10 @@ and RMS with the best-fit plane removed; PV and RMS over the clear aperture (the
 least-squares Legendre fit up to 2nd order (power, astigmatism, twist), waviness = what that
 fit leaves (PV, RMS). The plane, the fits and the RMS use the evenly spaced rows. The PSD bands
 (PSD1, PSD2: band RMS of 1-D PSDs of the waviness along and across the feed) are
-:mod:`ufmt.machining.psd`'s; PSD2 needs steps <= 0.06 mm, given by a patch
-(``DEFAULT_PSD2_PATCH`` = 20 mm square at 0.05 mm, ``ufmt.simulate(..., psd2_patch=...)``), as
-a shop measures PSD2 on sub-apertures.
+:mod:`ufmt.machining.psd`'s, read on line profiles at 0.03 mm over the whole plate
+(:mod:`ufmt.machining.lines`, which evaluates the same passes on other axes: :func:`passes_on`);
+a patch (``DEFAULT_PSD2_PATCH`` = 20 mm square at 0.05 mm, ``ufmt.simulate(...,
+psd2_patch=...)``), as a shop measures PSD2 on sub-apertures, is the superseded alternative.
 
 Dynamic metrics [nm] (:func:`dynamic_metrics`): the PV of the cutting-force vibration's
 surface alone over the whole plate (the paper's definition, eq. 4.1) and over the steady cut
