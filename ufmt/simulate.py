@@ -33,7 +33,7 @@ from ufmt.machining.instruments import (
     interferometer_metrics,
     scallop_roughness,
 )
-from ufmt.machining.lines import DEFAULT_LINE_SPACING, line_band_rms
+from ufmt.machining.lines import DEFAULT_LINE_SPACING, line_band_rms, line_spectra
 from ufmt.machining.periodic_path import periodic_response, record_tip_acceleration
 from ufmt.machining.process import Process
 from ufmt.machining.psd import band_rms
@@ -335,9 +335,10 @@ def _run(
     band_surface = passes.lower(smooth) if scallops else total
     metrics = surface_metrics(total, options.aperture_margin)
     smooth_acting = tuple(source for source in acting if source.enters != SCALLOP)
-    metrics.update(
-        _band_rms(band_surface, response, machine, process, smooth_acting, options, profiles)
+    bands, spectra = _band_rms(
+        band_surface, response, machine, process, smooth_acting, options, profiles
     )
+    metrics.update(bands)
     if options.psd2_patch is not None:
         metrics.update(_psd2_band_rms(response, machine, process, acting, options, profiles))
     pv_by_source = _pv_by_source(sources, passes, terms, metrics["pv_nm"])
@@ -365,6 +366,7 @@ def _run(
         basis_highest_hz=highest,
         samples_per_rev=options.n_phi,
         tool_mode_hz=_tool_mode_hz(basis),
+        psd_spectra=spectra,
     )
 
 
@@ -431,17 +433,19 @@ def _band_rms(
     smooth: tuple[ErrorSource, ...],
     options: SimulationOptions,
     profiles: dict,
-) -> dict[str, float]:
-    """The PSD bands [nm] of the surface without the scallops (the ``smooth`` sources) and
-    psd_line_spacing_mm, the profiles' step: on the line profiles at ``options.line_spacing``
-    (:func:`~ufmt.machining.lines.line_band_rms`), or on ``band_surface``'s grid if None."""
+) -> tuple[dict[str, float], dict | None]:
+    """The PSD bands [nm] of the surface without the scallops (the ``smooth`` sources) with
+    psd_line_spacing_mm, the profiles' step, and the line profiles' spectra: on the line
+    profiles at ``options.line_spacing`` (:func:`~ufmt.machining.lines.line_spectra`), or on
+    ``band_surface``'s grid if None (no spectra)."""
     if options.line_spacing is None:
-        return {**band_rms(band_surface), "psd_line_spacing_mm": max(band_surface.spacing) * 1e3}
+        step = max(band_surface.spacing) * 1e3
+        return {**band_rms(band_surface), "psd_line_spacing_mm": step}, None
 
     def heights(passes):
         return [s.heights(passes, response.table, machine, process, profiles) for s in smooth]
 
-    out = line_band_rms(
+    spectra = line_spectra(
         machine,
         process.feed_per_rev_m,
         band_surface,
@@ -449,7 +453,7 @@ def _band_rms(
         options.line_spacing,
         options.trailing_arc,
     )
-    return {**out, "psd_line_spacing_mm": options.line_spacing * 1e3}
+    return {**line_band_rms(spectra), "psd_line_spacing_mm": options.line_spacing * 1e3}, spectra
 
 
 def _psd2_band_rms(

@@ -54,7 +54,9 @@ class SimulationResult:
     surface with that source alone (None where switched off). sources: the switched-on
     sources. surface: every source (the metrics' surface); smooth_surface: the same without
     the feed marks, whose scallops (wavelength (v/f) cos(phi), tens of um) the grid only
-    samples (the bands and the map use it).
+    samples (the map uses it). psd_spectra: the line profiles' mean PSD per direction, (points
+    per line, step [m], frequency [1/m], PSD [m^2 m]) (:func:`ufmt.machining.lines.
+    line_spectra`; None: the bands read the smooth surface's grid).
     """
 
     process: Process
@@ -73,6 +75,7 @@ class SimulationResult:
     basis_highest_hz: float
     samples_per_rev: int
     tool_mode_hz: float | None = None
+    psd_spectra: dict | None = None
 
     def __repr__(self) -> str:
         p = self.process

@@ -52,16 +52,17 @@ def line_axes(grid: Surface, line_spacing: float) -> tuple[np.ndarray, np.ndarra
     return grid_axis(grid.x[0], grid.x[-1], line_spacing), grid_axis(y[0], y[-1], line_spacing)
 
 
-def line_band_rms(
+def line_spectra(
     machine: Machine,
     feed_per_rev: float,
     grid: Surface,
     heights,
     line_spacing: float = DEFAULT_LINE_SPACING,
     trailing_arc: bool = False,
-    bands=tuple(BANDS),
-) -> dict[str, float]:
-    """Band RMS [nm] of the line profiles (keys as :func:`~ufmt.machining.psd.band_rms`).
+) -> dict[str, tuple[int, float, np.ndarray, np.ndarray]]:
+    """The mean PSD of the line profiles in each direction of
+    :data:`~ufmt.machining.psd.DIRECTIONS`: (points per line, step [m], frequency [1/m], PSD
+    [m^2 m]).
 
     ``grid``: the surface on the grid (its columns, rows and form fit); ``heights(passes)``:
     the terms of that surface (heights at both passes) on any
@@ -83,7 +84,12 @@ def line_band_rms(
         z -= coef[3] * _p2(fine_x, x)[None, :]
         return mean_psd(z, hx, axis=1)
 
-    profiles = {"along": (fine_y.size, hy, along), "across": (fine_x.size, hx, across)}
+    return {"along": (fine_y.size, hy, *along()), "across": (fine_x.size, hx, *across())}
+
+
+def line_band_rms(spectra: dict, bands=tuple(BANDS)) -> dict[str, float]:
+    """Band RMS [nm] of :func:`line_spectra` (keys as :func:`~ufmt.machining.psd.band_rms`)."""
+    profiles = {d: (n, h, lambda f=f, p=p: (f, p)) for d, (n, h, f, p) in spectra.items()}
     return spectra_band_rms(profiles, bands)
 
 
