@@ -220,8 +220,8 @@ class SimulationOptions:
     sources: str | Iterable[str]
     aperture_margin: float
     psd2_patch: float | None
-    line_spacing: float | None
     basis_cutoff_hz: float | None  # None: the basis was chosen by count
+    line_spacing: float | None = DEFAULT_LINE_SPACING
 
 
 @lru_cache(maxsize=8)
