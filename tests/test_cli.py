@@ -110,9 +110,10 @@ def test_simulate_json_contract(capsys):
         "tip_acc_peak_mm_s2",
     ):
         assert np.isfinite(out[key])
-    # not resolved: the 52.4 mm plate spans < 3 periods of 33 mm, the default grid is too
-    # coarse for PSD2 (tests/test_psd.py)
-    assert out["psd1_rms_nm"] is None and out["psd2_rms_nm"] is None
+    # PSD1 not resolved: the 52.4 mm plate spans < 3 periods of 33 mm (tests/test_psd.py);
+    # PSD2 resolved by the line profiles at 0.03 mm (tests/test_lines.py)
+    assert out["psd1_rms_nm"] is None and out["psd2_rms_nm"] > 0
+    assert out["psd_line_spacing_mm"] == pytest.approx(0.03)
     assert out["pv_nm"] > 0
 
 

@@ -2,6 +2,8 @@
 samples the stencils touch, by the periodic impulse response, it equals the whole table
 computed by the harmonics (an independent evaluation) read at the same angles."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 from synthetic import SMALL, random_residual, synthetic_basis
@@ -32,5 +34,10 @@ def test_columns_from_few_samples_equal_the_whole_table_read_there(residual, n_p
     expected = whole.columns(phi)
     assert np.abs(expected).max() > 0
     np.testing.assert_allclose(
-        table.columns(phi), expected, rtol=0, atol=1e-12 * np.abs(expected).max()
+        table.columns_from_samples(phi), expected, rtol=0, atol=1e-12 * np.abs(expected).max()
+    )
+    # columns() of a fresh table picks by cost (here the samples); the same numbers
+    fresh = dataclasses.replace(table)
+    np.testing.assert_allclose(
+        fresh.columns(phi), expected, rtol=0, atol=1e-12 * np.abs(expected).max()
     )

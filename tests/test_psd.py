@@ -271,20 +271,25 @@ def test_psd_2d_parseval_and_band():
 
 
 def test_simulate_reports_both_directions_and_the_psd2_patch():
-    """PSD1 is resolved on the whole plate (the small 0.1 m x 0.2 m one: three periods of its
-    longest wavelength, 33 mm); the PSD2 patch gives the psd2 keys."""
+    """On the grid's own columns and rows (``line_spacing=None``) the bands are the grid's
+    band_rms and PSD2 is unresolved (1 mm steps); PSD1 is resolved on the whole plate (the
+    small 0.1 m x 0.2 m one: three periods of its longest wavelength, 33 mm). By default the
+    line profiles resolve PSD2 over the whole plate; the PSD2 patch replaces the psd2 keys."""
     model = Model("syn", (), (), machine=read_machine(SMALL), source="syn.toml")
     basis = synthetic_basis(n=6)
     process = Process(300, 15, 4)
-    r = ufmt.simulate(model, process, basis=basis, static_correction=False)
+    options = dict(basis=basis, static_correction=False)
+    r = ufmt.simulate(model, process, line_spacing=None, **options)
     m = r.metrics
     assert m["psd1_rms_nm"] == max(m["psd1_rms_along_nm"], m["psd1_rms_across_nm"]) > 0
     bands = band_rms(r.smooth_surface)  # of the surface without the feed marks' scallops
     np.testing.assert_equal({key: m[key] for key in bands}, bands)
     assert all(np.isnan(m[k]) for k in ("psd2_rms_nm", "psd2_rms_along_nm", "psd2_rms_across_nm"))
-    patched = ufmt.simulate(
-        model, process, basis=basis, static_correction=False, psd2_patch=20e-3
-    ).metrics
+    lines = ufmt.simulate(model, process, **options).metrics
+    assert lines["psd_line_spacing_mm"] == pytest.approx(0.03)
+    psd2 = [lines[k] for k in ("psd2_rms_nm", "psd2_rms_along_nm", "psd2_rms_across_nm")]
+    assert all(np.isfinite(psd2)) and psd2[0] == max(psd2[1:]) > 0
+    patched = ufmt.simulate(model, process, psd2_patch=20e-3, **options).metrics
     psd2 = [patched[k] for k in ("psd2_rms_nm", "psd2_rms_along_nm", "psd2_rms_across_nm")]
     assert all(np.isfinite(psd2)) and psd2[0] == max(psd2[1:])
-    assert patched["psd1_rms_nm"] == m["psd1_rms_nm"]
+    assert patched["psd1_rms_nm"] == lines["psd1_rms_nm"]

@@ -47,7 +47,8 @@ def test_json_contract_is_strict_and_complete(model_file):
     out = json.loads(res.stdout, parse_constant=lambda c: pytest.fail(f"non-strict JSON: {c}"))
     for key in CONTRACT:
         assert key in out
-    assert out["psd2_rms_nm"] is None
+    assert out["psd1_rms_nm"] is None  # the 52.4 mm plate spans 1.6 periods of 33 mm
+    assert out["psd2_rms_nm"] > 0  # the line profiles at 0.03 mm resolve PSD2
     assert set(out["pv_by_source_nm"]) == {
         "dynamic",
         "feed_marks",
@@ -68,8 +69,8 @@ def test_json_contract_is_strict_and_complete(model_file):
 def test_psd2_patch_resolves_psd2(model_file):
     model = ufmt.load_model(model_file)
     basis = synthetic_basis(n=6)
-    r = ufmt.simulate(model, Process(300, 15, 4), basis=basis, static_correction=False)
-    assert math.isnan(r.metrics["psd2_rms_nm"])
+    grid = dict(basis=basis, static_correction=False, line_spacing=None)  # 1 mm steps
+    assert math.isnan(ufmt.simulate(model, Process(300, 15, 4), **grid).metrics["psd2_rms_nm"])
     patched = ufmt.simulate(
         model, Process(300, 15, 4), basis=basis, static_correction=False, psd2_patch=10e-3
     )
@@ -90,7 +91,8 @@ def test_result_api(tmp_path, model_file):
     paths = r.save(tmp_path / "out")
     assert all(p.exists() for p in paths)
     saved = json.loads((tmp_path / "out" / "metrics.json").read_text())
-    assert saved["pv_nm"] == pytest.approx(r.metrics["pv_nm"]) and saved["psd2_rms_nm"] is None
+    assert saved["pv_nm"] == pytest.approx(r.metrics["pv_nm"])
+    assert saved["psd2_rms_nm"] == pytest.approx(r.metrics["psd2_rms_nm"])  # the lines resolve it
     grid = np.load(tmp_path / "out" / "surface.npz")
     np.testing.assert_array_equal(grid["z_m"], r.surface.z)
     # a path works as well as a loaded model

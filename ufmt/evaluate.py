@@ -47,8 +47,10 @@ from ufmt.design import (
 from ufmt.errors import ProcessError, StudyError, closest_name
 from ufmt.fingerprint import code_sha256, file_sha256, model_sha256
 from ufmt.machining.basis import ModalBasis
+from ufmt.machining.lines import DEFAULT_LINE_SPACING
 from ufmt.machining.modal import basis_at_slide, modal_basis, model_where_it_cuts
 from ufmt.machining.process import Process, ProcessRangeWarning
+from ufmt.machining.psd import BANDS, N_MIN_PERIODS
 from ufmt.machining.surface import DEFAULT_APERTURE_MARGIN
 from ufmt.machining.validity import OutsideDomainError, check_case
 from ufmt.model.load import load_model, packaged_path
@@ -451,7 +453,8 @@ def _physics(model: Model, process: Mapping[str, float], basis_key, basis=None) 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         basis = _modal_basis(model, basis_key, basis)
-        result = simulate(model, Process(**process), basis=basis)
+        lines = study_line_spacing(model)
+        result = simulate(model, Process(**process), basis=basis, line_spacing=lines)
     by_source = {f"pv_{k}_nm": v for k, v in result.pv_by_source_nm.items()}
     outputs = {
         name: _number(by_source.get(name) if name in SOURCE_METRICS else result.metrics[name])
@@ -462,6 +465,18 @@ def _physics(model: Model, process: Mapping[str, float], basis_key, basis=None) 
     outputs.update(zip(FREQUENCIES, map(float, frequencies), strict=True))
     outputs["message"] = _one_line("; ".join(dict.fromkeys(str(w.message) for w in caught)))
     return outputs
+
+
+def study_line_spacing(model: Model) -> float | None:
+    """The step [m] of the PSD line profiles the study function reads: the lines
+    (:mod:`ufmt.machining.lines`: PSD1 free of the display grid's aliasing, PSD2 resolved) on a
+    plate that holds PSD1 (N_MIN_PERIODS of its longest wavelength along both sides), None
+    (the grid's rows and columns) on a smaller plate such as the paper's, where PSD1 is not
+    resolved and the lines would more than double the cost of every point
+    (docs/benchmarks.md)."""
+    machine = machine_of(model)
+    longest = BANDS["psd1"][1] * N_MIN_PERIODS
+    return DEFAULT_LINE_SPACING if min(machine.workpiece_size) >= longest else None
 
 
 def _hinge_changes(base: Model, model: Model) -> tuple:

@@ -33,6 +33,7 @@ from ufmt.machining.instruments import (
     interferometer_metrics,
     scallop_roughness,
 )
+from ufmt.machining.lines import DEFAULT_LINE_SPACING, line_band_rms, line_spectra
 from ufmt.machining.machine_frame import in_machine_frame
 from ufmt.machining.periodic_path import periodic_response, record_tip_acceleration
 from ufmt.machining.process import Process
@@ -92,6 +93,7 @@ def simulate(
     static_correction: bool = True,
     aperture_margin: float = DEFAULT_APERTURE_MARGIN,
     psd2_patch: float | None = None,
+    line_spacing: float | None = DEFAULT_LINE_SPACING,
 ) -> SimulationResult:
     """Machined surface and response of ``model`` under ``process``.
 
@@ -107,15 +109,12 @@ def simulate(
         hinge dampers act on top of it (:mod:`ufmt.machining.damping`, carried by the basis).
     method : "periodic" (frequency domain, milliseconds; quasi-static in the slide position)
         or "time" (every revolution, exact recurrence, seconds); :mod:`ufmt.machining.response`.
-    basis : modal basis to use instead of the model's (it is cut to ``n_modes`` or to the
-        modes below ``basis_cutoff_hz``; its ``hinge_damping``, or none, is the hinge damping
-        used).
-    force_scale : factor on the force coefficients; default the model's ``machine.force_scale``
-        (1 when absent).
-    coefficients, n_phi, table_rows : force model and discretisation (see
-        :func:`ufmt.machining.cut_geometry.cut_geometry`); ``n_phi`` samples per spindle
-        revolution, by default from the basis' highest mode
-        (:func:`ufmt.machining.cut_geometry.samples_per_rev`).
+    basis : modal basis instead of the model's (cut to ``n_modes`` or to the modes below
+        ``basis_cutoff_hz``; its ``hinge_damping``, or none, is the hinge damping used).
+    force_scale : factor on the force coefficients (default ``machine.force_scale``, else 1).
+    coefficients, n_phi, table_rows : force model and discretisation (:func:`~ufmt.machining.
+        cut_geometry.cut_geometry`); ``n_phi`` samples per spindle revolution, by default from
+        the basis' highest mode (:func:`~ufmt.machining.cut_geometry.samples_per_rev`).
     spacing, trailing_arc : surface grid step [m] (one value or (x, y)) and back-cutting (off),
         see :func:`ufmt.machining.surface.surface_passes`.
     record_periods : spindle periods in the time path's record window.
@@ -123,16 +122,17 @@ def simulate(
     static_correction : add the residual flexibility of the modes above the basis
         (:mod:`ufmt.machining.static`; needs the model's assembled static solve).
     aperture_margin : clear-aperture edge exclusion [m] (default 5 mm).
-    psd2_patch : side [m] of a square patch at the plate centre, evaluated at 0.05 mm, on
-        which the psd2 keys are computed (None: PSD2 is not resolved and reads NaN).
+    psd2_patch, line_spacing : the PSD bands read line profiles along and across the feed
+        over the whole plate at ``line_spacing`` [m] (0.03 mm, :mod:`ufmt.machining.lines`;
+        None: the grid's columns and rows, PSD2 unresolved); ``psd2_patch`` [m] (superseded)
+        recomputes the psd2 keys on a centred square patch at 0.05 mm.
 
-    Raises OutsideDomainError for a cut outside the surface model's validity domain
-    (:mod:`ufmt.machining.validity`); ProcessError for a size outside :mod:`ufmt.limits`.
+    Raises OutsideDomainError (:mod:`ufmt.machining.validity`), ProcessError (:mod:`ufmt.limits`).
     """
     model, process = simulate_inputs(model, process)
     model = in_machine_frame(_loaded(model, n_modes, n_phi, table_rows, sources))
     machine = _machine(model)
-    validity.check_case(process, machine, spacing, aperture_margin, psd2_patch)
+    validity.check_case(process, machine, spacing, aperture_margin, psd2_patch, line_spacing)
     basis = _basis(model, machine, basis, n_modes, basis_cutoff_hz)
     n_phi = _sampling(machine, basis, process, n_phi, spacing)
     residual = _residual(model, basis, machine) if static_correction else None
@@ -149,6 +149,7 @@ def simulate(
         sources=sources,
         aperture_margin=aperture_margin,
         psd2_patch=psd2_patch,
+        line_spacing=line_spacing,
         basis_cutoff_hz=basis_cutoff_hz if n_modes is None else None,
     )
     return _run(basis, machine, process, residual, options, _profiles(model, machine, sources))
@@ -221,6 +222,7 @@ class SimulationOptions:
     aperture_margin: float
     psd2_patch: float | None
     basis_cutoff_hz: float | None  # None: the basis was chosen by count
+    line_spacing: float | None = DEFAULT_LINE_SPACING
 
 
 @lru_cache(maxsize=8)
@@ -333,7 +335,11 @@ def _run(
     scallops = any(source.enters == SCALLOP for source in acting)
     band_surface = passes.lower(smooth) if scallops else total
     metrics = surface_metrics(total, options.aperture_margin)
-    metrics.update(band_rms(band_surface))
+    smooth_acting = tuple(source for source in acting if source.enters != SCALLOP)
+    bands, spectra = _band_rms(
+        band_surface, response, machine, process, smooth_acting, options, profiles
+    )
+    metrics.update(bands)
     if options.psd2_patch is not None:
         metrics.update(_psd2_band_rms(response, machine, process, acting, options, profiles))
     pv_by_source = _pv_by_source(sources, passes, terms, metrics["pv_nm"])
@@ -361,6 +367,7 @@ def _run(
         basis_highest_hz=highest,
         samples_per_rev=options.n_phi,
         tool_mode_hz=_tool_mode_hz(basis),
+        psd_spectra=spectra,
     )
 
 
@@ -417,6 +424,37 @@ def _geometries(
         for part in FORCE_PARTS
         if any(coefficients.vector(part))
     ]
+
+
+def _band_rms(
+    band_surface: Surface,
+    response: Response,
+    machine: Machine,
+    process: Process,
+    smooth: tuple[ErrorSource, ...],
+    options: SimulationOptions,
+    profiles: dict,
+) -> tuple[dict[str, float], dict | None]:
+    """The PSD bands [nm] of the surface without the scallops (the ``smooth`` sources) with
+    psd_line_spacing_mm, the profiles' step, and the line profiles' spectra: on the line
+    profiles at ``options.line_spacing`` (:func:`~ufmt.machining.lines.line_spectra`), or on
+    ``band_surface``'s grid if None (no spectra)."""
+    if options.line_spacing is None:
+        step = max(band_surface.spacing) * 1e3
+        return {**band_rms(band_surface), "psd_line_spacing_mm": step}, None
+
+    def heights(passes):
+        return [s.heights(passes, response.table, machine, process, profiles) for s in smooth]
+
+    spectra = line_spectra(
+        machine,
+        process.feed_per_rev_m,
+        band_surface,
+        heights,
+        options.line_spacing,
+        options.trailing_arc,
+    )
+    return {**line_band_rms(spectra), "psd_line_spacing_mm": options.line_spacing * 1e3}, spectra
 
 
 def _psd2_band_rms(

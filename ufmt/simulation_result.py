@@ -30,9 +30,10 @@ class SimulationResult:
 
     metrics [nm, mm/s^2, N]: the surface metrics of
     :func:`ufmt.machining.surface.surface_metrics` (pv_nm, pv_aperture_nm, rms_nm, form and
-    waviness, ...), the PSD band RMS of :func:`ufmt.machining.psd.band_rms` (psd1_rms_nm,
-    psd2_rms_nm: the larger of psd1_rms_along_nm and psd1_rms_across_nm, ...; NaN where not
-    resolved; PSD2 on the ``psd2_patch``), zre_peak_nm (mean over
+    waviness, ...), the PSD band RMS of the line profiles over the whole plate
+    (:func:`ufmt.machining.lines.line_band_rms`; psd1_rms_nm, psd2_rms_nm: the larger of
+    psd1_rms_along_nm and psd1_rms_across_nm, ...; NaN where not resolved; PSD2 on the
+    ``psd2_patch`` if given) and psd_line_spacing_mm their step, zre_peak_nm (mean over
     the record window's spindle periods of the largest |z_re| in each; the window sits mid-cut,
     at :func:`ufmt.machining.response.record_slide`), tip_acc_peak_mm_s2 (the same for the
     head's z acceleration at the tool point), carrier_acc_peak_mm_s2 (for the tool carrier's,
@@ -53,7 +54,9 @@ class SimulationResult:
     surface with that source alone (None where switched off). sources: the switched-on
     sources. surface: every source (the metrics' surface); smooth_surface: the same without
     the feed marks, whose scallops (wavelength (v/f) cos(phi), tens of um) the grid only
-    samples (the bands and the map use it).
+    samples (the map uses it). psd_spectra: the line profiles' mean PSD per direction, (points
+    per line, step [m], frequency [1/m], PSD [m^2 m]) (:func:`ufmt.machining.lines.
+    line_spectra`; None: the bands read the smooth surface's grid).
     """
 
     process: Process
@@ -72,6 +75,7 @@ class SimulationResult:
     basis_highest_hz: float
     samples_per_rev: int
     tool_mode_hz: float | None = None
+    psd_spectra: dict | None = None
 
     def __repr__(self) -> str:
         p = self.process

@@ -73,7 +73,6 @@ def _register_simulate(subparsers) -> None:
     from ufmt.limits import MAX_UNCERTAINTY_SAMPLES
     from ufmt.machining.recurrence import DEFAULT_ZETA
     from ufmt.machining.sources import SOURCES
-    from ufmt.machining.surface import DEFAULT_APERTURE_MARGIN, DEFAULT_PSD2_PATCH
     from ufmt.studies.intervals import DEFAULT_INPUTS
 
     p = subparsers.add_parser("simulate", help="cutting response, machined surface and PV")
@@ -105,20 +104,7 @@ def _register_simulate(subparsers) -> None:
         default=",".join(SOURCES),
         help=f"error sources switched on, comma-separated ({','.join(SOURCES)}: all)",
     )
-    p.add_argument(
-        "--aperture-margin",
-        type=positive(float),
-        default=DEFAULT_APERTURE_MARGIN * 1e3,
-        help=f"clear-aperture edge exclusion [mm] ({DEFAULT_APERTURE_MARGIN * 1e3:g})",
-    )
-    p.add_argument(
-        "--psd2-patch",
-        type=positive(float),
-        default=None,
-        metavar="MM",
-        help="evaluate PSD2 on a centred square patch of this side [mm] at 0.05 mm "
-        f"(e.g. {DEFAULT_PSD2_PATCH * 1e3:g}; default: PSD2 unresolved, null)",
-    )
+    _add_surface_arguments(p)
     p.add_argument("--no-static", action="store_true", help="modal sum without static correction")
     p.add_argument(
         "--uncertainty",
@@ -147,6 +133,36 @@ def _register_simulate(subparsers) -> None:
         help="write metrics.json, summary.csv, time.csv, the surface (.xyz, .sdf, .npz), maps",
     )
     p.set_defaults(func=cmd_simulate)
+
+
+def _add_surface_arguments(p) -> None:
+    """--aperture-margin, --psd2-patch and --line-spacing of ``simulate``."""
+    from ufmt.cli.common import positive
+    from ufmt.machining.lines import DEFAULT_LINE_SPACING
+    from ufmt.machining.surface import DEFAULT_APERTURE_MARGIN, DEFAULT_PSD2_PATCH
+
+    p.add_argument(
+        "--aperture-margin",
+        type=positive(float),
+        default=DEFAULT_APERTURE_MARGIN * 1e3,
+        help=f"clear-aperture edge exclusion [mm] ({DEFAULT_APERTURE_MARGIN * 1e3:g})",
+    )
+    p.add_argument(
+        "--psd2-patch",
+        type=positive(float),
+        default=None,
+        metavar="MM",
+        help="evaluate PSD2 on a centred square patch of this side [mm] at 0.05 mm "
+        f"(e.g. {DEFAULT_PSD2_PATCH * 1e3:g}; superseded by the whole plate's line profiles)",
+    )
+    p.add_argument(
+        "--line-spacing",
+        type=positive(float),
+        default=DEFAULT_LINE_SPACING * 1e3,
+        metavar="MM",
+        help="step [mm] of the line profiles along and across the feed that PSD1 and PSD2 read"
+        f" over the whole plate ({DEFAULT_LINE_SPACING * 1e3:g})",
+    )
 
 
 def _register_frf(subparsers) -> None:
@@ -243,6 +259,7 @@ def cmd_simulate(args) -> int:
         sources=sources,
         static_correction=not args.no_static,
         aperture_margin=args.aperture_margin * 1e-3,
+        line_spacing=args.line_spacing * 1e-3,
     )
     result = simulate(model, process, **options)
     if args.plot:

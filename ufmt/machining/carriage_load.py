@@ -57,8 +57,8 @@ class CarriageLoad:
 
     @cached_property
     def reference(self) -> np.ndarray:
-        """Bodies' deflections (12,) [m, rad] at the tramming position Y_ref."""
-        return self._deflection(cut_slide_position(self.machine))
+        """:func:`_height_terms` (5,) of the deflections at the tramming position Y_ref."""
+        return _height_terms(self._deflection(cut_slide_position(self.machine)))
 
     def _deflection(self, slide_y: float) -> np.ndarray:
         """[u_tool, u_work] (12,) [m, rad] under gravity with the carriage at ``slide_y``."""
@@ -67,13 +67,14 @@ class CarriageLoad:
         return gravity_deflection(moved, (machine.tool_body, machine.workpiece_body))
 
     def _spline(self, arc: int) -> CubicSpline:
-        """u(Y) (12,) [m, rad] over arc ``arc``'s span (0 leading, 1 trailing)."""
+        """:func:`_height_terms` (5,) of u(Y) over arc ``arc``'s span (0 leading, 1 trailing)
+        (a spline of a linear combination is that combination of the splines)."""
         if arc not in self._spans:
             start, end = self.machine.cut_span[0], self.machine.cutting_span[1]
             ends = (start, end) if arc == 0 else (-end, -start)
             y = np.linspace(*ends, self.knots)
             u = np.array([self._deflection(float(v)) for v in y])
-            self._spans[arc] = CubicSpline(y, u, axis=0)
+            self._spans[arc] = CubicSpline(y, _height_terms(u), axis=0)
         return self._spans[arc]
 
     def __call__(self, phi, slide_y) -> np.ndarray:
@@ -87,15 +88,26 @@ class CarriageLoad:
         y_ref = cut_slide_position(self.machine)
         return self._height(tip, slide, u) - self._height(tip, y_ref, self.reference)
 
-    def _height(self, tip, slide, u) -> np.ndarray:
-        """Tool height over the workpiece [m] for bodies' motions ``u`` (..., 12)."""
+    def _height(self, tip, slide, v) -> np.ndarray:
+        """Tool height over the workpiece [m] for the bodies' motions' :func:`_height_terms`
+        ``v`` (..., 5): [T(p - C_t) u_t]_z - [T(p + Y y - C_w) u_w]_z."""
         c_tool = self.model.body(self.machine.tool_body).center_of_mass
         c_work = self.model.body(self.machine.workpiece_body).center_of_mass
-        arm_t = tip - c_tool
-        arm_w = tip + np.stack(np.broadcast_arrays(0.0, slide, 0.0), axis=-1) - c_work
-        tool = u[..., 2] + u[..., 3] * arm_t[..., 1] - u[..., 4] * arm_t[..., 0]
-        work = u[..., 8] + u[..., 9] * arm_w[..., 1] - u[..., 10] * arm_w[..., 0]
-        return tool - work
+        arm_t, arm_w = tip - c_tool, tip - c_work
+        return (
+            v[..., 0]
+            + v[..., 1] * arm_t[..., 1]
+            - v[..., 2] * arm_t[..., 0]
+            - v[..., 3] * (arm_w[..., 1] + slide)
+            + v[..., 4] * arm_w[..., 0]
+        )
+
+
+def _height_terms(u: np.ndarray) -> np.ndarray:
+    """The terms (..., 5) of the tool's height over the workpiece that the bodies' motions
+    u = [u_tool, u_work] (..., 12) [m, rad] enter: u_t,z - u_w,z, theta_t,x, theta_t,y,
+    theta_w,x, theta_w,y (z of theta x arm: theta_x arm_y - theta_y arm_x)."""
+    return np.stack([u[..., 2] - u[..., 8], u[..., 3], u[..., 4], u[..., 9], u[..., 10]], axis=-1)
 
 
 def carriage_load(model, machine: Machine, knots: int = KNOTS) -> CarriageLoad:

@@ -3,7 +3,8 @@
 KDP optics for large lasers specify mid-spatial-frequency errors as band RMS of 1-D PSDs
 (ISO 10110-8; the PSD practice of NIF/LLNL for large optics): PSD1 over spatial wavelengths
 2.5-33 mm, PSD2 over 0.12-2.5 mm (:data:`BANDS`). Here, on the evenly spaced (core) grid of a
-:class:`~ufmt.machining.surface.Surface`:
+:class:`~ufmt.machining.surface.Surface` (:mod:`ufmt.machining.lines` the same on fine line
+profiles over the whole plate, :func:`spectra_band_rms`):
 
 1. Form removed: the least-squares Legendre fit up to 2nd order (piston, tilt, power,
    astigmatism, twist; :func:`~ufmt.machining.surface.legendre_fit`). A shop reports the
@@ -74,8 +75,12 @@ def profile_psd(
     mean over the other axes.
     """
     lines = np.moveaxis(np.asarray(z, dtype=float), axis, -1)
+    # the least-squares line of each profile in closed form (scipy's detrend solves lstsq)
+    t = np.arange(lines.shape[-1]) - (lines.shape[-1] - 1) / 2
+    slope = (lines @ t) / (t @ t)
+    flat = lines - lines.mean(axis=-1, keepdims=True) - slope[..., None] * t
     frequency, psd = scipy.signal.periodogram(
-        lines, fs=1.0 / spacing, window=window, detrend="linear", scaling="density", axis=-1
+        flat, fs=1.0 / spacing, window=window, detrend=False, scaling="density", axis=-1
     )
     return frequency, psd.reshape(-1, psd.shape[-1]).mean(axis=0)
 
@@ -127,18 +132,29 @@ def band_rms(surface: Surface, bands=tuple(BANDS)) -> dict[str, float]:
     """
     x, y, flat = form_removed(surface)
     hx, hy = surface.spacing
-    profiles = {"along": (y.size, hy), "across": (x.size, hx)}
+    profiles = {
+        "along": (y.size, hy, lambda: profile_psd(flat, hy, _axis("along"))),
+        "across": (x.size, hx, lambda: profile_psd(flat, hx, _axis("across"))),
+    }
+    return spectra_band_rms(profiles, bands)
+
+
+def spectra_band_rms(profiles: dict, bands=tuple(BANDS)) -> dict[str, float]:
+    """Band RMS [nm] (keys as :func:`band_rms`) of ``profiles``: per direction of
+    :data:`DIRECTIONS`, (n points per profile, spacing [m], a function returning the mean
+    PSD (frequency [1/m], PSD [m^2 m])), each called at most once, where a band is resolved."""
     spectra = {}
     out = {}
     for name in bands:
         band = BANDS[name]
         per_direction = {}
-        for direction, (n, h) in profiles.items():
+        for direction in DIRECTIONS:
+            n, h, spectrum = profiles[direction]
             if not band_resolved(n, h, band):
                 per_direction[direction] = float("nan")
                 continue
             if direction not in spectra:
-                spectra[direction] = profile_psd(flat, h, _axis(direction))
+                spectra[direction] = spectrum()
             power = band_power(*spectra[direction], band)
             per_direction[direction] = float(np.sqrt(power)) * 1e9
         out[f"{name}_rms_nm"] = float(np.maximum(per_direction["along"], per_direction["across"]))

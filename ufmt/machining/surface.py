@@ -29,9 +29,10 @@ and RMS with the best-fit plane removed; PV and RMS over the clear aperture (the
 least-squares Legendre fit up to 2nd order (power, astigmatism, twist), waviness = what that
 fit leaves (PV, RMS). The plane, the fits and the RMS use the evenly spaced rows. The PSD bands
 (PSD1, PSD2: band RMS of 1-D PSDs of the waviness along and across the feed) are
-:mod:`ufmt.machining.psd`'s; PSD2 needs steps <= 0.06 mm, given by a patch
-(``DEFAULT_PSD2_PATCH`` = 20 mm square at 0.05 mm, ``ufmt.simulate(..., psd2_patch=...)``), as
-a shop measures PSD2 on sub-apertures.
+:mod:`ufmt.machining.psd`'s, read on line profiles at 0.03 mm over the whole plate
+(:mod:`ufmt.machining.lines`, which evaluates the same passes on other axes: :func:`passes_on`);
+a patch (``DEFAULT_PSD2_PATCH`` = 20 mm square at 0.05 mm, ``ufmt.simulate(...,
+psd2_patch=...)``), as a shop measures PSD2 on sub-apertures, is the superseded alternative.
 
 Dynamic metrics [nm] (:func:`dynamic_metrics`): the PV of the cutting-force vibration's
 surface alone over the whole plate (the paper's definition, eq. 4.1) and over the steady cut
@@ -108,13 +109,8 @@ def surface_grid(machine: Machine, spacing, window=None):
         (x0, x1), (y0, y1) = window
         if not (-lx / 2 <= x0 < x1 <= lx / 2 and -ly / 2 <= y0 < y1 <= ly / 2):
             raise ValueError(f"window {window!r} must lie inside the plate")
-    # nodes on the edges, at most ``spacing`` apart; counts rounded up to fast FFT lengths
-    nx, ny = (
-        scipy.fft.next_fast_len(int(np.ceil(v / h - 1e-9)) + 1, real=True)
-        for v, h in ((x1 - x0, hx), (y1 - y0, hy))
-    )
-    x = np.linspace(x0, x1, nx)
-    core_y = np.linspace(y0, y1, ny)
+    x, core_y = grid_axis(x0, x1, hx), grid_axis(y0, y1, hy)
+    ny = core_y.size
     y, core = core_y, np.ones(ny, bool)
     if window is None:
         fine = (core_y[1] - core_y[0]) / EDGE_REFINE
@@ -124,11 +120,23 @@ def surface_grid(machine: Machine, spacing, window=None):
         y = np.concatenate([core_y, band[gap > fine / 2]])
         order = np.argsort(y)
         y, core = y[order], (np.arange(y.size) < ny)[order]
+    return x, y, core, *pass_angles(machine, x)
+
+
+def grid_axis(start: float, stop: float, step: float) -> np.ndarray:
+    """Evenly spaced nodes [m] from ``start`` to ``stop`` (both included), at most ``step``
+    [m] apart, their count rounded up to a fast FFT length."""
+    n = scipy.fft.next_fast_len(int(np.ceil((stop - start) / step - 1e-9)) + 1, real=True)
+    return np.linspace(start, stop, n)
+
+
+def pass_angles(machine: Machine, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The leading and trailing arcs' angles phi (2, Nx) [rad] over the columns x (Nx,) [m]
+    and their cosines."""
     s = machine.sense * (x - machine.offset_x) / machine.tool_radius
     lead = np.arcsin(np.clip(s, -1.0, 1.0))
     phi = np.mod(np.stack([lead, np.pi - lead]), 2 * np.pi)  # (2, Nx): leading, trailing arc
-    cos = np.cos(phi)
-    return x, y, core, phi, cos
+    return phi, np.cos(phi)
 
 
 @dataclass(frozen=True, eq=False)
@@ -151,13 +159,11 @@ class Passes:
     frac: np.ndarray
     slide: np.ndarray
     feed_per_rev: float
-    spacing: tuple[float, float]
-    window: tuple | None
 
     def dynamic(self, table: ZreTable | PeriodicZreTable, machine: Machine) -> np.ndarray:
         """z_re of ``table`` [m] at both passes (cubic in phi, linear in the table's rows)."""
         arcs = self.phi.shape[0]
-        pairs = _table_pairs(table, machine, self.spacing, self.window, arcs)
+        pairs = _table_pairs(table, self.phi.tobytes(), arcs)
         slide = self.slide - table.drift * (self.phi / (2 * np.pi)) if table.drift else self.slide
         columns = np.arange(self.phi.size).reshape(arcs, -1)
         return _lookup(pairs, table.row_knots, slide, columns)
@@ -225,12 +231,30 @@ def surface_passes(
     (quasi-static) table gives each of them the steady state at its own slide position. Every
     surface of one grid and feed (the total, each error source alone) shares one.
     """
-    if not feed_per_rev > 0:
-        raise ValueError(f"feed_per_rev must be > 0 [m], got {feed_per_rev!r}")
     spacing = tuple(np.broadcast_to(np.asarray(spacing, dtype=float), (2,)).tolist())
     if window is not None:
         window = tuple(tuple(float(v) for v in w) for w in window)
     x, y, core, phi, cos = surface_grid(machine, spacing, window)
+    return passes_on(machine, feed_per_rev, x, y, core, trailing_arc, (phi, cos))
+
+
+def passes_on(
+    machine: Machine,
+    feed_per_rev: float,
+    x: np.ndarray,
+    y: np.ndarray,
+    core: np.ndarray | None = None,
+    trailing_arc: bool = False,
+    angles: tuple[np.ndarray, np.ndarray] | None = None,
+) -> Passes:
+    """The passes over the points of columns x (Nx,) and rows y (Ny,) [m] (any axes: a grid
+    or line profiles), ``core`` the evenly spaced rows (None: all), ``angles`` the columns'
+    :func:`pass_angles` when known (:func:`surface_passes`)."""
+    if not feed_per_rev > 0:
+        raise ValueError(f"feed_per_rev must be > 0 [m], got {feed_per_rev!r}")
+    if core is None:
+        core = np.ones(y.size, bool)
+    phi, cos = pass_angles(machine, x) if angles is None else angles
     arcs = 2 if trailing_arc else 1
     phi, cos = phi[:arcs], cos[:arcs]
     turn = phi / (2 * np.pi)
@@ -240,15 +264,15 @@ def surface_passes(
     k = np.floor(rho)
     slide = y_start + feed_per_rev * (k + turn)  # slide position of the earlier pass
     slide = np.stack([slide, slide + feed_per_rev])
-    return Passes(x, y, core, phi, cos, rho - k, slide, feed_per_rev, spacing, window)
+    return Passes(x, y, core, phi, cos, rho - k, slide, feed_per_rev)
 
 
-@lru_cache(maxsize=1)  # one simulation reads its table for the total and each source alone
-def _table_pairs(table, machine: Machine, spacing, window, arcs: int) -> np.ndarray:
-    """The table's columns at the grid's pass angles (``table.columns``), each row with the
-    next one as its imaginary part: (rows - 1, arcs * Nx) complex, so that a lookup is one
-    gather of both (cached per table, grid)."""
-    cols = table.columns(surface_grid(machine, spacing, window)[3][:arcs])
+@lru_cache(maxsize=2)  # one simulation reads its table on the grid's and the lines' columns
+def _table_pairs(table, phi: bytes, arcs: int) -> np.ndarray:
+    """The table's columns at the pass angles ``phi`` ((arcs, Nx) [rad] as float64 bytes;
+    ``table.columns``), each row with the next one as its imaginary part: (rows - 1,
+    arcs * Nx) complex, so that a lookup is one gather of both (cached per table, angles)."""
+    cols = table.columns(np.frombuffer(phi).reshape(arcs, -1))
     pairs = cols[:-1] + 1j * cols[1:]
     pairs.setflags(write=False)
     return pairs
@@ -341,11 +365,16 @@ def legendre_fit(x: np.ndarray, y: np.ndarray, z: np.ndarray) -> tuple[np.ndarra
     is a product f(u) g(v), so the normal equations are sums over u and v separately.
     """
     g = _grid_fit(x, y)
-    rhs = ((g.gv @ z) * g.fu).sum(axis=1)
-    coef = np.linalg.solve(g.normal, rhs)
+    coef = legendre_coefficients(x, y, z)
     fit = (g.gv.T * coef) @ g.fu
     form = (g.gv[3:].T * coef[3:]) @ g.fu[3:]
     return fit, form
+
+
+def legendre_coefficients(x: np.ndarray, y: np.ndarray, z: np.ndarray) -> np.ndarray:
+    """Coefficients (6,) of :func:`legendre_fit` [z unit], of 1, u, v, P2(u), u v, P2(v)."""
+    g = _grid_fit(x, y)
+    return np.linalg.solve(g.normal, ((g.gv @ z) * g.fu).sum(axis=1))
 
 
 #: Keys of :func:`dynamic_metrics` [nm].

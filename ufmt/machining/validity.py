@@ -36,6 +36,9 @@ The limits and their physics (r_n nose radius, a_p depth of cut, s = v/f feed pe
 * **Surface grid**: each workpiece side holds at least MIN_GRID_STEPS grid steps and the
   whole grid at most MAX_GRID_NODES nodes; the clear aperture (the plate less the margin at
   each edge) is not empty; a PSD2 patch fits on the plate.
+* **Line profiles** of the PSD bands (:mod:`ufmt.machining.lines`): a step > 0 and at most
+  MAX_LINE_POINTS points on the grid's columns and rows together (the 410 mm plate at
+  0.03 mm needs ~1e7).
 * **Bodies**: the tool and the workpiece are two different bodies, each with mode shapes
   (a real body, not a virtual one).
 
@@ -56,6 +59,7 @@ MAX_SAMPLES_PER_REV = 2**16  # [-] response samples per revolution (the CLI's --
 MAX_CUT_REVOLUTIONS = 2**24  # [-] revolutions of one cut (time resolution of the window)
 MIN_GRID_STEPS = 2  # [-] grid steps along each workpiece side (three nodes)
 MAX_GRID_NODES = 2**22  # [-] nodes of a surface grid (~4e6: 32 MB per float array)
+MAX_LINE_POINTS = 2**25  # [-] points of the PSD line profiles (~3.4e7: 270 MB of heights)
 
 
 class OutsideDomainError(ProcessError):
@@ -64,13 +68,19 @@ class OutsideDomainError(ProcessError):
 
 
 def check_case(
-    process: Process, machine: Machine, spacing, aperture_margin: float, psd2_patch=None
+    process: Process,
+    machine: Machine,
+    spacing,
+    aperture_margin: float,
+    psd2_patch=None,
+    line_spacing=None,
 ) -> None:
     """Every limit that needs no modal basis (module doc): checked before any allocation."""
     check_cut(process, machine)
     check_revolutions(process, machine)
     check_bodies(machine)
     check_surface(machine, spacing, aperture_margin, psd2_patch)
+    check_lines(machine, spacing, line_spacing)
 
 
 def cut_width(nose_radius: float, depth: float) -> float:
@@ -176,4 +186,23 @@ def check_surface(
         raise OutsideDomainError(
             f"PSD2 patch {psd2_patch * 1e3:g} mm does not fit on the {lx * 1e3:g} x"
             f" {ly * 1e3:g} mm workpiece (at most {min(lx, ly) * 1e3:g} mm)"
+        )
+
+
+def check_lines(machine: Machine, spacing, line_spacing: float | None) -> None:
+    """The PSD line profiles' step and size (module doc); None: no line profiles."""
+    if line_spacing is None:
+        return
+    if not (math.isfinite(line_spacing) and line_spacing > 0):
+        raise OutsideDomainError(
+            f"line_spacing: {line_spacing!r} m is not a step > 0 (e.g. 3e-05, the default)"
+        )
+    hx, hy = np.broadcast_to(np.asarray(spacing, dtype=float), (2,))
+    lx, ly = machine.workpiece_size
+    points = (lx / hx + 1) * (ly / line_spacing + 1) + (ly / hy + 1) * (lx / line_spacing + 1)
+    if points > MAX_LINE_POINTS:
+        raise OutsideDomainError(
+            f"machine: workpiece_size [{lx:g}, {ly:g}] m at a line spacing of {line_spacing:g} m"
+            f" needs {points:.3g} line-profile points; at most {MAX_LINE_POINTS:,} (a coarser"
+            " line spacing)"
         )

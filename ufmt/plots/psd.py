@@ -2,8 +2,9 @@
 the PSD1 and PSD2 bands shaded and each band's RMS printed against the specification it is
 judged by.
 
-The PSDs are those of :func:`ufmt.machining.psd.surface_psd` (form removed, Hann window, the
-mean over the line profiles) of the surface without the feed marks; the band RMS values are
+The PSDs are the simulation's line profiles' (``psd_spectra``, :mod:`ufmt.machining.lines`;
+else :func:`ufmt.machining.psd.surface_psd` of its grid: form removed, Hann window, the mean
+over the line profiles) of the surface without the feed marks; the band RMS values are
 the simulation's own metrics (``psd1_rms_along_nm``, ...), "not resolved" where the plate is
 too short for the band (:func:`ufmt.machining.psd.band_resolved`).
 
@@ -57,9 +58,8 @@ def plot_psd(result, ax=None, spec: dict[str, float] | None = None) -> Figure:
     ``spec`` (default :data:`KDP_SPEC_RMS_NM`) printed below. Draws into ``ax`` if given."""
     spec = spec or KDP_SPEC_RMS_NM
     fig, ax = new_axes(ax, (7.2, 5.6))
-    surface = result.smooth_surface
     for direction in DIRECTIONS:
-        f, psd = surface_psd(surface, direction)
+        _, _, f, psd = spectra(result)[direction]
         keep = (f > 0) & (psd > 0)
         ax.loglog(f[keep] * 1e-3, psd[keep] * 1e18 * 1e3, lw=1.2, **DIRECTION_STYLE[direction])
     _bands_and_axes(ax)
@@ -84,7 +84,7 @@ def plot_psd_extremes(
     styles = ("-", "--", ":", "-.")
     for ax, direction in zip(axes, DIRECTIONS, strict=True):
         for (label, result), ls in zip(results.items(), styles, strict=False):
-            f, psd = surface_psd(result.smooth_surface, direction)
+            _, _, f, psd = spectra(result)[direction]
             keep = (f > 0) & (psd > 0)
             value = result.metrics.get(metric, math.nan)
             ax.loglog(
@@ -124,15 +124,26 @@ def _bands_and_axes(ax) -> None:
 
 def _verdicts(result, spec: dict[str, float]) -> list[str]:
     """One line per band and direction: the band RMS of ``result`` against its limit."""
-    surface, m = result.smooth_surface, result.metrics
-    hx, hy = surface.spacing
-    profile = {"along": (int(surface.core_rows.sum()), hy), "across": (surface.x.size, hx)}
+    m, profile = result.metrics, spectra(result)
     return [
         f"{name.upper()} RMS {direction:<6}: "
-        + band_verdict(m.get(f"{name}_rms_{direction}_nm"), limit, *profile[direction], BANDS[name])
+        + band_verdict(
+            m.get(f"{name}_rms_{direction}_nm"), limit, *profile[direction][:2], BANDS[name]
+        )
         for name, limit in spec.items()
         for direction in DIRECTIONS
     ]
+
+
+def spectra(result) -> dict[str, tuple[int, float, np.ndarray, np.ndarray]]:
+    """Per direction (points per profile, step [m], frequency [1/m], mean PSD [m^2 m]) of the
+    profiles ``result``'s bands read: its line profiles, else its smooth surface's grid."""
+    if result.psd_spectra is not None:
+        return result.psd_spectra
+    surface = result.smooth_surface
+    hx, hy = surface.spacing
+    size = {"along": (int(surface.core_rows.sum()), hy), "across": (surface.x.size, hx)}
+    return {d: (*size[d], *surface_psd(surface, d)) for d in DIRECTIONS}
 
 
 def _limits(spec: dict[str, float]) -> str:
