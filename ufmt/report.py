@@ -14,10 +14,8 @@ reads existing results only: a missing part is listed as missing, never recomput
 
 from __future__ import annotations
 
-import base64
 import html
 import json
-import os
 import re
 from pathlib import Path
 
@@ -28,7 +26,13 @@ from ufmt import files
 from ufmt.machining.process import TABLE1_RANGE
 from ufmt.model.machine import MACHINE_FIELDS, OPTIONAL_FIELDS
 from ufmt.model.schema import Model
-from ufmt.report_summary import summary_parts
+from ufmt.report_html import MAX_TABLE_ROWS, STYLE, column_header, details, figures, more
+from ufmt.report_html import csv as _csv
+from ufmt.report_html import missing as _missing
+from ufmt.report_html import table_html as _table
+from ufmt.report_summary import plate_words, summary_parts
+
+__all__ = ["MAX_TABLE_ROWS", "build_report", "column_header", "write_report"]
 
 REPORT = "report.html"
 VALIDATION = "validation"
@@ -48,26 +52,6 @@ STUDY_TABLES = (
     "interval.csv",
     "tradeoff.csv",
 )
-MAX_TABLE_ROWS = 16  # longer tables are linked as their CSV file, not inlined
-COLUMN_CHARS = 40  # a column's width follows its longest cell up to this many characters
-
-_STYLE = """
-body { font-family: sans-serif; max-width: 1100px; margin: 2em auto; color: #222; }
-h1 { border-bottom: 2px solid #444; } h2 { border-bottom: 1px solid #aaa; margin-top: 2em; }
-table { border-collapse: collapse; font-size: 0.8em; margin: 0.5em 0; width: 100%;
-        table-layout: fixed; }
-th, td { border: 1px solid #ccc; padding: 2px 6px; text-align: right; vertical-align: top;
-         overflow-wrap: anywhere; word-break: break-word; }
-td.text, th.text, td:first-child, th:first-child { text-align: left; }
-pre { white-space: pre-wrap; overflow-wrap: anywhere; }
-figure { margin: 0.5em 0; }
-th { background: #eee; }
-img { max-width: 100%; border: 1px solid #ddd; margin: 0.3em 0; }
-.finding { background: #eef5ff; padding: 0.5em 1em; border-left: 4px solid #36c; }
-.warning { background: #fff4e0; padding: 0.5em 1em; border-left: 4px solid #e90; }
-.missing { color: #999; font-style: italic; } code, pre { font-size: 0.85em; }
-nav a { margin-right: 1em; }
-"""
 
 
 def write_report(results: str | Path = "results", model: Model | None = None, output=None) -> Path:
@@ -109,11 +93,11 @@ def build_report(results: str | Path = "results", model: Model | None = None, pa
             "Validation against the paper",
             _validation_section(results / VALIDATION, page_dir),
         ),
-        ("reference-cut", "Reference cut and FRF", _reference_section(results)),
+        ("reference-cut", "Reference cut and FRF", _reference_section(results, page_dir)),
     ]
     contrasts = _contrasts(results / UNCERTAINTY)
     sections += [
-        (name, f"Study: {name}", _study_section(d, meta, page_dir, contrasts))
+        (name, f"Study: {name}", _study_section(d, meta, page_dir, contrasts, model))
         for name, d, meta in studies
     ]
     nav = " ".join(f'<a href="#{key}">{html.escape(title)}</a>' for key, title, _ in sections)
@@ -122,7 +106,7 @@ def build_report(results: str | Path = "results", model: Model | None = None, pa
     )
     return (
         "<!DOCTYPE html>\n<html lang='en'><head><meta charset='utf-8'>"
-        f"<title>ufmt report: {html.escape(model.name)}</title><style>{_STYLE}</style></head>"
+        f"<title>ufmt report: {html.escape(model.name)}</title><style>{STYLE}</style></head>"
         f"<body><h1>ufmt report: {html.escape(model.name)}</h1>"
         f"<p>ufmt {__version__}; built by <code>ufmt report</code> from the files in "
         f"<code>{html.escape(str(results))}/</code> (nothing recomputed).</p>"
@@ -152,7 +136,7 @@ def _summary_section(results: Path, model: Model, studies) -> str:
 
 #: A study's answer in the summary is cut at a clause boundary after this many characters (the
 #: whole finding is in the study's section).
-SUMMARY_ANSWER_CHARS = 400
+SUMMARY_ANSWER_CHARS = 260
 
 
 def _first_clauses(text: str) -> str:
@@ -203,8 +187,10 @@ def _model_section(model: Model) -> str:
         f"<p><b>{html.escape(model.name)}</b> ({html.escape(_shown_path(model.source))}): "
         f"{len(model.bodies)} bodies, {len(model.hinges)} hinges. Bodies: "
         f"{html.escape(bodies)}.</p>",
-        _table(hinges),
-        _parameter_tables(model),
+        more(
+            details(f"The {len(model.hinges)} hinges' stiffnesses (table)", _table(hinges)),
+            _parameter_tables(model),
+        ),
     ]
     return "\n".join(parts)
 
@@ -229,14 +215,17 @@ def _parameter_tables(model: Model) -> str:
     parts = []
     if model.machine is not None:
         parts.append(
-            "<h3>Machine (<code>[machine]</code>)</h3><p>Every value the cut uses, with its "
-            "physical band (docs/ufmt-model.md gives the source of each) and how it was set."
-            "</p>" + _table(machine_table(model, calibration))
+            details(
+                "Machine ([machine]): each value, its band (docs/ufmt-model.md) and how it "
+                "was set (table)",
+                _table(machine_table(model, calibration)),
+            )
         )
     if model.design:
         parts.append(
-            "<h3>Design parameters (<code>[design]</code>)</h3>"
-            + _table(design_table(model, calibration))
+            details(
+                "Design parameters ([design]) (table)", _table(design_table(model, calibration))
+            )
         )
     return "\n".join(parts)
 
@@ -372,33 +361,37 @@ def _validation_section(folder: Path, page_dir: Path) -> str:
         "(<code>frequencies.csv</code>) and the cutting response against Table 4 "
         "(<code>response.csv</code>).</p>"
     ]
-    parts += [_figure(folder / "frequencies.png")]
+    modes = sorted(folder.glob("mode-*.png"), key=lambda p: int(p.stem.split("-")[1]))
+    parts.append(figures([folder / "frequencies.png", *modes], page_dir, columns=4))
     titles = {
         "frequencies.csv": "Natural frequencies against Table 3 (frequencies.csv)",
         "response.csv": "Residuals of the cutting response against the paper (response.csv)",
         "identification-log.csv": "Identification log (identification-log.csv)",
     }
-    for name, title in titles.items():
-        parts.append(f"<h3>{title}</h3>" + _csv(folder / name, page_dir))
-    modes = sorted(folder.glob("mode-*.png"), key=lambda p: int(p.stem.split("-")[1]))
-    if modes:
-        parts.append("<h3>Mode shapes</h3>" + "".join(_figure(p) for p in modes))
+    parts.append(
+        more(*(details(title, _csv(folder / name, page_dir)) for name, title in titles.items()))
+    )
     return "\n".join(parts)
 
 
-def _reference_section(results: Path) -> str:
+def _reference_section(results: Path, page_dir: Path | None = None) -> str:
     cut = results / VALIDATION / REFERENCE_CUT
     parts = [
         "<p>The reference cut of the paper (300 rpm, 15 mm/min, 4 µm; Figs. 6, 7, 13, 14), "
-        "from <code>ufmt simulate --method time --plot</code>.</p>"
+        "from <code>ufmt simulate --method time --plot</code>, and the tool-workpiece "
+        "receptance (<code>ufmt frf</code>).</p>"
     ]
     pngs = sorted(cut.glob("*.png")) if cut.is_dir() else []
-    parts += [_figure(p) for p in pngs] or [_missing(f"{cut}/")]
-    parts.append(_headline_intervals(cut, results / UNCERTAINTY))
-    parts.append(_error_budget(cut))
-    parts.append("<h3>Tool-workpiece receptance (ufmt frf)</h3>")
     frf = sorted((results / FRF).glob("*.png")) if (results / FRF).is_dir() else []
-    parts += [_figure(p) for p in frf] or [_missing(f"{results / FRF}/ (run ufmt frf)")]
+    parts.append(figures([*pngs, *frf], page_dir))
+    if not pngs:
+        parts.append(_missing(f"{cut}/"))
+    if not frf:
+        parts.append(_missing(f"{results / FRF}/ (run ufmt frf)"))
+    tables = _headline_intervals(cut, results / UNCERTAINTY) + _error_budget(cut)
+    parts.append(
+        details("Headline numbers with their 5-95 % intervals; error budget (tables)", tables)
+    )
     return "\n".join(parts)
 
 
@@ -497,9 +490,9 @@ def _finding_intervals(name: str, contrasts: pd.DataFrame | None) -> str:
 
 
 def _study_section(
-    folder: Path, meta: dict, page_dir: Path, contrasts: pd.DataFrame | None = None
+    folder: Path, meta: dict, page_dir: Path, contrasts: pd.DataFrame | None = None, model=None
 ) -> str:
-    parts = []
+    parts = [f'<p class="plate">Plate: {html.escape(plate_words(meta, model))}.</p>']
     if meta.get("description"):
         parts.append(f"<p>{html.escape(meta['description'])}</p>")
     finding = meta.get("headline") or "(run incomplete)"
@@ -508,12 +501,14 @@ def _study_section(
     warning = _range_warning(folder / "points.csv")
     if warning:
         parts.append(f'<p class="warning">{html.escape(warning)}</p>')
-    for name in meta.get("plots", []):
-        parts.append(_figure(folder / name))
-    for name in STUDY_TABLES:
-        if (folder / name).is_file():
-            parts.append(f"<h3>{name}</h3>" + _csv(folder / name, page_dir))
-    parts.append(_details("provenance", _provenance(meta)))
+    parts.append(figures([folder / name for name in meta.get("plots", [])], page_dir))
+    tables = [name for name in STUDY_TABLES if (folder / name).is_file()]
+    shown = "".join(f"<h3>{name}</h3>" + _csv(folder / name, page_dir) for name in tables)
+    parts.append(
+        more(
+            details(f"Tables: {', '.join(tables)}", shown), details("provenance", _provenance(meta))
+        )
+    )
     return "\n".join(parts)
 
 
@@ -574,87 +569,3 @@ def _shown_path(source: str) -> str:
         return str(path.resolve().relative_to(Path.cwd().resolve()))
     except ValueError:
         return str(source)
-
-
-def _figure(png: Path) -> str:
-    """The PNG embedded as a base64 data URI (or a note that it is missing)."""
-    if not png.is_file():
-        return _missing(str(png))
-    data = base64.b64encode(png.read_bytes()).decode("ascii")
-    return (
-        f'<figure><img alt="{html.escape(png.name)}" src="data:image/png;base64,{data}">'
-        f"<figcaption><code>{html.escape(png.name)}</code></figcaption></figure>"
-    )
-
-
-def _csv(path: Path, page_dir: Path) -> str:
-    """A CSV table inline, or a link to it (relative to ``page_dir``, the page's folder) when
-    it is longer than MAX_TABLE_ROWS rows."""
-    if not path.is_file():
-        return _missing(str(path))
-    table = pd.read_csv(path)
-    if len(table) > MAX_TABLE_ROWS:
-        href = Path(os.path.relpath(path.resolve(), page_dir.resolve())).as_posix()
-        return (
-            f'<p>{len(table)} rows, {len(table.columns)} columns: <a href="{html.escape(href)}">'
-            f"{html.escape(path.name)}</a> (CSV, beside this page).</p>"
-        )
-    return _table(table.rename(columns=column_header))
-
-
-#: Column-name suffix -> unit, for headers in words.
-HEADER_UNITS = (
-    ("_percent", "%"),
-    ("_mm_s2", "mm/s²"),
-    ("_mm_min", "mm/min"),
-    ("_Nm_rad", "N m/rad"),
-    ("_N_m", "N/m"),
-    ("_hz", "Hz"),
-    ("_nm", "nm"),
-    ("_um", "µm"),
-    ("_mm", "mm"),
-    ("_min", "min"),
-    ("_n", "N"),
-    ("_s", "s"),
-)
-
-
-def column_header(name: str) -> str:
-    """A CSV column's header in words with its unit: ``pv_measured_nm`` -> "pv measured [nm]",
-    ``frequency_hz`` -> "frequency [Hz]" (dotted parameter names are kept as they are)."""
-    if "." in name or "[" in name:
-        return name
-    for suffix, unit in HEADER_UNITS:
-        if name.endswith(suffix) and len(name) > len(suffix):
-            return f"{name[: -len(suffix)].replace('_', ' ')} [{unit}]"
-    return name.replace("_", " ")
-
-
-def _table(table: pd.DataFrame) -> str:
-    """The table as HTML in the page's fixed layout (numbers to four significant digits): each
-    column's share of the width follows its longest cell (capped at COLUMN_CHARS characters),
-    so long text wraps in wide columns and numbers keep narrow ones."""
-    text = table.to_html(index=False, na_rep="", float_format=lambda v: f"{v:.4g}", border=0)
-    lengths = [
-        min(
-            COLUMN_CHARS,
-            max([len(str(c)) // 2, *(len(_shown(v)) for v in table[c])], default=4),
-        )
-        + 2
-        for c in table.columns
-    ]
-    total = sum(lengths) or 1
-    cols = "".join(f'<col style="width:{100 * n / total:.1f}%">' for n in lengths)
-    return text.replace(">\n  <thead>", f"><colgroup>{cols}</colgroup>\n  <thead>", 1)
-
-
-def _shown(value) -> str:
-    return f"{value:.4g}" if isinstance(value, float) else str(value)
-
-
-def _details(summary: str, content: str) -> str:
-    return f"<details><summary>{html.escape(summary)}</summary>{content}</details>"
-
-
-def _missing(what: str) -> str:
-    return f'<p class="missing">missing: {html.escape(what)}</p>'

@@ -46,7 +46,11 @@ def summary_parts(results: Path, model: Model, studies) -> list[tuple[str, pd.Da
     frequencies = frequency_sentence(results / "validation" / "frequencies.csv")
     if frequencies:
         parts.append(("text", frequencies))
-    answers = [(name, meta.get("headline")) for name, _, meta in studies if meta.get("headline")]
+    answers = [
+        (name, f"[{plate_words(meta, model)}] {meta['headline']}")
+        for name, _, meta in studies
+        if meta.get("headline")
+    ]
     if answers:
         parts.append(("heading", "What the studies answer (what to change)"))
         parts.append(("list", answers))
@@ -64,6 +68,31 @@ def machine_sentence(model: Model) -> str:
         f"{text}; a {x:.4g} mm × {y:.4g} mm plate cut by a fly-cutter of radius"
         f" {1e3 * machine.tool_radius:.4g} mm."
     )
+
+
+#: The paper's plate (its Table 1 workpiece), for naming the plate a study ran on.
+PAPER_PLATE_MM = 52.4
+
+
+def plate_mm(meta: dict, model: Model | None) -> tuple[float, float] | None:
+    """The plate [mm] a study ran on: its ``[base]`` ``machine.workpiece_size`` where set,
+    else the model's (None without a ``[machine]`` table)."""
+    base = meta.get("baseline", {}) or {}
+    default = model.machine.workpiece_size if model is not None and model.machine else None
+    sizes = [base.get(f"machine.workpiece_size[{i}]") for i in (0, 1)]
+    if default is None and None in sizes:
+        return None
+    return tuple(1e3 * (s if s is not None else default[i]) for i, s in enumerate(sizes))
+
+
+def plate_words(meta: dict, model: Model | None) -> str:
+    """ "the paper's 52.4 mm × 52.4 mm plate" or "a 150 mm × 150 mm plate" (see
+    :func:`plate_mm`)."""
+    size = plate_mm(meta, model)
+    if size is None:
+        return "the model's plate"
+    whose = "the paper's " if all(abs(s - PAPER_PLATE_MM) < 0.5 for s in size) else "a "
+    return f"{whose}{size[0]:.4g} mm × {size[1]:.4g} mm plate"
 
 
 def headline_table(metrics: dict | None, distribution: Path) -> pd.DataFrame | None:
