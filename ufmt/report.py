@@ -51,6 +51,7 @@ STUDY_TABLES = (
     "budget.csv",
     "interval.csv",
     "tradeoff.csv",
+    "findings.csv",
 )
 
 
@@ -136,15 +137,26 @@ def _summary_section(results: Path, model: Model, studies) -> str:
 
 #: A study's answer in the summary is cut at a clause boundary after this many characters (the
 #: whole finding is in the study's section).
-SUMMARY_ANSWER_CHARS = 260
+SUMMARY_ANSWER_CHARS = 200
 
 
-def _first_clauses(text: str) -> str:
-    """``text`` up to the last "; " before SUMMARY_ANSWER_CHARS, with "…" where cut."""
-    if len(text) <= SUMMARY_ANSWER_CHARS:
+#: A study's finding in its section shows this many characters; the rest opens on a click.
+FINDING_CHARS = 420
+
+
+def _first_clauses(text: str, chars: int = SUMMARY_ANSWER_CHARS, tail: str = " … (below)") -> str:
+    """``text`` up to the last "; " before ``chars`` characters, with ``tail`` where cut."""
+    if len(text) <= chars:
         return text
-    cut = text.rfind("; ", 0, SUMMARY_ANSWER_CHARS)
-    return (text[:cut] if cut > 0 else text[:SUMMARY_ANSWER_CHARS]) + " … (the whole finding below)"
+    cut = text.rfind("; ", 0, chars)
+    return (text[:cut] if cut > 0 else text[:chars]) + tail
+
+
+def _finding(text: str) -> str:
+    """A study's finding: its first clauses, the whole text folded under them when longer."""
+    shown = _first_clauses(text, FINDING_CHARS, " …")
+    whole = details("the whole finding", f"<p>{html.escape(text)}</p>") if shown != text else ""
+    return f'<div class="finding"><b>Finding:</b> {html.escape(shown)}{whole}</div>'
 
 
 def _studies(results: Path) -> list[tuple[str, Path, dict]]:
@@ -362,7 +374,7 @@ def _validation_section(folder: Path, page_dir: Path) -> str:
         "(<code>response.csv</code>).</p>"
     ]
     modes = sorted(folder.glob("mode-*.png"), key=lambda p: int(p.stem.split("-")[1]))
-    parts.append(figures([folder / "frequencies.png", *modes], page_dir, columns=4))
+    parts.append(figures([folder / "frequencies.png", *modes], page_dir))
     titles = {
         "frequencies.csv": "Natural frequencies against Table 3 (frequencies.csv)",
         "response.csv": "Residuals of the cutting response against the paper (response.csv)",
@@ -496,7 +508,7 @@ def _study_section(
     if meta.get("description"):
         parts.append(f"<p>{html.escape(meta['description'])}</p>")
     finding = meta.get("headline") or "(run incomplete)"
-    parts.append(f'<p class="finding"><b>Finding:</b> {html.escape(finding)}</p>')
+    parts.append(_finding(finding))
     parts.append(_finding_intervals(folder.name, contrasts))
     warning = _range_warning(folder / "points.csv")
     if warning:

@@ -1,6 +1,6 @@
 """The report's HTML pieces: the style sheet, figures in a grid, tables, folded details.
 
-Figures are embedded as base64 PNG in a three-column grid (a wide figure spans two or three
+Figures are embedded as base64 PNG in a four-column grid (a wide figure spans two or all
 columns by its aspect ratio), each linked to its PNG file beside the page for the full size.
 Tables show numbers to four significant digits under headers in words with units; a table
 longer than :data:`MAX_TABLE_ROWS` rows is linked as its CSV file, not inlined. Reference
@@ -20,8 +20,8 @@ import pandas as pd
 
 MAX_TABLE_ROWS = 16  # longer tables are linked as their CSV file, not inlined
 COLUMN_CHARS = 40  # a column's width follows its longest cell up to this many characters
-#: Aspect ratios (width / height) from which a figure spans two, then three grid columns.
-WIDE, VERY_WIDE = 2.4, 4.0
+#: Aspect ratios (width / height) from which a figure spans two, then every grid column.
+WIDE, VERY_WIDE = 1.8, 3.5
 
 STYLE = """
 body { font-family: sans-serif; max-width: 1340px; margin: 1em auto; padding: 0 0.5em;
@@ -36,9 +36,9 @@ th, td { border: 1px solid #ccc; padding: 2px 6px; text-align: right; vertical-a
 td.text, th.text, td:first-child, th:first-child { text-align: left; }
 pre { white-space: pre-wrap; overflow-wrap: anywhere; }
 th { background: #eee; }
-.figures { display: grid; grid-template-columns: repeat(3, minmax(0, 1fr)); gap: 6px;
+.figures { display: grid; grid-template-columns: repeat(4, minmax(0, 1fr)); gap: 6px;
            grid-auto-flow: dense; align-items: start; }
-.figures figure { margin: 0; } .span2 { grid-column: span 2; } .span3 { grid-column: span 3; }
+.figures figure { margin: 0; } .span2 { grid-column: span 2; } .spanall { grid-column: 1 / -1; }
 figcaption { font-size: 0.75em; color: #555; }
 img { width: 100%; height: auto; border: 1px solid #ddd; }
 .finding { background: #eef5ff; padding: 0.4em 1em; border-left: 4px solid #36c; margin: 0.4em 0; }
@@ -48,7 +48,6 @@ img { width: 100%; height: auto; border: 1px solid #ddd; }
 details { margin: 0.3em 0; } summary { cursor: pointer; color: #36c; }
 .more { display: flex; flex-wrap: wrap; column-gap: 2em; }
 .more details[open] { flex-basis: 100%; }
-.figures.four { grid-template-columns: repeat(4, minmax(0, 1fr)); }
 nav a { margin-right: 1em; }
 """
 
@@ -67,7 +66,7 @@ def figure(png: Path, page_dir: Path | None = None) -> str:
         return missing(str(png))
     width, height = png_size(png)
     aspect = width / max(height, 1)
-    span = " class='span3'" if aspect >= VERY_WIDE else " class='span2'" if aspect >= WIDE else ""
+    span = " class='spanall'" if aspect >= VERY_WIDE else " class='span2'" if aspect >= WIDE else ""
     data = base64.b64encode(png.read_bytes()).decode("ascii")
     image = f'<img alt="{html.escape(png.name)}" src="data:image/png;base64,{data}">'
     if page_dir is not None:
@@ -78,12 +77,10 @@ def figure(png: Path, page_dir: Path | None = None) -> str:
     )
 
 
-def figures(pngs, page_dir: Path | None = None, columns: int = 3) -> str:
-    """Several figures in one grid of three (or four: thumbnails) columns (see
-    :func:`figure`), or '' for none."""
+def figures(pngs, page_dir: Path | None = None) -> str:
+    """Several figures in one grid of four columns (see :func:`figure`), or '' for none."""
     cells = [figure(Path(p), page_dir) for p in pngs]
-    grid = "figures four" if columns == 4 else "figures"
-    return f'<div class="{grid}">{"".join(cells)}</div>' if cells else ""
+    return f'<div class="figures">{"".join(cells)}</div>' if cells else ""
 
 
 def more(*folded: str) -> str:

@@ -46,6 +46,20 @@ def summary_parts(results: Path, model: Model, studies) -> list[tuple[str, pd.Da
     frequencies = frequency_sentence(results / "validation" / "frequencies.csv")
     if frequencies:
         parts.append(("text", frequencies))
+    findings = findings_summary(studies)
+    if findings is not None:
+        name, table = findings
+        parts += [
+            ("heading", "The paper's findings, like for like"),
+            (
+                "text",
+                f"From the {name} study (findings.csv): each statement on the surface the paper "
+                "models (the cutting-force vibration alone, steady cut) and on what the shop "
+                "measures (the interferometer's PV); change at the low and high end against "
+                "the base [%].",
+            ),
+            ("table", table),
+        ]
     answers = [
         (name, f"[{plate_words(meta, model)}] {meta['headline']}")
         for name, _, meta in studies
@@ -55,6 +69,54 @@ def summary_parts(results: Path, model: Model, studies) -> list[tuple[str, pd.Da
         parts.append(("heading", "What the studies answer (what to change)"))
         parts.append(("list", answers))
     return parts
+
+
+#: The two surfaces of findings.csv, in words for the summary's columns.
+FINDING_SURFACES = {
+    "pv_dynamic_steady_nm": "steady-cut vibration",
+    "pv_measured_nm": "interferometer PV",
+}
+
+
+def findings_summary(studies) -> tuple[str, pd.DataFrame] | None:
+    """The first study's findings.csv (:mod:`ufmt.studies.findings`) as one row per statement:
+    the change at each end [%] and whether it is reproduced, per surface; None without one."""
+    for name, folder, _ in studies:
+        path = Path(folder) / "findings.csv"
+        if not path.is_file():
+            continue
+        table = pd.read_csv(path)
+        rows = []
+        for _, group in table.groupby("key", sort=False):
+            first = group.iloc[0]
+            row = {"paper's statement": first["statement"], "varied": _varied(first)}
+            for metric, words in FINDING_SURFACES.items():
+                found = group[group["metric"] == metric]
+                if found.empty:
+                    continue
+                r = found.iloc[0]
+                if np.isfinite(r.get("change_low_percent", np.nan)):
+                    change = f"{r['change_low_percent']:+.2g} / {r['change_high_percent']:+.2g}"
+                else:
+                    change = str(r["found"])
+                row[f"{words}: change [%]"] = change
+                row[f"{words}: reproduced"] = "yes" if r["reproduced"] else "NO"
+            rows.append(row)
+        return name, pd.DataFrame(rows)
+    return None
+
+
+def _varied(row) -> str:
+    """ "x0.5 -> x2" for a stiffness, "200 -> 400 rpm" for a process parameter."""
+    if not np.isfinite(row.get("base", np.nan)):
+        return str(row["parameter"])
+    if row["parameter"] in PROCESS_UNITS:
+        unit = PROCESS_UNITS[row["parameter"]]
+        return f"{row['parameter']} {row['low']:g} → {row['high']:g} {unit}"
+    return f"{row['parameter']} ×{row['low'] / row['base']:.2g} → ×{row['high'] / row['base']:.2g}"
+
+
+PROCESS_UNITS = {"rpm": "rpm", "feed_mm_min": "mm/min", "depth_um": "µm"}
 
 
 def machine_sentence(model: Model) -> str:
