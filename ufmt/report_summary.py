@@ -11,6 +11,7 @@ and the natural frequencies' errors in ``validation/frequencies.csv``); and each
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -110,13 +111,19 @@ def _varied(row) -> str:
     """ "x0.5 -> x2" for a stiffness, "200 -> 400 rpm" for a process parameter."""
     if not np.isfinite(row.get("base", np.nan)):
         return str(row["parameter"])
-    if row["parameter"] in PROCESS_UNITS:
-        unit = PROCESS_UNITS[row["parameter"]]
-        return f"{row['parameter']} {row['low']:g} → {row['high']:g} {unit}"
-    return f"{row['parameter']} ×{row['low'] / row['base']:.2g} → ×{row['high'] / row['base']:.2g}"
+    name = str(row["parameter"])
+    if name in PROCESS_WORDS:
+        words, unit = PROCESS_WORDS[name]
+        return f"{words} {row['low']:g} → {row['high']:g} {unit}"
+    words = re.sub(r"_(N_m|Nm_rad)$", "", name).replace("_", " ")
+    return f"{words} ×{row['low'] / row['base']:.2g} → ×{row['high'] / row['base']:.2g}"
 
 
-PROCESS_UNITS = {"rpm": "rpm", "feed_mm_min": "mm/min", "depth_um": "µm"}
+PROCESS_WORDS = {
+    "rpm": ("spindle speed", "rpm"),
+    "feed_mm_min": ("feed", "mm/min"),
+    "depth_um": ("depth of cut", "µm"),
+}
 
 
 def machine_sentence(model: Model) -> str:
