@@ -146,6 +146,8 @@ PAPER_PLATE_MM = 52.4
 def plate_mm(meta: dict, model: Model | None) -> tuple[float, float] | None:
     """The plate [mm] a study ran on: its ``[base]`` ``machine.workpiece_size`` where set,
     else the model's (None without a ``[machine]`` table)."""
+    if meta.get("plate_mm"):  # written by the run (ufmt.studies.journal.plate_mm)
+        return tuple(float(v) for v in meta["plate_mm"])
     base = meta.get("baseline", {}) or {}
     default = model.machine.workpiece_size if model is not None and model.machine else None
     sizes = [base.get(f"machine.workpiece_size[{i}]") for i in (0, 1)]
