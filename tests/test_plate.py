@@ -61,7 +61,7 @@ def test_a_figure_title_names_its_plate():
     fig = new_figure()
     fig.suptitle("PV against feed")
     mark_plate(fig, [150.0, 150.0])
-    assert fig.get_suptitle() == "PV against feed (150 mm × 150 mm plate)"
+    assert fig.get_suptitle() == "PV against feed\n(150 mm × 150 mm plate)"
     fig = new_figure()
     fig.add_subplot().set_title("Sensitivity")
     mark_plate(fig, [52.4, 52.4])

@@ -65,7 +65,7 @@ def mark_plate(fig: Figure, plate_mm) -> Figure:
     """Name the plate a study's figure is for in its suptitle (or first title)."""
     text = plate_label(plate_mm)
     if text and fig.get_suptitle():
-        fig.suptitle(f"{fig.get_suptitle()} ({text})")
+        fig.suptitle(f"{fig.get_suptitle()}\n({text})")
     elif text and fig.axes:
         ax = fig.axes[0]
         ax.set_title(f"{ax.get_title()}\n({text})" if ax.get_title() else f"({text})")
@@ -195,7 +195,7 @@ def plot_pv_lines(
     for column, value in constant.items():
         handles.append(Line2D([], [], ls="none"))
         labels.append(f"{_source(column)} alone: {value:.3g} nm at every point (not drawn)")
-    fig.legend(handles, labels, loc="outside lower center", ncols=3, fontsize="small")
+    fig.legend(handles, labels, loc="outside lower center", ncols=cols, fontsize="small")
     fig.suptitle(f"{metric_words(metric)} against each swept parameter (others at the base design)")
     return fig
 
