@@ -117,9 +117,17 @@ def build_report(results: str | Path = "results", model: Model | None = None, pa
 
 def _summary_section(results: Path, model: Model, studies) -> str:
     """The Summary (:func:`ufmt.report_summary.summary_parts`) as HTML."""
+    return _summary_html(summary_parts(results, model, studies))
+
+
+def _summary_html(summary) -> str:
+    """Summary parts as HTML ("columns": their lists of parts side by side)."""
     parts = []
-    for kind, content in summary_parts(results, model, studies):
-        if kind == "text":
+    for kind, content in summary:
+        if kind == "columns":
+            cells = "".join(f"<div>{_summary_html(c)}</div>" for c in content if c)
+            parts.append(f'<div class="columns">{cells}</div>')
+        elif kind == "text":
             parts.append(f"<p>{html.escape(content)}</p>")
         elif kind == "heading":
             parts.append(f"<h3>{html.escape(content)}</h3>")
@@ -137,7 +145,7 @@ def _summary_section(results: Path, model: Model, studies) -> str:
 
 #: A study's answer in the summary is cut at a clause boundary after this many characters (the
 #: whole finding is in the study's section).
-SUMMARY_ANSWER_CHARS = 200
+SUMMARY_ANSWER_CHARS = 120
 
 
 #: A study's finding in its section shows this many characters; the rest opens on a click.
@@ -374,7 +382,7 @@ def _validation_section(folder: Path, page_dir: Path) -> str:
         "(<code>response.csv</code>).</p>"
     ]
     modes = sorted(folder.glob("mode-*.png"), key=lambda p: int(p.stem.split("-")[1]))
-    parts.append(figures([folder / "frequencies.png", *modes], page_dir))
+    parts.append(figures([folder / "frequencies.png", *modes], page_dir, thumbs=True))
     titles = {
         "frequencies.csv": "Natural frequencies against Table 3 (frequencies.csv)",
         "response.csv": "Residuals of the cutting response against the paper (response.csv)",
@@ -504,9 +512,8 @@ def _finding_intervals(name: str, contrasts: pd.DataFrame | None) -> str:
 def _study_section(
     folder: Path, meta: dict, page_dir: Path, contrasts: pd.DataFrame | None = None, model=None
 ) -> str:
-    parts = [f'<p class="plate">Plate: {html.escape(plate_words(meta, model))}.</p>']
-    if meta.get("description"):
-        parts.append(f"<p>{html.escape(meta['description'])}</p>")
+    plate = f'<span class="plate">Plate: {html.escape(plate_words(meta, model))}.</span>'
+    parts = [f"<p>{plate} {html.escape(meta.get('description') or '')}</p>"]
     finding = meta.get("headline") or "(run incomplete)"
     parts.append(_finding(finding))
     parts.append(_finding_intervals(folder.name, contrasts))

@@ -21,13 +21,14 @@ import pandas as pd
 MAX_TABLE_ROWS = 16  # longer tables are linked as their CSV file, not inlined
 COLUMN_CHARS = 40  # a column's width follows its longest cell up to this many characters
 #: Aspect ratios (width / height) from which a figure spans two, then every grid column.
-WIDE, VERY_WIDE = 1.8, 3.5
+WIDE, VERY_WIDE = 1.9, 3.5
 
 STYLE = """
 body { font-family: sans-serif; max-width: 1340px; margin: 1em auto; padding: 0 0.5em;
        color: #222; line-height: 1.35; }
 h1 { border-bottom: 2px solid #444; margin: 0.2em 0; }
-h2 { border-bottom: 1px solid #aaa; margin: 1.2em 0 0.4em; }
+h2 { border-bottom: 1px solid #aaa; margin: 0.9em 0 0.3em; }
+p { margin: 0.4em 0; }
 h3 { margin: 0.8em 0 0.3em; }
 table { border-collapse: collapse; font-size: 0.8em; margin: 0.4em 0; width: 100%;
         table-layout: fixed; }
@@ -38,12 +39,14 @@ pre { white-space: pre-wrap; overflow-wrap: anywhere; }
 th { background: #eee; }
 .figures { display: grid; grid-template-columns: repeat(4, minmax(0, 1fr)); gap: 6px;
            grid-auto-flow: dense; align-items: start; }
+.figures.thumbs { grid-template-columns: repeat(6, minmax(0, 1fr)); }
 .figures figure { margin: 0; } .span2 { grid-column: span 2; } .spanall { grid-column: 1 / -1; }
 figcaption { font-size: 0.75em; color: #555; }
 img { width: 100%; height: auto; border: 1px solid #ddd; }
 .finding { background: #eef5ff; padding: 0.4em 1em; border-left: 4px solid #36c; margin: 0.4em 0; }
 .warning { background: #fff4e0; padding: 0.4em 1em; border-left: 4px solid #e90; }
 .plate { color: #555; font-size: 0.9em; }
+.columns { display: grid; grid-template-columns: repeat(2, minmax(0, 1fr)); gap: 1.5em; }
 .missing { color: #999; font-style: italic; } code, pre { font-size: 0.85em; }
 details { margin: 0.3em 0; } summary { cursor: pointer; color: #36c; }
 .more { display: flex; flex-wrap: wrap; column-gap: 2em; }
@@ -77,10 +80,12 @@ def figure(png: Path, page_dir: Path | None = None) -> str:
     )
 
 
-def figures(pngs, page_dir: Path | None = None) -> str:
-    """Several figures in one grid of four columns (see :func:`figure`), or '' for none."""
+def figures(pngs, page_dir: Path | None = None, thumbs: bool = False) -> str:
+    """Several figures in one grid of four columns, or six for ``thumbs`` (pictures read
+    at a glance, e.g. mode shapes; a click opens the full size), or '' for none."""
     cells = [figure(Path(p), page_dir) for p in pngs]
-    return f'<div class="figures">{"".join(cells)}</div>' if cells else ""
+    grid = "figures thumbs" if thumbs else "figures"
+    return f'<div class="{grid}">{"".join(cells)}</div>' if cells else ""
 
 
 def more(*folded: str) -> str:

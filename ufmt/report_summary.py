@@ -35,18 +35,23 @@ HEADLINE_METRICS = {
 
 def summary_parts(results: Path, model: Model, studies) -> list[tuple[str, pd.DataFrame | str]]:
     """The summary as (kind, content) parts: ``"text"`` (HTML-escaped by the caller: plain
-    text) or ``"table"`` (a DataFrame with headers in words and units), in page order."""
+    text), ``"heading"``, ``"table"`` (a DataFrame with headers in words and units),
+    ``"list"`` (study name, answer) or ``"columns"`` (lists of parts side by side), in page
+    order."""
     parts: list[tuple[str, pd.DataFrame | str]] = [("text", machine_sentence(model))]
     metrics = _json(results / "validation" / "reference-process" / "metrics.json")
     headline = headline_table(metrics, results / "uncertainty" / "distribution.csv")
+    left, right = [], []
     if headline is not None:
-        parts += [("heading", "The reference cut (300 rpm, 15 mm/min, 4 µm)"), ("table", headline)]
+        left += [("heading", "The reference cut (300 rpm, 15 mm/min, 4 µm)"), ("table", headline)]
     validation = paper_table(results / "validation" / "response.csv")
     if validation is not None:
-        parts += [("heading", "Against the paper, like for like"), ("table", validation)]
+        right += [("heading", "Against the paper, like for like"), ("table", validation)]
     frequencies = frequency_sentence(results / "validation" / "frequencies.csv")
     if frequencies:
-        parts.append(("text", frequencies))
+        right.append(("text", frequencies))
+    if left or right:
+        parts.append(("columns", [left, right]))
     findings = findings_summary(studies)
     if findings is not None:
         name, table = findings
