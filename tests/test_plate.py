@@ -13,8 +13,7 @@ from pathlib import Path
 import pytest
 
 from ufmt.model.load import load_model
-from ufmt.plots import new_figure
-from ufmt.plots.studies import mark_plate
+from ufmt.plots import mark_plate, new_figure
 from ufmt.studies.load import load_study
 from ufmt.studies.outputs import read_meta
 from ufmt.studies.parallel import Execution

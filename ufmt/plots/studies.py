@@ -54,24 +54,6 @@ _UNITS = (  # column-name suffix -> unit of an axis label
 )
 
 
-def plate_label(plate_mm) -> str:
-    """ "150 mm × 150 mm plate" of a study's ``meta["plate_mm"]``, or '' without one."""
-    if not plate_mm or len(plate_mm) != 2:
-        return ""
-    return f"{plate_mm[0]:.4g} mm × {plate_mm[1]:.4g} mm plate"
-
-
-def mark_plate(fig: Figure, plate_mm) -> Figure:
-    """Name the plate a study's figure is for in its suptitle (or first title)."""
-    text = plate_label(plate_mm)
-    if text and fig.get_suptitle():
-        fig.suptitle(f"{fig.get_suptitle()}\n({text})")
-    elif text and fig.axes:
-        ax = fig.axes[0]
-        ax.set_title(f"{ax.get_title()}\n({text})" if ax.get_title() else f"({text})")
-    return fig
-
-
 def parameter_label(name: str) -> str:
     """Axis label of a column: ``head_angular_stiffness_Nm_rad`` -> "head angular stiffness
     [N m/rad]", ``rpm`` -> "spindle speed [rpm]"."""
@@ -497,7 +479,13 @@ def plot_pareto(
             label=f"{name}: {value:.3g} {metric_unit(metric)}, {_recipe(row)}",
         )
         shown.append(pd.Series([value]))
-    ax.axhline(target, color="r", lw=0.8, ls="--", label=f"target {target:g}")
+    ax.axhline(
+        target,
+        color="r",
+        lw=0.8,
+        ls="--",
+        label=f"target: {words} ≤ {target:g} {metric_unit(metric)}",
+    )
     ax.set_yscale("log")
     _plain_log(ax.yaxis, pd.concat([*shown, pd.Series([target])]))
     ax.set_xlabel("cutting time of one pass [min]")

@@ -15,8 +15,7 @@ import pandas as pd
 from ufmt import evaluate_cache
 from ufmt.errors import OutputError, RunFailed, StudyError
 from ufmt.machining.process import ProcessRangeWarning
-from ufmt.plots import save_figure
-from ufmt.plots.studies import mark_plate
+from ufmt.plots import mark_plate, save_figure
 from ufmt.studies import outputs
 from ufmt.studies.journal import (
     Evaluator,
