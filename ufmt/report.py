@@ -145,7 +145,7 @@ def _summary_html(summary) -> str:
 
 #: A study's answer in the summary is cut at a clause boundary after this many characters (the
 #: whole finding is in the study's section).
-SUMMARY_ANSWER_CHARS = 120
+SUMMARY_ANSWER_CHARS = 150
 
 
 #: A study's finding in its section shows this many characters; the rest opens on a click.
@@ -157,7 +157,9 @@ def _first_clauses(text: str, chars: int = SUMMARY_ANSWER_CHARS, tail: str = " â
     if len(text) <= chars:
         return text
     cut = text.rfind("; ", 0, chars)
-    return (text[:cut] if cut > 0 else text[:chars]) + tail
+    if cut <= 0:  # no clause ends in time: the last whole word
+        cut = text.rfind(" ", 0, chars)
+    return (text[:cut] if cut > 0 else text[:chars]).rstrip(",:") + tail
 
 
 def _finding(text: str) -> str:
