@@ -26,7 +26,7 @@ from ufmt import files
 from ufmt.machining.process import TABLE1_RANGE
 from ufmt.model.machine import MACHINE_FIELDS, OPTIONAL_FIELDS
 from ufmt.model.schema import Model
-from ufmt.report_html import MAX_TABLE_ROWS, STYLE, column_header, details, figures, more
+from ufmt.report_html import MAX_TABLE_ROWS, STYLE, column_header, details, figures, more, relative
 from ufmt.report_html import csv as _csv
 from ufmt.report_html import missing as _missing
 from ufmt.report_html import table_html as _table
@@ -38,6 +38,7 @@ REPORT = "report.html"
 VALIDATION = "validation"
 REFERENCE_CUT = "reference-process"
 FRF = "frf"
+FINDINGS_TABLE = "findings.csv"  # the paper's findings (the Summary shows them)
 UNCERTAINTY = "uncertainty"  # the uncertainty study's folder: the intervals of the headlines
 #: A study's tables shown in its section (when present).
 STUDY_TABLES = (
@@ -51,7 +52,6 @@ STUDY_TABLES = (
     "budget.csv",
     "interval.csv",
     "tradeoff.csv",
-    "findings.csv",
 )
 
 
@@ -163,10 +163,11 @@ def _first_clauses(text: str, chars: int = SUMMARY_ANSWER_CHARS, tail: str = " �
 
 
 def _finding(text: str) -> str:
-    """A study's finding: its first clauses, the whole text folded under them when longer."""
-    shown = _first_clauses(text, FINDING_CHARS, " …")
-    whole = details("the whole finding", f"<p>{html.escape(text)}</p>") if shown != text else ""
-    return f'<div class="finding"><b>Finding:</b> {html.escape(shown)}{whole}</div>'
+    """A study's finding: its first clauses, the rest folded under them when longer."""
+    shown = _first_clauses(text, FINDING_CHARS, "")
+    rest = text[len(shown) :].lstrip("; ,:")
+    more = details("… the rest of the finding", f"<p>{html.escape(rest)}</p>") if rest else ""
+    return f'<div class="finding"><b>Finding:</b> {html.escape(shown)}{more}</div>'
 
 
 def _studies(results: Path) -> list[tuple[str, Path, dict]]:
@@ -240,7 +241,7 @@ def _parameter_tables(model: Model) -> str:
             details(
                 "Machine ([machine]): each value, its band (docs/ufmt-model.md) and how it "
                 "was set (table)",
-                _table(machine_table(model, calibration)),
+                _machine_html(machine_table(model, calibration)),
             )
         )
     if model.design:
@@ -250,6 +251,16 @@ def _parameter_tables(model: Model) -> str:
             )
         )
     return "\n".join(parts)
+
+
+def _machine_html(table: pd.DataFrame) -> str:
+    """The ``[machine]`` table, the keys left at their defaults in one sentence below it."""
+    default = table["set by"].str.startswith("default (")
+    rest = ", ".join(
+        f"{r['field']} = {r['value']} {r['unit']}" for _, r in table[default].iterrows()
+    )
+    note = f"<p>At their defaults: {html.escape(rest)}.</p>" if rest else ""
+    return _table(table[~default]) + note
 
 
 def _calibration_of(model: Model):
@@ -311,7 +322,7 @@ def _how_set(key: str, value, fit, otherwise: str, asked: dict | None = None) ->
             " (AT BOUND, a finding)"
         )
     if not fit.fit:
-        return "held at its documented value (its reason: calibration.toml)"
+        return "held (reason: calibration.toml)"
     low, high = fit.band
     edge = (
         " (AT A BAND EDGE)"
@@ -410,35 +421,9 @@ def _reference_section(results: Path, page_dir: Path | None = None) -> str:
         parts.append(_missing(f"{cut}/"))
     if not frf:
         parts.append(_missing(f"{results / FRF}/ (run ufmt frf)"))
-    tables = _headline_intervals(cut, results / UNCERTAINTY) + _error_budget(cut)
-    parts.append(
-        details("Headline numbers with their 5-95 % intervals; error budget (tables)", tables)
-    )
+    tables = _headline_intervals(cut, results / UNCERTAINTY)  # the budget: pv_by_source.png
+    parts.append(details("Headline numbers with their 5-95 % intervals (table)", tables))
     return "\n".join(parts)
-
-
-def _error_budget(cut: Path) -> str:
-    """The reference cut's PV of each error source alone and in total (metrics.json of
-    ``ufmt simulate --save``), or a note that it was not saved."""
-    metrics = cut / "metrics.json"
-    if not metrics.is_file():
-        return "<h3>Error budget per source</h3>" + _missing(
-            f"{metrics} (ufmt simulate --method time --save {cut})"
-        )
-    data = json.loads(metrics.read_text(encoding="utf-8"))
-    rows = [
-        {"source": name, "PV alone [nm]": "switched off" if v is None else f"{v:.4g}"}
-        for name, v in data.get("pv_by_source_nm", {}).items()
-    ]
-    for key, label in (
-        ("pv_nm", "every source, whole plate"),
-        ("pv_measured_nm", "every source, as the interferometer measures it"),
-        ("pv_dynamic_steady_nm", "cutting-force vibration alone, steady cut (edges apart)"),
-        ("edge_runout_nm", "cutting-force vibration alone, what the plate's edges add"),
-    ):
-        if data.get(key) is not None:
-            rows.append({"source": label, "PV alone [nm]": f"{data[key]:.4g}"})
-    return "<h3>Error budget per source</h3>" + _table(pd.DataFrame(rows))
 
 
 def _headline_intervals(cut: Path, uncertainty: Path) -> str:
@@ -524,6 +509,12 @@ def _study_section(
         parts.append(f'<p class="warning">{html.escape(warning)}</p>')
     parts.append(figures([folder / name for name in meta.get("plots", [])], page_dir))
     tables = [name for name in STUDY_TABLES if (folder / name).is_file()]
+    if (folder / FINDINGS_TABLE).is_file():
+        href = html.escape(relative(folder / FINDINGS_TABLE, page_dir))
+        parts.append(
+            f"<p>The paper's findings like for like: in the Summary; every value in <a href=\""
+            f'{href}">{FINDINGS_TABLE}</a>.</p>'
+        )
     shown = "".join(f"<h3>{name}</h3>" + _csv(folder / name, page_dir) for name in tables)
     parts.append(
         more(

@@ -77,7 +77,7 @@ def analyse(study, evaluator, baseline: Mapping[str, float], out_dir: Path) -> s
     if study.options.get("findings"):
         table = findings_table(evaluator.table(), baseline)
         outputs.write_table(table, out_dir / FINDINGS)
-        headline += findings_headline(table)
+        headline = f"{findings_headline(table)} {headline}".strip()  # the study's point first
     modes = mode_tracks(study, baseline)
     if modes is not None:
         outputs.write_table(modes, out_dir / MODES)
