@@ -31,6 +31,7 @@ from ufmt.report_html import csv as _csv
 from ufmt.report_html import missing as _missing
 from ufmt.report_html import table_html as _table
 from ufmt.report_summary import plate_words, summary_parts
+from ufmt.studies.fields import DEFAULT_FUNCTION
 
 __all__ = ["MAX_TABLE_ROWS", "build_report", "column_header", "write_report"]
 
@@ -97,11 +98,15 @@ def build_report(results: str | Path = "results", model: Model | None = None, pa
         ("reference-cut", "Reference cut and FRF", _reference_section(results, page_dir)),
     ]
     contrasts = _contrasts(results / UNCERTAINTY)
+    common = _common_versions(studies)
     sections += [
-        (name, f"Study: {name}", _study_section(d, meta, page_dir, contrasts, model))
+        (name, f"Study: {name}", _study_section(d, meta, page_dir, contrasts, model, common))
         for name, d, meta in studies
     ]
-    nav = " ".join(f'<a href="#{key}">{html.escape(title)}</a>' for key, title, _ in sections)
+    nav = " ".join(
+        f'<a href="#{key}">{html.escape(title.removeprefix("Study: "))}</a>'
+        for key, title, _ in sections
+    )
     body = "\n".join(
         f'<h2 id="{key}">{html.escape(title)}</h2>\n{content}' for key, title, content in sections
     )
@@ -110,7 +115,8 @@ def build_report(results: str | Path = "results", model: Model | None = None, pa
         f"<title>ufmt report: {html.escape(model.name)}</title><style>{STYLE}</style></head>"
         f"<body><h1>ufmt report: {html.escape(model.name)}</h1>"
         f"<p>ufmt {__version__}; built by <code>ufmt report</code> from the files in "
-        f"<code>{html.escape(str(results))}/</code> (nothing recomputed).</p>"
+        f"<code>{html.escape(str(results))}/</code> (nothing recomputed)."
+        f"{_versions_sentence(common)}</p>"
         f"<nav>{nav}</nav>\n{body}\n</body></html>\n"
     )
 
@@ -145,7 +151,7 @@ def _summary_html(summary) -> str:
 
 #: A study's answer in the summary is cut at a clause boundary after this many characters (the
 #: whole finding is in the study's section).
-SUMMARY_ANSWER_CHARS = 150
+SUMMARY_ANSWER_CHARS = 130
 
 
 #: A study's finding in its section shows this many characters; the rest opens on a click.
@@ -197,7 +203,7 @@ def _model_section(model: Model) -> str:
         [
             {
                 "hinge": h.name,
-                "between": " – ".join(h.between),
+                "between": "–".join(h.between),
                 "stiffness x, y, z [N/m]": " ".join(f"{v:.3g}" for v in h.stiffness),
                 "rotational stiffness x, y, z [N m/rad]": " ".join(
                     f"{v:.3g}" for v in h.rotational_stiffness
@@ -497,7 +503,12 @@ def _finding_intervals(name: str, contrasts: pd.DataFrame | None) -> str:
 
 
 def _study_section(
-    folder: Path, meta: dict, page_dir: Path, contrasts: pd.DataFrame | None = None, model=None
+    folder: Path,
+    meta: dict,
+    page_dir: Path,
+    contrasts: pd.DataFrame | None = None,
+    model=None,
+    common: dict | None = None,
 ) -> str:
     plate = f'<span class="plate">Plate: {html.escape(plate_words(meta, model))}.</span>'
     parts = [f"<p>{plate} {html.escape(meta.get('description') or '')}</p>"]
@@ -518,7 +529,8 @@ def _study_section(
     shown = "".join(f"<h3>{name}</h3>" + _csv(folder / name, page_dir) for name in tables)
     parts.append(
         more(
-            details(f"Tables: {', '.join(tables)}", shown), details("provenance", _provenance(meta))
+            details(f"Tables: {', '.join(tables)}", shown),
+            details("provenance", _provenance(meta, common)),
         )
     )
     return "\n".join(parts)
@@ -543,15 +555,33 @@ def _range_warning(points_csv: Path) -> str:
     )
 
 
-def _provenance(meta: dict) -> str:
-    """Where the study's numbers come from, in one paragraph (meta.json has it all)."""
+def _common_versions(studies) -> dict:
+    """The package versions every study ran with ({} without a study)."""
+    found = [meta.get("versions", {}) for _, _, meta in studies]
+    if not found:
+        return {}
+    return {k: v for k, v in found[0].items() if all(f.get(k) == v for f in found)}
+
+
+def _versions_sentence(common: dict) -> str:
+    if not common:
+        return ""
+    versions = ", ".join(f"{k} {v}" for k, v in common.items())
+    return f" Every study ran with {html.escape(versions)} (others: each study's provenance)."
+
+
+def _provenance(meta: dict, common: dict | None = None) -> str:
+    """Where the study's numbers come from, in one paragraph (meta.json has it all); package
+    versions shared by every study (``common``) are named once, at the top of the page, the
+    others here."""
     run = meta.get("run", {})
     git = meta.get("git", {})
-    versions = ", ".join(f"{k} {v}" for k, v in meta.get("versions", {}).items())
+    own = {k: v for k, v in meta.get("versions", {}).items() if (common or {}).get(k) != v}
+    versions = ", ".join(f"{k} {v}" for k, v in own.items())
     items = {
         "study file": meta.get("study_file"),
-        "function": meta.get("function"),
-        "model": meta.get("model"),
+        "function": None if meta.get("function") == DEFAULT_FUNCTION else meta.get("function"),
+        "model": None if meta.get("model") == "packaged" else meta.get("model"),
         "model SHA-256": meta.get("model_sha256"),
         "code SHA-256": meta.get("code_sha256"),
         "git revision": f"{git.get('revision')}{' (dirty)' if git.get('dirty') else ''}",

@@ -59,20 +59,20 @@ def summary_parts(results: Path, model: Model, studies) -> list[tuple[str, pd.Da
             ("heading", "The paper's findings, like for like"),
             (
                 "text",
-                f"From the {name} study (findings.csv): each statement on the surface the paper "
-                "models (the cutting-force vibration alone, steady cut) and on what the shop "
-                "measures (the interferometer's PV); change at the low and high end against "
-                "the base [%].",
+                f"{name} study (findings.csv): on the paper's surface (the vibration alone, "
+                "steady cut) and the shop's (interferometer); change of each end against base.",
             ),
             ("table", table),
         ]
+    own = plate_words({}, model)
     answers = [
-        (name, f"[{plate_words(meta, model)}] {meta['headline']}")
+        (name, _marked(plate_words(meta, model), own) + meta["headline"])
         for name, _, meta in studies
         if meta.get("headline")
     ]
     if answers:
         parts.append(("heading", "What the studies answer (what to change)"))
+        parts.append(("text", f"On {own} unless marked."))
         parts.append(("list", answers))
     return parts
 
@@ -146,6 +146,11 @@ def machine_sentence(model: Model) -> str:
 
 #: The paper's plate (its Table 1 workpiece), for naming the plate a study ran on.
 PAPER_PLATE_MM = 52.4
+
+
+def _marked(plate: str, own: str) -> str:
+    """ "[a 150 mm × 150 mm plate] " for a study on another plate than the model's, else ''."""
+    return "" if plate == own else f"[{plate}] "
 
 
 def plate_mm(meta: dict, model: Model | None) -> tuple[float, float] | None:

@@ -48,33 +48,33 @@ class Statement:
 STATEMENTS = (
     Statement(
         "head-angular",
-        "Fig. 15: the higher the head's angular air-bearing stiffness, the better",
+        "Fig. 15: head angular stiffness: the higher, the better",
         ("head_angular_stiffness_Nm_rad",),
         "falls",
     ),
     Statement(
         "head-radial",
-        "Fig. 15: the head's radial stiffness does not act as the angular one",
+        "Fig. 15: head radial stiffness: not as the angular",
         ("head_radial_stiffness_N_m",),
         "unlike-angular",
     ),
     Statement(
         "head-axial",
-        "Fig. 15: the head's axial stiffness does not act as the angular one",
+        "Fig. 15: head axial stiffness: not as the angular",
         ("head_axial_stiffness_N_m",),
         "unlike-angular",
     ),
     Statement(
         "spindle",
-        "Section 4.2: the spindle's air-bearing stiffness has little influence",
+        "Section 4.2: spindle air bearing: little influence",
         SPINDLE,
         "little",
     ),
-    Statement("speed", "Fig. 16: a higher spindle speed, a smoother surface", ("rpm",), "falls"),
-    Statement("feed", "Fig. 16: a lower feed, a smoother surface", ("feed_mm_min",), "rises"),
+    Statement("speed", "Fig. 16: higher speed, smoother surface", ("rpm",), "falls"),
+    Statement("feed", "Fig. 16: lower feed, smoother surface", ("feed_mm_min",), "rises"),
     Statement(
         "depth",
-        "Fig. 16: a smaller depth of cut (less force), a smoother surface",
+        "Fig. 16: smaller depth (less force), smoother surface",
         ("depth_um",),
         "rises",
     ),
@@ -180,8 +180,7 @@ def _head_against_spindle(effects: Mapping) -> pd.DataFrame:
             continue
         rows.append(
             {
-                "statement": "Section 4.2 and Fig. 15: the head's angular stiffness matters more "
-                "than the spindle bearing",
+                "statement": "Section 4.2, Fig. 15: head angular stiffness over spindle bearing",
                 "key": "head-vs-spindle",
                 "parameter": "head angular against spindle bearing",
                 "metric": metric,
