@@ -7,7 +7,7 @@ TEST_JOBS ?= 2
 
 .PHONY: test test-all bench docs lint format calibrate sweep-stiffness sweep-process \
         optimise-process optimise-design sensitivity uncertainty \
-        optimise-tolerances validate report clean-venv
+        optimise-tolerances paper-findings sweep-process-150mm validate report clean-venv
 
 $(STAMP): pyproject.toml
 	python3 -m venv .venv
@@ -61,6 +61,12 @@ sensitivity: $(STAMP)
 
 uncertainty: $(STAMP)
 	$(PY) -m ufmt.cli run studies/uncertainty.toml --jobs $(JOBS)
+
+sweep-process-150mm: $(STAMP)
+	$(PY) -m ufmt.cli run studies/sweep-process-150mm.toml --jobs $(JOBS)
+
+paper-findings: $(STAMP)
+	$(PY) -m ufmt.cli run studies/paper-findings.toml --jobs $(JOBS)
 
 optimise-tolerances: $(STAMP)
 	$(PY) -m ufmt.cli run studies/optimise-tolerances.toml --jobs $(JOBS)

@@ -161,3 +161,78 @@ def test_spindle_air_bearing_changes_the_vibration_pv_little():
     small. The identification still cannot meet the constraint this statement sets on Table 3
     (largest h25 strain-energy share 0.20 against 0.057)."""
     assert max(abs(c) for c in spindle_bearing_changes(dynamic_pv)) < 0.05
+
+
+def effect(model_of, metric) -> float:
+    """The larger |relative change| of ``metric`` at the reference cut when ``model_of(f)``
+    scales a bearing by f = 0.5 and f = 2 (the effect size of findings.csv)."""
+    base = pv(packaged(), metric=metric)
+    return max(abs(pv(model_of(f), metric=metric) / base - 1) for f in (0.5, 2.0))
+
+
+def head_angular(f):
+    return scaled_hinge("h31", rotation=(f, f, 1))
+
+
+def spindle_bearing(f):
+    return scaled_hinge("h25", translation=(f, f, f), rotation=(f, f, 1))
+
+
+HEAD_AGAINST_SPINDLE_ON_THE_INTERFEROMETER = pytest.mark.xfail(
+    strict=True,
+    reason=(
+        "not reproduced on the interferometer's PV: the head's angular stiffness at x0.5 / x2 "
+        "moves it by at most 0.23 % and the whole spindle bearing by 0.34 %: the 'methodical "
+        "effect' is no larger than the 'little influence' (on the steady-cut vibration: 0.68 "
+        "against 0.025 %)"
+    ),
+)
+
+
+@pytest.mark.slow  # ~20 s a metric; the fast suite's twin: tests/test_findings.py
+@pytest.mark.parametrize(
+    "metric",
+    [
+        "pv_dynamic_steady_nm",
+        pytest.param("pv_measured_nm", marks=HEAD_AGAINST_SPINDLE_ON_THE_INTERFEROMETER),
+    ],
+)
+def test_the_head_angular_stiffness_matters_more_than_the_spindle_bearing(metric):
+    """Section 4.2 and Fig. 15 together: the spindle bearing's "little influence" against the
+    head's angular "methodical effect" implies the head's effect is the larger (x0.5 / x2 of
+    each; the whole spindle bearing, radial, axial and angular together)."""
+    assert effect(head_angular, metric) > effect(spindle_bearing, metric)
+
+
+AXIAL_ON_THE_INTERFEROMETER = pytest.mark.xfail(
+    strict=True,
+    reason=(
+        "not reproduced on the interferometer's PV: the head's axial stiffness acts as the "
+        "angular one is said to, only more: x0.5 / x1 / x2 give 9.837 / 9.809 / 9.737 nm "
+        "(falling, -0.74 % at x2) against the angular's 0.23 %"
+    ),
+)
+
+
+@pytest.mark.slow  # ~20 s a case; the fast suite's twin: tests/test_findings.py
+@pytest.mark.parametrize(
+    "direction, metric",
+    [
+        ("radial", "pv_dynamic_steady_nm"),
+        ("radial", "pv_measured_nm"),
+        ("axial", "pv_dynamic_steady_nm"),
+        pytest.param("axial", "pv_measured_nm", marks=AXIAL_ON_THE_INTERFEROMETER),
+    ],
+)
+def test_radial_and_axial_head_stiffness_do_not_act_as_the_angular(direction, metric):
+    """Fig. 15: "the relations between radial and axial air-bearing stiffness and machined
+    surface are not as that of the angular": not the angular's monotone fall with stiffness,
+    or a smaller effect than the angular's (x0.5 / x1 / x2)."""
+    translation = {"radial": (1, 1, 0), "axial": (0, 0, 1)}[direction]
+
+    def model_of(f):
+        return scaled_hinge("h31", translation=tuple(f if t else 1 for t in translation))
+
+    values = [pv(model_of(f), metric=metric) for f in (0.5, 1.0, 2.0)]
+    falls = values[0] > values[1] > values[2]
+    assert not falls or effect(model_of, metric) < effect(head_angular, metric)

@@ -300,3 +300,115 @@ def test_time_plots_shade_exactly_when_the_tool_cuts():
         lo, hi = path.vertices[:, 0].min(), path.vertices[:, 0].max()
         inside |= (t - 981.0 >= lo) & (t - 981.0 <= hi)
     np.testing.assert_array_equal(inside, cutting)
+
+
+def test_compared_sweep_panels_share_one_scale_and_do_not_stretch_a_small_wiggle():
+    """Oracle: the data. Two parameters' metric panels get one y range; a 0.5 nm wiggle on a
+    10 nm value is drawn on a range of at least MIN_SPAN_SHARE of the value (not stretched
+    over the panel), and the 10 -> 20 nm trend of the other parameter fits inside it."""
+    import pandas as pd
+
+    from ufmt.plots.studies import MIN_SPAN_SHARE, plot_pv_lines
+
+    x = np.array([1.0, 2.0, 3.0])
+    wiggle = pd.DataFrame({"group": "a", "a": x, "pv_measured_nm": [10.0, 10.5, 10.0]})
+    trend = pd.DataFrame({"group": "b", "b": x, "pv_measured_nm": [10.0, 15.0, 20.0]})
+    groups = [{"name": n, "axes": [{"parameter": n, "log": False}]} for n in "ab"]
+    fig = plot_pv_lines(pd.concat([wiggle, trend]), groups, {}, "pv_measured_nm")
+    tops = [a for a in fig.axes if a.get_ylabel().startswith("interferometer PV")]
+    assert len(tops) == 2 and tops[0].get_ylim() == tops[1].get_ylim()
+    low, high = tops[0].get_ylim()
+    assert low <= 10.0 and high >= 20.0
+    alone = plot_pv_lines(wiggle, groups[:1], {}, "pv_measured_nm")
+    (top,) = [a for a in alone.axes if a.get_ylabel().startswith("interferometer PV")]
+    low, high = top.get_ylim()
+    assert high - low >= MIN_SPAN_SHARE * 10.5 and low <= 10.0 <= 10.5 <= high
+
+
+def test_uncertainty_figures_label_inputs_in_words_and_keep_indices_in_the_unit_interval():
+    """Oracle: an index is a share of variance, in [0, 1]; its drawn bars, error bars and bands
+    stay there even when the bootstrap's half-width does not. Labels are words with units;
+    the convergence legend sits right of its axes (not over the data)."""
+    import pandas as pd
+
+    from ufmt.plots.uncertainty import input_label, plot_convergence, plot_sobol
+
+    assert input_label("machine.tool_compliance_m_per_N") == "tool compliance [m/N]"
+    assert input_label("machine.force_scale") == "force scale [-]"
+    assert input_label("hinge.h31.rotational_stiffness[1]") == (
+        "hinge h31 rotational stiffness y [N m/rad]"
+    )
+    names = ["machine.force_scale", "hinge.h25.stiffness[2]", "machine.straightness_m"]
+    sobol = pd.DataFrame(
+        {
+            "metric": "pv_measured_nm",
+            "parameter": names,
+            "S1": [0.9, -0.2, 0.05],
+            "S1_conf": [0.5, 0.4, 0.1],
+            "ST": [1.1, 0.1, 0.05],
+            "ST_conf": [0.6, 0.3, 0.1],
+        }
+    )
+    fig = plot_sobol(sobol)
+    ax = fig.axes[0]
+    labels = [t.get_text() for t in ax.get_yticklabels()]
+    assert labels == ["force scale [-]", "hinge h25 stiffness z [N/m]", "straightness [m]"]
+    assert ax.get_xlim() == (0.0, 1.0)
+    widths = [bar.get_width() for bar in ax.patches]
+    assert len(widths) == 6 and min(widths) >= 0.0 and max(widths) <= 1.0
+    errorbars = [c for c in ax.collections if c.get_segments()]
+    assert errorbars
+    for bars in errorbars:
+        x = np.concatenate([s[:, 0] for s in bars.get_segments()])
+        assert x.min() >= 0.0 and x.max() <= 1.0
+    convergence = pd.DataFrame(
+        {
+            "metric": "pv_measured_nm",
+            "statistic": "ST",
+            "parameter": np.repeat(names, 3),
+            "samples": np.tile([8, 16, 32], 3),
+            "value": [1.3, 1.1, 0.9, -0.1, 0.05, 0.1, 0.2, 0.1, 0.05],
+            "conf": [1.0, 0.6, 0.3, 0.5, 0.3, 0.1, 0.4, 0.2, 0.1],
+        }
+    )
+    fig = plot_convergence(convergence)
+    ax = fig.axes[0]
+    assert ax.get_ylim() == (0.0, 1.0)
+    for band in ax.collections:
+        y = np.concatenate([p.vertices[:, 1] for p in band.get_paths()])
+        assert y.min() >= 0.0 and y.max() <= 1.0
+    fig.canvas.draw()
+    legend = ax.get_legend()
+    assert [t.get_text() for t in legend.get_texts()][0] == "force scale [-]"
+    assert legend.get_window_extent().x0 >= ax.get_window_extent().x1
+
+
+def test_time_plots_zoom_on_one_engagement_beside_the_window():
+    """Oracle: a hand-made record with engagements at 0.15 + 0.2 k s lasting 0.01 s: the zoom
+    shows the first whole one (from half its length before to twice after), its shade is
+    exactly that engagement, and the window marks the zoomed span."""
+    from types import SimpleNamespace
+
+    from ufmt.plots.response import ZOOM_AFTER, ZOOM_BEFORE, plot_tool_tip, plot_zre
+
+    t = 500.0 + np.arange(20001) * 1e-4
+    cutting = np.round((t - 500.0) * 1e4).astype(int) % 2000 >= 1500
+    cutting &= np.round((t - 500.0) * 1e4).astype(int) % 2000 < 1600
+    force = np.zeros((t.size, 3))
+    force[cutting, 2] = 1.0
+    z = np.sin(2 * np.pi * 150 * t) * 1e-9
+    response = SimpleNamespace(
+        t=t, force=force, z_re=z, method="time", tip_disp=np.c_[z, z, z], tip_acc=np.c_[z, z, z]
+    )
+    start, end = 0.15, 0.1599
+    for fig, zoom in ((plot_zre(response), 1), (plot_tool_tip(response), 1)):
+        window, zoomed = fig.axes[0], fig.axes[zoom]
+        low, high = zoomed.get_xlim()
+        np.testing.assert_allclose(
+            [low, high], [start - ZOOM_BEFORE * (end - start), end + ZOOM_AFTER * (end - start)]
+        )
+        (shade,) = zoomed.collections
+        x = np.concatenate([p.vertices[:, 0] for p in shade.get_paths()])
+        np.testing.assert_allclose([x.min(), x.max()], [start, end], atol=1e-9)
+        band = [p for p in window.patches if p.get_facecolor()[:3] == (0.6, 0.6, 0.6)]
+        assert len(band) == 1

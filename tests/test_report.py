@@ -133,9 +133,14 @@ def _chromium() -> str | None:
     return next((p for p in map(shutil.which, ("chromium", "chromium-browser")) if p), None)
 
 
+#: The page's height budget: screens of a 1400 x 900 px window.
+SCREENS, SCREEN_PX = 10, 900
+
+
 def test_report_fits_a_1400_px_window_without_horizontal_scroll(tmp_path):
     """Rendered in headless Chromium at 1400 px, the page of the repository's results (or of
-    a hand-made folder where they are absent) is no wider than the window."""
+    a hand-made folder where they are absent) is no wider than the window and no taller than
+    SCREENS screens of SCREEN_PX."""
     import subprocess
 
     import pytest
@@ -152,6 +157,7 @@ def test_report_fits_a_1400_px_window_without_horizontal_scroll(tmp_path):
     probe = (
         "<script>window.addEventListener('load', () => { const e = document.documentElement;"
         " document.body.setAttribute('data-overflow', String(e.scrollWidth - e.clientWidth));"
+        " document.body.setAttribute('data-height', String(e.scrollHeight));"
         " });</script></body>"
     )
     page.write_text(page.read_text(encoding="utf-8").replace("</body>", probe), encoding="utf-8")
@@ -161,7 +167,7 @@ def test_report_fits_a_1400_px_window_without_horizontal_scroll(tmp_path):
             "--headless",
             "--no-sandbox",
             "--disable-gpu",
-            "--window-size=1400,1000",
+            f"--window-size=1400,{SCREEN_PX}",
             "--virtual-time-budget=5000",
             "--dump-dom",
             page.as_uri(),
@@ -173,6 +179,8 @@ def test_report_fits_a_1400_px_window_without_horizontal_scroll(tmp_path):
     overflow = re.search(r'data-overflow="(-?\d+)"', done.stdout)
     assert overflow is not None, done.stderr[-2000:]
     assert int(overflow.group(1)) <= 0
+    height = int(re.search(r'data-height="(\d+)"', done.stdout).group(1))
+    assert height <= SCREENS * SCREEN_PX, height
 
 
 def test_report_puts_the_intervals_beside_the_reference_cut_and_the_sweep_finding(tmp_path):
@@ -255,3 +263,58 @@ def test_the_repository_report_is_short_enough_to_forward(tmp_path):
     assert page.count("<tr") <= 150 and words <= 5000, (page.count("<tr"), words)
     for href in re.findall(r'<a href="([^"#]+)"', page):
         assert (results / href).is_file(), href
+
+
+def _outside_details(page: str) -> str:
+    return re.sub(r"<details>.*?</details>", "", page, flags=re.S)
+
+
+def _expected_figures(results: Path) -> int:
+    """PNGs the page shows (oracle: the folder): validation, reference cut, FRF and every
+    study's meta.json plots."""
+    count = len(list((results / "validation").glob("*.png")))
+    count += len(list((results / "validation" / "reference-process").glob("*.png")))
+    count += len(list((results / "frf").glob("*.png")))
+    for meta in results.glob("*/meta.json"):
+        plots = json.loads(meta.read_text(encoding="utf-8")).get("plots", [])
+        count += sum((meta.parent / name).is_file() for name in plots)
+    return count
+
+
+def _check_structure(page: str, results: Path) -> None:
+    """Summary first; every figure in a figure grid, one per PNG; outside the folded parts
+    only the Summary holds tables; every study section names its plate, its tables folded."""
+    assert re.search(r'<h2 id="([^"]+)"', page).group(1) == "summary"
+    figures = re.findall(r"<figure[^>]*>", page)
+    assert len(figures) == page.count("data:image/png;base64,") == _expected_figures(results)
+    grids = re.findall(r'<div class="figures[^"]*">(.*?)</div>', page, flags=re.S)
+    assert sum(g.count("<figure") for g in grids) == len(figures)
+    summary_end = page.index('<h2 id="model"')
+    assert "<table" not in _outside_details(page[summary_end:])
+    for folder in results.glob("*/meta.json"):
+        name = folder.parent.name
+        section = page[page.index(f'<h2 id="{name}"') :]
+        section = section[: section.find("<h2 ", 1) if "<h2 " in section[1:] else None]
+        assert "Plate: " in section and "Finding:" in section
+
+
+def test_the_page_is_the_summary_then_figures_with_tables_folded(tmp_path):
+    """Oracle: the hand-made folder (every PNG once, in a grid; no table inline below the
+    Summary; the study names its plate)."""
+    from ufmt.report import build_report
+
+    _results(tmp_path)
+    _check_structure(build_report(tmp_path, load_model()), tmp_path)
+
+
+def test_the_repository_report_keeps_its_structure():
+    """The same on the committed results (figure count from the folder, rows and words as
+    test_the_repository_report_is_short_enough_to_forward)."""
+    import pytest
+
+    from ufmt.report import build_report
+
+    results = Path(__file__).resolve().parents[1] / "results"
+    if not (results / "validation").is_dir():
+        pytest.skip("no committed results")
+    _check_structure(build_report(results), results)

@@ -14,10 +14,8 @@ reads existing results only: a missing part is listed as missing, never recomput
 
 from __future__ import annotations
 
-import base64
 import html
 import json
-import os
 import re
 from pathlib import Path
 
@@ -28,12 +26,20 @@ from ufmt import files
 from ufmt.machining.process import TABLE1_RANGE
 from ufmt.model.machine import DIRECTIONS, MACHINE_FIELDS, OPTIONAL_FIELDS
 from ufmt.model.schema import Model
-from ufmt.report_summary import summary_parts
+from ufmt.report_html import MAX_TABLE_ROWS, STYLE, column_header, details, figures, more, relative
+from ufmt.report_html import csv as _csv
+from ufmt.report_html import missing as _missing
+from ufmt.report_html import table_html as _table
+from ufmt.report_summary import plate_words, summary_parts
+from ufmt.studies.fields import DEFAULT_FUNCTION
+
+__all__ = ["MAX_TABLE_ROWS", "build_report", "column_header", "write_report"]
 
 REPORT = "report.html"
 VALIDATION = "validation"
 REFERENCE_CUT = "reference-process"
 FRF = "frf"
+FINDINGS_TABLE = "findings.csv"  # the paper's findings (the Summary shows them)
 UNCERTAINTY = "uncertainty"  # the uncertainty study's folder: the intervals of the headlines
 #: A study's tables shown in its section (when present).
 STUDY_TABLES = (
@@ -48,26 +54,6 @@ STUDY_TABLES = (
     "interval.csv",
     "tradeoff.csv",
 )
-MAX_TABLE_ROWS = 16  # longer tables are linked as their CSV file, not inlined
-COLUMN_CHARS = 40  # a column's width follows its longest cell up to this many characters
-
-_STYLE = """
-body { font-family: sans-serif; max-width: 1100px; margin: 2em auto; color: #222; }
-h1 { border-bottom: 2px solid #444; } h2 { border-bottom: 1px solid #aaa; margin-top: 2em; }
-table { border-collapse: collapse; font-size: 0.8em; margin: 0.5em 0; width: 100%;
-        table-layout: fixed; }
-th, td { border: 1px solid #ccc; padding: 2px 6px; text-align: right; vertical-align: top;
-         overflow-wrap: anywhere; word-break: break-word; }
-td.text, th.text, td:first-child, th:first-child { text-align: left; }
-pre { white-space: pre-wrap; overflow-wrap: anywhere; }
-figure { margin: 0.5em 0; }
-th { background: #eee; }
-img { max-width: 100%; border: 1px solid #ddd; margin: 0.3em 0; }
-.finding { background: #eef5ff; padding: 0.5em 1em; border-left: 4px solid #36c; }
-.warning { background: #fff4e0; padding: 0.5em 1em; border-left: 4px solid #e90; }
-.missing { color: #999; font-style: italic; } code, pre { font-size: 0.85em; }
-nav a { margin-right: 1em; }
-"""
 
 
 def write_report(results: str | Path = "results", model: Model | None = None, output=None) -> Path:
@@ -109,32 +95,45 @@ def build_report(results: str | Path = "results", model: Model | None = None, pa
             "Validation against the paper",
             _validation_section(results / VALIDATION, page_dir),
         ),
-        ("reference-cut", "Reference cut and FRF", _reference_section(results)),
+        ("reference-cut", "Reference cut and FRF", _reference_section(results, page_dir)),
     ]
     contrasts = _contrasts(results / UNCERTAINTY)
+    common = _common_versions(studies)
     sections += [
-        (name, f"Study: {name}", _study_section(d, meta, page_dir, contrasts))
+        (name, f"Study: {name}", _study_section(d, meta, page_dir, contrasts, model, common))
         for name, d, meta in studies
     ]
-    nav = " ".join(f'<a href="#{key}">{html.escape(title)}</a>' for key, title, _ in sections)
+    nav = " ".join(
+        f'<a href="#{key}">{html.escape(title.removeprefix("Study: "))}</a>'
+        for key, title, _ in sections
+    )
     body = "\n".join(
         f'<h2 id="{key}">{html.escape(title)}</h2>\n{content}' for key, title, content in sections
     )
     return (
         "<!DOCTYPE html>\n<html lang='en'><head><meta charset='utf-8'>"
-        f"<title>ufmt report: {html.escape(model.name)}</title><style>{_STYLE}</style></head>"
+        f"<title>ufmt report: {html.escape(model.name)}</title><style>{STYLE}</style></head>"
         f"<body><h1>ufmt report: {html.escape(model.name)}</h1>"
         f"<p>ufmt {__version__}; built by <code>ufmt report</code> from the files in "
-        f"<code>{html.escape(str(results))}/</code> (nothing recomputed).</p>"
+        f"<code>{html.escape(str(results))}/</code> (nothing recomputed)."
+        f"{_versions_sentence(common)}</p>"
         f"<nav>{nav}</nav>\n{body}\n</body></html>\n"
     )
 
 
 def _summary_section(results: Path, model: Model, studies) -> str:
     """The Summary (:func:`ufmt.report_summary.summary_parts`) as HTML."""
+    return _summary_html(summary_parts(results, model, studies))
+
+
+def _summary_html(summary) -> str:
+    """Summary parts as HTML ("columns": their lists of parts side by side)."""
     parts = []
-    for kind, content in summary_parts(results, model, studies):
-        if kind == "text":
+    for kind, content in summary:
+        if kind == "columns":
+            cells = "".join(f"<div>{_summary_html(c)}</div>" for c in content if c)
+            parts.append(f'<div class="columns">{cells}</div>')
+        elif kind == "text":
             parts.append(f"<p>{html.escape(content)}</p>")
         elif kind == "heading":
             parts.append(f"<h3>{html.escape(content)}</h3>")
@@ -152,15 +151,29 @@ def _summary_section(results: Path, model: Model, studies) -> str:
 
 #: A study's answer in the summary is cut at a clause boundary after this many characters (the
 #: whole finding is in the study's section).
-SUMMARY_ANSWER_CHARS = 400
+SUMMARY_ANSWER_CHARS = 130
 
 
-def _first_clauses(text: str) -> str:
-    """``text`` up to the last "; " before SUMMARY_ANSWER_CHARS, with "…" where cut."""
-    if len(text) <= SUMMARY_ANSWER_CHARS:
+#: A study's finding in its section shows this many characters; the rest opens on a click.
+FINDING_CHARS = 420
+
+
+def _first_clauses(text: str, chars: int = SUMMARY_ANSWER_CHARS, tail: str = " … (below)") -> str:
+    """``text`` up to the last "; " before ``chars`` characters, with ``tail`` where cut."""
+    if len(text) <= chars:
         return text
-    cut = text.rfind("; ", 0, SUMMARY_ANSWER_CHARS)
-    return (text[:cut] if cut > 0 else text[:SUMMARY_ANSWER_CHARS]) + " … (the whole finding below)"
+    cut = text.rfind("; ", 0, chars)
+    if cut <= 0:  # no clause ends in time: the last whole word
+        cut = text.rfind(" ", 0, chars)
+    return (text[:cut] if cut > 0 else text[:chars]).rstrip(",:") + tail
+
+
+def _finding(text: str) -> str:
+    """A study's finding: its first clauses, the rest folded under them when longer."""
+    shown = _first_clauses(text, FINDING_CHARS, "")
+    rest = text[len(shown) :].lstrip("; ,:")
+    more = details("… the rest of the finding", f"<p>{html.escape(rest)}</p>") if rest else ""
+    return f'<div class="finding"><b>Finding:</b> {html.escape(shown)}{more}</div>'
 
 
 def _studies(results: Path) -> list[tuple[str, Path, dict]]:
@@ -190,7 +203,7 @@ def _model_section(model: Model) -> str:
         [
             {
                 "hinge": h.name,
-                "between": " – ".join(h.between),
+                "between": "–".join(h.between),
                 "stiffness x, y, z [N/m]": " ".join(f"{v:.3g}" for v in h.stiffness),
                 "rotational stiffness x, y, z [N m/rad]": " ".join(
                     f"{v:.3g}" for v in h.rotational_stiffness
@@ -203,8 +216,10 @@ def _model_section(model: Model) -> str:
         f"<p><b>{html.escape(model.name)}</b> ({html.escape(_shown_path(model.source))}): "
         f"{len(model.bodies)} bodies, {len(model.hinges)} hinges. Bodies: "
         f"{html.escape(bodies)}.</p>",
-        _table(hinges),
-        _parameter_tables(model),
+        more(
+            details(f"The {len(model.hinges)} hinges' stiffnesses (table)", _table(hinges)),
+            _parameter_tables(model),
+        ),
     ]
     return "\n".join(parts)
 
@@ -229,16 +244,29 @@ def _parameter_tables(model: Model) -> str:
     parts = []
     if model.machine is not None:
         parts.append(
-            "<h3>Machine (<code>[machine]</code>)</h3><p>Every value the cut uses, with its "
-            "physical band (docs/ufmt-model.md gives the source of each) and how it was set."
-            "</p>" + _table(machine_table(model, calibration))
+            details(
+                "Machine ([machine]): each value, its band (docs/ufmt-model.md) and how it "
+                "was set (table)",
+                _machine_html(machine_table(model, calibration)),
+            )
         )
     if model.design:
         parts.append(
-            "<h3>Design parameters (<code>[design]</code>)</h3>"
-            + _table(design_table(model, calibration))
+            details(
+                "Design parameters ([design]) (table)", _table(design_table(model, calibration))
+            )
         )
     return "\n".join(parts)
+
+
+def _machine_html(table: pd.DataFrame) -> str:
+    """The ``[machine]`` table, the keys left at their defaults in one sentence below it."""
+    default = table["set by"].str.startswith("default (")
+    rest = ", ".join(
+        f"{r['field']} = {r['value']} {r['unit']}" for _, r in table[default].iterrows()
+    )
+    note = f"<p>At their defaults: {html.escape(rest)}.</p>" if rest else ""
+    return _table(table[~default]) + note
 
 
 def _calibration_of(model: Model):
@@ -304,7 +332,7 @@ def _how_set(key: str, value, fit, otherwise: str, asked: dict | None = None) ->
             " (AT BOUND, a finding)"
         )
     if not fit.fit:
-        return "held at its documented value (its reason: calibration.toml)"
+        return "held (reason: calibration.toml)"
     low, high = fit.band
     edge = (
         " (AT A BAND EDGE)"
@@ -376,58 +404,36 @@ def _validation_section(folder: Path, page_dir: Path) -> str:
         "(<code>frequencies.csv</code>) and the cutting response against Table 4 "
         "(<code>response.csv</code>).</p>"
     ]
-    parts += [_figure(folder / "frequencies.png")]
+    modes = sorted(folder.glob("mode-*.png"), key=lambda p: int(p.stem.split("-")[1]))
+    parts.append(figures([folder / "frequencies.png", *modes], page_dir, thumbs=True))
     titles = {
         "frequencies.csv": "Natural frequencies against Table 3 (frequencies.csv)",
         "response.csv": "Residuals of the cutting response against the paper (response.csv)",
         "identification-log.csv": "Identification log (identification-log.csv)",
     }
-    for name, title in titles.items():
-        parts.append(f"<h3>{title}</h3>" + _csv(folder / name, page_dir))
-    modes = sorted(folder.glob("mode-*.png"), key=lambda p: int(p.stem.split("-")[1]))
-    if modes:
-        parts.append("<h3>Mode shapes</h3>" + "".join(_figure(p) for p in modes))
+    parts.append(
+        more(*(details(title, _csv(folder / name, page_dir)) for name, title in titles.items()))
+    )
     return "\n".join(parts)
 
 
-def _reference_section(results: Path) -> str:
+def _reference_section(results: Path, page_dir: Path | None = None) -> str:
     cut = results / VALIDATION / REFERENCE_CUT
     parts = [
         "<p>The reference cut of the paper (300 rpm, 15 mm/min, 4 µm; Figs. 6, 7, 13, 14), "
-        "from <code>ufmt simulate --method time --plot</code>.</p>"
+        "from <code>ufmt simulate --method time --plot</code>, and the tool-workpiece "
+        "receptance (<code>ufmt frf</code>).</p>"
     ]
     pngs = sorted(cut.glob("*.png")) if cut.is_dir() else []
-    parts += [_figure(p) for p in pngs] or [_missing(f"{cut}/")]
-    parts.append(_headline_intervals(cut, results / UNCERTAINTY))
-    parts.append(_error_budget(cut))
-    parts.append("<h3>Tool-workpiece receptance (ufmt frf)</h3>")
     frf = sorted((results / FRF).glob("*.png")) if (results / FRF).is_dir() else []
-    parts += [_figure(p) for p in frf] or [_missing(f"{results / FRF}/ (run ufmt frf)")]
+    parts.append(figures([*pngs, *frf], page_dir))
+    if not pngs:
+        parts.append(_missing(f"{cut}/"))
+    if not frf:
+        parts.append(_missing(f"{results / FRF}/ (run ufmt frf)"))
+    tables = _headline_intervals(cut, results / UNCERTAINTY)  # the budget: pv_by_source.png
+    parts.append(details("Headline numbers with their 5-95 % intervals (table)", tables))
     return "\n".join(parts)
-
-
-def _error_budget(cut: Path) -> str:
-    """The reference cut's PV of each error source alone and in total (metrics.json of
-    ``ufmt simulate --save``), or a note that it was not saved."""
-    metrics = cut / "metrics.json"
-    if not metrics.is_file():
-        return "<h3>Error budget per source</h3>" + _missing(
-            f"{metrics} (ufmt simulate --method time --save {cut})"
-        )
-    data = json.loads(metrics.read_text(encoding="utf-8"))
-    rows = [
-        {"source": name, "PV alone [nm]": "switched off" if v is None else f"{v:.4g}"}
-        for name, v in data.get("pv_by_source_nm", {}).items()
-    ]
-    for key, label in (
-        ("pv_nm", "every source, whole plate"),
-        ("pv_measured_nm", "every source, as the interferometer measures it"),
-        ("pv_dynamic_steady_nm", "cutting-force vibration alone, steady cut (edges apart)"),
-        ("edge_runout_nm", "cutting-force vibration alone, what the plate's edges add"),
-    ):
-        if data.get(key) is not None:
-            rows.append({"source": label, "PV alone [nm]": f"{data[key]:.4g}"})
-    return "<h3>Error budget per source</h3>" + _table(pd.DataFrame(rows))
 
 
 def _headline_intervals(cut: Path, uncertainty: Path) -> str:
@@ -501,23 +507,36 @@ def _finding_intervals(name: str, contrasts: pd.DataFrame | None) -> str:
 
 
 def _study_section(
-    folder: Path, meta: dict, page_dir: Path, contrasts: pd.DataFrame | None = None
+    folder: Path,
+    meta: dict,
+    page_dir: Path,
+    contrasts: pd.DataFrame | None = None,
+    model=None,
+    common: dict | None = None,
 ) -> str:
-    parts = []
-    if meta.get("description"):
-        parts.append(f"<p>{html.escape(meta['description'])}</p>")
+    plate = f'<span class="plate">Plate: {html.escape(plate_words(meta, model))}.</span>'
+    parts = [f"<p>{plate} {html.escape(meta.get('description') or '')}</p>"]
     finding = meta.get("headline") or "(run incomplete)"
-    parts.append(f'<p class="finding"><b>Finding:</b> {html.escape(finding)}</p>')
+    parts.append(_finding(finding))
     parts.append(_finding_intervals(folder.name, contrasts))
     warning = _range_warning(folder / "points.csv")
     if warning:
         parts.append(f'<p class="warning">{html.escape(warning)}</p>')
-    for name in meta.get("plots", []):
-        parts.append(_figure(folder / name))
-    for name in STUDY_TABLES:
-        if (folder / name).is_file():
-            parts.append(f"<h3>{name}</h3>" + _csv(folder / name, page_dir))
-    parts.append(_details("provenance", _provenance(meta)))
+    parts.append(figures([folder / name for name in meta.get("plots", [])], page_dir))
+    tables = [name for name in STUDY_TABLES if (folder / name).is_file()]
+    if (folder / FINDINGS_TABLE).is_file():
+        href = html.escape(relative(folder / FINDINGS_TABLE, page_dir))
+        parts.append(
+            f"<p>The paper's findings like for like: in the Summary; every value in <a href=\""
+            f'{href}">{FINDINGS_TABLE}</a>.</p>'
+        )
+    shown = "".join(f"<h3>{name}</h3>" + _csv(folder / name, page_dir) for name in tables)
+    parts.append(
+        more(
+            details(f"Tables: {', '.join(tables)}", shown),
+            details("provenance", _provenance(meta, common)),
+        )
+    )
     return "\n".join(parts)
 
 
@@ -540,15 +559,33 @@ def _range_warning(points_csv: Path) -> str:
     )
 
 
-def _provenance(meta: dict) -> str:
-    """Where the study's numbers come from, in one paragraph (meta.json has it all)."""
+def _common_versions(studies) -> dict:
+    """The package versions every study ran with ({} without a study)."""
+    found = [meta.get("versions", {}) for _, _, meta in studies]
+    if not found:
+        return {}
+    return {k: v for k, v in found[0].items() if all(f.get(k) == v for f in found)}
+
+
+def _versions_sentence(common: dict) -> str:
+    if not common:
+        return ""
+    versions = ", ".join(f"{k} {v}" for k, v in common.items())
+    return f" Every study ran with {html.escape(versions)} (others: each study's provenance)."
+
+
+def _provenance(meta: dict, common: dict | None = None) -> str:
+    """Where the study's numbers come from, in one paragraph (meta.json has it all); package
+    versions shared by every study (``common``) are named once, at the top of the page, the
+    others here."""
     run = meta.get("run", {})
     git = meta.get("git", {})
-    versions = ", ".join(f"{k} {v}" for k, v in meta.get("versions", {}).items())
+    own = {k: v for k, v in meta.get("versions", {}).items() if (common or {}).get(k) != v}
+    versions = ", ".join(f"{k} {v}" for k, v in own.items())
     items = {
         "study file": meta.get("study_file"),
-        "function": meta.get("function"),
-        "model": meta.get("model"),
+        "function": None if meta.get("function") == DEFAULT_FUNCTION else meta.get("function"),
+        "model": None if meta.get("model") == "packaged" else meta.get("model"),
         "model SHA-256": meta.get("model_sha256"),
         "code SHA-256": meta.get("code_sha256"),
         "git revision": f"{git.get('revision')}{' (dirty)' if git.get('dirty') else ''}",
@@ -578,87 +615,3 @@ def _shown_path(source: str) -> str:
         return str(path.resolve().relative_to(Path.cwd().resolve()))
     except ValueError:
         return str(source)
-
-
-def _figure(png: Path) -> str:
-    """The PNG embedded as a base64 data URI (or a note that it is missing)."""
-    if not png.is_file():
-        return _missing(str(png))
-    data = base64.b64encode(png.read_bytes()).decode("ascii")
-    return (
-        f'<figure><img alt="{html.escape(png.name)}" src="data:image/png;base64,{data}">'
-        f"<figcaption><code>{html.escape(png.name)}</code></figcaption></figure>"
-    )
-
-
-def _csv(path: Path, page_dir: Path) -> str:
-    """A CSV table inline, or a link to it (relative to ``page_dir``, the page's folder) when
-    it is longer than MAX_TABLE_ROWS rows."""
-    if not path.is_file():
-        return _missing(str(path))
-    table = pd.read_csv(path)
-    if len(table) > MAX_TABLE_ROWS:
-        href = Path(os.path.relpath(path.resolve(), page_dir.resolve())).as_posix()
-        return (
-            f'<p>{len(table)} rows, {len(table.columns)} columns: <a href="{html.escape(href)}">'
-            f"{html.escape(path.name)}</a> (CSV, beside this page).</p>"
-        )
-    return _table(table.rename(columns=column_header))
-
-
-#: Column-name suffix -> unit, for headers in words.
-HEADER_UNITS = (
-    ("_percent", "%"),
-    ("_mm_s2", "mm/s²"),
-    ("_mm_min", "mm/min"),
-    ("_Nm_rad", "N m/rad"),
-    ("_N_m", "N/m"),
-    ("_hz", "Hz"),
-    ("_nm", "nm"),
-    ("_um", "µm"),
-    ("_mm", "mm"),
-    ("_min", "min"),
-    ("_n", "N"),
-    ("_s", "s"),
-)
-
-
-def column_header(name: str) -> str:
-    """A CSV column's header in words with its unit: ``pv_measured_nm`` -> "pv measured [nm]",
-    ``frequency_hz`` -> "frequency [Hz]" (dotted parameter names are kept as they are)."""
-    if "." in name or "[" in name:
-        return name
-    for suffix, unit in HEADER_UNITS:
-        if name.endswith(suffix) and len(name) > len(suffix):
-            return f"{name[: -len(suffix)].replace('_', ' ')} [{unit}]"
-    return name.replace("_", " ")
-
-
-def _table(table: pd.DataFrame) -> str:
-    """The table as HTML in the page's fixed layout (numbers to four significant digits): each
-    column's share of the width follows its longest cell (capped at COLUMN_CHARS characters),
-    so long text wraps in wide columns and numbers keep narrow ones."""
-    text = table.to_html(index=False, na_rep="", float_format=lambda v: f"{v:.4g}", border=0)
-    lengths = [
-        min(
-            COLUMN_CHARS,
-            max([len(str(c)) // 2, *(len(_shown(v)) for v in table[c])], default=4),
-        )
-        + 2
-        for c in table.columns
-    ]
-    total = sum(lengths) or 1
-    cols = "".join(f'<col style="width:{100 * n / total:.1f}%">' for n in lengths)
-    return text.replace(">\n  <thead>", f"><colgroup>{cols}</colgroup>\n  <thead>", 1)
-
-
-def _shown(value) -> str:
-    return f"{value:.4g}" if isinstance(value, float) else str(value)
-
-
-def _details(summary: str, content: str) -> str:
-    return f"<details><summary>{html.escape(summary)}</summary>{content}</details>"
-
-
-def _missing(what: str) -> str:
-    return f'<p class="missing">missing: {html.escape(what)}</p>'

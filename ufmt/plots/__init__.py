@@ -39,3 +39,21 @@ def save_figure(fig: Figure, path, dpi: int = DPI) -> Path:
     """Write ``fig`` to ``path`` (PNG, atomically: :mod:`ufmt.files`; parent folders created);
     returns the path."""
     return files.write_bytes(path, files.figure_png(fig, dpi))
+
+
+def plate_label(plate_mm) -> str:
+    """ "150 mm × 150 mm plate" of a study's ``meta["plate_mm"]``, or '' without one."""
+    if not plate_mm or len(plate_mm) != 2:
+        return ""
+    return f"{plate_mm[0]:.4g} mm × {plate_mm[1]:.4g} mm plate"
+
+
+def mark_plate(fig: Figure, plate_mm) -> Figure:
+    """Name the plate a study's figure is for in its suptitle (or first title)."""
+    text = plate_label(plate_mm)
+    if text and fig.get_suptitle():
+        fig.suptitle(f"{fig.get_suptitle()}\n({text})")
+    elif text and fig.axes:
+        ax = fig.axes[0]
+        ax.set_title(f"{ax.get_title()}\n({text})" if ax.get_title() else f"({text})")
+    return fig

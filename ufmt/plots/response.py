@@ -32,9 +32,10 @@ def _window_time(response) -> tuple[np.ndarray, str]:
     return response.t - t0, f"time in the record window [s] (window starts {t0:.1f} s into the cut)"
 
 
-def _shade_cutting(ax, t: np.ndarray, response, label: bool) -> None:
-    """Shade the time intervals in which the tool touches the workpiece (force non-zero)."""
-    cutting = np.linalg.norm(response.force, axis=1) > 0
+def _shade_cutting(ax, t: np.ndarray, force: np.ndarray, label: bool) -> None:
+    """Shade the time intervals in which the tool touches the workpiece (``force`` [N], one
+    row per sample of ``t``, non-zero)."""
+    cutting = np.linalg.norm(force, axis=1) > 0
     ax.fill_between(
         t,
         0,
@@ -46,10 +47,45 @@ def _shade_cutting(ax, t: np.ndarray, response, label: bool) -> None:
     )
 
 
-def plot_tool_tip(response, quantity: str = "displacement", ax=None) -> Figure:
-    """Tool-tip displacement [nm] or acceleration [mm/s^2] in x, y, z against time (Figs. 6, 7).
+def engagement(t: np.ndarray, response) -> tuple[float, float] | None:
+    """(start, end) [s, window time] of the first engagement wholly inside the window (the
+    force non-zero from a sample after the first to one before the last), or None."""
+    cutting = np.linalg.norm(response.force, axis=1) > 0
+    edges = np.flatnonzero(np.diff(cutting.astype(np.int8)))
+    starts = [i + 1 for i in edges if not cutting[i]]
+    ends = [i for i in edges if cutting[i]]
+    for start in starts:
+        after = [e for e in ends if e >= start]
+        if after:
+            return float(t[start]), float(t[after[0]])
+    return None
 
-    ax : three axes (x, y, z panels) to draw in; default a new figure.
+
+#: The zoom on one engagement shows it from ZOOM_BEFORE of its length before it starts to
+#: ZOOM_AFTER of its length after it ends (the free vibration it leaves).
+ZOOM_BEFORE, ZOOM_AFTER = 0.5, 2.0
+
+
+def _zoom(ax, zoom, t: np.ndarray, data, response, span) -> None:
+    """Draw ``data`` against ``t`` in ``zoom`` over one engagement ``span`` and mark it on
+    ``ax`` (the whole window)."""
+    start, end = span
+    length = end - start
+    low, high = start - ZOOM_BEFORE * length, end + ZOOM_AFTER * length
+    inside = (t >= low) & (t <= high)
+    _shade_cutting(zoom, t[inside], response.force[inside], label=False)
+    zoom.plot(t[inside], data[inside], lw=0.9)
+    zoom.set_xlim(low, high)
+    zoom.grid(alpha=0.3)
+    ax.axvspan(low, high, color="0.6", alpha=0.25, lw=0)
+
+
+def plot_tool_tip(response, quantity: str = "displacement", ax=None) -> Figure:
+    """Tool-tip displacement [nm] or acceleration [mm/s^2] in x, y, z against time (Figs. 6, 7):
+    the record window, and beside it (on a new figure) one engagement zoomed (grey band on the
+    left).
+
+    ax : three axes (x, y, z panels) to draw the window in (no zoom); default a new figure.
     """
     if quantity == "displacement":
         data, unit, scale = response.tip_disp, "nm", 1e9
@@ -57,30 +93,51 @@ def plot_tool_tip(response, quantity: str = "displacement", ax=None) -> Figure:
         data, unit, scale = response.tip_acc, "mm/s$^2$", 1e3
     else:
         raise ValueError(f"quantity must be 'displacement' or 'acceleration', got {quantity!r}")
+    t, label = _window_time(response)
+    span = engagement(t, response) if ax is None else None
+    zooms = []
     if ax is None:
-        fig = new_figure((8, 7))
-        axes = fig.subplots(3, 1, sharex=True)
+        fig = new_figure((12, 7) if span else (8, 7))
+        grid = fig.subplots(
+            3, 2 if span else 1, squeeze=False, width_ratios=[2, 1] if span else None
+        )
+        axes, zooms = list(grid[:, 0]), list(grid[:, 1]) if span else []
     else:
         axes = list(ax)
         fig = axes[0].figure
-    t, label = _window_time(response)
     for i, a in enumerate(axes):
-        _shade_cutting(a, t, response, label=i == 0)
+        _shade_cutting(a, t, response.force, label=i == 0)
         a.plot(t, data[:, i] * scale, lw=0.8)
         a.set_ylabel(f"{_AXES[i]} [{unit}]")
         a.grid(alpha=0.3)
+        if zooms:
+            _zoom(a, zooms[i], t, data[:, i] * scale, response, span)
     axes[-1].set_xlabel(label)
+    if zooms:
+        zooms[-1].set_xlabel("time [s], one engagement (grey band on the left)")
+        zooms[0].set_title("one engagement, zoomed", fontsize="small")
     axes[0].legend(fontsize="small", loc="upper right")
     axes[0].set_title(f"Tool-tip {quantity} ({response.method} response)")
     return fig
 
 
 def plot_zre(response, ax=None) -> Figure:
-    """Relative tool-workpiece z displacement z_re [nm] against time (Fig. 13)."""
-    fig, ax = new_axes(ax, (8, 3.5))
+    """Relative tool-workpiece z displacement z_re [nm] against time (Fig. 13): the record
+    window and beside it (on a new figure) one engagement zoomed (grey band on the left)."""
     t, label = _window_time(response)
-    _shade_cutting(ax, t, response, label=True)
+    span = engagement(t, response) if ax is None else None
+    zoom = None
+    if span:
+        fig = new_figure((12, 3.5))
+        ax, zoom = fig.subplots(1, 2, width_ratios=[2, 1])
+    else:
+        fig, ax = new_axes(ax, (8, 3.5))
+    _shade_cutting(ax, t, response.force, label=True)
     ax.plot(t, response.z_re * 1e9, lw=0.8, label="$z_{re}$")
+    if zoom is not None:
+        _zoom(ax, zoom, t, response.z_re * 1e9, response, span)
+        zoom.set_xlabel("time [s], one engagement (grey band on the left)")
+        zoom.set_title("one engagement, zoomed", fontsize="small")
     ax.set_xlabel(label)
     ax.set_ylabel("$z_{re}$ [nm]")
     ax.set_title(f"Relative tool-workpiece displacement in z ({response.method} response)")

@@ -167,13 +167,17 @@ def plot_pv_lines(
     ok = _ok(points)
     metric = metric or _main_metric(ok)
     sources, constant = _varying_sources(ok)
-    for (top, bottom), group in zip(panels, groups, strict=True):
-        _pv_panels(top, bottom, ok, group, baseline, sources, metric)
+    roles = [
+        _pv_panels(top, bot, ok, group, baseline, sources, metric)
+        for (top, bot), group in zip(panels, groups, strict=True)
+    ]
+    for role in ("metric", "whole", "vibration", "others"):  # compared panels: one scale
+        common_scale([r[role] for r in roles if r.get(role) is not None])
     handles, labels = _unique_legend(fig)
     for column, value in constant.items():
         handles.append(Line2D([], [], ls="none"))
         labels.append(f"{_source(column)} alone: {value:.3g} nm at every point (not drawn)")
-    fig.legend(handles, labels, loc="outside lower center", ncols=3, fontsize="small")
+    fig.legend(handles, labels, loc="outside lower center", ncols=cols, fontsize="small")
     fig.suptitle(f"{metric_words(metric)} against each swept parameter (others at the base design)")
     return fig
 
@@ -202,15 +206,17 @@ def _varying_sources(ok: pd.DataFrame) -> tuple[list[str], dict[str, float]]:
     return varying, constant
 
 
-def _pv_panels(top, bottom, ok, group, baseline, sources, metric) -> None:
-    """One parameter's two panels (see :func:`plot_pv_lines`)."""
+def _pv_panels(top, bottom, ok, group, baseline, sources, metric) -> dict:
+    """One parameter's two panels (see :func:`plot_pv_lines`); returns their y axes by role
+    ("metric", "whole", "vibration", "others"; absent where not drawn)."""
+    roles = {"metric": top}
     axis = group["axes"][0]
     name = axis["parameter"]
     data = ok[ok["group"] == group["name"]].sort_values(name)
     x = data[name]
     top.plot(x, data[metric], "o-", color="C0", label=metric_label(metric))
     if metric != "pv_nm" and "pv_nm" in data:
-        whole = top.twinx()
+        whole = roles["whole"] = top.twinx()
         label = "whole-plate PV (every point of the cut, right axis)"
         whole.plot(x, data["pv_nm"], "s--", ms=3, color="0.45", label=label)
         whole.set_ylabel("whole-plate PV [nm]", color="0.45", fontsize="small")
@@ -227,8 +233,9 @@ def _pv_panels(top, bottom, ok, group, baseline, sources, metric) -> None:
             label=f"{_source('pv_dynamic_nm')} alone",
         )
         bottom.set_ylabel("vibration alone [nm]", color="C3", fontsize="small")
+        roles["vibration"] = bottom
     if others:  # on their own axis, so that the vibration's change stays visible
-        right = bottom.twinx()
+        right = roles["others"] = bottom.twinx()
         for k, column in enumerate(others):
             right.plot(
                 x,
@@ -255,6 +262,31 @@ def _pv_panels(top, bottom, ok, group, baseline, sources, metric) -> None:
         a.margins(y=0.15)
     top.tick_params(labelbottom=False)
     top.sharex(bottom)
+    return roles
+
+
+#: The smallest y range of a compared sweep panel, as a share of its largest |value|: a
+#: change smaller than this share is drawn flat, not stretched over the panel's height.
+MIN_SPAN_SHARE = 0.2
+
+
+def common_scale(axes: list, share: float = MIN_SPAN_SHARE) -> None:
+    """One y range for ``axes`` (panels compared with each other): their data's joint range,
+    widened about its middle to at least ``share`` of the largest |value|, plus 10 %."""
+    limits = [a.dataLim for a in axes if np.isfinite(a.dataLim.y0) and a.dataLim.height >= 0]
+    if not limits:
+        return
+    low = min(b.y0 for b in limits)
+    high = max(b.y1 for b in limits)
+    if not (np.isfinite(low) and np.isfinite(high)):
+        return
+    span = max(high - low, share * max(abs(low), abs(high)), 1e-12)
+    middle = 0.5 * (low + high)
+    low, high = middle - 0.55 * span, middle + 0.55 * span
+    if low < 0 <= min(b.y0 for b in limits):  # a non-negative quantity keeps a non-negative axis
+        low, high = 0.0, high - low
+    for a in axes:
+        a.set_ylim(low, high)
 
 
 def _unique_legend(fig) -> tuple[list, list[str]]:
@@ -447,7 +479,13 @@ def plot_pareto(
             label=f"{name}: {value:.3g} {metric_unit(metric)}, {_recipe(row)}",
         )
         shown.append(pd.Series([value]))
-    ax.axhline(target, color="r", lw=0.8, ls="--", label=f"target {target:g}")
+    ax.axhline(
+        target,
+        color="r",
+        lw=0.8,
+        ls="--",
+        label=f"target: {words} ≤ {target:g} {metric_unit(metric)}",
+    )
     ax.set_yscale("log")
     _plain_log(ax.yaxis, pd.concat([*shown, pd.Series([target])]))
     ax.set_xlabel("cutting time of one pass [min]")

@@ -19,6 +19,7 @@ import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
 
+from ufmt.metric_names import metric_axis_label
 from ufmt.plots import new_axes, new_figure
 from ufmt.plots.studies import PANEL, parameter_label
 
@@ -39,7 +40,7 @@ def plot_distributions(distribution: pd.DataFrame, samples: pd.DataFrame) -> Fig
     for ax, row in zip(axes, distribution.to_dict("records"), strict=False):  # "q2.5": by name
         values = samples[row["metric"]].to_numpy(dtype=float)
         values = values[np.isfinite(values)]
-        ax.set_xlabel(parameter_label(row["metric"]), fontsize="small")
+        ax.set_xlabel(metric_axis_label(row["metric"]), fontsize="small")
         if not len(values):
             ax.text(0.5, 0.5, "not resolved\nin any sample", ha="center", va="center")
             ax.set_yticks([])
@@ -62,50 +63,123 @@ def plot_distributions(distribution: pd.DataFrame, samples: pd.DataFrame) -> Fig
     return fig
 
 
+#: Inputs drawn per Sobol or convergence panel: those of the largest total index (the rest
+#: are listed in sobol.csv / convergence.csv).
+TOP_INPUTS = 8
+_COMPONENTS = "xyz"
+_HINGE_FIELDS = {
+    "stiffness": ("stiffness", "N/m"),
+    "rotational_stiffness": ("rotational stiffness", "N m/rad"),
+}
+_SUFFIX_UNITS = (
+    ("_m_per_N", "m/N"),
+    ("_rad", "rad"),
+    ("_deg", "deg"),
+    ("_hz", "Hz"),
+    ("_kg", "kg"),
+    ("_m", "m"),
+)
+
+
+def input_label(name: str) -> str:
+    """An uncertain input in words with its unit: ``machine.tool_compliance_m_per_N`` ->
+    "tool compliance [m/N]", ``hinge.h31.rotational_stiffness[0]`` -> "hinge h31 rotational
+    stiffness x [N m/rad]", ``machine.force_scale`` -> "force scale [-]"."""
+    from ufmt.model.machine import OPTIONAL_FIELDS
+
+    if name.startswith("hinge.") and name.count(".") == 2 and name.endswith("]"):
+        _, hinge, rest = name.split(".")
+        field, index = rest[:-1].split("[")
+        words, unit = _HINGE_FIELDS.get(field, (field.replace("_", " "), ""))
+        component = _COMPONENTS[int(index)] if index.isdigit() and int(index) < 3 else index
+        return f"hinge {hinge} {words} {component}" + (f" [{unit}]" if unit else "")
+    key = name.removeprefix("machine.")
+    unit = OPTIONAL_FIELDS[key][3] if key in OPTIONAL_FIELDS else ""
+    words = key
+    for suffix, u in _SUFFIX_UNITS:
+        if key.endswith(suffix) and (not unit or u == unit):
+            words, unit = key[: -len(suffix)], unit or u
+            break
+    return f"{words.replace('_', ' ')} [{unit or '-'}]"
+
+
+def _bounded(value: np.ndarray, conf: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Lower and upper error-bar lengths of an index in [0, 1] with half-width ``conf``,
+    clipped to [0, 1] (an index cannot leave it; the bootstrap's symmetric band can)."""
+    value = np.clip(value, 0.0, 1.0)
+    return value - np.clip(value - conf, 0.0, 1.0), np.clip(value + conf, 0.0, 1.0) - value
+
+
 def plot_sobol(sobol: pd.DataFrame) -> Figure:
-    """Horizontal bars of S1 and ST per input with 95 % bootstrap half-widths, a panel per
-    metric."""
+    """Horizontal bars of S1 and ST per input with 95 % bootstrap half-widths clipped to
+    [0, 1], the TOP_INPUTS inputs of largest ST per metric, a panel per metric."""
     metrics = list(dict.fromkeys(sobol["metric"]))
     fig, axes = _grid(len(metrics), columns=2)
     height = 0.38
     for ax, metric in zip(axes, metrics, strict=False):
         table = sobol[sobol["metric"] == metric].sort_values("ST", ascending=False)
+        table = table.head(TOP_INPUTS)
         y = np.arange(len(table))
-        ax.barh(y - height / 2, table["ST"], height, xerr=table["ST_conf"], label="total ST")
-        ax.barh(y + height / 2, table["S1"], height, xerr=table["S1_conf"], label="first-order S1")
-        ax.set_yticks(y, list(table["parameter"]), fontsize="x-small")
+        for shift, column, label in (
+            (-height / 2, "ST", "total ST"),
+            (height / 2, "S1", "first-order S1"),
+        ):
+            value = np.clip(table[column].to_numpy(float), 0.0, 1.0)
+            errors = _bounded(value, table[f"{column}_conf"].to_numpy(float))
+            ax.barh(y + shift, value, height, xerr=np.vstack(errors), label=label)
+        ax.set_yticks(y, [input_label(p) for p in table["parameter"]], fontsize="x-small")
         ax.invert_yaxis()
-        ax.set_xlabel("share of variance", fontsize="small")
-        ax.set_title(parameter_label(metric), fontsize="small")
+        ax.set_xlim(0.0, 1.0)
+        left = len(sobol[sobol["metric"] == metric]) - len(table)
+        more = f"\n({left} inputs of smaller ST in sobol.csv)" if left > 0 else ""
+        ax.set_xlabel(f"share of variance (an index in [0, 1]){more}", fontsize="small")
+        ax.set_title(metric_axis_label(metric), fontsize="small")
         ax.grid(True, axis="x", alpha=0.3)
     axes[0].legend(fontsize="x-small", loc="lower right")
     return fig
 
 
 def plot_convergence(convergence: pd.DataFrame) -> Figure:
-    """Total Sobol indices (with their half-widths) or, without them, the quantiles against
-    the number of base samples, a panel per metric."""
+    """Total Sobol indices (with their half-widths, clipped to [0, 1]) of the TOP_INPUTS
+    inputs of largest final ST or, without indices, the quantiles against the number of base
+    samples, a panel per metric; one legend per panel, right of its axes."""
     metrics = list(dict.fromkeys(convergence["metric"]))
-    fig, axes = _grid(len(metrics))
+    fig, axes = _grid(len(metrics), columns=2)
+    fig.set_size_inches(2.4 * PANEL[0], fig.get_size_inches()[1])
     for ax, metric in zip(axes, metrics, strict=False):
         table = convergence[convergence["metric"] == metric]
         total = table[table["statistic"] == "ST"]
-        lines = total.groupby("parameter", sort=False) if len(total) else None
-        if lines is None:
-            lines = table.groupby("statistic", sort=False)
-            ax.set_ylabel("quantile", fontsize="small")
-        else:
+        if len(total):
+            last = total[total["samples"] == total["samples"].max()]
+            top = last.sort_values("value", ascending=False)["parameter"].head(TOP_INPUTS)
+            lines = total[total["parameter"].isin(top)].groupby("parameter", sort=False)
             ax.set_ylabel("total Sobol index ST", fontsize="small")
+            ax.set_ylim(0.0, 1.0)
+        elif not np.isfinite(table["value"].to_numpy(float)).any():
+            ax.text(0.5, 0.5, "not resolved\nin any sample", ha="center", va="center")
+            ax.set_yticks([])
+            lines = []
+        else:
+            lines = table.groupby("statistic", sort=False)
+            ax.set_ylabel(f"quantile of {metric_axis_label(metric)}", fontsize="small")
         for label, line in lines:
-            ax.plot(line["samples"], line["value"], marker="o", ms=3, label=str(label))
+            value = line["value"].to_numpy(float)
+            shown = input_label(str(label)) if len(total) else str(label)
+            ax.plot(line["samples"], value, marker="o", ms=3, label=shown)
             conf = line["conf"].to_numpy(dtype=float)
-            if np.isfinite(conf).any():
-                low, high = line["value"] - conf, line["value"] + conf
-                ax.fill_between(line["samples"], low, high, alpha=0.15)
+            if len(total) and np.isfinite(conf).any():
+                low, high = _bounded(value, conf)
+                ax.fill_between(
+                    line["samples"],
+                    np.clip(value, 0, 1) - low,
+                    np.clip(value, 0, 1) + high,
+                    alpha=0.15,
+                )
         ax.set_xscale("log", base=2)
         ax.set_xlabel("base samples N", fontsize="small")
-        ax.set_title(parameter_label(metric), fontsize="small")
-        ax.legend(fontsize="xx-small")
+        ax.set_title(metric_axis_label(metric), fontsize="small")
+        if ax.get_legend_handles_labels()[0]:
+            ax.legend(fontsize="xx-small", loc="upper left", bbox_to_anchor=(1.01, 1.0))
     return fig
 
 

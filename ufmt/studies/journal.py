@@ -31,7 +31,7 @@ from tqdm import tqdm
 
 from ufmt import evaluate_cache
 from ufmt.design import PROCESS_PARAMETERS
-from ufmt.errors import StudyError
+from ufmt.errors import ModelError, StudyError
 from ufmt.evaluate import model_file, resolve_model
 from ufmt.fingerprint import code_sha256, source_sha256
 from ufmt.studies import outputs
@@ -278,6 +278,7 @@ def start_meta(study: Study, identity: Mapping[str, str]) -> dict:
         "model": "packaged" if study.model is None else str(study.model),
         **identity,
         "baseline": baseline,
+        "plate_mm": plate_mm(study, baseline),
         "parameters": list(study.parameters),
         "groups": [
             {"name": g.name, "axes": [{"parameter": a.parameter, "log": a.log} for a in g.axes]}
@@ -294,6 +295,19 @@ def start_meta(study: Study, identity: Mapping[str, str]) -> dict:
         "versions": outputs.package_versions(),
         "git": outputs.git_revision(Path(__file__).resolve().parent),
     }
+
+
+def plate_mm(study: Study, baseline: Mapping[str, float]) -> list[float] | None:
+    """The plate [mm] (x, y) every point of the study cuts: ``machine.workpiece_size[i]`` of
+    its ``[base]`` where set, else the model's; None for a model without ``[machine]`` or
+    one that cannot be read (its run then fails with the model's own error)."""
+    try:
+        model, _ = resolve_model(study.model)
+    except (ModelError, OSError):
+        return None
+    size = model.machine.workpiece_size if model.machine is not None else (None, None)
+    plate = [baseline.get(f"machine.workpiece_size[{i}]", size[i]) for i in (0, 1)]
+    return None if None in plate else [round(1e3 * float(v), 6) for v in plate]
 
 
 def run_summary(execution, table: pd.DataFrame, evaluator: Evaluator, wall: float) -> dict:

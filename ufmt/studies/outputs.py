@@ -286,6 +286,9 @@ def write_index(results_root: Path) -> Path:
         lines += [f"## [{out_dir.name}]({out_dir.name}/) ({meta['kind']})", ""]
         if meta.get("description"):
             lines += [meta["description"], ""]
+        plate = meta.get("plate_mm")
+        if plate:
+            lines += [f"Plate: {plate[0]:.4g} mm × {plate[1]:.4g} mm.", ""]
         lines += [f"**Finding:** {meta.get('headline') or '(run incomplete)'}", ""]
         lines += [
             f"Study file `{meta.get('study_file', '?')}`; {run.get('points_total', '?')} points,"

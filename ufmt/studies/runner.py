@@ -15,7 +15,7 @@ import pandas as pd
 from ufmt import evaluate_cache
 from ufmt.errors import OutputError, RunFailed, StudyError
 from ufmt.machining.process import ProcessRangeWarning
-from ufmt.plots import save_figure
+from ufmt.plots import mark_plate, save_figure
 from ufmt.studies import outputs
 from ufmt.studies.journal import (
     Evaluator,
@@ -147,6 +147,8 @@ def _run_locked(study, execution, out_dir, identity, progress, fresh, plots) -> 
         figures = kind.figures(out_dir)
         if kind.simulated_figures is not None:
             figures.update(kind.simulated_figures(study, out_dir))
+        for fig in figures.values():
+            mark_plate(fig, meta.get("plate_mm"))
         meta["plots"] = [save_figure(fig, out_dir / name).name for name, fig in figures.items()]
         outputs.write_json(meta, out_dir / outputs.META)
     elif plots:

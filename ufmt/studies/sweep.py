@@ -4,6 +4,9 @@
   ``[[grid]]`` (``name`` plus its own ``[[grid.axis]]`` list) adds a full-factorial grid.
 * ``grid``: the ``[[axis]]`` entries are crossed into one full-factorial grid.
 
+Field ``findings`` (default false): also judge the paper's statements like for like from
+the points (``findings.csv``, :mod:`ufmt.studies.findings`).
+
 Field ``metric`` (default the interferometer's PV, :mod:`ufmt.studies.metric`): the record
 metric the headline and the figures rank. The headline says how it responds along each axis
 and over each grid; the figures draw it against each one-at-a-time axis and map it over each
@@ -32,6 +35,7 @@ from ufmt.plots.studies import plot_tracked_modes, sweep_figures
 from ufmt.simulate import Process, simulate
 from ufmt.studies import outputs
 from ufmt.studies.fields import DEFAULT_FUNCTION, Parameters, read_axes, read_grids
+from ufmt.studies.findings import FINDINGS, findings_headline, findings_table
 from ufmt.studies.metric import metric_unit, metric_words, read_metric
 from ufmt.studies.outputs import short
 from ufmt.studies.spec import Group, StudyKind
@@ -47,7 +51,10 @@ def parse_sweep(where: Where, data: Mapping, parameters: Parameters) -> dict:
     if not groups:
         where.fail("axis", "a sweep needs at least one [[axis]] or [[grid]]")
     where.unique("axis", [g.name for g in groups])
-    return {"groups": tuple(groups), "options": {"metric": read_metric(where, data, "metric")}}
+    options = {"metric": read_metric(where, data, "metric")}
+    if "findings" in data:
+        options["findings"] = where.boolean("findings", data["findings"])
+    return {"groups": tuple(groups), "options": options}
 
 
 def parse_grid(where: Where, data: Mapping, parameters: Parameters) -> dict:
@@ -67,6 +74,10 @@ def analyse(study, evaluator, baseline: Mapping[str, float], out_dir: Path) -> s
     axes (``modes.csv``); returns the headline."""
     evaluator.evaluate([(g.name, p) for g in study.groups for p in g.points(baseline)])
     headline = sweep_headline(evaluator.table(), study)
+    if study.options.get("findings"):
+        table = findings_table(evaluator.table(), baseline)
+        outputs.write_table(table, out_dir / FINDINGS)
+        headline = f"{findings_headline(table)} {headline}".strip()  # the study's point first
     modes = mode_tracks(study, baseline)
     if modes is not None:
         outputs.write_table(modes, out_dir / MODES)
@@ -235,8 +246,8 @@ def sweep_headline(table: pd.DataFrame, study) -> str:
 
 SWEEP = StudyKind(
     name="sweep",
-    fields=("axis", "grid", "metric"),
-    tables=(MODES,),
+    fields=("axis", "grid", "metric", "findings"),
+    tables=(MODES, FINDINGS),
     parse=parse_sweep,
     planned_points=planned_points,
     analyse=analyse,
