@@ -31,6 +31,8 @@ from ufmt.plots.psd import plot_psd_extremes
 from ufmt.plots.studies import plot_tracked_modes, sweep_figures
 from ufmt.simulate import Process, simulate
 from ufmt.studies import outputs
+from ufmt.studies.decisions import DECISIONS, compare, draws, read_decisions, sentence
+from ufmt.studies.decisions import FIELDS as DECISION_FIELDS
 from ufmt.studies.fields import DEFAULT_FUNCTION, Parameters, read_axes, read_grids
 from ufmt.studies.metric import metric_unit, metric_words, read_metric
 from ufmt.studies.outputs import short
@@ -47,31 +49,66 @@ def parse_sweep(where: Where, data: Mapping, parameters: Parameters) -> dict:
     if not groups:
         where.fail("axis", "a sweep needs at least one [[axis]] or [[grid]]")
     where.unique("axis", [g.name for g in groups])
-    return {"groups": tuple(groups), "options": {"metric": read_metric(where, data, "metric")}}
+    return _with_decisions(where, data, parameters, tuple(groups))
 
 
 def parse_grid(where: Where, data: Mapping, parameters: Parameters) -> dict:
     """The axes of a grid, crossed into one group."""
     axes = read_axes(where, data, parameters, required=True)
-    options = {"metric": read_metric(where, data, "metric")}
-    return {"groups": (Group("grid", tuple(axes)),), "options": options}
+    return _with_decisions(where, data, parameters, (Group("grid", tuple(axes)),))
+
+
+def _with_decisions(where: Where, data: Mapping, parameters: Parameters, groups) -> dict:
+    """The kind's parts: its groups, its metric and its decisions' options
+    (:mod:`ufmt.studies.decisions`: each group's best point against its worst)."""
+    swept = [a.parameter for g in groups for a in g.axes]
+    decisions, inputs = read_decisions(where, data, parameters, swept)
+    options = {"metric": read_metric(where, data, "metric"), **decisions}
+    return {"groups": groups, "options": options, "inputs": inputs}
 
 
 def planned_points(study) -> int:
-    """Points of every axis and grid."""
-    return sum(math.prod(len(a.values) for a in g.axes) for g in study.groups)
+    """Points of every axis and grid, and each group's best-against-worst comparison."""
+    points = sum(math.prod(len(a.values) for a in g.axes) for g in study.groups)
+    return points + len(study.groups) * (2 * study.options.get("intervals", 0) + 2)
 
 
 def analyse(study, evaluator, baseline: Mapping[str, float], out_dir: Path) -> str:
     """Evaluate every point of every group, follow the modes along the stiffness and speed
     axes (``modes.csv``); returns the headline."""
     evaluator.evaluate([(g.name, p) for g in study.groups for p in g.points(baseline)])
-    headline = sweep_headline(evaluator.table(), study)
+    table = evaluator.table()
+    headline = sweep_headline(table, study)
+    said = best_against_worst(study, evaluator, table, out_dir)
+    if said:
+        headline += f" Decisions: {said}."
     modes = mode_tracks(study, baseline)
     if modes is not None:
         outputs.write_table(modes, out_dir / MODES)
         headline += modes_headline(modes)
     return headline
+
+
+def best_against_worst(study, evaluator, table: pd.DataFrame, out_dir: Path) -> str:
+    """Each group's best point (lowest metric) against its worst, with the difference's
+    interval over the bands (``decisions.csv``); '' without ``intervals``."""
+    metric, n = study.options["metric"], study.options.get("intervals", 0)
+    if not n:
+        return ""
+    comparisons = []
+    for group in study.groups:
+        rows = table[(table["group"] == group.name) & (table["status"] == "ok")]
+        values = pd.to_numeric(rows[metric], errors="coerce") if metric in rows else None
+        if values is None or values.notna().sum() < 2:
+            continue
+        names = [a.parameter for a in group.axes]
+        best, worst = rows.loc[values.idxmin(), names], rows.loc[values.idxmax(), names]
+        point = {"best": best.astype(float).to_dict(), "worst": worst.astype(float).to_dict()}
+        comparisons.append((f"{group.name}: best against worst", point["worst"], point["best"]))
+    samples = draws(study.inputs, n, study.options["interval_seed"])
+    decisions = compare(evaluator, comparisons, [metric], samples)
+    outputs.write_table(decisions, out_dir / DECISIONS)
+    return "; ".join(sentence(r) for r in decisions.to_dict("records"))
 
 
 #: Modes followed by MAC along each stiffness or speed axis (:mod:`ufmt.studies.tracking`).
@@ -155,6 +192,7 @@ def extreme_psd_figures(study, out_dir: Path) -> dict[str, Figure]:
         return {}
     metric = study.options["metric"]
     table = outputs.read_table(out_dir / outputs.POINTS)
+    table = table[table["group"].isin([g.name for g in study.groups])]
     values = pd.to_numeric(table.get(metric), errors="coerce")
     ok = table[(table["status"] == "ok") & np.isfinite(values)]
     if len(ok) < 2:
@@ -235,8 +273,8 @@ def sweep_headline(table: pd.DataFrame, study) -> str:
 
 SWEEP = StudyKind(
     name="sweep",
-    fields=("axis", "grid", "metric"),
-    tables=(MODES,),
+    fields=("axis", "grid", "metric", *DECISION_FIELDS),
+    tables=(MODES, DECISIONS),
     parse=parse_sweep,
     planned_points=planned_points,
     analyse=analyse,
@@ -245,8 +283,8 @@ SWEEP = StudyKind(
 )
 GRID = StudyKind(
     name="grid",
-    fields=("axis", "metric"),
-    tables=(MODES,),
+    fields=("axis", "metric", *DECISION_FIELDS),
+    tables=(MODES, DECISIONS),
     parse=parse_grid,
     planned_points=planned_points,
     analyse=analyse,
