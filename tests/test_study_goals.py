@@ -15,7 +15,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from ufmt.design import design_value
 from ufmt.errors import StudyError
+from ufmt.model.load import load_model
 from ufmt.studies.decisions import compare, difference_interval, draws
 from ufmt.studies.load import load_study
 from ufmt.studies.outputs import read_meta, read_table
@@ -331,3 +333,93 @@ def test_the_robust_optimum_minimises_the_quantile_over_the_band_samples(tmp_pat
     expected = ((best["rpm"] - 250) / 40) ** 2 + s_q * (best["rpm"] - 200) / 50 + 1.0
     assert best["pv_measured_nm_q90"] == pytest.approx(expected, rel=1e-9)
     assert "q90 over 8 band samples" in read_meta(out)["headline"]
+
+
+# ---------------------------------------------------------------------------------------------
+# optimise-design and sweeps
+
+
+K0 = design_value(load_model(), "head_angular_stiffness_Nm_rad")  # the calibrated value
+A_DESIGN, W_DESIGN = 40.0, 2.5  # [nm]: pv = A / r, cost = W r (r = k / k0); optimum r = 4
+
+
+def design_pv(design, process, model=None):
+    """pv_measured_nm = A k0 / k_angular."""
+    return {"pv_measured_nm": A_DESIGN * K0 / design["head_angular_stiffness_Nm_rad"]}
+
+
+def test_a_cost_limit_gives_the_constrained_design(tmp_path):
+    # minimise A / r + W r subject to cost W r <= 5 (r <= 2): the optimum is r = 2 (25 nm),
+    # where unconstrained it would be r = sqrt(A / W) = 4 (20 nm)
+    path = tmp_path / "design.toml"
+    path.write_text(
+        f'function = "{HERE}:design_pv"\n'
+        + textwrap.dedent(
+            f"""
+            kind = "optimise-design"
+            objective = "pv_measured_nm"
+            [[bound]]
+            parameter = "head_angular_stiffness_Nm_rad"
+            scale = [0.5, 8.0]
+            spacing = "log"
+            [cost]
+            head_angular_stiffness_Nm_rad = {W_DESIGN}
+            [[constraint]]
+            metric = "cost_nm"
+            max = 5.0
+            [optimiser]
+            popsize = 8
+            maxiter = 10
+            refine_steps = 6
+            """
+        ),
+        encoding="utf-8",
+    )
+    out = _run(path, tmp_path / "r")
+    best = read_table(out / "optima.csv").set_index("design").loc["optimum"]
+    assert best["cost_nm"] <= 5.0
+    assert best["head_angular_stiffness_Nm_rad"] / K0 == pytest.approx(2.0, rel=1e-3)
+    assert best["objective_nm"] == pytest.approx(A_DESIGN / 2.0 + 5.0, rel=1e-3)
+
+
+def sweep_pv(design, process, model=None):
+    """band_pv at the sweep's base feed and depth."""
+    return band_pv(design, process, model)
+
+
+def test_a_sweep_reports_its_best_against_its_worst_with_the_paired_interval(tmp_path):
+    path = tmp_path / "sweep.toml"
+    path.write_text(
+        f'function = "{HERE}:sweep_pv"\n'
+        + textwrap.dedent(
+            """
+            kind = "sweep"
+            metric = "pv_measured_nm"
+            intervals = 6
+            interval_inputs = ["machine.straightness_m"]
+            [base]
+            feed_mm_min = 4.0
+            depth_um = 2.0
+            [[axis]]
+            parameter = "rpm"
+            values = [200.0, 250.0, 320.0]
+            """
+        ),
+        encoding="utf-8",
+    )
+    out = _run(path, tmp_path / "r")
+    row = read_table(out / "decisions.csv").iloc[0]
+    assert row["comparison"] == "rpm: best against worst"
+    s = np.array([d["machine.straightness_m"] for d in draws(("machine.straightness_m",), 6, 1)])
+    s = s / STRAIGHTNESS
+    # nominal (the design does not set the band: s = 0): best 250 rpm, worst 320 rpm
+    d = (0.0 + s * 50 / 50) - ((70 / 40) ** 2 + s * 120 / 50)
+    assert row["difference"] == -((70 / 40) ** 2)
+    assert row["difference_q05"] == pytest.approx(np.quantile(d, 0.05), rel=1e-9)
+    assert row["difference_q95"] == pytest.approx(np.quantile(d, 0.95), rel=1e-9)
+    assert bool(row["resolved"])
+    headline = read_meta(out)["headline"]
+    assert "Decisions: rpm: best against worst: pv_measured_nm" in headline
+    # the figures and the headline rank the study's points, not the band samples
+    points = read_table(out / "points.csv")
+    assert set(points["group"]) == {"rpm", "decision"}
