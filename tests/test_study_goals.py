@@ -303,6 +303,8 @@ def test_an_optimum_is_compared_with_the_base_recipe_in_decisions_csv(tmp_path):
     assert bool(row["resolved"]) == (np.quantile(d, 0.95) < 0)
     assert base["pv_measured_nm"] > 0
     assert "Decisions: min-pv against the base recipe" in read_meta(out)["headline"]
+    # the contract: the optimum is the lowest objective in points.csv (band samples apart)
+    assert best["pv_measured_nm"] == read_table(out / "points.csv")["pv_measured_nm"].min()
 
 
 # ---------------------------------------------------------------------------------------------
@@ -420,6 +422,6 @@ def test_a_sweep_reports_its_best_against_its_worst_with_the_paired_interval(tmp
     assert bool(row["resolved"])
     headline = read_meta(out)["headline"]
     assert "Decisions: rpm: best against worst: pv_measured_nm" in headline
-    # the figures and the headline rank the study's points, not the band samples
-    points = read_table(out / "points.csv")
-    assert set(points["group"]) == {"rpm", "decision"}
+    # the band samples are other machines: logged apart, points.csv holds the sweep's own
+    assert set(read_table(out / "points.csv")["group"]) == {"rpm"}
+    assert len(read_table(out / "decision_points.csv")) == 2 + 2 * 6

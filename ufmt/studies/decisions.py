@@ -22,7 +22,9 @@ draw's. Each comparison costs 2 n + 2 evaluations (the base's are shared by ever
 
 Table ``decisions.csv``: per comparison and metric, both nominal values and their difference,
 the difference's quantiles over the samples, the samples resolved (both finite), and whether
-the interval excludes 0.
+the interval excludes 0. The comparisons' points are logged in ``decision_points.csv`` (resumed
+like points.csv), not in points.csv: those rows are other machines (band samples), not the
+study's recipes or designs, so points.csv's lowest value stays the study's own.
 """
 
 from __future__ import annotations
@@ -42,6 +44,7 @@ from ufmt.studies.outputs import short
 from ufmt.tables import Where
 
 DECISIONS = "decisions.csv"
+BAND_POINTS = "decision_points.csv"  # the comparisons' points (kept out of points.csv)
 DEFAULT_INPUTS = ("machine.*", "hinge.h31.*", "hinge.h25.*")
 INTERVAL = (0.05, 0.5, 0.95)
 GROUP = "decision"  # points.csv group of the comparisons' points
@@ -194,6 +197,16 @@ def compare(
     return pd.DataFrame(rows)
 
 
+def compare_logged(evaluator, comparisons, metrics, samples) -> pd.DataFrame:
+    """:func:`compare` with the points logged in :data:`BAND_POINTS` (the study's
+    evaluator's sibling), not in points.csv."""
+    sibling = evaluator.sibling(BAND_POINTS)
+    try:
+        return compare(sibling, comparisons, metrics, samples)
+    finally:
+        sibling.close()
+
+
 def sentence(row: Mapping) -> str:
     """One comparison as words: "min-pv against base: pv_measured_nm -2.1 nm, 5-95 %
     [-3.0, -1.2] over 16 band samples (common random numbers): resolved"."""
@@ -231,7 +244,7 @@ def compare_to_base(
         return "", None
     samples = draws(options["inputs"], n, options["interval_seed"])
     comparisons = [(f"{name} against {base_name(study)}", base, p) for name, p in chosen.items()]
-    table = compare(evaluator, comparisons, metrics, samples)
+    table = compare_logged(evaluator, comparisons, metrics, samples)
     return "; ".join(sentence(r) for r in table.to_dict("records")), table
 
 

@@ -29,8 +29,8 @@ from ufmt.plots.fronts import plot_front
 from ufmt.plots.studies import plot_convergence, plot_design_tradeoff
 from ufmt.studies import outputs
 from ufmt.studies.decisions import (
+    BAND_POINTS,
     DECISIONS,
-    GROUP,
     ROBUST_FIELDS,
     compare_to_base,
     draws,
@@ -230,7 +230,6 @@ def figures(out_dir: Path) -> dict[str, Figure]:
         chosen = optima[optima["design"] != "calibrated"]
         return {"pareto.png": plot_front(front, chosen, objectives)}
     points = outputs.read_table(out_dir / outputs.POINTS)
-    points = points[points["group"] != GROUP] if "group" in points else points
     return {
         "convergence.png": plot_convergence(outputs.read_table(out_dir / CONVERGENCE)),
         "tradeoff.png": plot_design_tradeoff(points, optima, outputs.read_meta(out_dir)),
@@ -249,7 +248,7 @@ OPTIMISE_DESIGN = StudyKind(
         *DECISION_FIELDS,
         *ROBUST_FIELDS,
     ),
-    tables=(OPTIMA, CONVERGENCE, PARETO, DECISIONS),
+    tables=(OPTIMA, CONVERGENCE, PARETO, DECISIONS, BAND_POINTS),
     parse=parse,
     planned_points=planned_points,
     analyse=analyse,

@@ -45,8 +45,8 @@ from ufmt.plots.fronts import plot_front
 from ufmt.plots.studies import plot_convergence, plot_pareto
 from ufmt.studies import outputs
 from ufmt.studies.decisions import (
+    BAND_POINTS,
     DECISIONS,
-    GROUP,
     ROBUST_FIELDS,
     compare_to_base,
     draws,
@@ -308,7 +308,6 @@ def figures(out_dir: Path) -> dict[str, Figure]:
         front = outputs.read_table(out_dir / PARETO)
         return {"pareto.png": plot_front(front, optima, objectives)}
     points = outputs.read_table(out_dir / outputs.POINTS)
-    points = points[points["group"] != GROUP] if "group" in points else points
     return {
         "convergence.png": plot_convergence(outputs.read_table(out_dir / CONVERGENCE)),
         "pareto.png": plot_pareto(
@@ -336,7 +335,7 @@ OPTIMISE_PROCESS = StudyKind(
         *DECISION_FIELDS,
         *ROBUST_FIELDS,
     ),
-    tables=(OPTIMA, PARETO, CONVERGENCE, DECISIONS),
+    tables=(OPTIMA, PARETO, CONVERGENCE, DECISIONS, BAND_POINTS),
     parse=parse,
     planned_points=planned_points,
     analyse=analyse,

@@ -31,7 +31,14 @@ from ufmt.plots.psd import plot_psd_extremes
 from ufmt.plots.studies import plot_tracked_modes, sweep_figures
 from ufmt.simulate import Process, simulate
 from ufmt.studies import outputs
-from ufmt.studies.decisions import DECISIONS, compare, draws, read_decisions, sentence
+from ufmt.studies.decisions import (
+    BAND_POINTS,
+    DECISIONS,
+    compare_logged,
+    draws,
+    read_decisions,
+    sentence,
+)
 from ufmt.studies.decisions import FIELDS as DECISION_FIELDS
 from ufmt.studies.fields import DEFAULT_FUNCTION, Parameters, read_axes, read_grids
 from ufmt.studies.metric import metric_unit, metric_words, read_metric
@@ -106,7 +113,7 @@ def best_against_worst(study, evaluator, table: pd.DataFrame, out_dir: Path) -> 
         point = {"best": best.astype(float).to_dict(), "worst": worst.astype(float).to_dict()}
         comparisons.append((f"{group.name}: best against worst", point["worst"], point["best"]))
     samples = draws(study.inputs, n, study.options["interval_seed"])
-    decisions = compare(evaluator, comparisons, [metric], samples)
+    decisions = compare_logged(evaluator, comparisons, [metric], samples)
     outputs.write_table(decisions, out_dir / DECISIONS)
     return "; ".join(sentence(r) for r in decisions.to_dict("records"))
 
@@ -274,7 +281,7 @@ def sweep_headline(table: pd.DataFrame, study) -> str:
 SWEEP = StudyKind(
     name="sweep",
     fields=("axis", "grid", "metric", *DECISION_FIELDS),
-    tables=(MODES, DECISIONS),
+    tables=(MODES, DECISIONS, BAND_POINTS),
     parse=parse_sweep,
     planned_points=planned_points,
     analyse=analyse,
@@ -284,7 +291,7 @@ SWEEP = StudyKind(
 GRID = StudyKind(
     name="grid",
     fields=("axis", "metric", *DECISION_FIELDS),
-    tables=(MODES, DECISIONS),
+    tables=(MODES, DECISIONS, BAND_POINTS),
     parse=parse_grid,
     planned_points=planned_points,
     analyse=analyse,
