@@ -425,3 +425,19 @@ def test_a_sweep_reports_its_best_against_its_worst_with_the_paired_interval(tmp
     # the band samples are other machines: logged apart, points.csv holds the sweep's own
     assert set(read_table(out / "points.csv")["group"]) == {"rpm"}
     assert len(read_table(out / "decision_points.csv")) == 2 + 2 * 6
+
+
+def test_the_bands_of_the_decided_parameters_are_not_sampled(tmp_path):
+    # the head's angular stiffness is searched: its two documented bands (hinge h31's
+    # rotational stiffness about x and y) are the decision, not an uncertainty
+    path = tmp_path / "design.toml"
+    path.write_text(
+        f'function = "{HERE}:design_pv"\nkind = "optimise-design"\nintervals = 4\n'
+        '[[bound]]\nparameter = "head_angular_stiffness_Nm_rad"\nscale = [0.5, 2.0]\n',
+        encoding="utf-8",
+    )
+    inputs = load_study(path).inputs
+    assert "hinge.h31.stiffness[2]" in inputs and "machine.straightness_m" in inputs
+    assert not {"hinge.h31.rotational_stiffness[0]", "hinge.h31.rotational_stiffness[1]"} & set(
+        inputs
+    )

@@ -36,7 +36,7 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 import pandas as pd
 
-from ufmt.design import design_target, unknown_design_parameter
+from ufmt.design import design_parameters, design_target, unknown_design_parameter
 from ufmt.metric_names import metric_unit
 from ufmt.studies.bands import damping_bands, documented_bands, matching
 from ufmt.studies.intervals import sample_designs
@@ -139,7 +139,7 @@ def _usable(name: str, parameters, decided: Sequence[str]) -> bool:
 
 def _target(name: str, parameters):
     try:
-        return design_target(name, parameters.declared)
+        return design_target(name, design_parameters(parameters.model, parameters.declared))
     except (KeyError, ValueError):
         return None
 
