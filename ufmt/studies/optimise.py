@@ -37,7 +37,7 @@ import numpy as np
 import pandas as pd
 
 from ufmt.errors import StudyError
-from ufmt.studies.goals import penalised
+from ufmt.studies.goals import PENALTY, penalised
 from ufmt.tables import Where
 
 FAILED = 1e12  # objective of a failed point during global search
@@ -350,27 +350,16 @@ def read_optimiser(where: Where, data: Mapping) -> dict[str, Any]:
     return options
 
 
-def batch_objective(
-    evaluator, group: str, space: Space, fixed: Mapping, cost=None, metric: str = "pv_nm"
-) -> BatchObjective:
-    """Batch objective: the record ``metric`` (+ ``cost(values)``) of points of ``space``
-    with ``fixed``."""
-
-    def objective(u: np.ndarray) -> np.ndarray:
-        points = [{**fixed, **p} for p in space.points(u)]
-        value = evaluator.values(group, points, metric)
-        return value if cost is None else value + cost(space.values(u))
-
-    return objective
-
-
 def convergence_table(stages: Sequence[tuple[str, SearchResult]]) -> pd.DataFrame:
     """Every objective value [nm] of each (stage, search), in evaluation order, with its phase
-    (global or trust-region) and the best value so far (the table of ``convergence.csv``)."""
+    (global or trust-region) and the best value so far (the table of ``convergence.csv``); a
+    point that breaks a constraint has no value (its penalty is not an objective)."""
     frames = []
     for stage, result in stages:
         values = np.asarray(result.history, dtype=float)
+        values = np.where(values < PENALTY, values, math.nan)
         best = np.minimum.accumulate(np.where(np.isfinite(values), values, math.inf))
+        best = np.where(np.isfinite(best), best, math.nan)  # none feasible yet
         frames.append(
             pd.DataFrame(
                 {

@@ -8,9 +8,15 @@ study minimises ``objective + cost``, with ``cost = sum_i w_i k_i / k_i,calibrat
 weight ``w_i`` is what one calibrated stiffness's worth of bearing costs, so a stiffer bearing
 must buy its price in the objective.
 
+``[[constraint]]`` limits (``cost_nm`` is a metric here too), ``objectives = [...]`` (a Pareto
+front, e.g. the objective against ``cost_nm``), ``intervals`` (the optimum against the
+calibrated design over the documented bands) and ``robust`` are those of optimise-process
+(:mod:`ufmt.studies.goals`, :mod:`ufmt.studies.pareto`, :mod:`ufmt.studies.decisions`).
+
 Tables: ``optima.csv`` (the calibrated design and the optimum; ``objective`` names the metric,
-``objective_nm`` is its value plus the cost), ``convergence.csv``; figures: the convergence and
-the trade-off of the objective against stiffness cost.
+``objective_nm`` is its value plus the cost), ``convergence.csv``, ``pareto.csv``,
+``decisions.csv``; figures: the convergence and the trade-off of the objective against
+stiffness cost, or the front.
 """
 
 from __future__ import annotations

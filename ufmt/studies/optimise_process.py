@@ -20,9 +20,15 @@ Fields: ``[[bound]]`` over rpm, feed and depth (default: Table 1's ranges), ``ob
 * the **Pareto front** of the objective against cutting time: the non-dominated points among
   every recipe evaluated in the study.
 
+``[[constraint]]`` limits (:mod:`ufmt.studies.goals`; ``cutting_time_min`` is a metric here
+too) hold for every reported recipe; ``objectives = [...]`` replaces (a) and (b) by the
+Pareto front of several metrics (:mod:`ufmt.studies.pareto`, one ``min-<metric>`` row each);
+``intervals`` compares each reported recipe with the base recipe over the documented bands and
+``robust`` minimises a quantile over them (:mod:`ufmt.studies.decisions`).
+
 Tables: ``optima.csv`` (with the ``objective`` metric's name and the ``target``),
-``pareto.csv``, ``convergence.csv``; figures: the convergence and the Pareto front. The
-headline names the objective.
+``pareto.csv``, ``convergence.csv``, ``decisions.csv``; figures: the convergence and the Pareto
+front. The headline names the objective.
 """
 
 from __future__ import annotations

@@ -9,7 +9,8 @@ metric the headline and the figures rank. The headline says how it responds alon
 and over each grid; the figures draw it against each one-at-a-time axis and map it over each
 2-D grid; the PSD figure's best and worst points are its lowest and highest. Along each
 one-at-a-time stiffness or speed axis the modes are followed by MAC (``modes.csv``,
-:mod:`ufmt.studies.tracking`).
+:mod:`ufmt.studies.tracking`). With ``intervals``, each group's best point is compared with its
+worst over the documented bands (``decisions.csv``, :mod:`ufmt.studies.decisions`).
 """
 
 from __future__ import annotations
