@@ -441,3 +441,29 @@ def test_the_bands_of_the_decided_parameters_are_not_sampled(tmp_path):
     assert not {"hinge.h31.rotational_stiffness[0]", "hinge.h31.rotational_stiffness[1]"} & set(
         inputs
     )
+
+
+def test_the_front_figure_names_every_objective_with_its_unit():
+    import pandas as pd
+
+    from ufmt.plots.fronts import plot_front
+
+    front = pd.DataFrame(
+        {
+            "pv_measured_nm": [1.0, 2.0, 3.0],
+            "pv_feed_marks_nm": [30.0, 10.0, 2.0],
+            "cutting_time_min": [160.0, 80.0, 40.0],
+        }
+    )
+    optima = front.assign(optimum=["min-pv_measured_nm", "min-pv_feed_marks_nm", "x"]).iloc[:2]
+    fig = plot_front(front, optima, list(front.columns))
+    ax, bar = fig.axes
+    assert ax.get_xlabel() == "interferometer PV [nm]"
+    assert ax.get_ylabel() == "feed-mark PV (roughness) [nm]"
+    assert bar.get_ylabel() == "cutting time of one pass [min]"
+    labels = ax.get_legend_handles_labels()[1]
+    assert labels == [
+        "front",
+        "lowest interferometer PV",
+        "lowest feed-mark PV (roughness)",
+    ]
