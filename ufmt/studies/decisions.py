@@ -200,7 +200,7 @@ def compare(
 def compare_logged(evaluator, comparisons, metrics, samples) -> pd.DataFrame:
     """:func:`compare` with the points logged in :data:`BAND_POINTS` (the study's
     evaluator's sibling), not in points.csv."""
-    sibling = evaluator.sibling(BAND_POINTS)
+    sibling = evaluator.sibling(BAND_POINTS, len(comparisons) * (2 * len(samples) + 2))
     try:
         return compare(sibling, comparisons, metrics, samples)
     finally:

@@ -93,12 +93,21 @@ class Evaluator:
             total=planned or 0, desc=study.name, unit="pt", disable=not progress, dynamic_ncols=True
         )
 
-    def sibling(self, log: str) -> Evaluator:
+    def sibling(self, log: str, planned: int) -> Evaluator:
         """An evaluator of the same study and workers that logs to ``log`` (a table beside
-        points.csv, resumed like it) without a progress bar: points that are not the study's
-        own (the band samples of its decisions), kept out of points.csv."""
+        points.csv, resumed like it), with its own progress bar of ``planned`` points: points
+        that are not the study's own (the band samples of its decisions), kept out of
+        points.csv."""
+        progress = not self._bar.disable
         return Evaluator(
-            self.study, self.out_dir, self.baseline, self._parallel, False, None, self._jobs, log
+            self.study,
+            self.out_dir,
+            self.baseline,
+            self._parallel,
+            progress,
+            planned,
+            self._jobs,
+            log,
         )
 
     def _key(self, group: str, row: Mapping) -> str:

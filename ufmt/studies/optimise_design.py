@@ -98,13 +98,13 @@ def parse(where: Where, data: Mapping, parameters: Parameters) -> dict:
 
 def planned_points(study) -> int:
     """Upper bound on the points requested: the search (times the robust band samples), the
-    calibrated design, the optima and their comparisons with the calibrated design."""
+    calibrated design and the optima (their comparisons' band samples are logged apart)."""
     opts = study.options
     dim, options = len(study.bounds), opts["optimiser"]
     search = front_budget(dim, options) if opts["objectives"] else minimise_budget(dim, options)
     chosen = max(len(opts["objectives"]), 1)
     search *= max(opts["robust_samples"], 1)
-    return search + 1 + chosen + chosen * (2 * opts["intervals"] + 2)
+    return search + 1 + chosen
 
 
 def _cost(study, space: Space, baseline: Mapping):

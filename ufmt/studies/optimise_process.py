@@ -128,7 +128,7 @@ def _optional_positive(where: Where, data: Mapping, field: str) -> float | None:
 def planned_points(study) -> int:
     """Upper bound on the points requested: the minimum-PV search over every bound, one search
     over the others per feed level and bisection step (or the front's search), each times
-    the robust band samples; the optima, and their comparisons with the base recipe."""
+    the robust band samples; the optima (their comparisons' band samples are logged apart)."""
     opts = study.options
     options, dim = opts["optimiser"], len(study.bounds)
     if opts["objectives"]:
@@ -138,7 +138,7 @@ def planned_points(study) -> int:
         search = minimise_budget(dim, options) + (stages - 1) * minimise_budget(dim - 1, options)
         chosen = 2
     search *= max(opts["robust_samples"], 1)
-    return search + chosen + chosen * (2 * opts["intervals"] + 2)
+    return search + chosen
 
 
 def cutting_time_min(feed_mm_min: np.ndarray | float, travel_mm: float) -> np.ndarray | float:
