@@ -467,3 +467,36 @@ def test_the_front_figure_names_every_objective_with_its_unit():
         "lowest interferometer PV",
         "lowest feed-mark PV (roughness)",
     ]
+
+
+def test_the_design_front_of_pv_against_cost_is_the_known_hyperbola(tmp_path):
+    # pv = A / r and cost = W r: every design is on the front pv * cost = A W
+    path = tmp_path / "front.toml"
+    path.write_text(
+        f'function = "{HERE}:design_pv"\n'
+        + textwrap.dedent(
+            f"""
+            kind = "optimise-design"
+            objectives = ["pv_measured_nm", "cost_nm"]
+            [[bound]]
+            parameter = "head_angular_stiffness_Nm_rad"
+            scale = [0.5, 8.0]
+            spacing = "log"
+            [cost]
+            head_angular_stiffness_Nm_rad = {W_DESIGN}
+            [optimiser]
+            popsize = 8
+            maxiter = 3
+            """
+        ),
+        encoding="utf-8",
+    )
+    out = _run(path, tmp_path / "r")
+    front = read_table(out / "pareto.csv")
+    assert len(front) > 5
+    product = front["pv_measured_nm"] * front["cost_nm"]
+    assert np.allclose(product, A_DESIGN * W_DESIGN, rtol=1e-12)
+    optima = read_table(out / "optima.csv").set_index("design")
+    assert set(optima.index) == {"calibrated", "min-pv_measured_nm", "min-cost_nm"}
+    assert optima.loc["min-cost_nm", "cost_nm"] == front["cost_nm"].min()
+    assert "pareto.png" in read_meta(out)["plots"]

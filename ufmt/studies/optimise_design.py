@@ -91,6 +91,9 @@ def parse(where: Where, data: Mapping, parameters: Parameters) -> dict:
         "cost": weights,
         "optimiser": read_optimiser(where, data),
     }
+    records = [m for m in options["objectives"] if m not in DERIVED]
+    if records:  # a front: objective_nm is its first record metric + cost
+        options["objective"] = records[0]
     decided = [b.parameter for b in bounds]
     decisions, inputs = read_decisions(where, data, parameters, decided, robust=True)
     return {"bounds": bounds, "options": {**options, **decisions}, "inputs": inputs}
@@ -132,7 +135,7 @@ def _scorer(study, evaluator, space: Space, cost) -> Scorer:
     """The study's scorer: objective(s), constraints; ``cost_nm`` and ``objective_nm``
     (the objective + cost) derived from the stiffnesses; nominal or robust."""
     opts = study.options
-    goals = [*(opts["objectives"] or [opts["objective"]]), *(c.metric for c in opts["constraints"])]
+    goals = [opts["objective"], *opts["objectives"], *(c.metric for c in opts["constraints"])]
     metrics = [m for m in goals if m not in DERIVED]
 
     def derive(frame: pd.DataFrame) -> pd.DataFrame:
