@@ -7,7 +7,7 @@ TEST_JOBS ?= 2
 
 .PHONY: test test-all bench docs lint format calibrate sweep-stiffness sweep-process \
         optimise-process optimise-design sensitivity uncertainty \
-        optimise-tolerances paper-findings sweep-process-150mm validate report clean-venv
+        optimise-tolerances optimise-tradeoff paper-findings sweep-process-150mm validate report clean-venv
 
 $(STAMP): pyproject.toml
 	python3 -m venv .venv
@@ -64,6 +64,9 @@ uncertainty: $(STAMP)
 
 sweep-process-150mm: $(STAMP)
 	$(PY) -m ufmt.cli run studies/sweep-process-150mm.toml --jobs $(JOBS)
+
+optimise-tradeoff: $(STAMP)
+	$(PY) -m ufmt.cli run studies/optimise-tradeoff.toml --jobs $(JOBS)
 
 paper-findings: $(STAMP)
 	$(PY) -m ufmt.cli run studies/paper-findings.toml --jobs $(JOBS)

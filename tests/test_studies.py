@@ -224,7 +224,7 @@ def run(path, results, jobs=1, **kwargs):
         (
             'kind = "sweep"\nbogus = 1',
             "unknown field 'bogus' (valid fields: kind, name, description, function, model, base,"
-            " design, axis, grid, metric, findings)",
+            " design, axis, grid, metric, findings, intervals, interval_inputs, interval_seed)",
         ),
         (
             'kind = "sensitivity"\n[[bound]]\nparameter = "rpm"\nrange = [200, 400]',

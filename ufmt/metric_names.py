@@ -24,8 +24,10 @@ WORDS = {
     "pv_dynamic_steady_nm": "steady-cut PV of the cutting-force vibration alone",
     "edge_runout_nm": "edge run-out of the cutting-force vibration",
     "tip_acc_measured_mm_s2": "accelerometer peak",
+    "pv_feed_marks_nm": "feed-mark PV (roughness)",
+    "cutting_time_min": "cutting time of one pass",
 }
-UNITS = {"nm": "nm", "n": "N", "mm_s2": "mm/s²", "hz": "Hz"}
+UNITS = {"nm": "nm", "n": "N", "mm_s2": "mm/s²", "hz": "Hz", "min": "min"}
 
 
 def metric_unit(name: str) -> str:

@@ -72,14 +72,16 @@ class Evaluator:
         progress: bool,
         planned: int | None = None,
         jobs: int = 1,
+        log: str = outputs.POINTS,
     ):
         self.study = study
+        self.out_dir = Path(out_dir)
         self.parameters = list(study.parameters)
         self.baseline = dict(baseline)
         self.model = None if study.model is None else str(study.model)
         self._parallel = parallel
         self._jobs = jobs
-        self._log = outputs.PointLog(out_dir / outputs.POINTS, ["group", "index", *self.parameters])
+        self._log = outputs.PointLog(self.out_dir / log, ["group", "index", *self.parameters])
         logged = {self._key(row["group"], row): row for row in self._log.read()}  # last wins
         self._rows = {k: row for k, row in logged.items() if row.get("status") != "error"}
         self._earlier = frozenset(self._rows)  # rows this run may reuse
@@ -89,6 +91,23 @@ class Evaluator:
         self.evaluation_s = 0.0
         self._bar = tqdm(
             total=planned or 0, desc=study.name, unit="pt", disable=not progress, dynamic_ncols=True
+        )
+
+    def sibling(self, log: str, planned: int) -> Evaluator:
+        """An evaluator of the same study and workers that logs to ``log`` (a table beside
+        points.csv, resumed like it), with its own progress bar of ``planned`` points: points
+        that are not the study's own (the band samples of its decisions), kept out of
+        points.csv."""
+        progress = not self._bar.disable
+        return Evaluator(
+            self.study,
+            self.out_dir,
+            self.baseline,
+            self._parallel,
+            progress,
+            planned,
+            self._jobs,
+            log,
         )
 
     def _key(self, group: str, row: Mapping) -> str:

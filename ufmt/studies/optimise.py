@@ -37,6 +37,7 @@ import numpy as np
 import pandas as pd
 
 from ufmt.errors import StudyError
+from ufmt.studies.goals import PENALTY, penalised
 from ufmt.tables import Where
 
 FAILED = 1e12  # objective of a failed point during global search
@@ -122,17 +123,27 @@ class SearchResult:
 
 
 class _Recorder:
-    """Wraps a batch objective, keeping every value and the best point seen."""
+    """Wraps a batch objective, keeping every (penalised) value and the best point seen.
+
+    The objective returns (n,) values, or (n, 1 + m): the value and m constraint excesses
+    (<= 0 where each holds, :mod:`ufmt.studies.goals`); a call returns the penalised values
+    (:func:`ufmt.studies.goals.penalised`) and keeps the parts in ``last``.
+    """
 
     def __init__(self, objective: BatchObjective):
         self.objective = objective
         self.history: list[float] = []
         self.best_u: np.ndarray | None = None
         self.best = math.inf
+        self.last: tuple[np.ndarray, np.ndarray] = (np.zeros(0), np.zeros((0, 0)))
 
     def __call__(self, u: np.ndarray) -> np.ndarray:
         u = np.atleast_2d(u)
-        values = np.asarray(self.objective(u), dtype=float)
+        raw = np.asarray(self.objective(u), dtype=float)
+        raw = raw[:, None] if raw.ndim == 1 else raw
+        f, g = raw[:, 0], raw[:, 1:]
+        self.last = (f, g)
+        values = penalised(f, np.maximum(g, 0.0).sum(axis=1))
         self.history += values.tolist()
         finite = np.where(np.isfinite(values), values, math.inf)
         i = int(np.argmin(finite))
@@ -205,15 +216,24 @@ def fit_convex_quadratic(d: np.ndarray, y: np.ndarray) -> tuple[float, np.ndarra
 
 
 def minimise_quadratic(
-    g: np.ndarray, H: np.ndarray, low: np.ndarray, high: np.ndarray
+    g: np.ndarray,
+    H: np.ndarray,
+    low: np.ndarray,
+    high: np.ndarray,
+    linear: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> tuple[np.ndarray, float]:
     """Minimiser ``d`` of the convex ``g.d + d.H.d / 2`` over the box [low, high] (a QP solved
-    with cvxpy) and its predicted change."""
+    with cvxpy) and its predicted change; ``linear = (a, B)`` adds ``a + B d <= 0`` (the
+    constraints' linear models), dropped where no step in the box meets them."""
     import cvxpy as cp
 
     d = cp.Variable(len(g))
-    objective = g @ d + 0.5 * cp.quad_form(d, cp.psd_wrap(H))
-    cp.Problem(cp.Minimize(objective), [d >= low, d <= high]).solve(solver=cp.CLARABEL)
+    objective = cp.Minimize(g @ d + 0.5 * cp.quad_form(d, cp.psd_wrap(H)))
+    box = [d >= low, d <= high]
+    problem = cp.Problem(objective, box + ([linear[0] + linear[1] @ d <= 0] if linear else []))
+    problem.solve(solver=cp.CLARABEL)
+    if d.value is None or problem.status not in ("optimal", "optimal_inaccurate"):
+        cp.Problem(objective, box).solve(solver=cp.CLARABEL)
     step = np.clip(np.asarray(d.value, dtype=float), low, high)
     return step, float(g @ step + 0.5 * step @ H @ step)
 
@@ -230,8 +250,10 @@ def trust_region_refine(
 
     Each step evaluates ``2 * (1 + dim + dim (dim + 1) / 2)`` samples in the trust box (the
     box's centre, its face centres, the rest uniform at random), fits a convex quadratic
-    (:func:`fit_convex_quadratic`), evaluates the surrogate's minimiser
-    (:func:`minimise_quadratic`) and accepts it if it lowers the objective.
+    (:func:`fit_convex_quadratic`) to the objective and, for a constrained objective, a
+    linear model to each constraint's excess (least squares), evaluates the surrogate's
+    minimiser subject to the linear models (:func:`minimise_quadratic`, a sequential-QP step)
+    and accepts it if it lowers the penalised objective.
     """
     rng = np.random.default_rng(seed)
     recorder = _Recorder(objective)
@@ -245,12 +267,12 @@ def trust_region_refine(
         high = np.minimum(radius, 1.0 - u0)
         faces = np.concatenate([np.diag(high), np.diag(low)])
         extra = rng.uniform(low, high, size=(max(n_samples - 1 - 2 * dim, 0), dim))
-        d = np.concatenate([faces, extra])
+        d = np.concatenate([np.zeros((1, dim)), faces, extra])  # the centre: a reused point
         y = recorder(u0 + d)
-        d, y = np.vstack([np.zeros(dim), d]), np.concatenate([[f0], y])
-        keep = np.isfinite(y)
-        c, g, H = fit_convex_quadratic(d[keep], y[keep])
-        step, predicted = minimise_quadratic(g, H, low, high)
+        f, excess = recorder.last
+        keep = np.isfinite(f)
+        c, g, H = fit_convex_quadratic(d[keep], f[keep])
+        step, predicted = minimise_quadratic(g, H, low, high, _linear_models(d, excess, keep))
         f_new = float(recorder(u0 + step)[0])
         achieved = f0 - f_new
         ratio = achieved / -predicted if predicted < 0 else (1.0 if achieved > 0 else 0.0)
@@ -262,6 +284,17 @@ def trust_region_refine(
         radius *= 2.0 if ratio > 0.75 else (0.5 if ratio < 0.25 else 1.0)
         radius = min(radius, 0.5)
     return SearchResult(u0, f0, recorder.history)
+
+
+def _linear_models(d: np.ndarray, excess: np.ndarray, keep: np.ndarray):
+    """Least-squares ``a + B d`` of each constraint's excess (columns of ``excess``) over the
+    samples ``d`` kept, or None without constraints."""
+    if excess.shape[1] == 0:
+        return None
+    rows = keep & np.all(np.isfinite(excess), axis=1)
+    design = np.column_stack([np.ones(rows.sum()), d[rows]])
+    coefficients, *_ = np.linalg.lstsq(design, excess[rows], rcond=None)
+    return coefficients[0], coefficients[1:].T
 
 
 def minimise(
@@ -282,7 +315,7 @@ def minimise_budget(dim: int, options: Mapping) -> int:
     step the trust-box samples and the surrogate's minimiser."""
     population = options["popsize"] * dim
     n_samples = 2 * (1 + dim + dim * (dim + 1) // 2)
-    per_step = max(n_samples - 1, 2 * dim) + 1
+    per_step = max(n_samples - 1, 2 * dim) + 2  # the samples, the centre, the candidate
     return population * (options["maxiter"] + 1) + options["refine_steps"] * per_step
 
 
@@ -317,27 +350,16 @@ def read_optimiser(where: Where, data: Mapping) -> dict[str, Any]:
     return options
 
 
-def batch_objective(
-    evaluator, group: str, space: Space, fixed: Mapping, cost=None, metric: str = "pv_nm"
-) -> BatchObjective:
-    """Batch objective: the record ``metric`` (+ ``cost(values)``) of points of ``space``
-    with ``fixed``."""
-
-    def objective(u: np.ndarray) -> np.ndarray:
-        points = [{**fixed, **p} for p in space.points(u)]
-        value = evaluator.values(group, points, metric)
-        return value if cost is None else value + cost(space.values(u))
-
-    return objective
-
-
 def convergence_table(stages: Sequence[tuple[str, SearchResult]]) -> pd.DataFrame:
     """Every objective value [nm] of each (stage, search), in evaluation order, with its phase
-    (global or trust-region) and the best value so far (the table of ``convergence.csv``)."""
+    (global or trust-region) and the best value so far (the table of ``convergence.csv``); a
+    point that breaks a constraint has no value (its penalty is not an objective)."""
     frames = []
     for stage, result in stages:
         values = np.asarray(result.history, dtype=float)
+        values = np.where(values < PENALTY, values, math.nan)
         best = np.minimum.accumulate(np.where(np.isfinite(values), values, math.inf))
+        best = np.where(np.isfinite(best), best, math.nan)  # none feasible yet
         frames.append(
             pd.DataFrame(
                 {

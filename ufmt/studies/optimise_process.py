@@ -20,9 +20,15 @@ Fields: ``[[bound]]`` over rpm, feed and depth (default: Table 1's ranges), ``ob
 * the **Pareto front** of the objective against cutting time: the non-dominated points among
   every recipe evaluated in the study.
 
+``[[constraint]]`` limits (:mod:`ufmt.studies.goals`; ``cutting_time_min`` is a metric here
+too) hold for every reported recipe; ``objectives = [...]`` replaces (a) and (b) by the
+Pareto front of several metrics (:mod:`ufmt.studies.pareto`, one ``min-<metric>`` row each);
+``intervals`` compares each reported recipe with the base recipe over the documented bands and
+``robust`` minimises a quantile over them (:mod:`ufmt.studies.decisions`).
+
 Tables: ``optima.csv`` (with the ``objective`` metric's name and the ``target``),
-``pareto.csv``, ``convergence.csv``; figures: the convergence and the Pareto front. The
-headline names the objective.
+``pareto.csv``, ``convergence.csv``, ``decisions.csv``; figures: the convergence and the Pareto
+front. The headline names the objective.
 """
 
 from __future__ import annotations
@@ -41,15 +47,26 @@ from ufmt.evaluate import model_file
 from ufmt.machining.process import TABLE1_RANGE
 from ufmt.model.load import load_model
 from ufmt.model.machine import machine_of
+from ufmt.plots.fronts import plot_front
 from ufmt.plots.studies import plot_convergence, plot_pareto
 from ufmt.studies import outputs
+from ufmt.studies.decisions import (
+    BAND_POINTS,
+    DECISIONS,
+    ROBUST_FIELDS,
+    compare_to_base,
+    draws,
+    read_decisions,
+    robust_label,
+)
+from ufmt.studies.decisions import FIELDS as DECISION_FIELDS
 from ufmt.studies.fields import Parameters, read_bounds
+from ufmt.studies.goals import Scorer, feasible_rows, read_constraints, read_objectives
 from ufmt.studies.metric import metric_unit, metric_words, read_metric
 from ufmt.studies.optimise import (
     CONVERGENCE,
     OPTIMA,
     Space,
-    batch_objective,
     convergence_table,
     minimise,
     minimise_budget,
@@ -58,12 +75,15 @@ from ufmt.studies.optimise import (
     start_point,
 )
 from ufmt.studies.outputs import short
+from ufmt.studies.pareto import budget as front_budget
+from ufmt.studies.pareto import front_table, search_front
 from ufmt.studies.spec import Bound, StudyKind
 from ufmt.tables import Where
 
 BISECTION_STEPS = 4  # feed bisection steps for the fastest recipe
 TABLE1_BOUNDS = {name: (low, high) for name, (low, high, _) in TABLE1_RANGE.items()}
-PARETO = "pareto.csv"  # the non-dominated recipes in (cutting time, PV)
+PARETO = "pareto.csv"  # the non-dominated recipes in (cutting time, objective) or objectives
+DERIVED = ("cutting_time_min",)  # a metric of the recipe itself, beside the record's
 
 
 def parse(where: Where, data: Mapping, parameters: Parameters) -> dict:
@@ -93,7 +113,11 @@ def parse(where: Where, data: Mapping, parameters: Parameters) -> dict:
     }
     if (options["workpiece_length_mm"] is None) != (options["tool_radius_mm"] is None):
         where.fail("tool_radius_mm", "give both workpiece_length_mm and tool_radius_mm, or neither")
-    return {"bounds": bounds, "options": options}
+    options["objectives"] = read_objectives(where, data, DERIVED)
+    options["constraints"] = read_constraints(where, data, DERIVED)
+    decided = [b.parameter for b in bounds]
+    decisions, inputs = read_decisions(where, data, parameters, decided, robust=True)
+    return {"bounds": bounds, "options": {**options, **decisions}, "inputs": inputs}
 
 
 def _optional_positive(where: Where, data: Mapping, field: str) -> float | None:
@@ -103,11 +127,18 @@ def _optional_positive(where: Where, data: Mapping, field: str) -> float | None:
 
 def planned_points(study) -> int:
     """Upper bound on the points requested: the minimum-PV search over every bound, one search
-    over the others per feed level and bisection step, and the two optima."""
-    options = study.options["optimiser"]
-    dim = len(study.bounds)
-    stages = 1 + study.options["pareto_levels"] + BISECTION_STEPS
-    return minimise_budget(dim, options) + (stages - 1) * minimise_budget(dim - 1, options) + 2
+    over the others per feed level and bisection step (or the front's search), each times
+    the robust band samples; the optima (their comparisons' band samples are logged apart)."""
+    opts = study.options
+    options, dim = opts["optimiser"], len(study.bounds)
+    if opts["objectives"]:
+        search, chosen = front_budget(dim, options), len(opts["objectives"])
+    else:
+        stages = 1 + opts["pareto_levels"] + BISECTION_STEPS
+        search = minimise_budget(dim, options) + (stages - 1) * minimise_budget(dim - 1, options)
+        chosen = 2
+    search *= max(opts["robust_samples"], 1)
+    return search + chosen
 
 
 def cutting_time_min(feed_mm_min: np.ndarray | float, travel_mm: float) -> np.ndarray | float:
@@ -135,28 +166,35 @@ def _travel_mm(study, evaluator) -> float:
         raise StudyError(f"{study.path}: cutting time needs the workpiece: {exc}") from None
 
 
-def analyse(study, evaluator, baseline: Mapping, out_dir: Path) -> str:
-    """Minimum recipe, fastest recipe under the target, Pareto front; returns the headline.
+def _scorer(study, evaluator, travel: float) -> Scorer:
+    """The study's scorer: its objective(s) and constraints, cutting time derived from feed,
+    nominal or robust over its band samples."""
+    opts = study.options
+    goals = list(opts["objectives"] or [opts["objective"]])
+    goals += [c.metric for c in opts["constraints"]]
+    metrics = [m for m in goals if m not in DERIVED]
 
-    The searches (module docstring) propose recipes; the reported ones are the best of every
-    evaluated recipe: the lowest objective, and the shortest time with objective <= target.
-    """
-    options = study.options["optimiser"]
-    target, metric = study.options["target"], study.options["objective"]
-    words, unit = metric_words(metric), metric_unit(metric)
-    travel = _travel_mm(study, evaluator)
-    space = Space.from_bounds(study.bounds, baseline)
-    objective = batch_objective(evaluator, "min-pv", space, {}, metric=metric)
+    def derive(frame: pd.DataFrame) -> pd.DataFrame:
+        return frame.assign(cutting_time_min=cutting_time_min(frame["feed_mm_min"], travel))
+
+    samples = draws(study.inputs, opts["robust_samples"], opts["interval_seed"])
+    return Scorer(evaluator, metrics, opts["constraints"], derive, samples, opts["robust"])
+
+
+def _minimum_and_fastest(study, scorer: Scorer, space: Space, baseline: Mapping) -> tuple:
+    """Single objective: the searches of the module docstring; returns (recipes by name,
+    stages, whether a recipe meets the target)."""
+    opts = study.options
+    options, target, metric = opts["optimiser"], opts["target"], opts["objective"]
+    objective = scorer.objective("min-pv", space, {}, metric)
     stages = [("min-pv", minimise(objective, space.dim, options, start_point(space, baseline)))]
-
     feed_i = space.names.index("feed_mm_min")
     others = space.without("feed_mm_min")
-    level_feeds = np.linspace(space.low[feed_i], space.high[feed_i], study.options["pareto_levels"])
+    level_feeds = np.linspace(space.low[feed_i], space.high[feed_i], opts["pareto_levels"])
 
     def feasible_at(feed: float, stage: str) -> bool:
         """Whether min over (rpm, depth) of the objective at this feed is <= target."""
-        fixed = {"feed_mm_min": float(feed)}
-        stage_objective = batch_objective(evaluator, stage, others, fixed, metric=metric)
+        stage_objective = scorer.objective(stage, others, {"feed_mm_min": float(feed)}, metric)
         result = minimise(stage_objective, others.dim, options)
         stages.append((stage, result))
         return result.value <= target
@@ -169,39 +207,74 @@ def analyse(study, evaluator, baseline: Mapping, out_dir: Path) -> str:
             for step in range(BISECTION_STEPS):
                 mid = 0.5 * (lo + hi)
                 lo, hi = (mid, hi) if feasible_at(mid, f"bisect-{step + 1}") else (lo, mid)
-
-    table = evaluator.table()
-    ok = table[(table["status"] == "ok") & table[metric].notna()].copy()
-    if ok.empty:
-        raise StudyError(f"{study.name}: no point has a finite {metric} (see points.csv)")
-    ok["cutting_time_min"] = cutting_time_min(ok["feed_mm_min"], travel)
+    ok = feasible_rows(scorer.table(), [metric], opts["constraints"], study.name)
     recipes = {"min-pv": ok.loc[ok[metric].idxmin()]}
     under = ok[ok[metric] <= target].sort_values(["cutting_time_min", metric], kind="stable")
     if not under.empty:
         recipes["fastest-under-target"] = under.iloc[0]
-    points = [{n: float(r[n]) for n in space.names} for r in recipes.values()]
-    rows = evaluator.evaluate([("optimum", p) for p in points])
+    return recipes, stages, ok
+
+
+def analyse(study, evaluator, baseline: Mapping, out_dir: Path) -> str:
+    """Minimum recipe, fastest recipe under the target and the front of the objective against
+    cutting time; or, with ``objectives``, the Pareto front of them all. Returns the headline.
+
+    The searches (module docstring) propose recipes; the reported ones are the best of every
+    scored recipe that meets the constraints: the lowest objective, and the shortest time with
+    objective <= target (or, with ``objectives``, the lowest of each on the front).
+    """
+    opts = study.options
+    travel = _travel_mm(study, evaluator)
+    space = Space.from_bounds(study.bounds, baseline)
+    scorer = _scorer(study, evaluator, travel)
+    if opts["objectives"]:
+        scored = search_front(scorer, space, opts["objectives"], opts["optimiser"])
+        ok = feasible_rows(scored, opts["objectives"], opts["constraints"], study.name)
+        front = front_table(ok, opts["objectives"], space.names)
+        recipes = {f"min-{m}": front.loc[front[m].idxmin()] for m in opts["objectives"]}
+    else:
+        recipes, stages, ok = _minimum_and_fastest(study, scorer, space, baseline)
+        metric = opts["objective"]
+        front = ok[pareto_mask(ok["cutting_time_min"], ok[metric])]
+        front = front.sort_values("cutting_time_min").drop_duplicates(["cutting_time_min", metric])
+        outputs.write_table(convergence_table(stages), out_dir / CONVERGENCE)
+    chosen = {name: {n: float(r[n]) for n in space.names} for name, r in recipes.items()}
+    rows = evaluator.evaluate([("optimum", p) for p in chosen.values()])
     optima = pd.DataFrame(
         [{"optimum": name, **row} for name, row in zip(recipes, rows, strict=True)]
     ).drop(columns=["group", "index"])
     optima["travel_mm"] = travel
     optima["cutting_time_min"] = cutting_time_min(optima["feed_mm_min"], travel)
-    optima["objective"] = metric
-    optima["target"] = target
+    optima["objective"] = ", ".join(opts["objectives"]) or opts["objective"]
+    optima["target"] = opts["target"]
+    if opts["robust"] is not None:
+        label = robust_label(opts["robust"])
+        for m in scorer.metrics:
+            optima[f"{m}_{label}"] = [float(r[m]) for r in recipes.values()]
     outputs.write_table(optima, out_dir / OPTIMA)
-
-    front = ok[pareto_mask(ok["cutting_time_min"], ok[metric])]
-    front = front.sort_values("cutting_time_min").drop_duplicates(["cutting_time_min", metric])
     outputs.write_table(front.reset_index(drop=True), out_dir / PARETO)
-    outputs.write_table(convergence_table(stages), out_dir / CONVERGENCE)
+    base = {n: float(baseline[n]) for n in space.names}
+    said, table = compare_to_base(study, evaluator, base, chosen, scorer.metrics)
+    if table is not None:
+        outputs.write_table(table, out_dir / DECISIONS)
+    text = _front_text(study, front) if opts["objectives"] else _text(study, optima)
+    return text + (f" Decisions: {said}." if said else "")
 
+
+def _text(study, optima: pd.DataFrame) -> str:
+    """The single-objective headline."""
+    opts = study.options
+    metric, target = opts["objective"], opts["target"]
+    words, unit = metric_words(metric), metric_unit(metric)
     best = optima.iloc[0]
     text = (
-        f"Objective {words} ({metric}): minimum {short(best[metric])} {unit} at"
-        f" {short(best['rpm'])} rpm, {short(best['feed_mm_min'])} mm/min,"
+        f"Objective {words} ({metric}{_robust_words(opts)}): minimum {short(best[metric])}"
+        f" {unit} at {short(best['rpm'])} rpm, {short(best['feed_mm_min'])} mm/min,"
         f" {short(best['depth_um'])} um ({short(best['cutting_time_min'])} min per pass)"
     )
-    if under.empty:
+    if opts["constraints"]:
+        text += f" subject to {', '.join(map(str, opts['constraints']))}"
+    if len(optima) < 2:
         return text + f"; no recipe within the bounds keeps it under {short(target)} {unit}."
     fast = optima.iloc[1]
     return text + (
@@ -212,8 +285,34 @@ def analyse(study, evaluator, baseline: Mapping, out_dir: Path) -> str:
     )
 
 
+def _front_text(study, front: pd.DataFrame) -> str:
+    """The several-objectives headline: the front's size and each objective's span on it."""
+    opts = study.options
+    spans = [
+        f"{metric_words(m)} ({m}) {short(front[m].min())}-{short(front[m].max())} {metric_unit(m)}"
+        for m in opts["objectives"]
+    ]
+    text = f"Pareto front{_robust_words(opts)} of {len(front)} recipes: " + "; ".join(spans)
+    if opts["constraints"]:
+        text += f" (subject to {', '.join(map(str, opts['constraints']))})"
+    return text + "."
+
+
+def _robust_words(opts: Mapping) -> str:
+    """', q90 over 8 band samples' for a robust study, else ''."""
+    if opts["robust"] is None:
+        return ""
+    return f", {robust_label(opts['robust'])} over {opts['robust_samples']} band samples"
+
+
 def figures(out_dir: Path) -> dict[str, Figure]:
-    """The optimiser's convergence and the Pareto front of PV against cutting time."""
+    """The optimiser's convergence and the front of the objective against cutting time; with
+    several objectives, their Pareto front."""
+    optima = outputs.read_table(out_dir / OPTIMA)
+    objectives = str(optima["objective"].iloc[0]).split(", ") if "objective" in optima else []
+    if len(objectives) > 1:
+        front = outputs.read_table(out_dir / PARETO)
+        return {"pareto.png": plot_front(front, optima, objectives)}
     points = outputs.read_table(out_dir / outputs.POINTS)
     return {
         "convergence.png": plot_convergence(outputs.read_table(out_dir / CONVERGENCE)),
@@ -237,8 +336,12 @@ OPTIMISE_PROCESS = StudyKind(
         "tool_radius_mm",
         "pareto_levels",
         "optimiser",
+        "objectives",
+        "constraint",
+        *DECISION_FIELDS,
+        *ROBUST_FIELDS,
     ),
-    tables=(OPTIMA, PARETO, CONVERGENCE),
+    tables=(OPTIMA, PARETO, CONVERGENCE, DECISIONS, BAND_POINTS),
     parse=parse,
     planned_points=planned_points,
     analyse=analyse,

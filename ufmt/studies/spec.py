@@ -113,6 +113,7 @@ class Study:
     groups: tuple[Group, ...] = ()
     bounds: tuple[Bound, ...] = ()
     options: dict[str, Any] = field(default_factory=dict)
+    inputs: tuple[str, ...] = ()  # sampled uncertain inputs (band draws), columns of points.csv
     text: str = ""
     design: dict[str, DesignParameter] = field(default_factory=dict)
     baseline: dict[str, float] = field(default_factory=dict)
@@ -124,6 +125,7 @@ class Study:
         names = list(self.base)
         names += [a.parameter for g in self.groups for a in g.axes]
         names += [b.parameter for b in self.bounds]
+        names += list(self.inputs)
         return tuple(dict.fromkeys(names))
 
     @property

@@ -12,7 +12,8 @@ metric the headline and the figures rank. The headline says how it responds alon
 and over each grid; the figures draw it against each one-at-a-time axis and map it over each
 2-D grid; the PSD figure's best and worst points are its lowest and highest. Along each
 one-at-a-time stiffness or speed axis the modes are followed by MAC (``modes.csv``,
-:mod:`ufmt.studies.tracking`).
+:mod:`ufmt.studies.tracking`). With ``intervals``, each group's best point is compared with its
+worst over the documented bands (``decisions.csv``, :mod:`ufmt.studies.decisions`).
 """
 
 from __future__ import annotations
@@ -34,6 +35,15 @@ from ufmt.plots.psd import plot_psd_extremes
 from ufmt.plots.studies import plot_tracked_modes, sweep_figures
 from ufmt.simulate import Process, simulate
 from ufmt.studies import outputs
+from ufmt.studies.decisions import (
+    BAND_POINTS,
+    DECISIONS,
+    compare_logged,
+    draws,
+    read_decisions,
+    sentence,
+)
+from ufmt.studies.decisions import FIELDS as DECISION_FIELDS
 from ufmt.studies.fields import DEFAULT_FUNCTION, Parameters, read_axes, read_grids
 from ufmt.studies.findings import FINDINGS, findings_headline, findings_table
 from ufmt.studies.metric import metric_unit, metric_words, read_metric
@@ -51,21 +61,29 @@ def parse_sweep(where: Where, data: Mapping, parameters: Parameters) -> dict:
     if not groups:
         where.fail("axis", "a sweep needs at least one [[axis]] or [[grid]]")
     where.unique("axis", [g.name for g in groups])
-    options = {"metric": read_metric(where, data, "metric")}
+    parts = _with_decisions(where, data, parameters, tuple(groups))
     if "findings" in data:
-        options["findings"] = where.boolean("findings", data["findings"])
-    return {"groups": tuple(groups), "options": options}
+        parts["options"]["findings"] = where.boolean("findings", data["findings"])
+    return parts
 
 
 def parse_grid(where: Where, data: Mapping, parameters: Parameters) -> dict:
     """The axes of a grid, crossed into one group."""
     axes = read_axes(where, data, parameters, required=True)
-    options = {"metric": read_metric(where, data, "metric")}
-    return {"groups": (Group("grid", tuple(axes)),), "options": options}
+    return _with_decisions(where, data, parameters, (Group("grid", tuple(axes)),))
+
+
+def _with_decisions(where: Where, data: Mapping, parameters: Parameters, groups) -> dict:
+    """The kind's parts: its groups, its metric and its decisions' options
+    (:mod:`ufmt.studies.decisions`: each group's best point against its worst)."""
+    swept = [a.parameter for g in groups for a in g.axes]
+    decisions, inputs = read_decisions(where, data, parameters, swept)
+    options = {"metric": read_metric(where, data, "metric"), **decisions}
+    return {"groups": groups, "options": options, "inputs": inputs}
 
 
 def planned_points(study) -> int:
-    """Points of every axis and grid."""
+    """Points of every axis and grid (the decisions' band samples are logged apart)."""
     return sum(math.prod(len(a.values) for a in g.axes) for g in study.groups)
 
 
@@ -73,16 +91,42 @@ def analyse(study, evaluator, baseline: Mapping[str, float], out_dir: Path) -> s
     """Evaluate every point of every group, follow the modes along the stiffness and speed
     axes (``modes.csv``); returns the headline."""
     evaluator.evaluate([(g.name, p) for g in study.groups for p in g.points(baseline)])
-    headline = sweep_headline(evaluator.table(), study)
+    table = evaluator.table()
+    headline = sweep_headline(table, study)
     if study.options.get("findings"):
-        table = findings_table(evaluator.table(), baseline)
-        outputs.write_table(table, out_dir / FINDINGS)
-        headline = f"{findings_headline(table)} {headline}".strip()  # the study's point first
+        found = findings_table(table, baseline)
+        outputs.write_table(found, out_dir / FINDINGS)
+        headline = f"{findings_headline(found)} {headline}".strip()  # the study's point first
+    said = best_against_worst(study, evaluator, table, out_dir)
+    if said:
+        headline += f" Decisions: {said}."
     modes = mode_tracks(study, baseline)
     if modes is not None:
         outputs.write_table(modes, out_dir / MODES)
         headline += modes_headline(modes)
     return headline
+
+
+def best_against_worst(study, evaluator, table: pd.DataFrame, out_dir: Path) -> str:
+    """Each group's best point (lowest metric) against its worst, with the difference's
+    interval over the bands (``decisions.csv``); '' without ``intervals``."""
+    metric, n = study.options["metric"], study.options.get("intervals", 0)
+    if not n:
+        return ""
+    comparisons = []
+    for group in study.groups:
+        rows = table[(table["group"] == group.name) & (table["status"] == "ok")]
+        values = pd.to_numeric(rows[metric], errors="coerce") if metric in rows else None
+        if values is None or values.notna().sum() < 2:
+            continue
+        names = [a.parameter for a in group.axes]
+        best, worst = rows.loc[values.idxmin(), names], rows.loc[values.idxmax(), names]
+        point = {"best": best.astype(float).to_dict(), "worst": worst.astype(float).to_dict()}
+        comparisons.append((f"{group.name}: best against worst", point["worst"], point["best"]))
+    samples = draws(study.inputs, n, study.options["interval_seed"])
+    decisions = compare_logged(evaluator, comparisons, [metric], samples)
+    outputs.write_table(decisions, out_dir / DECISIONS)
+    return "; ".join(sentence(r) for r in decisions.to_dict("records"))
 
 
 #: Modes followed by MAC along each stiffness or speed axis (:mod:`ufmt.studies.tracking`).
@@ -166,6 +210,7 @@ def extreme_psd_figures(study, out_dir: Path) -> dict[str, Figure]:
         return {}
     metric = study.options["metric"]
     table = outputs.read_table(out_dir / outputs.POINTS)
+    table = table[table["group"].isin([g.name for g in study.groups])]
     values = pd.to_numeric(table.get(metric), errors="coerce")
     ok = table[(table["status"] == "ok") & np.isfinite(values)]
     if len(ok) < 2:
@@ -246,8 +291,8 @@ def sweep_headline(table: pd.DataFrame, study) -> str:
 
 SWEEP = StudyKind(
     name="sweep",
-    fields=("axis", "grid", "metric", "findings"),
-    tables=(MODES, FINDINGS),
+    fields=("axis", "grid", "metric", "findings", *DECISION_FIELDS),
+    tables=(MODES, FINDINGS, DECISIONS, BAND_POINTS),
     parse=parse_sweep,
     planned_points=planned_points,
     analyse=analyse,
@@ -256,8 +301,8 @@ SWEEP = StudyKind(
 )
 GRID = StudyKind(
     name="grid",
-    fields=("axis", "metric"),
-    tables=(MODES,),
+    fields=("axis", "metric", *DECISION_FIELDS),
+    tables=(MODES, DECISIONS, BAND_POINTS),
     parse=parse_grid,
     planned_points=planned_points,
     analyse=analyse,
