@@ -51,11 +51,13 @@ RTOL = 1e-6
 
 
 def bridge(**machine) -> dict:
-    """examples/bridge.toml as a dict, its [design] dropped (it names global components),
+    """examples/bridge.toml as a dict, its [design] and [[uncertain]] dropped (they name
+    global components),
     ``machine`` merged into its [machine] table; the error sources that need no parameter
     switched on so that gravity and the geometric terms enter too."""
     data = tomllib.loads(BRIDGE.read_text())
     data.pop("design")
+    data.pop("uncertain", None)
     data["machine"].update(
         {"spindle_tilt_rad": 1e-6, "error_motion_m": 2e-9, "straightness_m": 5e-9}, **machine
     )
