@@ -2,11 +2,11 @@
 
 Oracle: the tool-workpiece receptance from (K - W^2 M + i W C) u = f on the assembled
 mass-stiffness model (:mod:`ufmt.assembled`, an independent discretisation of the same file,
-16 frame elements per beam), every dof kept, the rigid hinge directions imposed through the
+32 frame elements per beam), every dof kept, the rigid hinge directions imposed through the
 null-space basis of their constraints, C the hinge dampers on every finite spring direction.
 No modal truncation: it holds every mode of the model, so it checks the default basis (every
 mode below 5 kHz) and the static residual above it across the band, at the resonances above
-450 Hz in particular (bridge bounce near 585 Hz and the head-bridge mode near 766 Hz).
+450 Hz in particular (bridge bounce near 585 Hz and the head-bridge mode near 754 Hz).
 """
 
 import dataclasses
@@ -25,11 +25,13 @@ from ufmt.machining.static import residual_flexibility
 from ufmt.model.machine import machine_of
 from ufmt.model.schema import RigidBody
 
-ELEMENTS_PER_BEAM = 16
+# the spindle's Timoshenko elements converge as h^2 (Euler-Bernoulli's Hermite ones as h^4):
+# 32 per beam keep the discretisation's shift of the resonances below the test's 1e-3
+ELEMENTS_PER_BEAM = 32
 #: two modes above 450 Hz that the paper's 30-mode basis misses (bridge bounce, Table 3 mode
 #: 29, and the head-bridge mode with the largest z compliance above it) [Hz]; fine grids of
 #: +-3 Hz around them
-PEAKS_HZ = (584.5, 766.2)
+PEAKS_HZ = (584.5, 753.6)
 
 
 def direct_receptance(model, machine, freq_hz, hinge_damping=True, tool_angle=0.0):
@@ -87,7 +89,7 @@ def test_frf_matches_the_direct_solve_across_the_band(packaged_frf):
     for f_peak in PEAKS_HZ:
         near = np.abs(freq - f_peak) <= 3
         assert error[near].max() < 5e-3
-    # 766 Hz is a resonance of the assembled model (six times the static compliance), and
+    # 754 Hz is a resonance of the assembled model (six times the static compliance), and
     # the FRF follows its peak
     near = np.abs(freq - PEAKS_HZ[1]) <= 3
     peak = np.argmax(np.abs(oracle) * near)
@@ -99,8 +101,8 @@ def test_frf_matches_the_direct_solve_across_the_band(packaged_frf):
     short = tool_workpiece_receptance(
         thirty, machine, freq, zeta=1e-9, residual=residual_flexibility(model, thirty, machine)
     )
-    near_766 = np.abs(freq - PEAKS_HZ[1]) <= 3
-    assert np.max(np.abs(short / oracle - 1)[near_766]) > 0.5
+    near_754 = np.abs(freq - PEAKS_HZ[1]) <= 3
+    assert np.max(np.abs(short / oracle - 1)[near_754]) > 0.5
 
 
 def test_undamped_frf_matches_the_direct_solve_to_the_residual_error(packaged_frf):
@@ -117,8 +119,13 @@ def test_undamped_frf_matches_the_direct_solve_to_the_residual_error(packaged_fr
     residual = residual_flexibility(model, undamped, machine)
     got = tool_workpiece_receptance(undamped, machine, freq, zeta=1e-12, residual=residual)
     oracle = direct_receptance(model, machine, freq, hinge_damping=False)
+    # within 1 % of an undamped resonance the two differ by the mesh's shift of that
+    # resonance over the distance to it, which is not what this test measures
+    resonance_hz = basis.omega / (2 * np.pi)
+    away = np.min(np.abs(freq[:, None] / resonance_hz[None, :] - 1), axis=1) > 1e-2
+    assert away.sum() > 100
     # the residual's error is a share of the static compliance, not of the local value
-    np.testing.assert_allclose(got, oracle, rtol=1e-3, atol=1e-3 * abs(oracle[0]))
+    np.testing.assert_allclose(got[away], oracle[away], rtol=1e-3, atol=1e-3 * abs(oracle[0]))
 
 
 def test_frf_at_the_point_cut_matches_the_direct_solve_of_the_moved_slide(packaged, packaged_basis):
