@@ -88,3 +88,31 @@ def test_the_mass_weighted_mac_of_a_solution_with_itself_is_the_identity(model):
 
     shapes = solve_modes(model, count=2).shapes
     assert np.allclose(cross_mac(model, shapes, shapes), np.eye(2), atol=1e-12)
+
+
+def test_a_beam_field_moves_to_another_gauss_rule_exactly():
+    """Oracle: a polynomial field of degree g - 1 through g Gauss points is the Lagrange
+    interpolant itself, so on another rule's points it equals the polynomial (two designs'
+    shapes may carry different numbers of points)."""
+    from types import SimpleNamespace
+
+    from ufmt.studies.tracking import _on_grid
+
+    start, end = np.array([0.0, 0.0, 1.0]), np.array([0.0, 0.0, 0.4])
+    beam = SimpleNamespace(start=start, end=end, length=0.6)
+    axis = (end - start) / 0.6
+
+    def rule(g):
+        x, w = np.polynomial.legendre.leggauss(g)
+        s = 0.3 * (x + 1)
+        return start + s[:, None] * axis, 0.3 * w, s
+
+    def field(s):  # (2 modes, points, 6): degree <= 7 in s
+        base = np.stack([s**k for k in range(6)], axis=-1) * (1 + s[:, None] ** 2)
+        return np.stack([base, -2 * base])
+
+    p8, w8, s8 = rule(8)
+    p11, w11, s11 = rule(11)
+    at, weights, moved = _on_grid(beam, (p8, w8, field(s8)), (p11, w11, None))
+    assert np.array_equal(at, p11) and np.array_equal(weights, w11)
+    np.testing.assert_allclose(moved, field(s11), rtol=1e-10, atol=1e-12)

@@ -523,8 +523,11 @@ def test_sharpened_starts_are_within_secant_rtol_and_the_brackets_unchanged(whic
     the packaged model and on the beam with its tilting block, every start lies within
     SECANT_RTOL of its root, the brackets are those of the bisection (the secant only
     places the starts), and the secant certifies most roots in two steps: on the packaged
-    model at most 3.5 J points per root and 7 passes (the pair at ±GUARD closes a bracket
-    as soon as a step is short; regula falsi alone took 3.9 and 10 there)."""
+    model at most 3.6 J points per root and 7 passes (the pair at ±GUARD closes a bracket
+    as soon as a step is short; regula falsi alone took 3.9 and 10 there). The bound was
+    3.5 with Euler-Bernoulli spindle beams; the Timoshenko spindle's count, its members
+    halved into pieces, takes 3.54 (a cost, not an accuracy: the starts and brackets are
+    checked above to their tolerances)."""
     if which == "packaged":
         designs, top = packaged_designs(3), 5000.0
     else:
@@ -554,4 +557,4 @@ def test_sharpened_starts_are_within_secant_rtol_and_the_brackets_unchanged(whic
         roots = counter.refine(got.lo_hz[single], got.hi_hz[single], design=d)
         np.testing.assert_allclose(got.start_hz[single], roots, rtol=wittrick.SECANT_RTOL)
     if which == "packaged":
-        assert sum(calls) <= 3.5 * sum(b.total for b in found) and len(calls) <= 7
+        assert sum(calls) <= 3.6 * sum(b.total for b in found) and len(calls) <= 7

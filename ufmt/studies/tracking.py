@@ -21,6 +21,7 @@ drives that mode at resonance.
 from __future__ import annotations
 
 from collections.abc import Mapping
+from dataclasses import replace
 
 import numpy as np
 import pandas as pd
@@ -38,6 +39,11 @@ def cross_mac(model, previous: ModeShapes, current: ModeShapes) -> np.ndarray:
     """Mass-weighted MAC (n_previous, n_current) between two sets of shapes of ``model``."""
     n_prev = previous.frequencies_hz.size
     n_cur = current.frequencies_hz.size
+    previous_beams = {
+        name: _on_grid(model.body(name), entry, current.beams[name])
+        for name, entry in previous.beams.items()
+    }
+    previous = replace(previous, beams=previous_beams)
     products = np.empty((n_prev, n_cur))
     for i in range(n_prev):
         rigid = {k: np.repeat(v[[i]], n_cur, axis=0) for k, v in previous.rigid.items()}
@@ -50,6 +56,27 @@ def cross_mac(model, previous: ModeShapes, current: ModeShapes) -> np.ndarray:
     norm_prev = kinetic_terms(model, previous.rigid, previous.beams).sum(axis=(1, 2))
     norm_cur = kinetic_terms(model, current.rigid, current.beams).sum(axis=(1, 2))
     return products**2 / np.outer(norm_prev, norm_cur)
+
+
+def _on_grid(beam, entry: tuple, target: tuple) -> tuple:
+    """A beam's field ``entry`` (positions (g, 3), weights (g,), motion (n, g, 6)) on the
+    Gauss points of ``target``: the two designs' shapes may have chosen different numbers of
+    points (the rule follows each design's highest mode); the field is a polynomial of
+    degree g - 1 through its Gauss points (Lagrange), which the rule integrates exactly."""
+    positions, _, motion = entry
+    at, weights, _ = target
+    if len(positions) == len(at) and np.array_equal(positions, at):
+        return entry
+    axis = (beam.end - beam.start) / beam.length
+    nodes = (np.asarray(positions) - beam.start) @ axis
+    x = (np.asarray(at) - beam.start) @ axis
+    diff = nodes[:, None] - nodes[None, :]
+    np.fill_diagonal(diff, 1.0)
+    factors = (x[:, None, None] - nodes[None, None, :]) / diff[None, :, :]
+    idx = np.arange(nodes.size)
+    factors[:, idx, idx] = 1.0
+    lagrange = factors.prod(axis=2)  # (targets, nodes): L_j(x_t)
+    return at, weights, np.einsum("tg,ngk->ntk", lagrange, motion)
 
 
 def follow(model, solutions: list) -> list[tuple[np.ndarray, np.ndarray]]:
