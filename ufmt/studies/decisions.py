@@ -208,17 +208,25 @@ def compare_logged(evaluator, comparisons, metrics, samples) -> pd.DataFrame:
 
 
 def sentence(row: Mapping) -> str:
-    """One comparison as words: "min-pv against base: pv_measured_nm -2.1 nm, 5-95 %
-    [-3.0, -1.2] over 16 band samples (common random numbers): resolved"."""
+    """One comparison as words: "min-pv against base: pv_measured_nm -2.1 nm [-3.0, -1.2]:
+    resolved" (the difference, its 5-95 % interval; :func:`sentences` says over what)."""
     unit = metric_unit(row["metric"])
     if not row["samples_resolved"]:
         return f"{row['comparison']}: {row['metric']} not resolved in any band sample"
-    verdict = "resolved" if row["resolved"] else "not resolved (the interval contains 0)"
+    verdict = "resolved" if row["resolved"] else "not resolved"
     return (
-        f"{row['comparison']}: {row['metric']} {_signed(row['difference'])} {unit},"
-        f" 5-95 % [{_signed(row['difference_q05'])}, {_signed(row['difference_q95'])}] {unit}"
-        f" over {row['samples_resolved']} band samples (common random numbers): {verdict}"
+        f"{row['comparison']}: {row['metric']} {_signed(row['difference'])} {unit}"
+        f" [{_signed(row['difference_q05'])}, {_signed(row['difference_q95'])}]: {verdict}"
     )
+
+
+def sentences(table: pd.DataFrame) -> str:
+    """Every comparison of ``table`` as words, then once what the intervals are: the
+    difference's 5-95 % over the band samples with common random numbers; resolved when the
+    interval excludes 0."""
+    said = "; ".join(sentence(r) for r in table.to_dict("records"))
+    n = int(table["samples_resolved"].max()) if len(table) else 0
+    return f"{said} (5-95 % over {n} band samples, common random numbers; resolved: excludes 0)"
 
 
 def _signed(value: float) -> str:
@@ -245,7 +253,7 @@ def compare_to_base(
     samples = draws(options["inputs"], n, options["interval_seed"])
     comparisons = [(f"{name} against {base_name(study)}", base, p) for name, p in chosen.items()]
     table = compare_logged(evaluator, comparisons, metrics, samples)
-    return "; ".join(sentence(r) for r in table.to_dict("records")), table
+    return sentences(table), table
 
 
 def base_name(study) -> str:

@@ -41,7 +41,7 @@ from ufmt.studies.decisions import (
     compare_logged,
     draws,
     read_decisions,
-    sentence,
+    sentences,
 )
 from ufmt.studies.decisions import FIELDS as DECISION_FIELDS
 from ufmt.studies.fields import DEFAULT_FUNCTION, Parameters, read_axes, read_grids
@@ -126,7 +126,7 @@ def best_against_worst(study, evaluator, table: pd.DataFrame, out_dir: Path) -> 
     samples = draws(study.inputs, n, study.options["interval_seed"])
     decisions = compare_logged(evaluator, comparisons, [metric], samples)
     outputs.write_table(decisions, out_dir / DECISIONS)
-    return "; ".join(sentence(r) for r in decisions.to_dict("records"))
+    return sentences(decisions)
 
 
 #: Modes followed by MAC along each stiffness or speed axis (:mod:`ufmt.studies.tracking`).
