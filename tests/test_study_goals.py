@@ -411,7 +411,7 @@ def test_a_sweep_reports_its_best_against_its_worst_with_the_paired_interval(tmp
     )
     out = _run(path, tmp_path / "r")
     row = read_table(out / "decisions.csv").iloc[0]
-    assert row["comparison"] == "rpm: best against worst"
+    assert row["comparison"] == "rpm"
     s = np.array([d["machine.straightness_m"] for d in draws(("machine.straightness_m",), 6, 1)])
     s = s / STRAIGHTNESS
     # nominal (the design does not set the band: s = 0): best 250 rpm, worst 320 rpm
@@ -421,7 +421,7 @@ def test_a_sweep_reports_its_best_against_its_worst_with_the_paired_interval(tmp
     assert row["difference_q95"] == pytest.approx(np.quantile(d, 0.95), rel=1e-9)
     assert bool(row["resolved"])
     headline = read_meta(out)["headline"]
-    assert "Decisions: rpm: best against worst: pv_measured_nm" in headline
+    assert "Decisions: each axis's best against its worst: rpm: pv_measured_nm" in headline
     # the band samples are other machines: logged apart, points.csv holds the sweep's own
     assert set(read_table(out / "points.csv")["group"]) == {"rpm"}
     assert len(read_table(out / "decision_points.csv")) == 2 + 2 * 6

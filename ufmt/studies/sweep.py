@@ -93,10 +93,10 @@ def analyse(study, evaluator, baseline: Mapping[str, float], out_dir: Path) -> s
     evaluator.evaluate([(g.name, p) for g in study.groups for p in g.points(baseline)])
     table = evaluator.table()
     headline = sweep_headline(table, study)
-    if study.options.get("findings"):
-        found = findings_table(table, baseline)
+    if study.options.get("findings"):  # the statements are the study's answer; the axes'
+        found = findings_table(table, baseline)  # trends are in findings.csv and the figures
         outputs.write_table(found, out_dir / FINDINGS)
-        headline = f"{findings_headline(found)} {headline}".strip()  # the study's point first
+        headline = findings_headline(found)
     said = best_against_worst(study, evaluator, table, out_dir)
     if said:
         headline += f" Decisions: {said}."
@@ -122,11 +122,11 @@ def best_against_worst(study, evaluator, table: pd.DataFrame, out_dir: Path) -> 
         names = [a.parameter for a in group.axes]
         best, worst = rows.loc[values.idxmin(), names], rows.loc[values.idxmax(), names]
         point = {"best": best.astype(float).to_dict(), "worst": worst.astype(float).to_dict()}
-        comparisons.append((f"{group.name}: best against worst", point["worst"], point["best"]))
+        comparisons.append((group.name, point["worst"], point["best"]))
     samples = draws(study.inputs, n, study.options["interval_seed"])
     decisions = compare_logged(evaluator, comparisons, [metric], samples)
     outputs.write_table(decisions, out_dir / DECISIONS)
-    return sentences(decisions)
+    return f"each axis's best against its worst: {sentences(decisions)}"
 
 
 #: Modes followed by MAC along each stiffness or speed axis (:mod:`ufmt.studies.tracking`).
@@ -270,8 +270,7 @@ def sweep_headline(table: pd.DataFrame, study) -> str:
             if "pv_dynamic_nm" in rows and rows["pv_dynamic_nm"].notna().all():
                 dyn = rows["pv_dynamic_nm"].to_numpy(float)
                 vibration = (
-                    f"; its cutting-force vibration part {short(dyn[np.argmin(x)])} ->"
-                    f" {short(dyn[np.argmax(x)])} nm"
+                    f"; vibration's PV {short(dyn[np.argmin(x)])} -> {short(dyn[np.argmax(x)])} nm"
                 )
             if lo == hi:  # one value: nothing rises or falls
                 parts.append(f"{short(pv.min())} {unit} at {name} = {short(lo)} (one point)")
