@@ -210,14 +210,17 @@ def _model_section(model: Model) -> str:
                 ),
             }
             for h in model.hinges
+            if not np.all(np.isinf(h.stiffness6))
         ]
     )
+    rigid = [h.name for h in model.hinges if np.all(np.isinf(h.stiffness6))]
+    joined = f" Rigid in every direction: {', '.join(rigid)}." if rigid else ""
     parts = [
         f"<p><b>{html.escape(model.name)}</b> ({html.escape(_shown_path(model.source))}): "
         f"{len(model.bodies)} bodies, {len(model.hinges)} hinges. Bodies: "
-        f"{html.escape(bodies)}.</p>",
+        f"{html.escape(bodies)}.{html.escape(joined)}</p>",
         more(
-            details(f"The {len(model.hinges)} hinges' stiffnesses (table)", _table(hinges)),
+            details(f"The elastic hinges' stiffnesses (table, {len(hinges)})", _table(hinges)),
             _parameter_tables(model),
         ),
     ]
@@ -295,7 +298,7 @@ def machine_table(model: Model, calibration=None) -> pd.DataFrame:
     rows = []
     for key in MACHINE_FIELDS:
         value = getattr(machine, key)
-        how = _how_set(key, value, fits.get(key), "the machine's geometry (as written)")
+        how = _how_set(key, value, fits.get(key), "geometry (as written)")
         unit = MACHINE_UNITS[key]
         rows.append({"field": key, "value": _value(value), "unit": unit, "band": "", "set by": how})
     for key, (default, low, high, unit) in OPTIONAL_FIELDS.items():
@@ -332,7 +335,7 @@ def _how_set(key: str, value, fit, otherwise: str, asked: dict | None = None) ->
             " (AT BOUND, a finding)"
         )
     if not fit.fit:
-        return "held (reason: calibration.toml)"
+        return "held (calibration.toml)"
     low, high = fit.band
     edge = (
         " (AT A BAND EDGE)"
@@ -582,21 +585,20 @@ def _provenance(meta: dict, common: dict | None = None) -> str:
     git = meta.get("git", {})
     own = {k: v for k, v in meta.get("versions", {}).items() if (common or {}).get(k) != v}
     versions = ", ".join(f"{k} {v}" for k, v in own.items())
+    short = {k: (meta.get(k) or "")[:12] for k in ("model_sha256", "code_sha256")}
     items = {
         "study file": meta.get("study_file"),
         "function": None if meta.get("function") == DEFAULT_FUNCTION else meta.get("function"),
         "model": None if meta.get("model") == "packaged" else meta.get("model"),
-        "model SHA-256": meta.get("model_sha256"),
-        "code SHA-256": meta.get("code_sha256"),
-        "git revision": f"{git.get('revision')}{' (dirty)' if git.get('dirty') else ''}",
+        "SHA-256 of model, code": f"{short['model_sha256']}, {short['code_sha256']}",
+        "git": f"{(git.get('revision') or '')[:12]}{' (dirty)' if git.get('dirty') else ''}",
         "started": meta.get("started"),
-        "status": meta.get("status"),
+        "status": None if meta.get("status") == "complete" else meta.get("status"),
         "points (new, reused, failed)": (
             f"{run.get('points_total')} ({run.get('points_new')}, {run.get('points_reused')}, "
             f"{run.get('points_failed')})"
         ),
-        "wall time [s]": run.get("wall_s"),
-        "jobs, backend": f"{run.get('jobs')}, {run.get('backend')}",
+        "wall [s], jobs": f"{run.get('wall_s')}, {run.get('jobs')} ({run.get('backend')})",
         "versions": versions,
     }
     text = "; ".join(f"{k}: {v}" for k, v in items.items() if v not in (None, "", "None"))

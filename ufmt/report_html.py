@@ -111,7 +111,23 @@ def csv(path: Path, page_dir: Path) -> str:
             f'<p>{len(table)} rows, {len(table.columns)} columns: <a href="{html.escape(href)}">'
             f"{html.escape(path.name)}</a> (CSV, beside this page).</p>"
         )
-    return table_html(table.rename(columns=column_header))
+    return table_html(_without_band_inputs(table).rename(columns=column_header))
+
+
+#: Prefixes of the uncertain inputs' columns (``machine.force_scale``, ``hinge.h31...``):
+#: a study with intervals or a robust objective records them per point; inline, they are the
+#: calibrated values on every row (the band samples are in their own CSV).
+BAND_INPUT_PREFIXES = ("machine.", "hinge.", "damping.")
+
+
+def _without_band_inputs(table: pd.DataFrame) -> pd.DataFrame:
+    """``table`` without the uncertain inputs' columns that hold one value throughout."""
+    constant = [
+        c
+        for c in table.columns
+        if str(c).startswith(BAND_INPUT_PREFIXES) and table[c].nunique(dropna=False) <= 1
+    ]
+    return table.drop(columns=constant)
 
 
 #: Column-name suffix -> unit, for headers in words.
