@@ -21,7 +21,7 @@ import pandas as pd
 MAX_TABLE_ROWS = 16  # longer tables are linked as their CSV file, not inlined
 COLUMN_CHARS = 40  # a column's width follows its longest cell up to this many characters
 #: Aspect ratios (width / height) from which a figure spans two, then every grid column.
-WIDE, VERY_WIDE = 1.9, 3.5
+WIDE, VERY_WIDE = 1.9, 5.0
 
 STYLE = """
 body { font-family: sans-serif; max-width: 1340px; margin: 1em auto; padding: 0 0.5em;
