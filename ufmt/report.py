@@ -504,8 +504,8 @@ def _finding_intervals(name: str, contrasts: pd.DataFrame | None) -> str:
     items = "".join(f"<li>{html.escape(sentence(r))}</li>" for r in rows)
     return (
         '<div class="finding"><b>The finding over the uncertain inputs</b> (the change between '
-        "the sweep's ends evaluated again at the uncertainty study's samples of the documented "
-        f"bands; <code>{UNCERTAINTY}/contrast.csv</code>):<ul>{items}</ul></div>"
+        "the sweep's ends, its 5-95 % interval over the uncertainty study's samples of the "
+        f"documented bands; <code>{UNCERTAINTY}/contrast.csv</code>):<ul>{items}</ul></div>"
     )
 
 

@@ -18,7 +18,8 @@ from pathlib import Path
 
 import pandas as pd
 
-MAX_TABLE_ROWS = 16  # longer tables are linked as their CSV file, not inlined
+MAX_TABLE_ROWS = 8  # longer tables are linked as their CSV file, not inlined
+MAX_TABLE_CELLS = 120  # so are larger ones (rows x columns): a wide table reads better as a CSV
 COLUMN_CHARS = 40  # a column's width follows its longest cell up to this many characters
 #: Aspect ratios (width / height) from which a figure spans two, then every grid column.
 WIDE, VERY_WIDE = 1.9, 5.0
@@ -101,17 +102,17 @@ def relative(path: Path, page_dir: Path) -> str:
 
 def csv(path: Path, page_dir: Path) -> str:
     """A CSV table inline, or a link to it (relative to ``page_dir``, the page's folder) when
-    it is longer than MAX_TABLE_ROWS rows."""
+    it is longer than MAX_TABLE_ROWS rows or larger than MAX_TABLE_CELLS cells."""
     if not path.is_file():
         return missing(str(path))
-    table = pd.read_csv(path)
-    if len(table) > MAX_TABLE_ROWS:
+    table = _without_band_inputs(pd.read_csv(path))
+    if len(table) > MAX_TABLE_ROWS or table.size > MAX_TABLE_CELLS:
         href = relative(path, page_dir)
         return (
             f'<p>{len(table)} rows, {len(table.columns)} columns: <a href="{html.escape(href)}">'
             f"{html.escape(path.name)}</a> (CSV, beside this page).</p>"
         )
-    return table_html(_without_band_inputs(table).rename(columns=column_header))
+    return table_html(table.rename(columns=column_header))
 
 
 #: Prefixes of the uncertain inputs' columns (``machine.force_scale``, ``hinge.h31...``):

@@ -182,12 +182,12 @@ def change_text(row: Mapping) -> str:
 
 
 def sentence(row: Mapping) -> str:
-    """One contrast row as the finding with its interval, e.g. "head axial 0.1x -> 10x:
-    pv_nm 502 -> 490, -2.4 % [-3.1, -0.2] (5-95 % over 32 samples; falls in 30 of them)"."""
+    """One contrast row as the finding with its 5-95 % interval, e.g. "head axial 0.1x -> 10x:
+    pv_nm 502 -> 490, -2.4 % [-3.1, -0.2], falls in 30/32" (the samples it falls in)."""
     if not row["resolved"]:
         return f"{row['name']}: {row['metric']} not resolved in any sample"
     falls = round(row["p_falls"] * row["resolved"])
     return (
         f"{row['name']}: {row['metric']} {short(row['point_from'])} -> {short(row['point_to'])},"
-        f" {change_text(row)} (5-95 % over {row['resolved']} samples; falls in {falls} of them)"
+        f" {change_text(row)}, falls in {falls}/{row['resolved']}"
     )

@@ -397,7 +397,8 @@ def analyse(study, evaluator, baseline: Mapping, out_dir: Path) -> str:
         draws = [dict(zip(space.names, map(float, row), strict=True)) for row in values[keep]]
         contrast = evaluate_contrasts(study, evaluator, baseline, draws)
         outputs.write_table(contrast, out_dir / CONTRAST)
-        text += "; findings: " + "; ".join(sentence(r) for r in contrast.to_dict("records"))
+        said = "; ".join(sentence(r) for r in contrast.to_dict("records"))
+        text += f"; findings (point change, 5-95 % over the samples): {said}"
     return text
 
 
