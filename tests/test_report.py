@@ -244,7 +244,7 @@ def test_report_puts_the_intervals_beside_the_reference_cut_and_the_sweep_findin
     assert "P(≤ 100) = 0.50 [0.37, 0.63]" in cells[-1]
     assert "not resolved" in page and "time path" in page
     sweep = page[page.index('id="sweep-x"') :]
-    assert "rpm 150 -&gt; 350: pv_nm 3 -&gt; 1, -66.7 % [-71.2, -12.5] (5-95 % over 32" in sweep
+    assert "rpm 150 -&gt; 350: pv_nm 3 -&gt; 1, -66.7 % [-71.2, -12.5], falls in" in sweep
 
 
 def test_the_repository_report_is_short_enough_to_forward(tmp_path):

@@ -222,7 +222,7 @@ def test_contrast_interval_is_the_change_at_the_uncertain_samples(tmp_path):
     assert depth["change_pct_q95"] == pytest.approx(200.0, rel=1e-9)
     assert depth["p_falls"] == 0.0 and depth["study"] == "sweep-process"
     headline = read_meta(out)["headline"]
-    assert "depth: pv_measured_nm 3 -> 9, +200.0 % [+200.0, +200.0] (5-95 % over 400" in headline
+    assert "depth: pv_measured_nm 3 -> 9, +200.0 % [+200.0, +200.0], falls in 0/400" in headline
     rpm = table.loc["rpm"]
     assert rpm["samples"] == 10
     assert rpm["change_q05"] == pytest.approx(4.0, rel=1e-12)
