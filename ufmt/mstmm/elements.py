@@ -13,11 +13,10 @@ import math
 
 import numpy as np
 
+from ufmt.kinds.beam import section_axis
 from ufmt.kinds.timoshenko import bending_transfer
 from ufmt.kinematics import I3, inertia_about, skew
 from ufmt.model.schema import Beam
-
-VERTICAL_SINE = 1e-9  # a beam axis this close to global z counts as vertical (schema default)
 
 
 def rigid_body_first_input(
@@ -84,19 +83,14 @@ def hinge(
 def beam_frame(beam: Beam, p_in, p_out) -> np.ndarray:
     """Columns e1, e2, e3 of the beam's local frame for transfer from p_in to p_out.
 
-    e1 runs along the transfer direction; e2 is ``orientation`` (default global z, or global
-    x for a vertical beam, |e1 x z| <= VERTICAL_SINE) projected off e1; e3 = e1 x e2.
-    Flipping e1 flips e3 only, which leaves the second moments about e2 and e3 unchanged.
+    e1 runs along the transfer direction; e2 is the section's local y axis
+    (:func:`ufmt.kinds.beam.section_axis`: ``orientation``, default global z or global x for a
+    vertical beam, projected off the axis); e3 = e1 x e2. Flipping e1 flips e3 only, which
+    leaves the second moments about e2 and e3 unchanged.
     """
     e1 = np.asarray(p_out, dtype=float) - p_in
     e1 /= np.linalg.norm(e1)
-    ref = beam.orientation
-    if ref is None:
-        ref = np.array([0.0, 0.0, 1.0])
-        if np.linalg.norm(np.cross(e1, ref)) <= VERTICAL_SINE:
-            ref = np.array([1.0, 0.0, 0.0])
-    e2 = ref - (ref @ e1) * e1
-    e2 /= np.linalg.norm(e2)
+    e2 = section_axis(beam)
     return np.column_stack([e1, e2, np.cross(e1, e2)])
 
 
