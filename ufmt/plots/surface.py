@@ -14,6 +14,8 @@ scallop inside the clear aperture). The clear aperture is that of the default in
 
 from __future__ import annotations
 
+import textwrap
+
 import numpy as np
 from matplotlib.colors import TwoSlopeNorm
 from matplotlib.figure import Figure
@@ -35,6 +37,7 @@ SOURCE_NAMES = {
     "total (every source)": "total, whole\nplate",
 }
 SCALLOPS_SHOWN = 4  # scallop periods drawn in the feed-mark inset
+TITLE_CHARS = 70  # the per-source line wraps here: it fits the map's width at 9 pt
 
 
 def measured_map(result, instrument: Interferometer | None = None):
@@ -118,7 +121,8 @@ def _title(result, stage: str) -> str:
             f"As the interferometer measures it: PV {m['pv_measured_nm']:.1f} nm,"
             f" RMS {m['rms_measured_nm']:.1f} nm\n(clear aperture, piston and tilt removed)"
         )
-    return f"{head}\nPV of each source alone [nm]: {parts or 'none'}"
+    sources = textwrap.fill(f"PV of each source alone [nm]: {parts or 'none'}", TITLE_CHARS)
+    return f"{head}\n{sources}"
 
 
 def _mark_extremes(ax, x_mm, y_mm, z_nm) -> None:
