@@ -8,7 +8,8 @@ first-order form x' = A x + B f and diagonalised here (numpy's eig of the 2n x 2
 matrix, every pole kept: no conjugate pairing), z' = lambda z + u. The modal force of the
 point force at the tip and its reaction on the workpiece is a trigonometric polynomial of
 degree <= 3 in the spindle angle (the chip's cos(phi), the force's direction, the tip's arm),
-so u = sum_k g_k e^(i k W_s t) on the pulse and the Duhamel integral has the closed form
+so u = sum_k g_k e^(i k W_s t) on the pulse (W_s the spindle's angular speed) and Duhamel's
+integral has the closed form
 
     int_a^s e^(lambda (t - tau)) e^(mu tau) dtau
         = (e^(lambda (t - s) + mu s) - e^(lambda (t - a) + mu a)) / (mu - lambda),
