@@ -2,9 +2,9 @@
 answer (the lowest interferometer PV over its speed axis) on the calibrated machine and on
 the same machine with the fly-cutting head's axial air bearing softened tenfold, which lowers
 the head's z mode and raises the tool-workpiece static compliance in z by several per cent
-(`ufmt frf` at 1 Hz). z_re's peak is not asserted: the engagement lasts a few milliseconds
-of each revolution, shorter than the softened head mode's period, so its peak need not follow
-the static compliance."""
+(`ufmt frf` at 1 Hz). z_re's peak is not asserted: it is the tool carrier's ringing half a
+carrier period after the force's entry step, where the head mode is mass-controlled, so it
+does not follow the static compliance (tests/test_pulse_closed_form.py)."""
 
 from __future__ import annotations
 
