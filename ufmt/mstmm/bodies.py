@@ -19,7 +19,7 @@ import numpy as np
 from scipy.special import gammaln
 
 from ufmt.errors import ModelError
-from ufmt.kinds.timoshenko import planes
+from ufmt.kinds import BODY_KINDS, kind_of
 from ufmt.kinematics import skew
 from ufmt.model.schema import Beam, Body, Model, RigidBody, VirtualBody
 from ufmt.mstmm import elements
@@ -30,10 +30,11 @@ from ufmt.mstmm.graph import Edge, Node, NodeTransfer, Topology
 
 
 @functools.lru_cache(maxsize=4096)
-def _rigid_body_parts(mass, inertia: tuple, com: tuple, p_in: tuple, p_out: tuple):
-    """Constant and ω² parts (12, 12) of a rigid body's U_{i,I1} (eq. 2.8), shared by every
-    design with the same body (a stiffness sweep builds them once)."""
-    both = elements.rigid_body_first_input(
+def _rigid_body_parts(kind: str, mass, inertia: tuple, com: tuple, p_in: tuple, p_out: tuple):
+    """Constant and ω² parts (12, 12) of a rigid body's U_{i,I1} (eq. 2.8, its kind's
+    ``first_input_transfer``), shared by every design with the same body (a stiffness sweep
+    builds them once)."""
+    both = BODY_KINDS[kind].first_input_transfer(
         np.array([0.0, 1.0]), mass, np.reshape(inertia, (3, 3)), com, np.array(p_in), p_out
     )
     parts = both[0], both[1] - both[0]
@@ -46,7 +47,8 @@ def _rigid_first_input(node: Node, first_point) -> tuple[np.ndarray, np.ndarray]
     """U_{i,I1} of the node's rigid body (eq. 2.8): constant and ω² parts."""
     b = node.body
     points = (b.center_of_mass, first_point, node.output_point)
-    return _rigid_body_parts(b.mass, tuple(np.ravel(b.inertia)), *(tuple(p) for p in points))
+    inertia = tuple(np.ravel(b.inertia))
+    return _rigid_body_parts(b.kind, b.mass, inertia, *(tuple(p) for p in points))
 
 
 @functools.lru_cache(maxsize=4096)
@@ -178,10 +180,8 @@ def _rigid_shape(system, body: RigidBody, states, z, omega, parts: ShapeParts) -
 
 
 def _rigid_kinetic(body: RigidBody, rigid_a, beams_a, rigid_b, beams_b, out) -> None:
-    """m r_a·r_b per axis and θ_a,i (J θ_b)_i per axis (eq. 3.1)."""
-    va, vb = rigid_a[body.name], rigid_b[body.name]
-    out[:, :3] = body.mass * va[:, :3] * vb[:, :3]
-    out[:, 3:] = va[:, 3:] * (vb[:, 3:] @ body.inertia)
+    """Its kind's mass products of the two motions at the centre of mass (eq. 3.1)."""
+    out[:] = kind_of(body).mass_products(body, rigid_a[body.name], rigid_b[body.name])
 
 
 # -- virtual bodies -----------------------------------------------------------------------------
@@ -239,21 +239,8 @@ def _beam_shape(system, body: Beam, states, z, omega, parts: ShapeParts) -> None
 
 
 def _beam_kinetic(body: Beam, rigid_a, beams_a, rigid_b, beams_b, out) -> None:
-    """∫ρA u_a·u_b ds per axis and ∫ρJp τ_a τ_b ds (τ the twist about the beam axis) split
-    over the global axes by the squared axis components; a Timoshenko beam adds its sections'
-    rotary inertia likewise."""
-    _, wts, ma = beams_a[body.name]
-    mb = beams_b[body.name][2]
-    rho = body.density
-    out[:, :3] = rho * body.area * np.einsum("ngi,ngi,g->ni", ma[..., :3], mb[..., :3], wts)
-    axis = (body.end - body.start) / body.length
-    twist = (ma[..., 3:] @ axis) * (mb[..., 3:] @ axis) @ wts
-    out[:, 3:] = rho * body.polar_moment * twist[:, None] * axis[None, :] ** 2
-    if body.timoshenko:  # rotary inertia of the sections: ∫ρI θ_a θ_b about e2 (I_y), e3 (I_z)
-        frame = elements.beam_frame(body, body.start, body.end)
-        for e, second in ((frame[:, 1], body.second_moment_y), (frame[:, 2], body.second_moment_z)):
-            turn = (ma[..., 3:] @ e) * (mb[..., 3:] @ e) @ wts
-            out[:, 3:] += rho * second * turn[:, None] * e[None, :] ** 2
+    """Its kind's mass products of the two fields at its Gauss points."""
+    out[:] = kind_of(body).mass_products(body, beams_a[body.name], beams_b[body.name])
 
 
 def beam_field(system, beam: Beam, states, z, omega, fractions=None):
@@ -302,23 +289,14 @@ def gauss_points(beam: Beam, omega_max: float) -> int:
     """Gauss-Legendre points for a beam's modal-mass integrals up to ω_max [rad/s].
 
     The integrands are products of two fields made of e^{±βs}, e^{±iβs} (β the largest
-    bending, axial or torsional wavenumber), so the g-point rule errs by at most about
+    wavenumber of its parts: bending, axial or torsional), so the g-point rule errs by at most about
     c^(2g+1) (g!)^4 / ((2g + 1) ((2g)!)^3) relative, c = 2βL (the remainder of the rule
     for e^{cx} on [0, 1]); the smallest g with that below GAUSS_RTOL, at least 4 (exact for
     the product of two static cubic fields, which the exponentials cancel down to at small
     βL) and at most GAUSS_POINTS.
     """
-    w2 = omega_max**2
-    rho, e_mod = beam.density, beam.youngs_modulus
-    bending = rho * beam.area * w2 / (e_mod * min(beam.second_moment_y, beam.second_moment_z))
-    axial = rho * w2 / e_mod
-    torsion = rho * beam.polar_moment * w2 / (beam.shear_modulus * beam.torsion_constant)
-    shear = (
-        max((p.wavenumber(omega_max) for p in planes(beam)), default=0.0)
-        if beam.timoshenko
-        else 0.0
-    )
-    c = 2.0 * beam.length * max(bending**0.25, np.sqrt(axial), np.sqrt(torsion), shear, 1e-3)
+    waves = [p.formulation.wavenumber(omega_max) for p in kind_of(beam).parts(beam)]
+    c = 2.0 * beam.length * max(*waves, 1e-3)
     log_error = (2 * _GAUSS_ORDERS + 1) * np.log(c) + _GAUSS_LOG_FACTOR
     fine = _GAUSS_ORDERS[log_error <= np.log(GAUSS_RTOL)]
     return int(fine[0]) if fine.size else GAUSS_POINTS
