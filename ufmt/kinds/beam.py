@@ -45,6 +45,7 @@ FIELDS = REQUIRED + CIRCLE_FIELDS + SECTION_FIELDS + OPTIONAL
 WRITTEN = REQUIRED + SECTION_FIELDS + OPTIONAL  # theory and κ: only when Timoshenko
 #: shear coefficient κ allowed in a model file (Cowper 1966: 0.5 to 0.9 for usual sections)
 SHEAR_COEFFICIENT_BAND = (0.05, 1.0)
+FORM = "member"  # two end nodes and its parts between them (start, end, parts)
 ONE_FRAME = False  # its motion is a field along it
 MASSLESS = False
 MEMBER = True  # an exact member stiffness with a clamped-clamped count

@@ -31,6 +31,7 @@ CLASS = RigidBody
 FIELDS = ("mass", "center_of_mass", "inertia")
 REQUIRED = FIELDS
 WRITTEN = FIELDS  # the fields written back after name, kind and number
+FORM = "mass"  # one node that carries its mass block (mass, center_of_mass, inertia)
 ONE_FRAME = True  # its motion is one 6-vector about its centre of mass
 MASSLESS = False  # its node carries mass
 MEMBER = False  # no exact member stiffness: no clamped-clamped count applies

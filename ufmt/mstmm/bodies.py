@@ -2,11 +2,12 @@
 hinge on it meets, the state its motion is read from, its motion in a mode and its mass
 products.
 
-:data:`BODY_RULES` maps each body kind of :mod:`ufmt.kinds` to its :class:`BodyRules`:
-adding a body kind to the MSTMM is one more entry (the assembled model has its own table,
-:mod:`ufmt.assembled.bodies`). Every node of the transfer graph carries one of two transfer
-rules: a rigid body's (:data:`RIGID_NODE`, eqs. 2.8, 2.9, 2.5) or a massless point's
-(:data:`POINT_NODE`: a virtual body or a beam end, eq. 2.11).
+:data:`BODY_RULES` maps each body form of :mod:`ufmt.kinds` (``FORM`` of a kind's module:
+"mass", "point", "member") to its :class:`BodyRules`: a new body kind of an existing form
+needs nothing here; its own formulations (a mass node's U_{i,I1}, a member's parts, their
+mass products) come from its kind's module. Every node of the transfer graph carries one of
+two transfer rules: a mass node's (:data:`RIGID_NODE`, eqs. 2.8, 2.9, 2.5) or a massless
+point's (:data:`POINT_NODE`: a virtual body or a beam end, eq. 2.11).
 """
 
 from __future__ import annotations
@@ -106,7 +107,7 @@ class ShapeParts:
 
 @dataclass(frozen=True)
 class BodyRules:
-    """The MSTMM's handlers for one body type.
+    """The MSTMM's handlers for one body form.
 
     graph(model, body) -> (nodes, edges) it adds to the transfer graph;
     hinge_end(body, point) -> the name of its node at a hinge point;
@@ -132,8 +133,8 @@ class BodyRules:
 
 
 def rules_of(body: Body) -> BodyRules:
-    """The handlers of ``body``'s kind."""
-    return BODY_RULES[body.kind]
+    """The handlers of ``body``'s form (its kind's ``FORM``)."""
+    return BODY_RULES[kind_of(body).FORM]
 
 
 def apply_state(state, z: np.ndarray) -> np.ndarray:
@@ -155,7 +156,7 @@ def _no_mass(body, rigid_a, beams_a, rigid_b, beams_b, out) -> None:
     """A massless body adds nothing."""
 
 
-# -- rigid bodies -------------------------------------------------------------------------------
+# -- mass nodes (rigid bodies) ------------------------------------------------------------------
 
 
 def _rigid_graph(model: Model, body: RigidBody) -> tuple[list[Node], list[Edge]]:
@@ -184,7 +185,7 @@ def _rigid_kinetic(body: RigidBody, rigid_a, beams_a, rigid_b, beams_b, out) -> 
     out[:] = kind_of(body).mass_products(body, rigid_a[body.name], rigid_b[body.name])
 
 
-# -- virtual bodies -----------------------------------------------------------------------------
+# -- massless points (virtual bodies) -----------------------------------------------------------
 
 
 def _virtual_graph(model: Model, body: VirtualBody) -> tuple[list[Node], list[Edge]]:
@@ -206,7 +207,7 @@ def _virtual_shape(system, body: VirtualBody, states, z, omega, parts: ShapePart
     parts.virtual[body.name] = apply_state(state, z)[:, :6]
 
 
-# -- beams --------------------------------------------------------------------------------------
+# -- members (beams) ----------------------------------------------------------------------------
 
 
 def _beam_graph(model: Model, body: Beam) -> tuple[list[Node], list[Edge]]:
@@ -310,9 +311,9 @@ def _gauss_legendre(points: int) -> tuple[np.ndarray, np.ndarray]:
     return x, w
 
 
-#: body kind -> how the MSTMM treats it
+#: body form (:data:`ufmt.kinds.FORMS`) -> how the MSTMM treats it
 BODY_RULES: dict[str, BodyRules] = {
-    "rigid": BodyRules(
+    "mass": BodyRules(
         graph=_rigid_graph,
         hinge_end=_own_node,
         reference=lambda body, point: body.center_of_mass,
@@ -320,7 +321,7 @@ BODY_RULES: dict[str, BodyRules] = {
         shape=_rigid_shape,
         kinetic=_rigid_kinetic,
     ),
-    "virtual": BodyRules(
+    "point": BodyRules(
         graph=_virtual_graph,
         hinge_end=_own_node,
         reference=_at_point,
@@ -328,7 +329,7 @@ BODY_RULES: dict[str, BodyRules] = {
         shape=_virtual_shape,
         kinetic=_no_mass,
     ),
-    "beam": BodyRules(
+    "member": BodyRules(
         graph=_beam_graph,
         hinge_end=beam_end_node,
         reference=_at_point,
