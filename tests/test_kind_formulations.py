@@ -25,7 +25,7 @@ import pytest
 
 from ufmt.assembled import assembled_modes
 from ufmt.kinds import BODY_KINDS, KINDS
-from ufmt.kinds.beam import THEORIES
+from ufmt.kinds.beam import THEORIES, parts
 from ufmt.model.load import load_model_text
 from ufmt.mstmm.solve import solve_modes
 from ufmt.mstmm.wittrick import RootCounter
@@ -145,3 +145,83 @@ def test_every_kind_and_theory_is_a_case():
     cases = _cases()
     assert {c.partition(":")[0] for c in cases} == set(KINDS)
     assert {c.partition(":")[2] for c in cases if ":" in c} == set(THEORIES)
+
+
+# -- each formulation of a member's parts: transfer matrix, exact stiffness, finite element ----
+
+LENGTH = 0.5  # [m] a short steel member, diameter 0.1 m (L/D = 5: shear matters)
+
+
+def _formulations() -> dict:
+    """Every distinct formulation of a member's parts: its rods once, its bending planes once
+    per theory of the registry."""
+    found = {}
+    for theory in THEORIES:
+        model = _model(f"beam:{theory}")
+        beam = model.body("b")
+        for part, label in zip(parts(beam), ("axial", "torsion", "xy", "xz"), strict=True):
+            if label in ("axial", "torsion"):
+                found[label] = part.formulation
+            elif label == "xy":  # the circle's x1-z plane is the same formulation
+                found[f"{theory}:{label}"] = part.formulation
+    return found
+
+
+FORMULATIONS = _formulations()
+
+
+def _first_clamped(f, k: int) -> float:
+    """ω [rad/s] of the k-th clamped-clamped frequency, bisected on the formulation's count."""
+    lo, hi = 0.0, 1e3
+    while f.clamped(np.array([hi]), LENGTH)[0] < k:
+        hi *= 2.0
+    while hi - lo > 1e-12 * hi:
+        mid = 0.5 * (lo + hi)
+        lo, hi = (lo, mid) if f.clamped(np.array([mid]), LENGTH)[0] >= k else (mid, hi)
+    return hi
+
+
+def _condensed(f, n: int, omega: float) -> np.ndarray:
+    """End dynamic stiffness of ``n`` equal finite elements in a row at ω [rad/s]: K - ω²M
+    assembled, the inner nodes condensed exactly."""
+    k, m = f.element(LENGTH / n)
+    d = k.shape[0] // 2  # dofs per node
+    size = d * (n + 1)
+    dyn = np.zeros((size, size))
+    for e in range(n):
+        at = slice(d * e, d * e + 2 * d)
+        dyn[at, at] += k - omega**2 * m
+    ends = np.r_[0:d, size - d : size]
+    inner = np.arange(d, size - d)
+    cross = dyn[np.ix_(ends, inner)]
+    return dyn[np.ix_(ends, ends)] - cross @ np.linalg.solve(dyn[np.ix_(inner, inner)], cross.T)
+
+
+@pytest.mark.parametrize("name", FORMULATIONS)
+def test_a_formulations_elements_converge_to_its_exact_stiffness(name):
+    """Finite elements against the exact dynamic stiffness: n elements with their inner nodes
+    condensed tend to ``stiffness(ω)`` at the element's rate (>= SLOWEST_RATE), below and
+    between the first two clamped-clamped frequencies."""
+    f = FORMULATIONS[name]
+    first, second = _first_clamped(f, 1), _first_clamped(f, 2)
+    for omega in (0.6 * first, 0.5 * (first + second)):
+        exact = f.stiffness(np.array([omega]), LENGTH)[0]
+        np.testing.assert_allclose(exact, exact.T, rtol=1e-9, atol=1e-9 * np.abs(exact).max())
+        errors = [np.abs(_condensed(f, n, omega) - exact).max() for n in MESHES]
+        rates = np.log2(np.array(errors[:-1]) / errors[1:])
+        assert np.all(rates >= SLOWEST_RATE - 0.1), rates
+
+
+@pytest.mark.parametrize("name", FORMULATIONS)
+def test_a_formulations_clamped_count_counts_the_zeros_of_its_transfer(name):
+    """The clamped-clamped count against the transfer matrix: the member clamped at both ends
+    vibrates where the block of end motions from start forces, T_uf, is singular, so J₀(ω) is
+    the number of sign changes of det T_uf(ω') for ω' below ω (simple zeros)."""
+    f = FORMULATIONS[name]
+    top = 1.2 * _first_clamped(f, 3)
+    omega = np.linspace(1e-3 * top, top, 6001)
+    t = f.transfer(omega**2, LENGTH)
+    half = t.shape[1] // 2
+    det = np.linalg.det(t[:, :half, half:])
+    changes = np.r_[0, np.cumsum(np.sign(det[1:]) != np.sign(det[:-1]))]
+    np.testing.assert_array_equal(f.clamped(omega, LENGTH)[::50], changes[::50])

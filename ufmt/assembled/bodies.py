@@ -52,7 +52,7 @@ def _node(model: Model, body: Body, mesh) -> tuple[np.ndarray, None]:
     return kind_of(body).node_points(model, body), None
 
 
-def _beam_nodes(model: Model, body: Beam, mesh) -> tuple[np.ndarray, int]:
+def _member_nodes(model: Model, body: Beam, mesh) -> tuple[np.ndarray, int]:
     """Equally spaced nodes from start to end: the given number of elements, or
     :func:`elements_for` at the mesh frequency (capped), or DEFAULT_ELEMENTS_PER_BEAM."""
     elements_per_beam, fmax_hz, rtol, max_elements = mesh
@@ -75,7 +75,7 @@ def _add_node(body: Body, dofs, nodes, K, M, massless, rows) -> None:
         M[np.ix_(dofs[0], dofs[0])] = block
 
 
-def _add_beam(beam: Beam, dofs, nodes, K, M, massless, F) -> None:
+def _add_member(beam: Beam, dofs, nodes, K, M, massless, F) -> None:
     """Add a meshed beam's elements to K and M and write its deformation rows into F (zeros,
     6 per element), in place.
 
@@ -114,7 +114,7 @@ def _first_node(model: Model, hinge, body: Body, nodes: np.ndarray) -> int:
     return 0
 
 
-def _beam_end(model: Model, hinge, beam: Beam, nodes: np.ndarray) -> int:
+def _member_end(model: Model, hinge, beam: Beam, nodes: np.ndarray) -> int:
     """Index of the mesh node of ``beam`` at the hinge point (ModelError unless an end)."""
     node = int(np.argmin(np.linalg.norm(nodes - hinge.at, axis=1)))
     if node not in (0, len(nodes) - 1):
@@ -129,5 +129,5 @@ def _beam_end(model: Model, hinge, beam: Beam, nodes: np.ndarray) -> int:
 BODY_KINDS: dict[str, BodyKind] = {
     "mass": BodyKind(_node, _add_node, _first_node, meshed=False),
     "point": BodyKind(_node, _add_node, _first_node, meshed=False),
-    "member": BodyKind(_beam_nodes, _add_beam, _beam_end, meshed=True),
+    "member": BodyKind(_member_nodes, _add_member, _member_end, meshed=True),
 }

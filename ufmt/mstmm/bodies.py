@@ -19,7 +19,6 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.special import gammaln
 
-from ufmt.errors import ModelError
 from ufmt.kinds import BODY_KINDS, kind_of
 from ufmt.kinematics import skew
 from ufmt.model.schema import Beam, Body, Model, RigidBody, VirtualBody
@@ -31,7 +30,7 @@ from ufmt.mstmm.graph import Edge, Node, NodeTransfer, Topology
 
 
 @functools.lru_cache(maxsize=4096)
-def _rigid_body_parts(kind: str, mass, inertia: tuple, com: tuple, p_in: tuple, p_out: tuple):
+def _mass_parts(kind: str, mass, inertia: tuple, com: tuple, p_in: tuple, p_out: tuple):
     """Constant and ω² parts (12, 12) of a rigid body's U_{i,I1} (eq. 2.8, its kind's
     ``first_input_transfer``), shared by every design with the same body (a stiffness sweep
     builds them once)."""
@@ -44,12 +43,12 @@ def _rigid_body_parts(kind: str, mass, inertia: tuple, com: tuple, p_in: tuple, 
     return parts
 
 
-def _rigid_first_input(node: Node, first_point) -> tuple[np.ndarray, np.ndarray]:
-    """U_{i,I1} of the node's rigid body (eq. 2.8): constant and ω² parts."""
+def _mass_first_input(node: Node, first_point) -> tuple[np.ndarray, np.ndarray]:
+    """U_{i,I1} of the node's body (eq. 2.8, a mass node's): constant and ω² parts."""
     b = node.body
     points = (b.center_of_mass, first_point, node.output_point)
     inertia = tuple(np.ravel(b.inertia))
-    return _rigid_body_parts(b.kind, b.mass, inertia, *(tuple(p) for p in points))
+    return _mass_parts(b.kind, b.mass, inertia, *(tuple(p) for p in points))
 
 
 @functools.lru_cache(maxsize=4096)
@@ -77,7 +76,7 @@ _POINT_GEOMETRIC_MAP = _point_geometric_map()
 
 #: a rigid body's node: mass in U_{i,I1}, levers across the body
 RIGID_NODE = NodeTransfer(
-    first_input=_rigid_first_input,
+    first_input=_mass_first_input,
     other_lever=lambda p_k, p_out: p_k,
     geometric_map=lambda p_1, p_k: _rigid_geometric_map(tuple(np.subtract(p_k, p_1))),
 )
@@ -159,20 +158,20 @@ def _no_mass(body, rigid_a, beams_a, rigid_b, beams_b, out) -> None:
 # -- mass nodes (rigid bodies) ------------------------------------------------------------------
 
 
-def _rigid_graph(model: Model, body: RigidBody) -> tuple[list[Node], list[Edge]]:
+def _mass_graph(model: Model, body: RigidBody) -> tuple[list[Node], list[Edge]]:
     """One node that carries the body's mass and extent."""
     return [Node(body.name, RIGID_NODE, body=body)], []
 
 
-def _rigid_state_key(topology: Topology, body: RigidBody) -> tuple:
+def _mass_state_key(topology: Topology, body: RigidBody) -> tuple:
     """A rigid body's motion is read from its first input."""
     return ("node_in", body.name, 0)
 
 
-def _rigid_shape(system, body: RigidBody, states, z, omega, parts: ShapeParts) -> None:
+def _mass_shape(system, body: RigidBody, states, z, omega, parts: ShapeParts) -> None:
     """[r_C; θ] at the centre of mass from the state at the first input end."""
     point = system.topology.first_input_point(body.name)
-    state = states[_rigid_state_key(system.topology, body)]
+    state = states[_mass_state_key(system.topology, body)]
     s = np.einsum("nik,nk->ni", state.arr[:, :6], z[:, state.cols])  # [r_P; θ] only
     # r_C = r_P + θ × (C - P) (eq. 2.5), as rows: θ @ skew(C - P)
     r = s[:, :3] + s[:, 3:] @ skew(body.center_of_mass - point)
@@ -180,7 +179,7 @@ def _rigid_shape(system, body: RigidBody, states, z, omega, parts: ShapeParts) -
     parts.centers[body.name] = body.center_of_mass
 
 
-def _rigid_kinetic(body: RigidBody, rigid_a, beams_a, rigid_b, beams_b, out) -> None:
+def _mass_kinetic(body: RigidBody, rigid_a, beams_a, rigid_b, beams_b, out) -> None:
     """Its kind's mass products of the two motions at the centre of mass (eq. 3.1)."""
     out[:] = kind_of(body).mass_products(body, rigid_a[body.name], rigid_b[body.name])
 
@@ -188,29 +187,26 @@ def _rigid_kinetic(body: RigidBody, rigid_a, beams_a, rigid_b, beams_b, out) -> 
 # -- massless points (virtual bodies) -----------------------------------------------------------
 
 
-def _virtual_graph(model: Model, body: VirtualBody) -> tuple[list[Node], list[Edge]]:
-    """One massless node at the point of the first hinge that names it."""
-    for h in model.hinges:
-        if body.name in h.between:
-            return [Node(body.name, POINT_NODE, point=h.at)], []
-    raise ModelError(f"{model.source}: body {body.name!r}: no hinge attaches to it")
+def _point_graph(model: Model, body: VirtualBody) -> tuple[list[Node], list[Edge]]:
+    """One massless node at its kind's node point (its hinges' point)."""
+    return [Node(body.name, POINT_NODE, point=kind_of(body).node_points(model, body)[0])], []
 
 
-def _virtual_state_key(topology: Topology, body: VirtualBody) -> tuple:
+def _point_state_key(topology: Topology, body: VirtualBody) -> tuple:
     """A virtual body's motion is read from its output."""
     return ("node_out", body.name)
 
 
-def _virtual_shape(system, body: VirtualBody, states, z, omega, parts: ShapeParts) -> None:
+def _point_shape(system, body: VirtualBody, states, z, omega, parts: ShapeParts) -> None:
     """[r; θ] at the body's point: the displacement half of its output state."""
-    state = states[_virtual_state_key(system.topology, body)]
+    state = states[_point_state_key(system.topology, body)]
     parts.virtual[body.name] = apply_state(state, z)[:, :6]
 
 
 # -- members (beams) ----------------------------------------------------------------------------
 
 
-def _beam_graph(model: Model, body: Beam) -> tuple[list[Node], list[Edge]]:
+def _member_graph(model: Model, body: Beam) -> tuple[list[Node], list[Edge]]:
     """Two massless end nodes ``<beam>@start``, ``<beam>@end`` and the beam edge between."""
     nodes = [
         Node(f"{body.name}@{end}", POINT_NODE, point=p)
@@ -229,17 +225,17 @@ def beam_end_node(beam: Beam, point) -> str:
     return f"{beam.name}@start" if d0 <= d1 else f"{beam.name}@end"
 
 
-def _beam_state_key(topology: Topology, body: Beam) -> tuple:
+def _member_state_key(topology: Topology, body: Beam) -> tuple:
     """A beam's motion is read from its input end."""
     return ("edge_in", topology.body_edge(body.name))
 
 
-def _beam_shape(system, body: Beam, states, z, omega, parts: ShapeParts) -> None:
+def _member_shape(system, body: Beam, states, z, omega, parts: ShapeParts) -> None:
     """The beam's displacement field at its Gauss points (:func:`beam_field`)."""
     parts.beams[body.name] = beam_field(system, body, states, z, omega)
 
 
-def _beam_kinetic(body: Beam, rigid_a, beams_a, rigid_b, beams_b, out) -> None:
+def _member_kinetic(body: Beam, rigid_a, beams_a, rigid_b, beams_b, out) -> None:
     """Its kind's mass products of the two fields at its Gauss points."""
     out[:] = kind_of(body).mass_products(body, beams_a[body.name], beams_b[body.name])
 
@@ -254,7 +250,7 @@ def beam_field(system, beam: Beam, states, z, omega, fractions=None):
     index = topo.body_edge(beam.name)
     e = topo.edges[index]
     p_in, p_out = e.point_at(e.input_node), e.point_at(e.output_node)
-    z_in = apply_state(states[_beam_state_key(topo, beam)], z)
+    z_in = apply_state(states[_member_state_key(topo, beam)], z)
     length = beam.length
     if fractions is None:
         x, wts = _gauss_legendre(gauss_points(beam, omega.max(initial=0.0)))
@@ -314,28 +310,28 @@ def _gauss_legendre(points: int) -> tuple[np.ndarray, np.ndarray]:
 #: body form (:data:`ufmt.kinds.FORMS`) -> how the MSTMM treats it
 BODY_RULES: dict[str, BodyRules] = {
     "mass": BodyRules(
-        graph=_rigid_graph,
+        graph=_mass_graph,
         hinge_end=_own_node,
         reference=lambda body, point: body.center_of_mass,
-        state_key=_rigid_state_key,
-        shape=_rigid_shape,
-        kinetic=_rigid_kinetic,
+        state_key=_mass_state_key,
+        shape=_mass_shape,
+        kinetic=_mass_kinetic,
     ),
     "point": BodyRules(
-        graph=_virtual_graph,
+        graph=_point_graph,
         hinge_end=_own_node,
         reference=_at_point,
-        state_key=_virtual_state_key,
-        shape=_virtual_shape,
+        state_key=_point_state_key,
+        shape=_point_shape,
         kinetic=_no_mass,
     ),
     "member": BodyRules(
-        graph=_beam_graph,
+        graph=_member_graph,
         hinge_end=beam_end_node,
         reference=_at_point,
-        state_key=_beam_state_key,
-        shape=_beam_shape,
-        kinetic=_beam_kinetic,
+        state_key=_member_state_key,
+        shape=_member_shape,
+        kinetic=_member_kinetic,
         edge_matrix=lambda omega, body, rotation: elements.beam(omega, body, rotation=rotation),
         edge_rotation=elements.beam_rotation,
     ),
