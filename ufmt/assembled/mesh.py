@@ -16,28 +16,12 @@ DEFAULT_ELEMENTS_PER_BEAM = 8  # mesh when neither elements_per_beam nor a frequ
 MIN_ELEMENTS_PER_BEAM = 2
 MAX_ELEMENTS_PER_BEAM = 64  # cap of the automatic mesh (cost); see AssembledModel.mesh_error
 DEFAULT_RTOL = 1e-8  # target relative frequency error of the automatic mesh below fmax
-PARALLEL_SINE = 1e-9  # beam axis taken as parallel to global z below this |sin angle|
 
 
 def beam_frame(beam: Body) -> np.ndarray:
-    """Rows e1, e2, e3 of the beam's local frame (``local = frame @ global``).
-
-    e1 along start -> end; e2 the orientation vector (default global z, or global x when the
-    axis is vertical) made orthogonal to e1; e3 = e1 x e2.
-    """
-    e1 = (beam.end - beam.start) / beam.length
-    ref = beam.orientation
-    if ref is None:
-        vertical = math.hypot(e1[0], e1[1]) <= PARALLEL_SINE  # |e1 x z|
-        ref = np.array([1.0, 0.0, 0.0]) if vertical else np.array([0.0, 0.0, 1.0])
-    e2 = ref - (ref @ e1) * e1
-    e2 = e2 / np.linalg.norm(e2)
-    e3 = [
-        e1[1] * e2[2] - e1[2] * e2[1],
-        e1[2] * e2[0] - e1[0] * e2[2],
-        e1[0] * e2[1] - e1[1] * e2[0],
-    ]
-    return np.array([e1, e2, e3])
+    """Rows e1, e2, e3 of the member's local frame (``local = frame @ global``): its kind's
+    ``local_frame`` from start to end (e1 along the axis, e2 the section's local y axis)."""
+    return kind_of(beam).local_frame(beam, beam.start, beam.end).T
 
 
 def frame_element(beam: Body, h: float) -> tuple[np.ndarray, np.ndarray]:
