@@ -290,8 +290,8 @@ VERTICAL_SINE = 1e-9  # an axis this close to global z counts as vertical (schem
 
 def section_axis(body: Beam) -> np.ndarray:
     """The section's local y axis in global coordinates: ``orientation`` (default global z, or
-    global x for a vertical beam) made orthogonal to the axis; the MSTMM's beam frame
-    (:func:`ufmt.mstmm.elements.beam_frame`) and the machine frame's rotation both take it."""
+    global x for a vertical beam) made orthogonal to the axis; the beam's local frame
+    (:func:`local_frame`, both solvers') and the machine frame's rotation take it."""
     e1 = (body.end - body.start) / np.linalg.norm(body.end - body.start)
     ref = body.orientation
     if ref is None:
