@@ -11,12 +11,12 @@ from hypothesis import strategies as st
 
 from ufmt.assembled import assemble, assembled_modes
 from ufmt.assembled.mesh import (
-    BENDING_ERROR_DIVISOR,
-    LINEAR_ERROR_DIVISOR,
     elements_for,
     mesh_error,
 )
 from ufmt.errors import ModelError
+from ufmt.kinds.euler_bernoulli import ERROR_DIVISOR as BENDING_ERROR_DIVISOR
+from ufmt.kinds.rod import ERROR_DIVISOR as LINEAR_ERROR_DIVISOR
 from ufmt.model.schema import Beam, Hinge, Model, RigidBody, VirtualBody, frozen_array
 
 INF = math.inf

@@ -4,6 +4,7 @@ former per-node loop, and det U_all unchanged by any choice of segments."""
 import numpy as np
 import pytest
 
+from ufmt.kinds import rigid
 from ufmt.model.load import load_model
 from ufmt.mstmm import elements, overall
 from ufmt.mstmm.overall import GROWTH_LIMIT, TransferSystem, segment_designs
@@ -58,7 +59,7 @@ def former_segments(system, fmax_hz):
         if body is not None:
             p_in = topo.first_input_point(name)
             args = (body.mass, body.inertia, body.center_of_mass, p_in, node.output_point)
-            stage = stage @ elements.rigid_body_first_input(w, *args)[0]
+            stage = stage @ rigid.first_input_transfer(w, *args)[0]
         stage = scale[:, None] * stage / scale[None, :]
         upstream = [
             path[topo.edges[i].input_node]

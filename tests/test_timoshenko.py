@@ -1,4 +1,4 @@
-"""The Timoshenko beam (shear deformation and rotary inertia) and the body kinds' formulations.
+"""The Timoshenko beam (shear deformation and rotary inertia): its formulations and its keys.
 
 Oracles: the closed-form frequencies of a simply supported Timoshenko beam (Timoshenko 1921:
 for k = nπ/L the lower root of ρIρA/(κGA) ω⁴ - (ρA + k²(ρI + EIρA/κGA)) ω² + EI k⁴ = 0);
@@ -6,9 +6,8 @@ the Euler-Bernoulli formulations (Krylov-Duncan closed forms) as κGA → ∞, �
 slender limit, whose gap closes as (D/L)²; a finite-element reference converged by
 Richardson extrapolation at the element's observed rate; the zeros of the clamped-clamped
 determinant (det of the transfer's displacement-from-force block) for the clamped count;
-Cowper's (1966) shear coefficient of a circle; and, for every body kind, the MSTMM's transfer
-matrices against the assembled model's finite elements and the Wittrick-Williams count on the
-exact dynamic stiffness.
+and Cowper's (1966) shear coefficient of a circle (every kind's and theory's three
+formulations against each other: tests/test_kind_formulations.py).
 """
 
 from __future__ import annotations
@@ -22,7 +21,6 @@ import pytest
 from ufmt.assembled import assembled_modes
 from ufmt.cli import main
 from ufmt.errors import ModelError
-from ufmt.kinds import KINDS
 from ufmt.kinds.timoshenko import Plane, cowper_circle, expm_batched
 from ufmt.model.load import load_model, load_model_text
 from ufmt.model.schema import Beam
@@ -32,7 +30,6 @@ from ufmt.mstmm.members import member_stiffness
 from ufmt.mstmm.modes import beam_shape, kinetic_terms
 from ufmt.mstmm.overall import TransferSystem
 from ufmt.mstmm.solve import solve_modes
-from ufmt.mstmm.wittrick import RootCounter
 
 E, G, RHO = 2.1e11, 8.1e10, 7850.0  # steel [Pa, Pa, kg/m^3]
 CANTILEVER = "examples/timoshenko-cantilever.toml"
@@ -235,79 +232,6 @@ def test_bad_theory_keys_are_one_line_naming_the_field(theory, extra, field):
         load_model_text(beam_text(0.3, 0.15, (CLAMPED, None), theory, extra), "bad.toml")
     message = str(error.value)
     assert "\n" not in message and "bad.toml" in message and f"'{field}'" in message
-
-
-# -- every body kind: transfer matrices (MSTMM) against finite elements and the count ---------
-
-KIND_MODELS = {
-    "rigid": """name = "rigid on springs"
-[[body]]
-name = "b"
-kind = "rigid"
-mass = 40.0
-center_of_mass = [0.1, 0.2, 0.3]
-inertia = [[2.0, 0.1, 0.0], [0.1, 3.0, 0.2], [0.0, 0.2, 2.5]]
-[[hinge]]
-name = "h"
-between = ["ground", "b"]
-at = [0.0, 0.0, 0.0]
-stiffness = [1e7, 2e7, 3e7]
-rotational_stiffness = [1e6, 2e6, 1.5e6]
-""",
-    "virtual": """name = "virtual joint"
-[[body]]
-name = "b"
-kind = "rigid"
-mass = 40.0
-center_of_mass = [0.1, 0.2, 0.3]
-inertia = [[2.0, 0.1, 0.0], [0.1, 3.0, 0.2], [0.0, 0.2, 2.5]]
-[[body]]
-name = "v"
-kind = "virtual"
-[[hinge]]
-name = "h1"
-between = ["ground", "v"]
-at = [0.0, 0.0, 0.0]
-stiffness = [1e7, 2e7, 3e7]
-rotational_stiffness = [1e6, 2e6, 1.5e6]
-[[hinge]]
-name = "h2"
-between = ["v", "b"]
-at = [0.0, 0.0, 0.0]
-stiffness = [3e7, 2e7, 1e7]
-rotational_stiffness = [2e6, 1e6, 3e6]
-""",
-}
-
-
-@pytest.mark.parametrize("case", [*KINDS, "beam-timoshenko"])
-def test_each_kind_transfer_matrix_against_finite_elements_and_the_exact_count(case):
-    """The MSTMM (transfer matrices) against the assembled model (finite elements: exact for
-    masses, within the Richardson bound for beams), and the Wittrick-Williams count on the exact
-    dynamic stiffness, which must step by one at each root (J between roots = index)."""
-    if case in KIND_MODELS:
-        text = KIND_MODELS[case]
-    else:
-        theory = "timoshenko" if case.endswith("timoshenko") else "euler-bernoulli"
-        text = beam_text(0.5, 0.1, ("[1e9, 1e9, 1e9]", "[2e8, 2e8, 2e8]"), theory)
-        text = text.replace("stiffness = [inf, inf, inf]", "stiffness = [3e9, 3e9, 3e9]")
-    model = load_model_text(text, f"{case}.toml")
-    assert {b.kind for b in model.bodies} >= {case.split("-")[0]}
-    exact = solve_modes(model, count=6).frequencies_hz
-    if case in KIND_MODELS:  # masses on springs: the finite-element model is exact
-        fe = assembled_modes(model, count=6).frequencies_hz
-        np.testing.assert_allclose(exact, fe, rtol=1e-9)
-    else:
-        coarse, fine = (
-            assembled_modes(model, count=6, elements_per_beam=n).frequencies_hz for n in (16, 32)
-        )
-        # upper bounds converging at a rate >= 2: the fine mesh errs by at most a third of
-        # the change from the coarse one (Richardson)
-        error, change = fine - exact, coarse - fine
-        assert np.all(error >= -1e-9 * exact) and np.all(error <= change / 3 + 1e-9 * exact)
-    gaps = np.flatnonzero(np.diff(exact) > 1e-9 * exact[1:])  # between distinct roots
-    below = np.r_[0.5 * exact[0], 0.5 * (exact[gaps] + exact[gaps + 1])]
-    np.testing.assert_array_equal(RootCounter(model).below(below), np.r_[0, gaps + 1])
 
 
 def test_timoshenko_modes_are_mass_orthogonal_with_the_rotary_inertia():

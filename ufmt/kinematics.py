@@ -1,6 +1,6 @@
 """Rigid-point kinematics shared by both solvers (the MSTMM and the assembled model): the
-cross-product matrix, the motion of a point carried by a rigid body, and the inertia tensor
-about another point.
+cross-product matrix, the motion of a point carried by a rigid body, the inertia tensor
+about another point, and the loads carried from one point to another.
 
 Small motions are ``[r; θ]`` (translation [m] of a reference point and rotation [rad]), all in
 the global frame; a point P of a rigid body with reference point C moves by ``r + θ × (P - C)``
@@ -51,3 +51,14 @@ def carried_motion(motion: np.ndarray, point, new_point) -> np.ndarray:
     [m, rad]."""
     r = motion[:, :3] + np.cross(motion[:, 3:6], np.asarray(new_point) - point)
     return np.concatenate([r, motion[:, 3:6]], axis=1)
+
+
+def load_transfer(p_in, p_out) -> np.ndarray:
+    """U_{i,Ik}, k ≥ 2, of a rigid body or a massless point (paper eqs. 2.9, 2.11): the
+    moment and force of input k carried to the output point, (12, 12) on the state
+    ``[r; θ; m; q]``, the same at every ω."""
+    u = np.zeros((12, 12))
+    u[6:9, 6:9] = I3
+    u[6:9, 9:12] = skew(np.asarray(p_out, dtype=float) - p_in)
+    u[9:12, 9:12] = I3
+    return u

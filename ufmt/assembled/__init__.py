@@ -1,19 +1,20 @@
 """Assembled mass-stiffness model: the "ordinary method" cross-check of the MSTMM.
 
-An independent finite-element model of the same :class:`~ufmt.model.schema.Model`; it shares
-no code with :mod:`ufmt.mstmm` but the rigid-point kinematics (:mod:`ufmt.kinematics`).
-Modules: :mod:`~ufmt.assembled.mesh` (beam frame elements, automatic mesh),
-:mod:`~ufmt.assembled.bodies` (how each body kind enters), :mod:`~ufmt.assembled.matrices`
-(dofs, K, M, hinge relative motion: :func:`assemble`), :mod:`~ufmt.assembled.constraints`
-(rigid directions, massless split, zero-mode count), :mod:`~ufmt.assembled.solve`
-(condensation and singular values: :func:`assembled_modes`).
+An independent finite-element model of the same :class:`~ufmt.model.schema.Model`; it imports
+nothing from :mod:`ufmt.mstmm`: both take the body kinds of :mod:`ufmt.kinds`, the MSTMM their
+exact formulations, this model their finite elements, and the rigid-point kinematics
+(:mod:`ufmt.kinematics`). Modules: :mod:`~ufmt.assembled.mesh` (frame elements from a member's
+parts, automatic mesh), :mod:`~ufmt.assembled.bodies` (how each body form enters),
+:mod:`~ufmt.assembled.matrices` (dofs, K, M, hinge relative motion: :func:`assemble`),
+:mod:`~ufmt.assembled.constraints` (rigid directions, massless split, zero-mode count),
+:mod:`~ufmt.assembled.solve` (condensation and singular values: :func:`assembled_modes`).
 
 * 6 dofs per rigid body (translation of its centre of mass and small rotation, global frame),
   6 per virtual body (at its point), 6 per node of each beam's mesh.
-* Beams: 3-D Euler-Bernoulli frame elements, 12x12 stiffness and consistent mass (axial and
-  torsion linear, bending cubic Hermite in the local x-y and x-z planes, torsional rotary
-  inertia rho*J_p, no shear deformation and no bending rotary inertia: the beam of paper
-  eq. 3.3).
+* Beams: 3-D frame elements, 12x12 stiffness and consistent mass (axial and torsion linear,
+  torsional rotary inertia rho*J_p; bending in the local x-y and x-z planes by the element of
+  the beam's theory: cubic Hermite for the beam of paper eq. 3.3, Przemieniecki's shear
+  element for a Timoshenko beam).
 * Hinges (paper eqs. 2.13, 2.14): springs on the relative motion ``d = u_A(P) - u_B(P)`` of the
   two bodies at the hinge point P, where ``u(P) = [r_C + theta x (P - C); theta]`` for a rigid
   body and a virtual body or beam end moves with its own 6 dofs; ground does not move.

@@ -1,9 +1,10 @@
 """How each body kind enters the assembled model: its mesh nodes (6 dofs each), its mass,
 stiffness and massless dofs, and the node a hinge on it acts on.
 
-:data:`BODY_KINDS` maps each body kind of :mod:`ufmt.kinds` to its :class:`BodyKind`:
-adding a body kind to the assembled model is one more entry (the MSTMM has its own table,
-:mod:`ufmt.mstmm.bodies`).
+:data:`BODY_KINDS` maps each body form of :mod:`ufmt.kinds` (``FORM`` of a kind's module:
+"mass", "point", "member") to its :class:`BodyKind`: a new body kind of an existing form needs
+nothing here; its node points, node mass and its members' parts' finite elements come from its
+kind's module (the MSTMM has its own table, :mod:`ufmt.mstmm.bodies`).
 """
 
 from __future__ import annotations
@@ -15,13 +16,14 @@ import numpy as np
 
 from ufmt.assembled.mesh import DEFAULT_ELEMENTS_PER_BEAM, beam_frame, elements_for, frame_element
 from ufmt.errors import ModelError
+from ufmt.kinds import kind_of
 from ufmt.kinematics import point_motion
-from ufmt.model.schema import Beam, Body, Model, RigidBody, VirtualBody
+from ufmt.model.schema import Beam, Body, Model
 
 
 @dataclass(frozen=True)
 class BodyKind:
-    """The assembled model's handlers for one body type.
+    """The assembled model's handlers for one body form.
 
     nodes(model, body, mesh) -> (positions (n_nodes, 3) [m], elements): its mesh nodes and,
         for a meshed body, its number of elements (6 deformation rows each; None otherwise);
@@ -41,24 +43,16 @@ class BodyKind:
 
 
 def body_kind(body: Body) -> BodyKind:
-    """The handlers of ``body``'s kind."""
-    return BODY_KINDS[body.kind]
+    """The handlers of ``body``'s form (its kind's ``FORM``)."""
+    return BODY_KINDS[kind_of(body).FORM]
 
 
-def _rigid_nodes(model: Model, body: RigidBody, mesh) -> tuple[np.ndarray, None]:
-    """One node at the centre of mass."""
-    return np.asarray(body.center_of_mass, dtype=float)[None, :], None
+def _node(model: Model, body: Body, mesh) -> tuple[np.ndarray, None]:
+    """Its kind's one node (1, 3) [m] (a rigid body's centre of mass, a point's hinge point)."""
+    return kind_of(body).node_points(model, body), None
 
 
-def _virtual_nodes(model: Model, body: VirtualBody, mesh) -> tuple[np.ndarray, None]:
-    """One node at the point of the first hinge that names the body."""
-    for hinge in model.hinges:
-        if body.name in hinge.between:
-            return np.asarray(hinge.at, dtype=float)[None, :], None
-    raise ModelError(f"{model.source}: body {body.name!r}: no hinge names it")
-
-
-def _beam_nodes(model: Model, body: Beam, mesh) -> tuple[np.ndarray, int]:
+def _member_nodes(model: Model, body: Beam, mesh) -> tuple[np.ndarray, int]:
     """Equally spaced nodes from start to end: the given number of elements, or
     :func:`elements_for` at the mesh frequency (capped), or DEFAULT_ELEMENTS_PER_BEAM."""
     elements_per_beam, fmax_hz, rtol, max_elements = mesh
@@ -72,19 +66,16 @@ def _beam_nodes(model: Model, body: Beam, mesh) -> tuple[np.ndarray, int]:
     return body.start + s * (body.end - body.start), n
 
 
-def _add_rigid(body: RigidBody, dofs, nodes, K, M, massless, rows) -> None:
-    """Mass and inertia tensor at the centre-of-mass dofs."""
-    r, t = dofs[0, :3], dofs[0, 3:]  # consecutive: translations, then rotations
-    M[r, r] = body.mass
-    M[t[0] : t[-1] + 1, t[0] : t[-1] + 1] = body.inertia
+def _add_node(body: Body, dofs, nodes, K, M, massless, rows) -> None:
+    """Its kind's node mass block (6x6) at its node's dofs, or its six dofs massless."""
+    block = kind_of(body).node_mass(body)
+    if block is None:
+        massless[dofs[0]] = True
+    else:
+        M[np.ix_(dofs[0], dofs[0])] = block
 
 
-def _add_virtual(body: VirtualBody, dofs, nodes, K, M, massless, rows) -> None:
-    """No mass: its six dofs are massless."""
-    massless[dofs[0]] = True
-
-
-def _add_beam(beam: Beam, dofs, nodes, K, M, massless, F) -> None:
+def _add_member(beam: Beam, dofs, nodes, K, M, massless, F) -> None:
     """Add a meshed beam's elements to K and M and write its deformation rows into F (zeros,
     6 per element), in place.
 
@@ -123,7 +114,7 @@ def _first_node(model: Model, hinge, body: Body, nodes: np.ndarray) -> int:
     return 0
 
 
-def _beam_end(model: Model, hinge, beam: Beam, nodes: np.ndarray) -> int:
+def _member_end(model: Model, hinge, beam: Beam, nodes: np.ndarray) -> int:
     """Index of the mesh node of ``beam`` at the hinge point (ModelError unless an end)."""
     node = int(np.argmin(np.linalg.norm(nodes - hinge.at, axis=1)))
     if node not in (0, len(nodes) - 1):
@@ -134,9 +125,9 @@ def _beam_end(model: Model, hinge, beam: Beam, nodes: np.ndarray) -> int:
     return node
 
 
-#: body kind -> how the assembled model treats it
+#: body form (:data:`ufmt.kinds.FORMS`) -> how the assembled model treats it
 BODY_KINDS: dict[str, BodyKind] = {
-    "rigid": BodyKind(_rigid_nodes, _add_rigid, _first_node, meshed=False),
-    "virtual": BodyKind(_virtual_nodes, _add_virtual, _first_node, meshed=False),
-    "beam": BodyKind(_beam_nodes, _add_beam, _beam_end, meshed=True),
+    "mass": BodyKind(_node, _add_node, _first_node, meshed=False),
+    "point": BodyKind(_node, _add_node, _first_node, meshed=False),
+    "member": BodyKind(_member_nodes, _add_member, _member_end, meshed=True),
 }

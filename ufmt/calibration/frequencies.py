@@ -42,6 +42,7 @@ import pandas as pd
 from ufmt.assembled import AssembledModel, assembled_modes
 from ufmt.defaults import PAPER_MODES
 from ufmt.errors import StudyError
+from ufmt.kinds import kind_of
 from ufmt.machining.cutting import tool_tip
 from ufmt.model.machine import machine_of
 from ufmt.model.schema import Model
@@ -58,10 +59,6 @@ STATUSES = ("ok", "phase", "bodies", "class")
 PRESENCE = 0.1  # a named body moves if its amplitude is >= this share of the largest body's
 PHASE_SIGNIFICANT = 0.3  # a tagged component decides the phase if >= this share of the body's
 TIP_ANGLE = 0.0  # spindle angle of the tool tip [rad]: pointing along +y, mid-cut
-#: body kind -> whether a mode moves the body as one frame, a motion [r_C; theta] (6,) about
-#: its centre of mass that the phase checks and the tool tip read; other kinds enter through
-#: their energy shares only. The one entry to add for a new body kind.
-MOVES_AS_ONE_FRAME = {"rigid": True, "beam": False, "virtual": False}
 
 
 # ---------------------------------------------------------------------------------------------
@@ -215,7 +212,7 @@ def _tool_tip_z(model: Model, motion: np.ndarray) -> np.ndarray:
     in the file's frame."""
     machine = machine_of(model)
     body = model.body(machine.tool_body)
-    if not MOVES_AS_ONE_FRAME[body.kind]:
+    if not kind_of(body).ONE_FRAME:
         return np.zeros(motion.shape[0])
     v = motion[:, [b.name for b in model.bodies].index(body.name)]
     frame = machine.frame
@@ -229,7 +226,7 @@ def modeset_from_mstmm(model: Model, shapes) -> ModeSet:
     n = shapes.frequencies_hz.size
     motion = np.zeros((n, len(model.bodies), 6))
     for i, body in enumerate(model.bodies):
-        if MOVES_AS_ONE_FRAME[body.kind]:
+        if kind_of(body).ONE_FRAME:
             motion[:, i] = shapes.rigid[body.name]
     return ModeSet(
         np.asarray(shapes.frequencies_hz, dtype=float),
@@ -256,7 +253,7 @@ def modeset_from_dofs(
     for i, body in enumerate(model.bodies):
         dofs = assembled.body_dofs[body.name]  # (nodes, 6)
         shares[:, i] = per_dof[:, dofs].sum(axis=1)
-        if MOVES_AS_ONE_FRAME[body.kind]:
+        if kind_of(body).ONE_FRAME:
             motion[:, i] = shapes[:, dofs[0]]
     shares = np.clip(shares, 0.0, None)
     shares /= shares.sum(axis=(1, 2), keepdims=True)

@@ -5,7 +5,9 @@ written back, its points (extent and hinge checks), its nodes and their point mo
 mass block or exact member, how it moves with the carriage, and which solver formulation it
 takes (transfer matrix, exact member stiffness with its clamped count, finite-element blocks).
 The solvers, the machining and the calibration ask a body's kind (:func:`kind_of`), never its
-type. Adding a kind is one module and one line in :data:`BODY_KINDS`.
+type; the solvers' and the mode plots' adapters are keyed by the kind's form (:data:`FORMS`).
+Adding a kind is one module and one line in :data:`BODY_KINDS`; adding a beam theory one
+module and one line in :data:`ufmt.kinds.beam.THEORIES`.
 """
 
 from __future__ import annotations
@@ -17,6 +19,13 @@ from ufmt.kinds import beam, rigid, virtual
 #: kind name (the model file's ``kind``) -> its module
 BODY_KINDS: dict[str, ModuleType] = {"rigid": rigid, "virtual": virtual, "beam": beam}
 KINDS = tuple(BODY_KINDS)
+#: how the solvers and the mode plots take a body (its module's ``FORM``): "mass", one node
+#: carrying a mass block (fields ``mass``, ``center_of_mass``, ``inertia``; module functions
+#: ``first_input_transfer``, ``mass_products``); "point", one massless node at its hinges'
+#: point; "member", two end nodes (fields ``start``, ``end``, ``length``) and its ``parts``
+#: between them (``local_frame``, ``mass_products``). A new kind of an existing form needs
+#: no change in the solvers.
+FORMS = ("mass", "point", "member")
 
 
 def kind_of(body) -> ModuleType:

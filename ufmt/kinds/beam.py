@@ -2,21 +2,24 @@
 in two planes between two end points.
 
 Two nodes (its ends), six small motions each; no mass block of its own: its inertia is in its
-formulations, the exact transfer matrix (:func:`ufmt.mstmm.elements.beam`), the exact member
-stiffness with its clamped-clamped count (:mod:`ufmt.mstmm.members`) and the frame
-elements of the assembled model (:func:`ufmt.assembled.mesh.frame_element`). Hinges act on
-its ends only.
+four deformations (:func:`parts`), each a formulation with one interface (transfer matrix,
+exact dynamic stiffness and clamped-clamped count, finite element, the mesh's element length
+rule): the axial and torsion rods of :mod:`ufmt.kinds.rod` and the two bending planes of its
+``theory``, a module of :data:`THEORIES`. The MSTMM's transfer matrix and member stiffness and
+the assembled model's frame element put the parts in place. Hinges act on its ends only.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from ufmt.errors import ModelError
+from ufmt.kinds import euler_bernoulli, timoshenko
+from ufmt.kinds.rod import Rod
 from ufmt.kinds.timoshenko import cowper_circle
 from ufmt.kinematics import point_motion
 from ufmt.model.rules import (
@@ -33,13 +36,16 @@ from ufmt.tables import Where, short_number, short_vector
 NAME = "beam"
 CLASS = Beam
 CIRCLE_FIELDS = ("diameter", "inner_diameter")
-THEORIES = ("euler-bernoulli", "timoshenko")
+#: bending theory (the model file's ``theory``) -> its module: ``planes(beam)``, the x1-y and
+#: x1-z planes, each with the interface of :class:`ufmt.kinds.euler_bernoulli.Plane`
+THEORIES = {"euler-bernoulli": euler_bernoulli, "timoshenko": timoshenko}
 REQUIRED = ("start", "end", "density", "youngs_modulus", "shear_modulus")
 OPTIONAL = ("torsion_constant", "orientation", "theory", "shear_coefficient")
 FIELDS = REQUIRED + CIRCLE_FIELDS + SECTION_FIELDS + OPTIONAL
 WRITTEN = REQUIRED + SECTION_FIELDS + OPTIONAL  # theory and κ: only when Timoshenko
 #: shear coefficient κ allowed in a model file (Cowper 1966: 0.5 to 0.9 for usual sections)
 SHEAR_COEFFICIENT_BAND = (0.05, 1.0)
+FORM = "member"  # two end nodes and its parts between them (start, end, parts)
 ONE_FRAME = False  # its motion is a field along it
 MASSLESS = False
 MEMBER = True  # an exact member stiffness with a clamped-clamped count
@@ -73,7 +79,7 @@ def parse(where: Where, name: str, table: Mapping, number: int | None) -> Beam:
                 "(allowed: any vector not parallel to the axis; it fixes local y)",
             )
     theory = table.get("theory", "euler-bernoulli")
-    where.choice("theory", where.string("theory", theory), THEORIES, "theory", "theories")
+    where.choice("theory", where.string("theory", theory), tuple(THEORIES), "theory", "theories")
     kappa = _shear_coefficient(where, table, theory, youngs / (2.0 * shear) - 1.0)
     return Beam(
         name=name,
@@ -284,8 +290,8 @@ VERTICAL_SINE = 1e-9  # an axis this close to global z counts as vertical (schem
 
 def section_axis(body: Beam) -> np.ndarray:
     """The section's local y axis in global coordinates: ``orientation`` (default global z, or
-    global x for a vertical beam) made orthogonal to the axis; the MSTMM's beam frame
-    (:func:`ufmt.mstmm.elements.beam_frame`) and the machine frame's rotation both take it."""
+    global x for a vertical beam) made orthogonal to the axis; the beam's local frame
+    (:func:`local_frame`, both solvers') and the machine frame's rotation take it."""
     e1 = (body.end - body.start) / np.linalg.norm(body.end - body.start)
     ref = body.orientation
     if ref is None:
@@ -318,3 +324,75 @@ def sensor_motion(body: Beam, shapes, point, field_point) -> np.ndarray:
     """Motion (n, 6) of ``point`` [m] carried by the section nearest it
     (``field_point(point)``: the field's motion there)."""
     return field_point(point)
+
+
+# -- formulations -------------------------------------------------------------------------------
+
+ONES = np.ones(4)
+#: the x1-z plane's transfer state [w, θy, my, qz] is the x1-y plane's with θ and m negated
+PLANE_SIGNS = np.array([1.0, -1.0, -1.0, 1.0])
+XZ_END_SIGNS = np.array([1.0, -1.0, 1.0, -1.0])  # end motions: θy = -dw/dx
+
+
+@dataclass(frozen=True)
+class Part:
+    """One deformation of a beam and where it sits, in the beam's local axes.
+
+    formulation: a :class:`~ufmt.kinds.rod.Rod` or a theory's ``Plane``; state: its entries of
+    the MSTMM's 12-state ``[x y z θx θy θz mx my mz qx qy qz]`` (the formulation's state order)
+    with ``state_signs``; ends: its entries of the end motions ``[u v w θx θy θz]`` of the
+    start then the end (member and element) with ``end_signs``.
+    """
+
+    formulation: object
+    state: tuple[int, ...]
+    state_signs: np.ndarray
+    ends: tuple[int, ...]
+    end_signs: np.ndarray
+
+
+def parts(body: Beam) -> tuple[Part, ...]:
+    """Its axial and torsion rods (``q = -N``, ``m = +GJθ'``) and its x1-y (I_z) and x1-z
+    (I_y) bending planes of its theory."""
+    rho, a = body.density, body.area
+    axial = Rod(body.youngs_modulus * a, rho * a, -1.0)
+    torsion = Rod(body.shear_modulus * body.torsion_constant, rho * body.polar_moment, 1.0)
+    xy, xz = THEORIES[body.theory].planes(body)
+    return (
+        Part(axial, (0, 9), ONES[:2], (0, 6), ONES[:2]),
+        Part(torsion, (3, 6), ONES[:2], (3, 9), ONES[:2]),
+        Part(xy, (1, 5, 8, 10), ONES, (1, 5, 7, 11), ONES),
+        Part(xz, (2, 4, 7, 11), PLANE_SIGNS, (2, 4, 8, 10), XZ_END_SIGNS),
+    )
+
+
+def local_frame(body: Beam, p_in, p_out) -> np.ndarray:
+    """Columns e1, e2, e3 of the beam's local frame for a transfer from end ``p_in`` to end
+    ``p_out``: e1 along it, e2 :func:`section_axis`, e3 = e1 x e2 (flipping e1 flips e3 only,
+    which leaves the second moments about e2 and e3 unchanged)."""
+    e1 = np.asarray(p_out, dtype=float) - p_in
+    e1 /= np.linalg.norm(e1)
+    e2 = section_axis(body)
+    return np.column_stack([e1, e2, np.cross(e1, e2)])
+
+
+def mass_products(body: Beam, field_a, field_b) -> np.ndarray:
+    """⟨V_a, M V_b⟩ (n, 6) [kg] per global direction of two motion fields ``(positions,
+    weights, motion (n, g, 6))`` at the same quadrature points: ∫ρA u_a·u_b ds per axis and
+    ∫ρJp τ_a τ_b ds (τ the twist about the axis), and the sections' rotary inertia ∫ρI θ_a θ_b
+    ds of planes that have it, split over the global axes by the squared axis components."""
+    _, wts, ma = field_a
+    mb = field_b[2]
+    rho = body.density
+    out = np.empty((ma.shape[0], 6))
+    out[:, :3] = rho * body.area * np.einsum("ngi,ngi,g->ni", ma[..., :3], mb[..., :3], wts)
+    axis = (body.end - body.start) / body.length
+    twist = (ma[..., 3:] @ axis) * (mb[..., 3:] @ axis) @ wts
+    out[:, 3:] = rho * body.polar_moment * twist[:, None] * axis[None, :] ** 2
+    frame = local_frame(body, body.start, body.end)
+    xy, xz = (part.formulation for part in parts(body)[2:])
+    for e, plane in ((frame[:, 1], xz), (frame[:, 2], xy)):  # θy about e2, θz about e3
+        if plane.rho_i:
+            turn = (ma[..., 3:] @ e) * (mb[..., 3:] @ e) @ wts
+            out[:, 3:] += plane.rho_i * turn[:, None] * e[None, :] ** 2
+    return out

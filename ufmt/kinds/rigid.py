@@ -2,7 +2,8 @@
 
 One node at the centre of mass carrying six small motions ``[r_C; θ]``; a point P of the
 body moves by ``r_C + θ × (P - C)`` (eq. 2.5). It has no member stiffness (no clamped
-count) and no mesh: both solvers take its 6x6 mass block.
+count) and no mesh: both solvers take its 6x6 mass block, the MSTMM through its transfer
+matrix (:func:`first_input_transfer`).
 """
 
 from __future__ import annotations
@@ -12,7 +13,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from ufmt.kinematics import carried_motion, point_motion
+from ufmt.kinematics import I3, carried_motion, inertia_about, point_motion, skew
 from ufmt.model.rules import (
     DEFINITE_RTOL,
     LIMITS,
@@ -30,6 +31,7 @@ CLASS = RigidBody
 FIELDS = ("mass", "center_of_mass", "inertia")
 REQUIRED = FIELDS
 WRITTEN = FIELDS  # the fields written back after name, kind and number
+FORM = "mass"  # one node that carries its mass block (mass, center_of_mass, inertia)
 ONE_FRAME = True  # its motion is one 6-vector about its centre of mass
 MASSLESS = False  # its node carries mass
 MEMBER = False  # no exact member stiffness: no clamped-clamped count applies
@@ -186,3 +188,35 @@ def hinge_motion(body: RigidBody, shapes, ends, point) -> np.ndarray:
 def sensor_motion(body: RigidBody, shapes, point, field_point) -> np.ndarray:
     """Motion ``[r; θ]`` (n, 6) at a sensor's ``point`` [m] (``field_point``: unused)."""
     return carried_motion(shapes.rigid[body.name], body.center_of_mass, point)
+
+
+def first_input_transfer(omega: np.ndarray, mass: float, inertia_c, com, p_in, p_out) -> np.ndarray:
+    """U_{i,I1} (n, 12, 12) of a rigid body (paper eq. 2.8) [SI] at ω (n,) [rad/s].
+
+    mass [kg], inertia_c [kg m^2] about the centre of mass ``com`` [m], first input point
+    ``p_in`` and output point ``p_out`` [m]. Affine in ω²: the constant part is the kinematic
+    transfer, the ω² part the inertia forces.
+    """
+    l_io = skew(np.asarray(p_out) - p_in)
+    l_ic = skew(np.asarray(com) - p_in)
+    l_co = skew(np.asarray(p_out) - com)
+    j_i = inertia_about(np.asarray(inertia_c), mass, np.asarray(com) - p_in)
+    base = np.eye(12)
+    base[0:3, 3:6] = -l_io
+    base[6:9, 9:12] = l_io
+    inertial = np.zeros((12, 12))
+    inertial[6:9, 0:3] = mass * l_co
+    inertial[6:9, 3:6] = -(mass * l_io @ l_ic + j_i)
+    inertial[9:12, 0:3] = mass * I3
+    inertial[9:12, 3:6] = -mass * l_ic
+    w2 = np.asarray(omega, dtype=float)[:, None, None] ** 2
+    return base[None] + w2 * inertial[None]
+
+
+def mass_products(body: RigidBody, va: np.ndarray, vb: np.ndarray) -> np.ndarray:
+    """⟨V_a, M V_b⟩ (n, 6) [kg] per direction of two motions ``[r_C; θ]`` (n, 6): m r_a·r_b per
+    axis and θ_a,i (J θ_b)_i per axis (eq. 3.1)."""
+    out = np.empty((va.shape[0], 6))
+    out[:, :3] = body.mass * va[:, :3] * vb[:, :3]
+    out[:, 3:] = va[:, 3:] * (vb[:, 3:] @ body.inertia)
+    return out

@@ -1,8 +1,9 @@
 """Bending of a Timoshenko beam (shear deformation and rotary inertia) in one plane: its exact
-transfer matrix, exact dynamic stiffness and clamped-clamped count, and its finite element.
+transfer matrix, exact dynamic stiffness and clamped-clamped count, and its finite element with
+the mesh's element length rule (the interface of :class:`ufmt.kinds.euler_bernoulli.Plane`).
 
 One bending plane in the beam's local axes, the state ``[v, θ, m, q]`` of the Euler-Bernoulli
-plane of :func:`ufmt.mstmm.elements.beam_local` (x1-y plane: v, θz, mz, qy), θ now the
+plane of :mod:`ufmt.kinds.euler_bernoulli` (x1-y plane: v, θz, mz, qy), θ now the
 rotation of the section: ``v' = θ - q/(κGA)``, ``θ' = m/EI``, ``m' = q - ρIω²θ``,
 ``q' = ρAω² v`` (Timoshenko 1921; the x1-z plane is the same with the signs of θ and m
 flipped). κGA → ∞ and ρI → 0 give the Euler-Bernoulli plane. The transfer matrix is the
@@ -30,6 +31,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
+
+from ufmt.kinds.euler_bernoulli import ENTRIES, ERROR_DIVISOR, TERM_PLACES
 
 TAYLOR_TERMS = 14  # ‖Â/2ˢ‖ ≤ 1/2: the remainder (1/2)¹⁵/15! is below eps/10
 PIECE_MARGIN = 0.5  # pieces of the count: ω² below this fraction of the bound below
@@ -71,13 +74,15 @@ class Plane:
         s = _scale_length(np.atleast_1d(np.asarray(length, dtype=float)))
         return np.stack([s, np.ones_like(s), self.ei / s, self.ei / s**2], axis=-1)
 
-    def transfer(self, w2: np.ndarray, length) -> np.ndarray:
+    def transfer(self, w2: np.ndarray, length, motion_only: bool = False) -> np.ndarray:
         """Transfer matrix (n, 4, 4) of ``[v, θ, m, q]`` over ``length`` [m] (scalar or one per
-        ω, 0 allowed) at ω² ``w2`` [rad²/s²] (module docstring)."""
+        ω, 0 allowed) at ω² ``w2`` [rad²/s²] (module docstring); ``motion_only``: its rows of
+        v and θ, (n, 2, 4)."""
         w2 = np.atleast_1d(np.asarray(w2, dtype=float))
         length = np.broadcast_to(np.asarray(length, dtype=float), w2.shape)
         d = self.scales(length)
-        return d[:, :, None] * expm_batched(self.scaled_system(w2, length)) / d[:, None, :]
+        t = d[:, :, None] * expm_batched(self.scaled_system(w2, length)) / d[:, None, :]
+        return t[:, :2] if motion_only else t
 
     def stiffness(self, omega, length: float) -> np.ndarray:
         """Exact dynamic stiffness (n, 4, 4) on the end motions ``[v₁, θ₁, v₂, θ₂]`` of a member
@@ -171,6 +176,52 @@ class Plane:
         k2 = 0.5 * w2 * s + np.sqrt(0.25 * w2 * w2 * dif * dif + self.rho_a * w2 / self.ei)
         return np.sqrt(k2)
 
+    def mesh_error(self, omega: float, h: float) -> float:
+        """Estimated relative frequency error of a mode at ω [rad/s] on elements of ``h`` [m]:
+        (kh)⁴ / ERROR_DIVISOR with k :meth:`wavenumber` (the cubic element's rule)."""
+        return (self.wavenumber(omega) * h) ** 4 / ERROR_DIVISOR
+
+    def element_length(self, omega: float, rtol: float) -> float:
+        """The longest element [m] with :meth:`mesh_error` <= ``rtol`` at ω [rad/s]."""
+        k = self.wavenumber(omega)
+        return (ERROR_DIVISOR * rtol) ** 0.25 / k if k > 0 else math.inf
+
+
+class Planes:
+    """Many Timoshenko bending members (``(Plane, length)`` pairs): the terms
+    (k11, k12, k13, k14, k22, k24) of their exact dynamic stiffness (:data:`ENTRIES`) and their
+    clamped-clamped count, each by subdivision; equal members (a circle's two planes) once."""
+
+    ENTRIES = ENTRIES
+
+    def __init__(self, members):
+        self.members = list(members)
+
+    def terms(self, omega) -> np.ndarray:
+        """Terms (len(ω), 6 per member) at ω [rad/s]."""
+        omega = np.atleast_1d(np.asarray(omega, dtype=float))
+        out, done = [], {}
+        for plane, length in self.members:
+            key = (plane.key, length)
+            if key not in done:
+                done[key] = plane.stiffness(omega, length)[:, TERM_PLACES[0], TERM_PLACES[1]]
+            out.append(done[key])
+        return np.concatenate(out, axis=1) if out else np.zeros((omega.size, 0))
+
+    def clamped(self, omega) -> np.ndarray:
+        """J₀ (len(ω),): the members' clamped-clamped frequencies below ω [rad/s], summed."""
+        omega = np.atleast_1d(np.asarray(omega, dtype=float))
+        count, done = np.zeros(omega.size, dtype=int), {}
+        for plane, length in self.members:
+            key = (plane.key, length)
+            if key not in done:
+                done[key] = plane.clamped(omega, length)
+            count += done[key]
+        return count
+
+
+Plane.STACK = Planes
+
 
 def _scale_length(length: np.ndarray) -> np.ndarray:
     """The scaling length [m] of a transfer over ``length``: itself, 1 m where it is 0."""
@@ -210,10 +261,6 @@ def expm_batched(a: np.ndarray) -> np.ndarray:
     return out
 
 
-#: the x1-z plane's state is the x1-y plane's with θ and m negated
-PLANE_SIGNS = (np.ones(4), np.array([1.0, -1.0, -1.0, 1.0]))
-
-
 def planes(beam) -> tuple[Plane, Plane]:
     """The x1-y (I_z) and x1-z (I_y) bending planes of a Timoshenko ``beam``."""
     rho, a = beam.density, beam.area
@@ -222,13 +269,3 @@ def planes(beam) -> tuple[Plane, Plane]:
         Plane(beam.youngs_modulus * i, rho * a, rho * i, kga)
         for i in (beam.second_moment_z, beam.second_moment_y)
     )
-
-
-def bending_transfer(w2: np.ndarray, beam, length, rows: int) -> np.ndarray:
-    """The two planes' transfer entries (2, 4 rows, n), first ``rows`` rows of each 4x4
-    (row-major), in the order of :func:`ufmt.mstmm.elements.beam_local`'s bending block."""
-    out = []
-    for plane, sign in zip(planes(beam), PLANE_SIGNS, strict=True):
-        t = plane.transfer(w2, length) * sign[:, None] * sign[None, :]
-        out.append(t[:, :rows, :].reshape(w2.size, 4 * rows).T)
-    return np.stack(out)

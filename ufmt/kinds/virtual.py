@@ -19,6 +19,7 @@ CLASS = VirtualBody
 FIELDS: tuple[str, ...] = ()
 REQUIRED: tuple[str, ...] = ()
 WRITTEN: tuple[str, ...] = ()
+FORM = "point"  # one massless node at its hinges' point
 ONE_FRAME = False  # a point: its motion is kept apart from the rigid bodies'
 MASSLESS = True  # every hinge on it must be at one point; its dofs carry no mass
 MEMBER = False

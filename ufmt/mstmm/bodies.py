@@ -2,11 +2,12 @@
 hinge on it meets, the state its motion is read from, its motion in a mode and its mass
 products.
 
-:data:`BODY_RULES` maps each body kind of :mod:`ufmt.kinds` to its :class:`BodyRules`:
-adding a body kind to the MSTMM is one more entry (the assembled model has its own table,
-:mod:`ufmt.assembled.bodies`). Every node of the transfer graph carries one of two transfer
-rules: a rigid body's (:data:`RIGID_NODE`, eqs. 2.8, 2.9, 2.5) or a massless point's
-(:data:`POINT_NODE`: a virtual body or a beam end, eq. 2.11).
+:data:`BODY_RULES` maps each body form of :mod:`ufmt.kinds` (``FORM`` of a kind's module:
+"mass", "point", "member") to its :class:`BodyRules`: a new body kind of an existing form
+needs nothing here; its own formulations (a mass node's U_{i,I1}, a member's parts, their
+mass products) come from its kind's module. Every node of the transfer graph carries one of
+two transfer rules: a mass node's (:data:`RIGID_NODE`, eqs. 2.8, 2.9, 2.5) or a massless
+point's (:data:`POINT_NODE`: a virtual body or a beam end, eq. 2.11).
 """
 
 from __future__ import annotations
@@ -18,8 +19,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.special import gammaln
 
-from ufmt.errors import ModelError
-from ufmt.kinds.timoshenko import planes
+from ufmt.kinds import BODY_KINDS, kind_of
 from ufmt.kinematics import skew
 from ufmt.model.schema import Beam, Body, Model, RigidBody, VirtualBody
 from ufmt.mstmm import elements
@@ -30,10 +30,11 @@ from ufmt.mstmm.graph import Edge, Node, NodeTransfer, Topology
 
 
 @functools.lru_cache(maxsize=4096)
-def _rigid_body_parts(mass, inertia: tuple, com: tuple, p_in: tuple, p_out: tuple):
-    """Constant and ω² parts (12, 12) of a rigid body's U_{i,I1} (eq. 2.8), shared by every
-    design with the same body (a stiffness sweep builds them once)."""
-    both = elements.rigid_body_first_input(
+def _mass_parts(kind: str, mass, inertia: tuple, com: tuple, p_in: tuple, p_out: tuple):
+    """Constant and ω² parts (12, 12) of a rigid body's U_{i,I1} (eq. 2.8, its kind's
+    ``first_input_transfer``), shared by every design with the same body (a stiffness sweep
+    builds them once)."""
+    both = BODY_KINDS[kind].first_input_transfer(
         np.array([0.0, 1.0]), mass, np.reshape(inertia, (3, 3)), com, np.array(p_in), p_out
     )
     parts = both[0], both[1] - both[0]
@@ -42,11 +43,12 @@ def _rigid_body_parts(mass, inertia: tuple, com: tuple, p_in: tuple, p_out: tupl
     return parts
 
 
-def _rigid_first_input(node: Node, first_point) -> tuple[np.ndarray, np.ndarray]:
-    """U_{i,I1} of the node's rigid body (eq. 2.8): constant and ω² parts."""
+def _mass_first_input(node: Node, first_point) -> tuple[np.ndarray, np.ndarray]:
+    """U_{i,I1} of the node's body (eq. 2.8, a mass node's): constant and ω² parts."""
     b = node.body
     points = (b.center_of_mass, first_point, node.output_point)
-    return _rigid_body_parts(b.mass, tuple(np.ravel(b.inertia)), *(tuple(p) for p in points))
+    inertia = tuple(np.ravel(b.inertia))
+    return _mass_parts(b.kind, b.mass, inertia, *(tuple(p) for p in points))
 
 
 @functools.lru_cache(maxsize=4096)
@@ -74,7 +76,7 @@ _POINT_GEOMETRIC_MAP = _point_geometric_map()
 
 #: a rigid body's node: mass in U_{i,I1}, levers across the body
 RIGID_NODE = NodeTransfer(
-    first_input=_rigid_first_input,
+    first_input=_mass_first_input,
     other_lever=lambda p_k, p_out: p_k,
     geometric_map=lambda p_1, p_k: _rigid_geometric_map(tuple(np.subtract(p_k, p_1))),
 )
@@ -104,7 +106,7 @@ class ShapeParts:
 
 @dataclass(frozen=True)
 class BodyRules:
-    """The MSTMM's handlers for one body type.
+    """The MSTMM's handlers for one body form.
 
     graph(model, body) -> (nodes, edges) it adds to the transfer graph;
     hinge_end(body, point) -> the name of its node at a hinge point;
@@ -130,8 +132,8 @@ class BodyRules:
 
 
 def rules_of(body: Body) -> BodyRules:
-    """The handlers of ``body``'s kind."""
-    return BODY_RULES[body.kind]
+    """The handlers of ``body``'s form (its kind's ``FORM``)."""
+    return BODY_RULES[kind_of(body).FORM]
 
 
 def apply_state(state, z: np.ndarray) -> np.ndarray:
@@ -153,23 +155,23 @@ def _no_mass(body, rigid_a, beams_a, rigid_b, beams_b, out) -> None:
     """A massless body adds nothing."""
 
 
-# -- rigid bodies -------------------------------------------------------------------------------
+# -- mass nodes (rigid bodies) ------------------------------------------------------------------
 
 
-def _rigid_graph(model: Model, body: RigidBody) -> tuple[list[Node], list[Edge]]:
+def _mass_graph(model: Model, body: RigidBody) -> tuple[list[Node], list[Edge]]:
     """One node that carries the body's mass and extent."""
     return [Node(body.name, RIGID_NODE, body=body)], []
 
 
-def _rigid_state_key(topology: Topology, body: RigidBody) -> tuple:
+def _mass_state_key(topology: Topology, body: RigidBody) -> tuple:
     """A rigid body's motion is read from its first input."""
     return ("node_in", body.name, 0)
 
 
-def _rigid_shape(system, body: RigidBody, states, z, omega, parts: ShapeParts) -> None:
+def _mass_shape(system, body: RigidBody, states, z, omega, parts: ShapeParts) -> None:
     """[r_C; θ] at the centre of mass from the state at the first input end."""
     point = system.topology.first_input_point(body.name)
-    state = states[_rigid_state_key(system.topology, body)]
+    state = states[_mass_state_key(system.topology, body)]
     s = np.einsum("nik,nk->ni", state.arr[:, :6], z[:, state.cols])  # [r_P; θ] only
     # r_C = r_P + θ × (C - P) (eq. 2.5), as rows: θ @ skew(C - P)
     r = s[:, :3] + s[:, 3:] @ skew(body.center_of_mass - point)
@@ -177,39 +179,34 @@ def _rigid_shape(system, body: RigidBody, states, z, omega, parts: ShapeParts) -
     parts.centers[body.name] = body.center_of_mass
 
 
-def _rigid_kinetic(body: RigidBody, rigid_a, beams_a, rigid_b, beams_b, out) -> None:
-    """m r_a·r_b per axis and θ_a,i (J θ_b)_i per axis (eq. 3.1)."""
-    va, vb = rigid_a[body.name], rigid_b[body.name]
-    out[:, :3] = body.mass * va[:, :3] * vb[:, :3]
-    out[:, 3:] = va[:, 3:] * (vb[:, 3:] @ body.inertia)
+def _mass_kinetic(body: RigidBody, rigid_a, beams_a, rigid_b, beams_b, out) -> None:
+    """Its kind's mass products of the two motions at the centre of mass (eq. 3.1)."""
+    out[:] = kind_of(body).mass_products(body, rigid_a[body.name], rigid_b[body.name])
 
 
-# -- virtual bodies -----------------------------------------------------------------------------
+# -- massless points (virtual bodies) -----------------------------------------------------------
 
 
-def _virtual_graph(model: Model, body: VirtualBody) -> tuple[list[Node], list[Edge]]:
-    """One massless node at the point of the first hinge that names it."""
-    for h in model.hinges:
-        if body.name in h.between:
-            return [Node(body.name, POINT_NODE, point=h.at)], []
-    raise ModelError(f"{model.source}: body {body.name!r}: no hinge attaches to it")
+def _point_graph(model: Model, body: VirtualBody) -> tuple[list[Node], list[Edge]]:
+    """One massless node at its kind's node point (its hinges' point)."""
+    return [Node(body.name, POINT_NODE, point=kind_of(body).node_points(model, body)[0])], []
 
 
-def _virtual_state_key(topology: Topology, body: VirtualBody) -> tuple:
+def _point_state_key(topology: Topology, body: VirtualBody) -> tuple:
     """A virtual body's motion is read from its output."""
     return ("node_out", body.name)
 
 
-def _virtual_shape(system, body: VirtualBody, states, z, omega, parts: ShapeParts) -> None:
+def _point_shape(system, body: VirtualBody, states, z, omega, parts: ShapeParts) -> None:
     """[r; θ] at the body's point: the displacement half of its output state."""
-    state = states[_virtual_state_key(system.topology, body)]
+    state = states[_point_state_key(system.topology, body)]
     parts.virtual[body.name] = apply_state(state, z)[:, :6]
 
 
-# -- beams --------------------------------------------------------------------------------------
+# -- members (beams) ----------------------------------------------------------------------------
 
 
-def _beam_graph(model: Model, body: Beam) -> tuple[list[Node], list[Edge]]:
+def _member_graph(model: Model, body: Beam) -> tuple[list[Node], list[Edge]]:
     """Two massless end nodes ``<beam>@start``, ``<beam>@end`` and the beam edge between."""
     nodes = [
         Node(f"{body.name}@{end}", POINT_NODE, point=p)
@@ -228,32 +225,19 @@ def beam_end_node(beam: Beam, point) -> str:
     return f"{beam.name}@start" if d0 <= d1 else f"{beam.name}@end"
 
 
-def _beam_state_key(topology: Topology, body: Beam) -> tuple:
+def _member_state_key(topology: Topology, body: Beam) -> tuple:
     """A beam's motion is read from its input end."""
     return ("edge_in", topology.body_edge(body.name))
 
 
-def _beam_shape(system, body: Beam, states, z, omega, parts: ShapeParts) -> None:
+def _member_shape(system, body: Beam, states, z, omega, parts: ShapeParts) -> None:
     """The beam's displacement field at its Gauss points (:func:`beam_field`)."""
     parts.beams[body.name] = beam_field(system, body, states, z, omega)
 
 
-def _beam_kinetic(body: Beam, rigid_a, beams_a, rigid_b, beams_b, out) -> None:
-    """∫ρA u_a·u_b ds per axis and ∫ρJp τ_a τ_b ds (τ the twist about the beam axis) split
-    over the global axes by the squared axis components; a Timoshenko beam adds its sections'
-    rotary inertia likewise."""
-    _, wts, ma = beams_a[body.name]
-    mb = beams_b[body.name][2]
-    rho = body.density
-    out[:, :3] = rho * body.area * np.einsum("ngi,ngi,g->ni", ma[..., :3], mb[..., :3], wts)
-    axis = (body.end - body.start) / body.length
-    twist = (ma[..., 3:] @ axis) * (mb[..., 3:] @ axis) @ wts
-    out[:, 3:] = rho * body.polar_moment * twist[:, None] * axis[None, :] ** 2
-    if body.timoshenko:  # rotary inertia of the sections: ∫ρI θ_a θ_b about e2 (I_y), e3 (I_z)
-        frame = elements.beam_frame(body, body.start, body.end)
-        for e, second in ((frame[:, 1], body.second_moment_y), (frame[:, 2], body.second_moment_z)):
-            turn = (ma[..., 3:] @ e) * (mb[..., 3:] @ e) @ wts
-            out[:, 3:] += rho * second * turn[:, None] * e[None, :] ** 2
+def _member_kinetic(body: Beam, rigid_a, beams_a, rigid_b, beams_b, out) -> None:
+    """Its kind's mass products of the two fields at its Gauss points."""
+    out[:] = kind_of(body).mass_products(body, beams_a[body.name], beams_b[body.name])
 
 
 def beam_field(system, beam: Beam, states, z, omega, fractions=None):
@@ -266,7 +250,7 @@ def beam_field(system, beam: Beam, states, z, omega, fractions=None):
     index = topo.body_edge(beam.name)
     e = topo.edges[index]
     p_in, p_out = e.point_at(e.input_node), e.point_at(e.output_node)
-    z_in = apply_state(states[_beam_state_key(topo, beam)], z)
+    z_in = apply_state(states[_member_state_key(topo, beam)], z)
     length = beam.length
     if fractions is None:
         x, wts = _gauss_legendre(gauss_points(beam, omega.max(initial=0.0)))
@@ -302,23 +286,14 @@ def gauss_points(beam: Beam, omega_max: float) -> int:
     """Gauss-Legendre points for a beam's modal-mass integrals up to ω_max [rad/s].
 
     The integrands are products of two fields made of e^{±βs}, e^{±iβs} (β the largest
-    bending, axial or torsional wavenumber), so the g-point rule errs by at most about
+    wavenumber of its parts: bending, axial or torsional), so the g-point rule errs by at most about
     c^(2g+1) (g!)^4 / ((2g + 1) ((2g)!)^3) relative, c = 2βL (the remainder of the rule
     for e^{cx} on [0, 1]); the smallest g with that below GAUSS_RTOL, at least 4 (exact for
     the product of two static cubic fields, which the exponentials cancel down to at small
     βL) and at most GAUSS_POINTS.
     """
-    w2 = omega_max**2
-    rho, e_mod = beam.density, beam.youngs_modulus
-    bending = rho * beam.area * w2 / (e_mod * min(beam.second_moment_y, beam.second_moment_z))
-    axial = rho * w2 / e_mod
-    torsion = rho * beam.polar_moment * w2 / (beam.shear_modulus * beam.torsion_constant)
-    shear = (
-        max((p.wavenumber(omega_max) for p in planes(beam)), default=0.0)
-        if beam.timoshenko
-        else 0.0
-    )
-    c = 2.0 * beam.length * max(bending**0.25, np.sqrt(axial), np.sqrt(torsion), shear, 1e-3)
+    waves = [p.formulation.wavenumber(omega_max) for p in kind_of(beam).parts(beam)]
+    c = 2.0 * beam.length * max(*waves, 1e-3)
     log_error = (2 * _GAUSS_ORDERS + 1) * np.log(c) + _GAUSS_LOG_FACTOR
     fine = _GAUSS_ORDERS[log_error <= np.log(GAUSS_RTOL)]
     return int(fine[0]) if fine.size else GAUSS_POINTS
@@ -332,31 +307,31 @@ def _gauss_legendre(points: int) -> tuple[np.ndarray, np.ndarray]:
     return x, w
 
 
-#: body kind -> how the MSTMM treats it
+#: body form (:data:`ufmt.kinds.FORMS`) -> how the MSTMM treats it
 BODY_RULES: dict[str, BodyRules] = {
-    "rigid": BodyRules(
-        graph=_rigid_graph,
+    "mass": BodyRules(
+        graph=_mass_graph,
         hinge_end=_own_node,
         reference=lambda body, point: body.center_of_mass,
-        state_key=_rigid_state_key,
-        shape=_rigid_shape,
-        kinetic=_rigid_kinetic,
+        state_key=_mass_state_key,
+        shape=_mass_shape,
+        kinetic=_mass_kinetic,
     ),
-    "virtual": BodyRules(
-        graph=_virtual_graph,
+    "point": BodyRules(
+        graph=_point_graph,
         hinge_end=_own_node,
         reference=_at_point,
-        state_key=_virtual_state_key,
-        shape=_virtual_shape,
+        state_key=_point_state_key,
+        shape=_point_shape,
         kinetic=_no_mass,
     ),
-    "beam": BodyRules(
-        graph=_beam_graph,
+    "member": BodyRules(
+        graph=_member_graph,
         hinge_end=beam_end_node,
         reference=_at_point,
-        state_key=_beam_state_key,
-        shape=_beam_shape,
-        kinetic=_beam_kinetic,
+        state_key=_member_state_key,
+        shape=_member_shape,
+        kinetic=_member_kinetic,
         edge_matrix=lambda omega, body, rotation: elements.beam(omega, body, rotation=rotation),
         edge_rotation=elements.beam_rotation,
     ),

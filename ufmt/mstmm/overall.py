@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ufmt.kinematics import load_transfer
 from ufmt.model.schema import GROUND, Model
 from ufmt.mstmm import elements
 from ufmt.mstmm.bodies import rules_of
@@ -149,7 +150,7 @@ def _selection(columns: bytes) -> tuple[np.ndarray, np.ndarray]:
 @functools.lru_cache(maxsize=4096)
 def _other_input(lever: tuple, p_out: tuple) -> np.ndarray:
     """U_{i,Ik}, k >= 2 (eqs. 2.9, 2.11), constant (12, 12)."""
-    return _frozen(elements.rigid_body_other_input(np.array(lever), np.array(p_out)))
+    return _frozen(load_transfer(np.array(lever), np.array(p_out)))
 
 
 @functools.lru_cache(maxsize=1024)

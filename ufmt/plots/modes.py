@@ -25,6 +25,7 @@ from matplotlib.ticker import MaxNLocator
 from mpl_toolkits.mplot3d.art3d import Line3DCollection
 
 from ufmt.errors import UfmtError
+from ufmt.kinds import kind_of
 from ufmt.machining.cutting import tool_tip
 from ufmt.model.schema import GROUND, Beam, Model, RigidBody
 from ufmt.plots import new_axes, new_figure
@@ -112,7 +113,7 @@ def _geometry(model: Model, shapes, index: int, view: tuple[np.ndarray, np.ndarr
     (:data:`BODY_DRAWINGS` of each body's kind), as (boxes, beams, dots)."""
     layers = {"boxes": [], "beams": [], "dots": []}
     for body in model.bodies:
-        drawing = BODY_DRAWINGS[body.kind]
+        drawing = BODY_DRAWINGS[kind_of(body).FORM]
         item = drawing.drawn(model, body, shapes, index, view)
         if item is not None:
             layers[drawing.layer].append(item)
@@ -154,7 +155,7 @@ def _drawn_dot(model: Model, body, shapes, index: int, view):
 
 @dataclass(frozen=True)
 class BodyDrawing:
-    """How the mode plots draw one body kind.
+    """How the mode plots draw one body form.
 
     layer : "boxes", "beams" or "dots" (the style it is drawn in); outline(body) : the points
     [m] that bound the body (sets the view), or None for a point body placed by its hinges;
@@ -166,17 +167,17 @@ class BodyDrawing:
     drawn: Callable[..., tuple | None]
 
 
-#: body kind -> its drawing: the one entry to add for a new body kind
+#: body form (:data:`ufmt.kinds.FORMS`) -> its drawing (a new kind of an existing form: none)
 BODY_DRAWINGS = {
-    "rigid": BodyDrawing("boxes", _box_outline, _drawn_box),
-    "beam": BodyDrawing("beams", _beam_outline, _drawn_beam),
-    "virtual": BodyDrawing("dots", lambda body: None, _drawn_dot),
+    "mass": BodyDrawing("boxes", _box_outline, _drawn_box),
+    "member": BodyDrawing("beams", _beam_outline, _drawn_beam),
+    "point": BodyDrawing("dots", lambda body: None, _drawn_dot),
 }
 
 
 def _body_points(body) -> np.ndarray | None:
     """Points [m] that bound a body (:attr:`BodyDrawing.outline`); None for a point body."""
-    return BODY_DRAWINGS[body.kind].outline(body)
+    return BODY_DRAWINGS[kind_of(body).FORM].outline(body)
 
 
 def _virtual_point(model: Model, name: str) -> np.ndarray:
