@@ -25,8 +25,11 @@ from ufmt.model.schema import Model
 
 PROCESS = Process(300, 15, 4)
 BAND_KEYS = [f"{b}_rms{d}_nm" for b in ("psd1", "psd2") for d in ("", "_along", "_across")]
-#: Plates (x, y) [m] and the grid's (square) step [m]: one resolves PSD1, the other PSD2.
-CASES = [((0.1, 0.1), 1e-3), ((0.008, 0.009), 0.05e-3)]
+#: Plates (x, y) [m] and the grid's (square) step [m]: one resolves PSD1, the other PSD2 (over
+#: the clear aperture: the plate less MARGIN at every edge).
+CASES = [((0.11, 0.11), 1e-3), ((0.010, 0.011), 0.05e-3)]
+#: Clear-aperture edge exclusion [m] of every run.
+MARGIN = 1e-3
 #: Samples per revolution of every run (the default follows the grid step: costly here).
 N_PHI = 2048
 
@@ -43,7 +46,7 @@ def run(size, process=PROCESS, **options):
         "basis": basis,
         "static_correction": False,
         "n_phi": N_PHI,
-        "aperture_margin": 1e-3,
+        "aperture_margin": MARGIN,
         **options,
     }
     return ufmt.simulate(model_of(size), process, **options)
@@ -53,10 +56,11 @@ def run(size, process=PROCESS, **options):
 @pytest.mark.parametrize("method", ["periodic", "time"])
 def test_lines_at_the_grid_step_are_the_grid_rows_and_columns(size, step, method):
     grid = run(size, spacing=step, line_spacing=None, method=method)
-    expected = band_rms(grid.smooth_surface)
+    expected = band_rms(grid.smooth_surface, aperture_margin=MARGIN)
     assert any(np.isfinite(expected[k]) and expected[k] > 0 for k in BAND_KEYS)
     lines = run(size, spacing=step, line_spacing=step, method=method).metrics
     for key in BAND_KEYS:
+        np.testing.assert_allclose(grid.metrics[key], expected[key], rtol=1e-12, equal_nan=True)
         np.testing.assert_allclose(lines[key], expected[key], rtol=1e-9, equal_nan=True)
     assert lines["psd_line_spacing_mm"] == pytest.approx(step * 1e3)
 

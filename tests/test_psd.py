@@ -273,12 +273,13 @@ def test_psd_2d_parseval_and_band():
 def test_simulate_reports_both_directions_and_the_psd2_patch():
     """On the grid's own columns and rows (``line_spacing=None``) the bands are the grid's
     band_rms and PSD2 is unresolved (1 mm steps); PSD1 is resolved on the whole plate (the
-    small 0.1 m x 0.2 m one: three periods of its longest wavelength, 33 mm). By default the
-    line profiles resolve PSD2 over the whole plate; the PSD2 patch replaces the psd2 keys."""
+    small 0.1 m x 0.2 m one: three periods of its longest wavelength, 33 mm, so the whole
+    plate is the clear aperture here). By default the line profiles resolve PSD2 over the
+    whole plate; the PSD2 patch replaces the psd2 keys."""
     model = Model("syn", (), (), machine=read_machine(SMALL), source="syn.toml")
     basis = synthetic_basis(n=6)
     process = Process(300, 15, 4)
-    options = dict(basis=basis, static_correction=False)
+    options = dict(basis=basis, static_correction=False, aperture_margin=0.0)
     r = ufmt.simulate(model, process, line_spacing=None, **options)
     m = r.metrics
     assert m["psd1_rms_nm"] == max(m["psd1_rms_along_nm"], m["psd1_rms_across_nm"]) > 0

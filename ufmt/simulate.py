@@ -121,9 +121,9 @@ def simulate(
     sources : error sources switched on (default all of :mod:`ufmt.machining.sources`).
     static_correction : add the residual flexibility of the modes above the basis
         (:mod:`ufmt.machining.static`; needs the model's assembled static solve).
-    aperture_margin : clear-aperture edge exclusion [m] (default 5 mm).
+    aperture_margin : clear-aperture edge exclusion [m] (5 mm) of the PV and the PSD bands.
     psd2_patch, line_spacing : the PSD bands read line profiles along and across the feed
-        over the whole plate at ``line_spacing`` [m] (0.03 mm, :mod:`ufmt.machining.lines`;
+        over the clear aperture at ``line_spacing`` [m] (0.03 mm, :mod:`ufmt.machining.lines`;
         None: the grid's columns and rows, PSD2 unresolved); ``psd2_patch`` [m] (superseded)
         recomputes the psd2 keys on a centred square patch at 0.05 mm.
 
@@ -441,7 +441,8 @@ def _band_rms(
     ``band_surface``'s grid if None (no spectra)."""
     if options.line_spacing is None:
         step = max(band_surface.spacing) * 1e3
-        return {**band_rms(band_surface), "psd_line_spacing_mm": step}, None
+        bands = band_rms(band_surface, aperture_margin=options.aperture_margin)
+        return {**bands, "psd_line_spacing_mm": step}, None
 
     def heights(passes):
         return [s.heights(passes, response.table, machine, process, profiles) for s in smooth]
@@ -453,6 +454,7 @@ def _band_rms(
         heights,
         options.line_spacing,
         options.trailing_arc,
+        options.aperture_margin,
     )
     return {**line_band_rms(spectra), "psd_line_spacing_mm": options.line_spacing * 1e3}, spectra
 

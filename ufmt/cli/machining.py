@@ -145,7 +145,8 @@ def _add_surface_arguments(p) -> None:
         "--aperture-margin",
         type=positive(float),
         default=DEFAULT_APERTURE_MARGIN * 1e3,
-        help=f"clear-aperture edge exclusion [mm] ({DEFAULT_APERTURE_MARGIN * 1e3:g})",
+        help="clear-aperture edge exclusion [mm] of the interferometer's PV and the PSD bands"
+        f" ({DEFAULT_APERTURE_MARGIN * 1e3:g})",
     )
     p.add_argument(
         "--psd2-patch",
@@ -161,7 +162,7 @@ def _add_surface_arguments(p) -> None:
         default=DEFAULT_LINE_SPACING * 1e3,
         metavar="MM",
         help="step [mm] of the line profiles along and across the feed that PSD1 and PSD2 read"
-        f" over the whole plate ({DEFAULT_LINE_SPACING * 1e3:g})",
+        f" over the clear aperture ({DEFAULT_LINE_SPACING * 1e3:g})",
     )
 
 

@@ -21,8 +21,9 @@ pattern's tables) is cached per machine, so every design of a sweep shares it.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
-from functools import cached_property, lru_cache
+from functools import cached_property, lru_cache, partial
 
 import numpy as np
 
@@ -262,7 +263,7 @@ def cut_geometry(
         )
 
     c_trig = np.stack([c_hat[:, 1].real, 2 * c_hat[:, 2].real, -2 * c_hat[:, 2].imag])
-    table_y, row_knots, _, active, _ = pattern_tables(machine, n_phi, table_rows, part)
+    table_y, row_knots, active, _ = pattern_tables(machine, n_phi, table_rows, part)
     static_maps = None
     if residual is not None:
         centers = tuple(residual.centers.ravel().tolist())
@@ -309,9 +310,10 @@ class _PartMaps:
     v (n, 12) = [r_tool, theta_tool, r_work, theta_work] (paper eq. 3.11 with a point force):
     modal (12, 3 N + 1) maps them to [w M_s, w_y M_s, c, c_y] at the N angles and harmonics
     (12, 13) to [w_hat M_s (5), w_y_hat M_s (5), c_hat (3)]. phases, tip, dtip, ddtip, trig as
-    in :class:`CutGeometry`. The static correction's: arms (N, 2, 3) [m] of the tip from the
-    tool's and the workpiece's centre of mass at Y = 0, wrench (2, N, 12) the bodies' load per
-    unit pattern at Y = 0 and its rate in Y [N, N m per unit].
+    in :class:`CutGeometry`. The static correction's, formed on first use (a geometry without
+    the static correction never reads them): arms (N, 2, 3) [m] of the tip from the tool's and
+    the workpiece's centre of mass ``centers`` (2, 3) [m] at Y = 0, wrench (2, N, 12) the
+    bodies' load per unit pattern at Y = 0 and its rate in Y [N, N m per unit].
     """
 
     phases: np.ndarray
@@ -321,8 +323,25 @@ class _PartMaps:
     trig: np.ndarray
     modal: np.ndarray
     harmonics: np.ndarray
-    arms: np.ndarray
-    wrench: np.ndarray
+    centers: np.ndarray
+    force: Callable[[np.ndarray], np.ndarray]
+
+    @cached_property
+    def arms(self) -> np.ndarray:
+        arms = self.tip[:, None, :] - self.centers  # (N, 2, 3)
+        arms.setflags(write=False)
+        return arms
+
+    @cached_property
+    def wrench(self) -> np.ndarray:
+        k = self.force(self.phases)
+        t_y = _translation(np.array([0.0, 1.0, 0.0])) - _translation(np.zeros(3))
+        wrench = np.zeros((2, self.phases.size, 12))  # the workpiece takes the reaction -k
+        wrench[0, :, :6] = np.einsum("jci,jc->ji", _translation(self.arms[:, 0]), k)
+        wrench[0, :, 6:] = -np.einsum("jci,jc->ji", _translation(self.arms[:, 1]), k)
+        wrench[1, :, 6:] = -k @ t_y
+        wrench.setflags(write=False)
+        return wrench
 
     def static(self, matrix: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Residual-flexibility displacement of tool tip and workpiece point per unit pattern
@@ -374,26 +393,21 @@ def _part_maps(
     trig = np.stack(
         [np.ones(n_phi), np.cos(phases), np.sin(phases), np.cos(2 * phases), np.sin(2 * phases)]
     )
-    k = force_vector(phases, machine, coefficients, part)
-    arms = np.stack([tip - c_tool, tip - c_work], axis=1)  # (N, 2, 3)
-    t_y = _translation(y_hat) - _translation(np.zeros(3))
-    wrench = np.zeros((2, n_phi, 12))  # the workpiece takes the reaction -k
-    wrench[0, :, :6] = np.einsum("jci,jc->ji", _translation(arms[:, 0]), k)
-    wrench[0, :, 6:] = -np.einsum("jci,jc->ji", _translation(arms[:, 1]), k)
-    wrench[1, :, 6:] = -k @ t_y
-    arrays = (phases, tip, dtip, ddtip, trig, modal, hats, arms, wrench)
+    centres = np.stack([c_tool, c_work])
+    arrays = (phases, tip, dtip, ddtip, trig, modal, hats, centres)
     for a in arrays:  # cached: shared by every design's geometry
         a.setflags(write=False)
-    return _PartMaps(*arrays)
+    return _PartMaps(
+        *arrays, partial(force_vector, machine=machine, coefficients=coefficients, part=part)
+    )
 
 
 @lru_cache(maxsize=4)  # ~1.6 MiB each: both force parts of two machines
 def pattern_tables(machine: Machine, n_phi: int, table_rows: int, part: str):
     """Machine-only tables of :func:`cut_geometry` (cached per machine, not per design).
 
-    Returns table_y, row_knots, the extended half spectra (N/2 + 7, M) of the chip pattern of
-    ``part`` at the table rows, the active angles (N,) and the pattern on them (M, active); all
-    read-only.
+    Returns table_y, row_knots, the active angles (N,) and the chip pattern of ``part`` on
+    them at the table rows (M, active); all read-only.
     """
     phases = 2 * np.pi * np.arange(n_phi) / n_phi
     cell = 2 * np.pi / n_phi
@@ -401,13 +415,19 @@ def pattern_tables(machine: Machine, n_phi: int, table_rows: int, part: str):
     centred = np.mod(phases + np.pi, 2 * np.pi) - np.pi
     lo, hi = machine.cutting_angles
     active = (centred + cell / 2 > lo) & (centred - cell / 2 < hi) & (np.abs(centred) < np.pi / 2)
-    pattern = np.zeros((table_y.size, n_phi))
-    pattern[:, active] = chip_factor_cells(phases[active], table_y[:, None], machine, cell, part)
-    spectra = np.ascontiguousarray(_extend(np.fft.rfft(pattern, axis=1)).T)  # (N/2 + 7, M)
-    cutting = pattern[:, active]
-    for a in (table_y, spectra, active, cutting):
+    cutting = chip_factor_cells(phases[active], table_y[:, None], machine, cell, part)
+    for a in (table_y, active, cutting):
         a.setflags(write=False)
-    return table_y, row_knots, spectra, active, cutting
+    return table_y, row_knots, active, cutting
+
+
+def pattern_spectra(active: np.ndarray, cutting: np.ndarray) -> np.ndarray:
+    """The extended half spectra (N/2 + 7, m) of the chip patterns ``cutting`` (m, active)
+    on the ``active`` angles (N,) of :func:`pattern_tables` (a few rows at a time: not
+    cached, the whole table's would be N M complex)."""
+    pattern = np.zeros((cutting.shape[0], active.size))
+    pattern[:, active] = cutting
+    return np.ascontiguousarray(_extend(np.fft.rfft(pattern, axis=1)).T)
 
 
 def _table_rows(machine: Machine, rows: int, uniform: float = UNIFORM_SHARE):

@@ -7,11 +7,14 @@ are evaluated: along the feed the surface grid's columns (its x nodes) at ``line
 y, across it the grid's evenly spaced rows (its core y nodes) at ``line_spacing`` in x, as
 many lines as the grid averages; (Nx + Ny) L / h points instead of (L / h)^2 (~1e7 on the
 410 mm plate at 0.03 mm). Each point is the lower pass of the same terms as the grid's
-(eq. 4.1, :func:`~ufmt.machining.surface.passes_on`). The line axes are built as the grid's
-(:func:`~ufmt.machining.surface.grid_axis`: nodes on the edges, fast FFT lengths), so at the
-grid's own steps the lines are the grid's columns and rows.
+(eq. 4.1, :func:`~ufmt.machining.surface.passes_on`). The lines span the clear aperture, as
+the grid's bands (:func:`~ufmt.machining.psd.band_rms`): the plate less ``aperture_margin``
+at every edge. Their axes are the nodes inside it of axes built as the grid's over the whole
+plate (:func:`~ufmt.machining.surface.grid_axis`: nodes on the edges), and the lines run at
+the grid's columns and rows inside it, so at the grid's own steps the lines are the grid's
+columns and rows there.
 
-Form: the grid's Legendre fit up to 2nd order
+Form: the grid's Legendre fit up to 2nd order over the clear aperture
 (:func:`~ufmt.machining.surface.legendre_coefficients`) is removed as on the grid. On a column
 (u fixed) its terms 1, u, v, P2(u) and u v are constant or linear in v, which the profile's own
 linear detrend removes exactly, so only c5 P2(v) is subtracted; on a row only c3 P2(u). At the
@@ -30,6 +33,7 @@ import numpy as np
 from ufmt.machining.psd import BANDS, profile_psd, spectra_band_rms
 from ufmt.machining.surface import (
     Surface,
+    clear_aperture,
     grid_axis,
     legendre_coefficients,
     pass_angles,
@@ -43,13 +47,21 @@ DEFAULT_LINE_SPACING = 0.03e-3
 BLOCK_POINTS = 2**19
 
 
-def line_axes(grid: Surface, line_spacing: float) -> tuple[np.ndarray, np.ndarray]:
+def line_axes(
+    grid: Surface, line_spacing: float, aperture_margin: float = 0.0
+) -> tuple[np.ndarray, np.ndarray]:
     """The fine axes x (across the feed) and y (along it) [m] of the line profiles over
-    ``grid``'s extent, at most ``line_spacing`` [m] apart."""
+    ``grid``'s clear aperture (``aperture_margin`` [m] off every edge), at most
+    ``line_spacing`` [m] apart: the nodes of the whole extent's fine axes inside it."""
     if not (np.isfinite(line_spacing) and line_spacing > 0):
         raise ValueError(f"line_spacing must be a finite number > 0 [m], got {line_spacing!r}")
     y = grid.y[grid.core_rows]
-    return grid_axis(grid.x[0], grid.x[-1], line_spacing), grid_axis(y[0], y[-1], line_spacing)
+    fine_x = grid_axis(grid.x[0], grid.x[-1], line_spacing)
+    fine_y = grid_axis(y[0], y[-1], line_spacing)
+    return (
+        fine_x[clear_aperture(fine_x, aperture_margin)],
+        fine_y[clear_aperture(fine_y, aperture_margin)],
+    )
 
 
 def line_spectra(
@@ -59,19 +71,23 @@ def line_spectra(
     heights,
     line_spacing: float = DEFAULT_LINE_SPACING,
     trailing_arc: bool = False,
+    aperture_margin: float = 0.0,
 ) -> dict[str, tuple[int, float, np.ndarray, np.ndarray]]:
     """The mean PSD of the line profiles in each direction of
-    :data:`~ufmt.machining.psd.DIRECTIONS`: (points per line, step [m], frequency [1/m], PSD
-    [m^2 m]).
+    :data:`~ufmt.machining.psd.DIRECTIONS` over the clear aperture: (points per line, step
+    [m], frequency [1/m], PSD [m^2 m]).
 
     ``grid``: the surface on the grid (its columns, rows and form fit); ``heights(passes)``:
     the terms of that surface (heights at both passes) on any
     :class:`~ufmt.machining.surface.Passes`; ``feed_per_rev`` [m] and ``trailing_arc`` as
-    the grid's passes; ``line_spacing`` [m] the step along the lines.
+    the grid's passes; ``line_spacing`` [m] the step along the lines; ``aperture_margin`` [m]
+    the clear aperture's edge exclusion (:func:`~ufmt.machining.psd.band_rms`'s).
     """
     x, y = grid.x, grid.y[grid.core_rows]
-    coef = legendre_coefficients(x, y, grid.z[grid.core_rows])
-    fine_x, fine_y = line_axes(grid, line_spacing)
+    in_x, in_y = clear_aperture(x, aperture_margin), clear_aperture(y, aperture_margin)
+    x, y = x[in_x], y[in_y]
+    coef = legendre_coefficients(x, y, grid.z[grid.core_rows][np.ix_(in_y, in_x)])
+    fine_x, fine_y = line_axes(grid, line_spacing, aperture_margin)
     hx, hy = fine_x[1] - fine_x[0], fine_y[1] - fine_y[0]
 
     def along():  # the grid's columns; of the fit only c5 P2(v) is not a line in v

@@ -10,7 +10,7 @@ a sum over the cut's active angles with the periodic impulse response of the exa
 shapes, :func:`~ufmt.machining.recurrence.discrete_receptance`) times the spectra of the chip
 pattern. The record window is one spindle period at :func:`~ufmt.machining.response.record_slide`.
 
-Process-independent parts are cached per geometry or per machine (the pattern's spectra), the
+Process-independent parts are cached per geometry or per machine (the chip pattern), the
 recurrence and the kernels per spindle speed and damping, so a sweep over designs or processes
 repeats only what changes.
 """
@@ -23,7 +23,12 @@ from functools import cached_property, lru_cache
 import numpy as np
 
 from ufmt.machining.basis import ModalBasis
-from ufmt.machining.cut_geometry import OUTPUT_HARMONICS, CutGeometry, pattern_tables
+from ufmt.machining.cut_geometry import (
+    OUTPUT_HARMONICS,
+    CutGeometry,
+    pattern_spectra,
+    pattern_tables,
+)
 from ufmt.machining.cutting import (
     ForceCoefficients,
     chip_factor_cells,
@@ -33,6 +38,7 @@ from ufmt.machining.cutting import (
 from ufmt.machining.damping import DampedModes, damped_modes, serial_blas
 from ufmt.machining.recurrence import (
     DEFAULT_ZETA,
+    MODE_BLOCK_BYTES,
     PeriodicRecurrence,
     discrete_receptance,
     modal_damping,
@@ -52,6 +58,10 @@ from ufmt.machining.response import (
     tip_acceleration_shapes,
 )
 from ufmt.model.machine import Machine
+
+#: Bytes [B] of one block of :attr:`PeriodicZreTable.values`' stacked spectra (a few rows) or
+#: of its kernels' shifted receptances (a block of harmonics).
+SPECTRA_BLOCK_BYTES = 2**25
 
 
 @dataclass(frozen=True, eq=False)
@@ -85,21 +95,26 @@ class PeriodicZreTable:
         n = geo.n_phi
         half = n // 2
         kern = _periodic_kernels(self.parts, self.spindle_hz, self.zeta)
-        # z_re[k, i] = sum_(d, part, p) amp K[k, (d, part, p)] Y_i^p A_part[k - d, i]: one
-        # small product per harmonic over a strided view of the stacked spectra (no copy)
-        stacked = _stacked_spectra(geo.machine, n, geo.table_rows, self.part_names)
-        rows = stacked.shape[3]
-        view = np.lib.stride_tricks.as_strided(
-            stacked,
-            shape=(half + 1, 7 * stacked.shape[1] * 3, rows),
-            strides=(stacked.strides[0], stacked.strides[2], stacked.strides[3]),
-            writeable=False,
-        )
-        # einsum: matmul over the overlapping strided view is an order of magnitude slower
-        zk = np.einsum("kj,kjm->km", (kern * np.repeat(np.tile(self.amps, 7), 3))[:, 0], view)
+        coef = (kern * np.repeat(np.tile(self.amps, 7), 3))[:, 0]
+        tables = [pattern_tables(geo.machine, n, geo.table_rows, p) for p in self.part_names]
+        rows = self.row_y.size
         values = np.empty((rows, n + 3))
         table = values[:, 1 : n + 1]
-        np.fft.irfft(zk.T, n=n, axis=1, out=table)
+        step = max(1, SPECTRA_BLOCK_BYTES // ((half + 7) * 3 * len(tables) * 16))
+        for i in range(0, rows, step):  # a block of rows at a time: memory bounded
+            block = slice(i, i + step)
+            # z_re[k, i] = sum_(d, part, p) amp K[k, (d, part, p)] Y_i^p A_part[k - d, i]: one
+            # small product per harmonic over a strided view of the stacked spectra (no copy)
+            stacked = _stacked_spectra(tables, block)
+            view = np.lib.stride_tricks.as_strided(
+                stacked,
+                shape=(half + 1, 7 * stacked.shape[1] * 3, stacked.shape[3]),
+                strides=(stacked.strides[0], stacked.strides[2], stacked.strides[3]),
+                writeable=False,
+            )
+            # einsum: matmul over the overlapping strided view is an order of magnitude slower
+            zk = np.einsum("kj,kjm->km", coef, view)
+            np.fft.irfft(zk.T, n=n, axis=1, out=table[block])
         values[:, 0], values[:, n + 1 :] = table[:, -1], table[:, :2]
         values.setflags(write=False)
         return values
@@ -424,7 +439,11 @@ def _periodic_run(recurrence: PeriodicRecurrence, force: np.ndarray, active: np.
     w = recurrence.from_rest(force)
     left = e * w[:, -1] + recurrence.b1 * force[:, -1]  # w_A: no force after the run
     before = recurrence.power(n - 1 - a) * left / (1.0 - recurrence.period)  # z_b
-    inside = w + recurrence.power(np.arange(1, a + 1)) * before[:, None]
+    inside = w  # w + E^(k + 1) z_b in place, a block of modes at a time: (n, A) complex each
+    step = max(1, MODE_BLOCK_BYTES // (16 * a))
+    for i in range(0, w.shape[0], step):
+        m = slice(i, i + step)
+        inside[m] += recurrence.subset(m).power(np.arange(1, a + 1)) * before[m, None]
     after = left + e * recurrence.power(a) * before  # the state after the run's last sample
     start = (first + a) % n  # the free decay: n - a samples from here, circularly
     return inside, after, start, min(n - a, n - start)
@@ -451,15 +470,12 @@ def periodic_projection(
     return out
 
 
-@lru_cache(maxsize=2)  # ~4.7 MiB each (two parts, 192 rows); machine-only
-def _stacked_spectra(machine: Machine, n_phi: int, table_rows: int, parts: tuple[str, ...]):
-    """The parts' extended spectra times Y^p at each row, (N/2 + 7, P, 3, M) (cached per
-    machine: every design of a sweep shares it)."""
-    tables = [pattern_tables(machine, n_phi, table_rows, part) for part in parts]
-    powers = tables[0][0] ** np.arange(3)[:, None]  # (3, M)
-    out = np.stack([t[2] for t in tables], axis=1)[:, :, None, :] * powers
-    out.setflags(write=False)
-    return out
+def _stacked_spectra(tables: list, block: slice) -> np.ndarray:
+    """The parts' extended spectra (:func:`~ufmt.machining.cut_geometry.pattern_spectra`)
+    times Y^p at the ``block`` of rows of their :func:`pattern_tables`, (N/2 + 7, P, 3, m)."""
+    powers = tables[0][0][block] ** np.arange(3)[:, None]  # (3, m)
+    spectra = [pattern_spectra(t[2], t[3][block]) for t in tables]
+    return np.stack(spectra, axis=1)[:, :, None, :] * powers
 
 
 @lru_cache(maxsize=2)  # machine-only
@@ -468,7 +484,7 @@ def _stacked_patterns(machine: Machine, n_phi: int, table_rows: int, parts: tupl
     order (angle, part, power p) (cached per machine: every design of a sweep shares it)."""
     tables = [pattern_tables(machine, n_phi, table_rows, part) for part in parts]
     powers = tables[0][0][:, None, None, None] ** np.arange(3)  # (M, 1, 1, 3)
-    out = (np.stack([t[4] for t in tables], axis=2)[..., None] * powers).reshape(
+    out = (np.stack([t[3] for t in tables], axis=2)[..., None] * powers).reshape(
         powers.shape[0], -1
     )
     out.setflags(write=False)
@@ -497,11 +513,17 @@ def _periodic_kernels(parts: tuple[CutGeometry, ...], spindle_hz: float, zeta: t
         hq = np.concatenate(pole_transfer(modes.poles, 1 / (spindle_hz * n), 2 * np.pi * k / n))
         with serial_blas():
             coef, static = _complex_kernel_coefficients(parts, modes)
-    # one product of the receptances, shifted by each output harmonic l, with the coefficients
-    shifted = np.concatenate(
-        [hq.T[1 - l : half + 2 - l] for l in OUTPUT_HARMONICS], axis=1
-    )  # (K, 3n)
-    kern = (shifted @ coef + static).reshape(half + 1, 1, -1)
+    # one product of the receptances, shifted by each output harmonic l, with the coefficients,
+    # a block of harmonics at a time (the (K, 3n) receptances would be N n complex)
+    kern = np.empty((half + 1, coef.shape[1]), complex)
+    step = max(1, SPECTRA_BLOCK_BYTES // (16 * coef.shape[0]))
+    for i in range(0, half + 1, step):
+        end = min(i + step, half + 1)
+        shifted = np.concatenate(
+            [hq.T[i + 1 - l : end + 1 - l] for l in OUTPUT_HARMONICS], axis=1
+        )  # (block, 3n)
+        kern[i:end] = shifted @ coef + static
+    kern = kern.reshape(half + 1, 1, -1)
     kern.setflags(write=False)
     return kern
 

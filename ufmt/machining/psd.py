@@ -6,6 +6,9 @@ KDP optics for large lasers specify mid-spatial-frequency errors as band RMS of 
 :class:`~ufmt.machining.surface.Surface` (:mod:`ufmt.machining.lines` the same on fine line
 profiles over the whole plate, :func:`spectra_band_rms`):
 
+0. Clear aperture: the bands read the plate less an edge margin (``aperture_margin``, the
+   interferometer's, :mod:`ufmt.machining.instruments`), as a KDP specification holds over
+   the optic's clear aperture: the cut's entry and exit strips stay out of the mean PSD.
 1. Form removed: the least-squares Legendre fit up to 2nd order (piston, tilt, power,
    astigmatism, twist; :func:`~ufmt.machining.surface.legendre_fit`). A shop reports the
    2nd-order part as form (``form_pv_nm``), not as PSD1: with the line detrend alone, a bowl
@@ -43,7 +46,7 @@ import numpy as np
 import scipy.fft
 import scipy.signal
 
-from ufmt.machining.surface import Surface, legendre_fit
+from ufmt.machining.surface import Surface, clear_aperture, legendre_fit
 
 #: Spatial wavelength bands (shortest, longest) [m] of the KDP specifications.
 BANDS = {"psd1": (2.5e-3, 33e-3), "psd2": (0.12e-3, 2.5e-3)}
@@ -54,11 +57,17 @@ DIRECTIONS = ("along", "across")
 _AXIS = {"along": 0, "across": 1}
 
 
-def form_removed(surface: Surface) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The evenly spaced grid x (Nx,), y (Ny,) [m] of ``surface`` and its heights (Ny, Nx) [m]
-    less the Legendre fit up to 2nd order (piston, tilt and form)."""
+def form_removed(
+    surface: Surface, aperture_margin: float = 0.0
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The evenly spaced grid x (Nx,), y (Ny,) [m] of ``surface`` inside the clear aperture
+    (``aperture_margin`` [m] off every edge, :func:`~ufmt.machining.surface.clear_aperture`)
+    and its heights there (Ny, Nx) [m] less their Legendre fit up to 2nd order (piston, tilt
+    and form)."""
     core = surface.core_rows
-    x, y, z = surface.x, surface.y[core], surface.z[core]
+    x, y = surface.x, surface.y[core]
+    in_x, in_y = clear_aperture(x, aperture_margin), clear_aperture(y, aperture_margin)
+    x, y, z = x[in_x], y[in_y], surface.z[core][np.ix_(in_y, in_x)]
     fit, _ = legendre_fit(x, y, z)
     return x, y, z - fit
 
@@ -107,21 +116,26 @@ def band_resolved(n: int, spacing: float, band: tuple[float, float]) -> bool:
 
 
 def surface_psd(
-    surface: Surface, direction: str, window: str = "hann"
+    surface: Surface, direction: str, window: str = "hann", aperture_margin: float = 0.0
 ) -> tuple[np.ndarray, np.ndarray]:
     """Mean 1-D PSD of ``surface``'s line profiles in ``direction`` ("along" the feed: the
-    columns, in y; "across" it: the rows, in x), form removed (module docstring).
+    columns, in y; "across" it: the rows, in x) over the clear aperture, form removed (module
+    docstring).
 
     Returns frequency [1/m] and PSD [m^2 m] (:func:`profile_psd`).
     """
     axis = _axis(direction)
-    _, _, flat = form_removed(surface)
+    _, _, flat = form_removed(surface, aperture_margin)
     return profile_psd(flat, surface.spacing[1 - axis], axis, window)
 
 
-def band_rms(surface: Surface, bands=tuple(BANDS)) -> dict[str, float]:
+def band_rms(
+    surface: Surface, bands=tuple(BANDS), aperture_margin: float = 0.0
+) -> dict[str, float]:
     """Band RMS [nm] of the 1-D PSDs of ``surface`` in each of ``bands`` (names of
-    :data:`BANDS`), NaN where a profile does not resolve the band (:func:`band_resolved`).
+    :data:`BANDS`), NaN where a profile does not resolve the band (:func:`band_resolved`),
+    over the clear aperture: the plate less ``aperture_margin`` [m] at every edge, profiles
+    and form fit alike (module docstring).
 
     Keys per band, e.g. psd1: ``psd1_rms_along_nm`` (profiles along the feed, y),
     ``psd1_rms_across_nm`` (across it, x) and ``psd1_rms_nm``, the larger of the two (NaN
@@ -130,7 +144,7 @@ def band_rms(surface: Surface, bands=tuple(BANDS)) -> dict[str, float]:
     and the cut's slow modulation along it) and a specification holds for a profile in any
     direction: the plate passes only if it passes in the worse one.
     """
-    x, y, flat = form_removed(surface)
+    x, y, flat = form_removed(surface, aperture_margin)
     hx, hy = surface.spacing
     profiles = {
         "along": (y.size, hy, lambda: profile_psd(flat, hy, _axis("along"))),

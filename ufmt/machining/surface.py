@@ -130,6 +130,15 @@ def grid_axis(start: float, stop: float, step: float) -> np.ndarray:
     return np.linspace(start, stop, n)
 
 
+def clear_aperture(axis: np.ndarray, margin: float) -> np.ndarray:
+    """Mask of the nodes of ``axis`` [m] at least ``margin`` [m] inside its ends: the clear
+    aperture's along that axis (the interferometer's, :mod:`ufmt.machining.instruments`)."""
+    half = (axis[-1] - axis[0]) / 2 - margin
+    if not half > 0:
+        raise ValueError(f"aperture_margin {margin!r} m leaves no clear aperture")
+    return np.abs(axis - (axis[-1] + axis[0]) / 2) <= half + 1e-12
+
+
 def pass_angles(machine: Machine, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The leading and trailing arcs' angles phi (2, Nx) [rad] over the columns x (Nx,) [m]
     and their cosines."""
