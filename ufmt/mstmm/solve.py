@@ -18,8 +18,10 @@ from threadpoolctl import ThreadpoolController
 
 from ufmt import limits
 from ufmt.errors import UfmtError
+from ufmt.kinds import frequency_dependent
 from ufmt.model.load import as_model
 from ufmt.model.schema import Model
+from ufmt.mstmm.dependent import dependent_modes
 from ufmt.mstmm.modes import ModeShapes, kinetic_terms, mode_shapes, shape_state_keys
 from ufmt.mstmm.overall import State, TransferSystem, segment_designs
 from ufmt.mstmm.roots import Roots, RootsLostError, bracketed_roots
@@ -217,9 +219,12 @@ def solve_modes_batch(
     _check(fmax_hz, count, "mstmm")
     with _blas_controller().limit(limits=1, user_api="blas"):
         groups: dict = {}  # designs of one structure are counted together
-        for i, m in enumerate(models):
-            groups.setdefault(m.structure_key(), []).append(i)
         out: list = [None] * len(models)
+        for i, m in enumerate(models):
+            if frequency_dependent(m):  # solved alone (ufmt.mstmm.dependent)
+                out[i] = replace(_solve_modes(m, fmax_hz, count, "mstmm", shapes), model=m)
+            else:
+                groups.setdefault(m.structure_key(), []).append(i)
         for members in groups.values():
             t0 = time.perf_counter()
             counter = RootCounter([models[i] for i in members])
@@ -268,6 +273,11 @@ def _check(fmax_hz, count, method) -> None:
 def _solve_modes(model, fmax_hz, count, method, shapes) -> ModalSolution:
     _check(fmax_hz, count, method)
     t0 = time.perf_counter()
+    if frequency_dependent(model):  # the count does not apply: ufmt.mstmm.dependent
+        top = DEFAULT_FMAX_HZ if fmax_hz is None and count is None else fmax_hz
+        f, order, rigid, modes = dependent_modes(model, top, count, shapes, solve_modes_batch)
+        seconds = time.perf_counter() - t0
+        return ModalSolution(f, order, "mstmm", f.size, rigid, modes, seconds)
     counter = RootCounter(model)
     (brackets,) = _search_ranges(counter, fmax_hz, count)
     if count is None and brackets.total > limits.MAX_MODE_COUNT:  # counted, not yet solved
@@ -285,6 +295,8 @@ def certified_roots(model, fmax_hz: float, state_keys=()) -> tuple[TransferSyste
     count where Newton cannot certify), before any root is required or a shape built."""
     model = as_model(model)
     _check(fmax_hz, None, "mstmm")
+    if frequency_dependent(model):
+        raise UfmtError(f"{model.source}: a hinge's stiffness depends on frequency: no count")
     counter = RootCounter(model)
     (brackets,) = _search_ranges(counter, fmax_hz, None)
     system = TransferSystem(model)
