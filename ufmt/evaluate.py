@@ -56,6 +56,7 @@ from ufmt.machining.validity import OutsideDomainError, check_case
 from ufmt.model.load import load_model, packaged_path
 from ufmt.model.machine import machine_of
 from ufmt.model.schema import DesignParameter, Model
+from ufmt.mstmm.dependent import static_model
 from ufmt.recent import Recent
 from ufmt.simulate import simulate
 from ufmt.solvers import solve_modes_batch
@@ -530,7 +531,8 @@ def _batch_bases(cases: Sequence[_Case]) -> dict:
             warnings.simplefilter("always")
             slides = {key: model_where_it_cuts(model) for key, model in models.items()}
             solutions = solve_modes_batch(
-                [moved for _, moved in slides.values()], fmax_hz=DEFAULT_BASIS_CUTOFF_HZ
+                [static_model(moved) for _, moved in slides.values()],
+                fmax_hz=DEFAULT_BASIS_CUTOFF_HZ,
             )
     except Exception:  # each point solves its own design and records its own failure
         return {}

@@ -74,23 +74,29 @@ def hinge_damping_matrix(model: Model, shapes: ModeShapes) -> np.ndarray | None:
     damped = [h for h in model.hinges if np.any(h.damping6[~h.rigid] != 0.0)]
     if not damped:
         return None
+    n = shapes.frequencies_hz.size
+    out = np.zeros((n, n))
+    for hinge, d in zip(damped, relative_motion(model, shapes, damped), strict=True):
+        c = np.where(hinge.rigid, 0.0, hinge.damping6)
+        out += (d.T * c) @ d
+    return out
+
+
+def relative_motion(model: Model, shapes: ModeShapes, hinges) -> list[np.ndarray]:
+    """Per hinge of ``hinges``, the relative motion d = u_A(P) - u_B(P) (6, n) [r; theta] of
+    its two sides at its point in the modes ``shapes`` (their normalisation)."""
     beams = {}  # body with a field -> its two ends' positions and motion (n, 2, 6)
-    for hinge in damped:
+    for hinge in hinges:
         for side in hinge.between:
             if side != GROUND and kind_of(model.body(side)).HINGES_AT_ENDS:
                 beams[side] = None
     if beams:
         system = TransferSystem(model)
         beams = {name: beam_shape(system, shapes, name, [0.0, 1.0]) for name in beams}
-    n = shapes.frequencies_hz.size
-    out = np.zeros((n, n))
-    for hinge in damped:
-        d = _side_motion(model, shapes, beams, hinge, 0) - _side_motion(
-            model, shapes, beams, hinge, 1
-        )
-        c = np.where(hinge.rigid, 0.0, hinge.damping6)
-        out += (d.T * c) @ d
-    return out
+    return [
+        _side_motion(model, shapes, beams, h, 0) - _side_motion(model, shapes, beams, h, 1)
+        for h in hinges
+    ]
 
 
 def _side_motion(model: Model, shapes: ModeShapes, beams, hinge, side: int) -> np.ndarray:

@@ -21,7 +21,9 @@ from ufmt.machining.basis import ModalBasis
 from ufmt.machining.damping import hinge_damping_matrix
 from ufmt.machining.machine_frame import in_machine_frame
 from ufmt.machining.slide import carriage, cut_slide_position, model_at_slide
+from ufmt.machining.varying import varying_motion
 from ufmt.model.schema import Model
+from ufmt.mstmm.dependent import static_model
 from ufmt.mstmm.modes import ModeShapes
 from ufmt.mstmm.solve import solve_modes
 
@@ -38,10 +40,11 @@ def modal_basis(
     (default: half way through the cut, :func:`~ufmt.machining.slide.cut_slide_position`;
     0 for a model without a ``[machine]`` table); body centres stay in the file's coordinates."""
     slide_y, moved = model_where_it_cuts(model, slide_y)
+    static = static_model(moved)  # frequency-dependent hinges at k0 (ufmt.machining.varying)
     solution = (
-        solve_modes(moved, count=n_modes)
+        solve_modes(static, count=n_modes)
         if n_modes is not None
-        else solve_modes(moved, fmax_hz=cutoff_hz)
+        else solve_modes(static, fmax_hz=cutoff_hz)
     )
     return basis_at_slide(model, moved, slide_y, solution)
 
@@ -84,4 +87,5 @@ def basis_from_shapes(shapes: ModeShapes, model: Model | None = None) -> ModalBa
         body_shapes=dict(shapes.rigid),
         body_centers=dict(shapes.centers),
         hinge_damping=None if model is None else hinge_damping_matrix(model, shapes),
+        varying=() if model is None else varying_motion(model, shapes),
     )

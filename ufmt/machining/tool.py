@@ -92,6 +92,7 @@ def _with_tool(
         body_centers=basis.body_centers,
         hinge_damping=carried,
         slide_y=basis.slide_y,
+        varying=tuple((h, d @ xq) for h, d in basis.varying),
         tool=ToolCoupling(
             body=body,
             stretch=stretch,
