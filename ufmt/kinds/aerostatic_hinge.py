@@ -122,6 +122,15 @@ def count_applies(hinge) -> bool:
     return bool(np.array_equal(low, high))
 
 
+def branches6(hinge) -> tuple[np.ndarray, np.ndarray]:
+    """(1/tau (6,) [1/s], k1 = k_inf - k0 (6,) [N/m, N m/rad]) of the film's Maxwell
+    branches (time-domain form: :mod:`ufmt.machining.damping`); k1 = 0 where there is none."""
+    low, high = bounds6(hinge)
+    finite = np.isfinite(low)
+    k1 = np.where(finite, np.where(finite, high, 0.0) - np.where(finite, low, 0.0), 0.0)
+    return 1.0 / _tau6(hinge), k1
+
+
 def rotated(hinge, along: Callable[[np.ndarray, str], np.ndarray]):
     """The film's fields along the machine's axes (``along(values, field)``)."""
     extra = {name: frozen_array(along(hinge.extra[name], name)) for name in FIELDS}

@@ -50,6 +50,11 @@ def count_applies(hinge) -> bool:
     return True
 
 
+def branches6(hinge) -> tuple[np.ndarray, np.ndarray]:
+    """(rates (6,) [1/s], branch stiffness (6,)) of internal spring-dashpot branches: none."""
+    return np.zeros(6), np.zeros(6)
+
+
 def rotated(hinge, along: Callable[[np.ndarray, str], np.ndarray]):
     """The kind's own fields along the machine's axes (none)."""
     return hinge

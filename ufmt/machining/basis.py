@@ -39,7 +39,7 @@ class ModalBasis:
         model file draws it).
     varying : ((hinge, d (6, n)), ...) the hinges whose stiffness depends on frequency and
         their relative motion in the modes (same normalisation; the basis is then the static
-        model's, :mod:`ufmt.machining.varying`), or () when none does.
+        model's, :mod:`ufmt.machining.damping`), or () when none does.
     tool : the tool carrier's coupling when the basis carries the tool as an oscillator
         (:func:`ufmt.machining.tool.with_tool`: the tool body's shapes are then the tool
         carrier's), or None.

@@ -39,7 +39,6 @@ from ufmt.machining.recurrence import DEFAULT_ZETA, modal_damping
 from ufmt.machining.slide import model_at_slide
 from ufmt.machining.static import ResidualFlexibility, static_flexibility
 from ufmt.machining.tool import with_tool
-from ufmt.machining.varying import varying_receptance
 from ufmt.model.load import as_model
 from ufmt.model.machine import MAX_LENGTH_M, Machine, machine_of
 
@@ -95,8 +94,6 @@ def participation(basis: ModalBasis, end: End, direction) -> np.ndarray:
 def modal_receptance(basis: ModalBasis, c_out, c_in, freq_hz, zeta=DEFAULT_ZETA) -> np.ndarray:
     """The basis' part of H (F,) [m/N] between participations ``c_out`` and ``c_in`` (module
     docstring), vectorised over the frequencies."""
-    if basis.varying:  # hinges with k*(ω): a direct modal solve per frequency
-        return varying_receptance(basis, c_out, c_in, freq_hz, zeta)
     zeta = modal_damping(zeta, basis.n_modes)
     w = 2 * np.pi * np.asarray(freq_hz, dtype=float)[None, :]
     modes = damped_modes(basis, zeta)

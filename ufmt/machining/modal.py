@@ -18,10 +18,9 @@ import numpy as np
 from ufmt.defaults import DEFAULT_BASIS_CUTOFF_HZ
 from ufmt.errors import UfmtError
 from ufmt.machining.basis import ModalBasis
-from ufmt.machining.damping import hinge_damping_matrix
+from ufmt.machining.damping import hinge_damping_matrix, varying_motion
 from ufmt.machining.machine_frame import in_machine_frame
 from ufmt.machining.slide import carriage, cut_slide_position, model_at_slide
-from ufmt.machining.varying import varying_motion
 from ufmt.model.schema import Model
 from ufmt.mstmm.dependent import static_model
 from ufmt.mstmm.modes import ModeShapes
