@@ -244,6 +244,17 @@ def test_pair_roots_match_a_direct_assembled_solve(pair):
     assert np.all(solution.frequencies_hz > lo / (2 * np.pi))
 
 
+def test_assembled_method_finds_the_same_roots(pair):
+    """`solve_modes(method="assembled")` takes the same branch search with the assembled model
+    as the constant-stiffness solver: rigid bodies only, so both are exact."""
+    from ufmt.solvers import solve_modes as either
+
+    mstmm = either(pair, fmax_hz=2000.0, shapes=False)
+    assembled = either(pair, fmax_hz=2000.0, method="assembled")
+    np.testing.assert_allclose(assembled.frequencies_hz, mstmm.frequencies_hz, rtol=1e-9)
+    assert mstmm.frequencies_hz.size >= 6
+
+
 def test_transfer_matrix_is_singular_at_the_roots(pair):
     """det U_all = 0 with the hinge transfer matrices at k'(w): U_all of the model at a root
     is the frozen model's there (bitwise), and its determinant changes sign across each root
@@ -358,3 +369,19 @@ def test_static_basis_carries_the_film(pair):
     static = solve_modes(bounding(pair, upper=False), fmax_hz=5000.0)
     np.testing.assert_array_equal(basis.omega / (2 * np.pi), static.frequencies_hz)
     assert [h.name for h, _ in basis.varying] == ["film"]
+
+
+def test_film_states_close_the_acceleration(pair):
+    """q'' - f from the complex modes' weights (-Omega^2 q - D q' - G s, the film's branch
+    forces G s included) equals d/dt q' = 2 Re(P Lambda^2 z): the eigen-relation A V = V Lambda
+    of the augmented first-order form, row by row."""
+    from ufmt.machining.damping import damped_modes
+
+    basis = modal_basis(pair)
+    modes = damped_modes(basis, 0.01)
+    n = basis.n_modes
+    assert modes.film_outputs.shape[0] == 5  # the directions whose ratio is not 1: 3 + 2
+    on = np.eye(n)
+    accel = modes.state_weights(on[:, :0], on[:, :0], on)
+    expected = (modes.outputs * modes.poles**2).T
+    np.testing.assert_allclose(accel, expected, atol=1e-9 * np.abs(expected).max())
