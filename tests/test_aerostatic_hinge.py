@@ -362,12 +362,14 @@ def test_pair_frf_matches_a_direct_assembled_solve(pair):
     np.testing.assert_allclose(result.values, expected, rtol=1e-6)
 
 
-def test_static_basis_carries_the_film(pair):
-    """The basis of a frequency-dependent model is its static model's (k0) with the film's
-    hinge motion; the natural frequencies of the basis are the static model's."""
+def test_film_basis_spans_the_static_and_high_frequency_modes(pair):
+    """The Ritz basis of the static and the high-frequency model's modes: for the rigid pair
+    (12 dofs, 12 + 12 shapes) it spans everything, so it is the static model's eigenbasis
+    (frequencies to rounding) with the duplicated directions dropped, and the film's motion."""
     basis = modal_basis(pair)
     static = solve_modes(bounding(pair, upper=False), fmax_hz=5000.0)
-    np.testing.assert_array_equal(basis.omega / (2 * np.pi), static.frequencies_hz)
+    assert static.frequencies_hz.size == 12
+    np.testing.assert_allclose(basis.omega / (2 * np.pi), static.frequencies_hz, rtol=1e-12)
     assert [h.name for h, _ in basis.varying] == ["film"]
 
 
@@ -385,3 +387,79 @@ def test_film_states_close_the_acceleration(pair):
     accel = modes.state_weights(on[:, :0], on[:, :0], on)
     expected = (modes.outputs * modes.poles**2).T
     np.testing.assert_allclose(accel, expected, atol=1e-9 * np.abs(expected).max())
+
+
+SHAFT = """
+name = "shaft on a film"
+
+[[body]]
+name = "shaft"
+kind = "beam"
+start = [0.0, 0.0, 0.5]
+end = [0.0, 0.0, 0.1]
+density = 7850.0
+youngs_modulus = 2.1e11
+shear_modulus = 8.1e10
+diameter = 0.06
+
+[[body]]
+name = "head"
+kind = "rigid"
+mass = 8.0
+center_of_mass = [0.02, 0.0, 0.07]
+inertia = [[0.03, 0.0, 0.0], [0.0, 0.03, 0.0], [0.0, 0.0, 0.05]]
+
+[[hinge]]
+name = "film"
+kind = "aerostatic"
+between = ["ground", "shaft"]
+at = [0.0, 0.0, 0.5]
+stiffness = [1.0e8, 1.0e8, 2.0e8]
+rotational_stiffness = [2.0e6, 2.0e6, 1.0e6]
+stiffness_ratio = [2.0, 2.0, 1.5]
+rotational_stiffness_ratio = [2.5, 2.5, 1.0]
+corner_frequency = [200.0, 200.0, 300.0]
+
+[[hinge]]
+name = "mount"
+between = ["shaft", "head"]
+at = [0.0, 0.0, 0.1]
+stiffness = [inf, inf, inf]
+rotational_stiffness = [inf, inf, inf]
+"""
+
+
+def test_beam_on_a_film_frf_matches_a_fine_assembled_solve():
+    """A steel shaft on a film to ground, a head on its end: the receptance at the head (the
+    film's motion read on a beam end through the static model's MSTMM field) against the
+    direct solve on 48 frame elements, within 1e-4 from 5 Hz to 2 kHz (measured 1.0e-5; the
+    static model's modes alone, without the high-frequency model's, were 27 % off at the first
+    resonance)."""
+    model = load_model_text(SHAFT, "shaft.toml")
+    am = assemble(bounding(model, upper=False), elements_per_beam=48)
+    basis, _ = constraint_basis(am.constraints, am.massless)
+    k0 = np.array([h.stiffness6 for h in bounding(model, upper=False).hinges]).reshape(-1)
+    finite = np.isfinite(k0) & (k0 > 0)
+    rows = am.deformation[-np.count_nonzero(finite) :] / np.sqrt(k0[finite])[:, None]
+    point = np.array([0.02, 0.0, 0.03])
+    load = np.zeros(am.K.shape[0])
+    load[am.body_dofs["head"][0]] = point_motion(point - am.node_positions["head"][0])[0]
+    result = frf(
+        model,
+        direction="x",
+        output=("head", tuple(point)),
+        zeta=1e-9,
+        fmin_hz=5.0,
+        fmax_hz=2000.0,
+        points=60,
+    )
+    film = model.hinge("film")
+    k_star = hinge_kind_of(film).complex_stiffness6(film, 2 * np.pi * result.frequencies_hz)
+    f, m = basis.T @ load, basis.T @ am.M @ basis
+    expected = []
+    for w, ks in zip(2 * np.pi * result.frequencies_hz, k_star, strict=True):
+        change = np.zeros_like(k0, dtype=complex)
+        change[:6] = ks - film.stiffness6
+        k = am.K + (rows.T * change[finite]) @ rows
+        expected.append(f @ np.linalg.solve(basis.T @ k @ basis - w**2 * m, f))
+    np.testing.assert_allclose(result.values, expected, rtol=1e-4)

@@ -46,6 +46,7 @@ from ufmt.design import (
 )
 from ufmt.errors import ProcessError, StudyError, closest_name
 from ufmt.fingerprint import code_sha256, file_sha256, model_sha256
+from ufmt.kinds import frequency_dependent
 from ufmt.machining.basis import ModalBasis
 from ufmt.machining.lines import DEFAULT_LINE_SPACING
 from ufmt.machining.modal import basis_at_slide, modal_basis, model_where_it_cuts
@@ -56,7 +57,6 @@ from ufmt.machining.validity import OutsideDomainError, check_case
 from ufmt.model.load import load_model, packaged_path
 from ufmt.model.machine import machine_of
 from ufmt.model.schema import DesignParameter, Model
-from ufmt.mstmm.dependent import static_model
 from ufmt.recent import Recent
 from ufmt.simulate import simulate
 from ufmt.solvers import solve_modes_batch
@@ -522,6 +522,8 @@ def _batch_bases(cases: Sequence[_Case]) -> dict:
     """
     models = {}
     for case in cases:
+        if frequency_dependent(case.model):  # its own basis (ufmt.machining.film_basis)
+            continue
         if case.basis_key not in _BASES and case.basis_key not in models:
             models[case.basis_key] = case.model
     if len(models) < 2:
@@ -531,8 +533,7 @@ def _batch_bases(cases: Sequence[_Case]) -> dict:
             warnings.simplefilter("always")
             slides = {key: model_where_it_cuts(model) for key, model in models.items()}
             solutions = solve_modes_batch(
-                [static_model(moved) for _, moved in slides.values()],
-                fmax_hz=DEFAULT_BASIS_CUTOFF_HZ,
+                [moved for _, moved in slides.values()], fmax_hz=DEFAULT_BASIS_CUTOFF_HZ
             )
     except Exception:  # each point solves its own design and records its own failure
         return {}

@@ -34,10 +34,10 @@ damping (``hinge_damping`` None: no hinge of the model has any) and without freq
 hinges takes the diagonal path, unchanged.
 
 Frequency-dependent hinges (a film k*(s) = k0 + k1 s tau / (1 + s tau) per direction,
-:mod:`ufmt.kinds.aerostatic_hinge`, k1 = k_inf - k0): the basis is the static model's (every
-hinge at k0, :func:`ufmt.mstmm.dependent.static_model`) and each direction's Maxwell branch
-adds one state, its spring's stretch s [m] (branch force k1 s): s' = d q' - s / tau, with
-d (6, n) the hinge's relative motion in the modes (:func:`varying_motion`), and the modal
+:mod:`ufmt.kinds.aerostatic_hinge`, k1 = k_inf - k0): the basis is a basis of the static
+model (every hinge at k0, :mod:`ufmt.machining.film_basis`) and each direction's Maxwell
+branch adds one state, its spring's stretch s [m] (branch force k1 s): s' = d q' - s / tau, with
+d (6, n) the hinge's relative motion in the modes (``ModalBasis.varying``), and the modal
 equations gain - M^-1 d^T k1 s. In the frequency domain s = d q s tau / (1 + s tau): the
 state-space form is exact for k*(W) at every W, within the basis. The first-order form grows
 by one row per branch, A = [[0, I, 0], [-Omega^2, -D, -G], [0, d, -1/tau]], G = M^-1 d^T k1
@@ -229,15 +229,6 @@ def _damped_modes(basis: ModalBasis, zeta: tuple) -> DampedModes:
     for x in out:
         x.setflags(write=False)
     return DampedModes(*out)
-
-
-def varying_motion(model: Model, shapes: ModeShapes) -> tuple:
-    """((hinge, d (6, n)), ...) of the hinges of ``model`` whose stiffness depends on
-    frequency, d their relative motion in the modes ``shapes``; () when none does."""
-    hinges = [h for h in model.hinges if not hinge_kind_of(h).count_applies(h)]
-    if not hinges:
-        return ()
-    return tuple(zip(hinges, relative_motion(model, shapes, hinges), strict=True))
 
 
 def film_matrices(basis: ModalBasis) -> tuple | None:

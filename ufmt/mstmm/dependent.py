@@ -65,14 +65,6 @@ def bounding(model: Model, upper: bool) -> Model:
     )
 
 
-def static_model(model: Model) -> Model:
-    """``model`` itself when every hinge's count applies, else its hinges at their static
-    (zero-frequency) stiffness k0: the model a modal basis is solved for."""
-    if all(hinge_kind_of(h).count_applies(h) for h in model.hinges):
-        return model
-    return bounding(model, upper=False)
-
-
 def dependent_modes(model: Model, top, count, shapes: bool, solve_batch: Callable) -> tuple:
     """(frequencies [Hz], order of U_all, zero-frequency modes, shapes or None) of a
     frequency-dependent ``model``: its roots below ``top`` [Hz] (None: no limit) or its
