@@ -39,7 +39,10 @@ class ModalBasis:
         model file draws it).
     varying : ((hinge, d (6, n)), ...) the hinges whose stiffness depends on frequency and
         their relative motion in the modes (same normalisation; the basis is then the static
-        model's, :mod:`ufmt.machining.damping`), or () when none does.
+        model's, :mod:`ufmt.machining.film_basis`), or () when none does.
+    resolved_hz : the highest natural frequency [Hz] the response paths sample (None: the
+        highest mode); a film basis' Ritz modes above it hold the film's stiffening and respond
+        quasi-statically (the recurrence is exact for them at any step).
     tool : the tool carrier's coupling when the basis carries the tool as an oscillator
         (:func:`ufmt.machining.tool.with_tool`: the tool body's shapes are then the tool
         carrier's), or None.
@@ -53,6 +56,7 @@ class ModalBasis:
     slide_y: float = 0.0
     tool: ToolCoupling | None = None
     varying: tuple = ()
+    resolved_hz: float | None = None
 
     def __post_init__(self):
         omega = np.asarray(self.omega, dtype=float)
@@ -109,6 +113,7 @@ class ModalBasis:
             hinge_damping=None if self.hinge_damping is None else self.hinge_damping[:n, :n],
             slide_y=self.slide_y,
             varying=tuple((h, d[:, :n]) for h, d in self.varying),
+            resolved_hz=self.resolved_hz,
         )
 
     def point_shapes(self, body: str, points) -> np.ndarray:

@@ -17,7 +17,9 @@ directions in which M_r is singular to 1e-10 of its largest eigenvalue dropped. 
 are exact eigenmodes of the static model within the span; the static correction above the basis
 (the static model's flexibility minus the basis' own) stays consistent. The span holds both
 limits of the film exactly, and the film's change between them is represented to the
-interpolation between the two sets.
+interpolation between the two sets. The Ritz modes above both sets' highest mode are the
+film's local stiffening; the response paths sample the basis for the modes up to it
+(``ModalBasis.resolved_hz``) and the rest respond quasi-statically.
 """
 
 from __future__ import annotations
@@ -66,6 +68,7 @@ def film_basis(model: Model, static: ModeShapes, high: ModeShapes) -> ModalBasis
         body_centers=dict(static.centers),
         hinge_damping=damping,
         varying=tuple((h, d @ x) for h, d in zip(films, motion, strict=True)),
+        resolved_hz=float(max(static.frequencies_hz[-1], high.frequencies_hz[-1])),
     )
 
 

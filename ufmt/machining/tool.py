@@ -93,6 +93,7 @@ def _with_tool(
         hinge_damping=carried,
         slide_y=basis.slide_y,
         varying=tuple((h, d @ xq) for h, d in basis.varying),
+        resolved_hz=basis.resolved_hz,
         tool=ToolCoupling(
             body=body,
             stretch=stretch,
