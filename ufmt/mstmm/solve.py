@@ -4,7 +4,8 @@ The Wittrick-Williams count of the model's exact dynamic stiffness (:mod:`ufmt.m
 no mesh) counts the roots below any frequency and brackets each one; the MSTMM finds each
 root in its bracket from det U_all(ω) = 0 and builds its shape from the null vector of U_all.
 A counted root the MSTMM cannot find raises :class:`RootsLostError` (the CLI prints one line
-naming the missing frequencies and exits non-zero).
+naming the missing frequencies and exits non-zero). Where a hinge's stiffness depends on
+frequency the count does not apply: :mod:`ufmt.mstmm.dependent` finds those roots per branch.
 """
 
 from __future__ import annotations
@@ -212,8 +213,9 @@ def solve_modes_batch(
     (:class:`ufmt.mstmm.wittrick.RootCounter`), every J evaluation one pass for all of them;
     each design's roots and shapes then come from its own Newton walks on det U_all. The BLAS
     thread limit is set once for the whole batch. Each result is the one :func:`solve_modes`
-    returns for that design alone (to rounding; ``seconds``: its own share). Parameters and
-    errors as :func:`solve_modes` (a lost root of any design raises for the batch).
+    returns for that design alone (to rounding; ``seconds``: its own share); a design with a
+    frequency-dependent hinge is solved alone. Parameters and errors as :func:`solve_modes`
+    (a lost root of any design raises for the batch).
     """
     models = [as_model(m) for m in models]
     _check(fmax_hz, count, "mstmm")
@@ -222,7 +224,7 @@ def solve_modes_batch(
         out: list = [None] * len(models)
         for i, m in enumerate(models):
             if frequency_dependent(m):  # solved alone (ufmt.mstmm.dependent)
-                out[i] = replace(_solve_modes(m, fmax_hz, count, "mstmm", shapes), model=m)
+                out[i] = _solve_modes(m, fmax_hz, count, "mstmm", shapes)
             else:
                 groups.setdefault(m.structure_key(), []).append(i)
         for members in groups.values():
