@@ -46,6 +46,7 @@ from ufmt.design import (
 )
 from ufmt.errors import ProcessError, StudyError, closest_name
 from ufmt.fingerprint import code_sha256, file_sha256, model_sha256
+from ufmt.kinds import frequency_dependent
 from ufmt.machining.basis import ModalBasis
 from ufmt.machining.lines import DEFAULT_LINE_SPACING
 from ufmt.machining.modal import basis_at_slide, modal_basis, model_where_it_cuts
@@ -521,6 +522,8 @@ def _batch_bases(cases: Sequence[_Case]) -> dict:
     """
     models = {}
     for case in cases:
+        if frequency_dependent(case.model):  # its own basis (ufmt.machining.film_basis)
+            continue
         if case.basis_key not in _BASES and case.basis_key not in models:
             models[case.basis_key] = case.model
     if len(models) < 2:

@@ -30,7 +30,7 @@ PHYSICS = (
     "tables.py",  # the table checker whose messages a failed evaluation records
     "tomlfile.py",  # the file reader whose messages a failed evaluation records
     "model",  # loading and validating model files, [machine] and [design] tables
-    "kinds",  # the body kinds: fields, readers, formulations (rods, bending theories)
+    "kinds",  # body and hinge kinds: fields, readers, formulations (bending theories, the film)
     "kinematics.py",  # rigid-point kinematics of both solvers
     "assembled",  # the mass-stiffness model (static flexibility, calibration's reduced model)
     "mstmm",  # natural frequencies (counted by Wittrick-Williams) and mode shapes

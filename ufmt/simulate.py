@@ -189,7 +189,7 @@ def _sampling(
     (:func:`~ufmt.machining.cut_geometry.samples_per_rev`), inside the validity domain (with
     the tool and workpiece bodies in the basis)."""
     validity.check_bodies(machine, basis.body_shapes)
-    highest_hz = float(basis.omega[-1]) / (2 * np.pi)
+    highest_hz = _resolved(basis, float(basis.omega[-1]) / (2 * np.pi))
     if n_phi is None:  # 0 stays an error of the discretisation, not the default
         x_step = float(np.atleast_1d(spacing)[0])
         n_phi = samples_per_rev(
@@ -268,7 +268,12 @@ def _machine_highest_hz(basis: ModalBasis) -> float:
     """The highest natural frequency [Hz] of the machine's modes in ``basis`` (the tool
     carrier's mode left out, :mod:`ufmt.machining.tool`)."""
     omega = basis.omega if basis.tool is None else basis.tool.structure_omega
-    return float(omega[-1]) / (2 * np.pi)
+    return _resolved(basis, float(omega[-1]) / (2 * np.pi))
+
+
+def _resolved(basis: ModalBasis, highest_hz: float) -> float:
+    """``highest_hz`` [Hz], or the basis' ``resolved_hz`` when lower (a film's Ritz basis)."""
+    return highest_hz if basis.resolved_hz is None else min(highest_hz, basis.resolved_hz)
 
 
 def _tool_mode_hz(basis: ModalBasis) -> float | None:
@@ -278,7 +283,11 @@ def _tool_mode_hz(basis: ModalBasis) -> float | None:
 
 
 def _basis_size(basis: ModalBasis, n_modes: int | None, cutoff_hz: float) -> int:
-    """Modes of ``basis`` kept: ``n_modes`` if given, else those below ``cutoff_hz`` [Hz]."""
+    """Modes of ``basis`` kept: ``n_modes`` if given, else those below ``cutoff_hz`` [Hz]; a
+    film's Ritz basis whole (:mod:`ufmt.machining.film_basis`: its modes above the cutoff hold
+    the film's stiffening)."""
+    if basis.varying:
+        return basis.n_modes
     if n_modes is not None:
         return n_modes
     if not (math.isfinite(cutoff_hz) and cutoff_hz > 0):

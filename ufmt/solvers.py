@@ -6,12 +6,15 @@ from __future__ import annotations
 
 import time
 from collections.abc import Sequence
+from dataclasses import replace
 from pathlib import Path
 
 from ufmt import limits
 from ufmt.errors import UfmtError
+from ufmt.kinds import frequency_dependent
 from ufmt.model.load import as_model
 from ufmt.model.schema import Model
+from ufmt.mstmm.dependent import dependent_modes
 from ufmt.mstmm.solve import DEFAULT_FMAX_HZ, ModalSolution
 from ufmt.mstmm.solve import solve_modes as mstmm_modes
 from ufmt.mstmm.solve import solve_modes_batch as mstmm_modes_batch
@@ -45,14 +48,29 @@ def solve_modes(
         return mstmm_modes(model, fmax_hz, count, shapes=shapes)
     if fmax_hz is not None and not fmax_hz > 0:
         raise UfmtError(f"fmax_hz: {fmax_hz} must be > 0 [Hz]")
-    from ufmt.assembled import assembled_modes
-
     t0 = time.perf_counter()
     fmax = DEFAULT_FMAX_HZ if fmax_hz is None and count is None else fmax_hz
-    found = assembled_modes(model, fmax_hz=fmax, count=count, shapes=False)
-    f = found.frequencies_hz
-    seconds = time.perf_counter() - t0
-    return ModalSolution(f, 0, "assembled", f.size, found.rigid_body_modes, None, seconds, model)
+    if frequency_dependent(model):  # per branch, each step an assembled solve
+        f, _, rigid, _ = dependent_modes(model, fmax, count, False, _assembled_batch)
+        seconds = time.perf_counter() - t0
+        return ModalSolution(f, 0, "assembled", f.size, rigid, None, seconds, model)
+    (solution,) = _assembled_batch([model], count=count, fmax_hz=fmax)
+    return replace(solution, seconds=time.perf_counter() - t0)
+
+
+def _assembled_batch(models, *, count=None, fmax_hz=None, shapes=False) -> list[ModalSolution]:
+    """The assembled model's frequencies of each of ``models`` (constant stiffness), in the
+    call shape of :func:`ufmt.mstmm.solve.solve_modes_batch` (``shapes`` is ignored)."""
+    from ufmt.assembled import assembled_modes
+
+    out = []
+    for model in models:
+        found = assembled_modes(model, fmax_hz=fmax_hz, count=count, shapes=False)
+        f = found.frequencies_hz
+        out.append(
+            ModalSolution(f, 0, "assembled", f.size, found.rigid_body_modes, None, 0.0, model)
+        )
+    return out
 
 
 def solve_modes_batch(

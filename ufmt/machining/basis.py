@@ -37,6 +37,12 @@ class ModalBasis:
         (the modal equations are then classically damped).
     slide_y : slide position Y [m] of the configuration the modes were solved at (0: as the
         model file draws it).
+    varying : ((hinge, d (6, n)), ...) the hinges whose stiffness depends on frequency and
+        their relative motion in the modes (same normalisation; the basis is then the static
+        model's, :mod:`ufmt.machining.film_basis`), or () when none does.
+    resolved_hz : the highest natural frequency [Hz] the response paths sample (None: the
+        highest mode); a film basis' Ritz modes above it hold the film's stiffening and respond
+        quasi-statically (the recurrence is exact for them at any step).
     tool : the tool carrier's coupling when the basis carries the tool as an oscillator
         (:func:`ufmt.machining.tool.with_tool`: the tool body's shapes are then the tool
         carrier's), or None.
@@ -49,6 +55,8 @@ class ModalBasis:
     hinge_damping: np.ndarray | None = None
     slide_y: float = 0.0
     tool: ToolCoupling | None = None
+    varying: tuple = ()
+    resolved_hz: float | None = None
 
     def __post_init__(self):
         omega = np.asarray(self.omega, dtype=float)
@@ -75,6 +83,9 @@ class ModalBasis:
             if c.shape != (omega.size, omega.size) or not np.all(np.isfinite(c)):
                 raise ValueError(f"hinge_damping must be a finite {(omega.size,) * 2} matrix")
             object.__setattr__(self, "hinge_damping", _readonly(c))
+        for _, d in self.varying:
+            if np.shape(d) != (6, omega.size):
+                raise ValueError(f"varying: hinge motion must have shape {(6, omega.size)}")
         object.__setattr__(self, "omega", _readonly(omega))
         object.__setattr__(self, "modal_mass", _readonly(mass))
         object.__setattr__(self, "body_shapes", shapes)
@@ -101,6 +112,8 @@ class ModalBasis:
             body_centers=self.body_centers,
             hinge_damping=None if self.hinge_damping is None else self.hinge_damping[:n, :n],
             slide_y=self.slide_y,
+            varying=tuple((h, d[:, :n]) for h, d in self.varying),
+            resolved_hz=self.resolved_hz,
         )
 
     def point_shapes(self, body: str, points) -> np.ndarray:

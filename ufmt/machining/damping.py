@@ -30,8 +30,19 @@ the FFT structure, the caching and the vectorisation over samples and harmonics 
 solve per harmonic would serve the periodic table but not the time path, the periodic path's
 record window or its impulse-response columns, which need the discrete recurrence itself, and
 it would cost an n x n solve per harmonic instead of n scalar transfers. A basis without hinge
-damping (``hinge_damping`` None: no hinge of the model has any) takes the diagonal path,
-unchanged.
+damping (``hinge_damping`` None: no hinge of the model has any) and without frequency-dependent
+hinges takes the diagonal path, unchanged.
+
+Frequency-dependent hinges (a film k*(s) = k0 + k1 s tau / (1 + s tau) per direction,
+:mod:`ufmt.kinds.aerostatic_hinge`, k1 = k_inf - k0): the basis is a basis of the static
+model (every hinge at k0, :mod:`ufmt.machining.film_basis`) and each direction's Maxwell
+branch adds one state, its spring's stretch s [m] (branch force k1 s): s' = d q' - s / tau, with
+d (6, n) the hinge's relative motion in the modes (``ModalBasis.varying``), and the modal
+equations gain - M^-1 d^T k1 s. In the frequency domain s = d q s tau / (1 + s tau): the
+state-space form is exact for k*(W) at every W, within the basis. The first-order form grows
+by one row per branch, A = [[0, I, 0], [-Omega^2, -D, -G], [0, d, -1/tau]], G = M^-1 d^T k1
+(:func:`film_matrices`); its real film poles are kept with half weight like any real pole,
+and q'' = f - D q' - Omega^2 q - G s (:meth:`DampedModes.state_weights`).
 """
 
 from __future__ import annotations
@@ -43,7 +54,7 @@ import numpy as np
 from threadpoolctl import ThreadpoolController
 
 from ufmt.errors import UfmtError
-from ufmt.kinds import kind_of
+from ufmt.kinds import hinge_kind_of, kind_of
 from ufmt.machining.basis import ModalBasis
 from ufmt.machining.recurrence import modal_damping
 from ufmt.model.schema import GROUND, Model
@@ -74,23 +85,29 @@ def hinge_damping_matrix(model: Model, shapes: ModeShapes) -> np.ndarray | None:
     damped = [h for h in model.hinges if np.any(h.damping6[~h.rigid] != 0.0)]
     if not damped:
         return None
+    n = shapes.frequencies_hz.size
+    out = np.zeros((n, n))
+    for hinge, d in zip(damped, relative_motion(model, shapes, damped), strict=True):
+        c = np.where(hinge.rigid, 0.0, hinge.damping6)
+        out += (d.T * c) @ d
+    return out
+
+
+def relative_motion(model: Model, shapes: ModeShapes, hinges) -> list[np.ndarray]:
+    """Per hinge of ``hinges``, the relative motion d = u_A(P) - u_B(P) (6, n) [r; theta] of
+    its two sides at its point in the modes ``shapes`` (their normalisation)."""
     beams = {}  # body with a field -> its two ends' positions and motion (n, 2, 6)
-    for hinge in damped:
+    for hinge in hinges:
         for side in hinge.between:
             if side != GROUND and kind_of(model.body(side)).HINGES_AT_ENDS:
                 beams[side] = None
     if beams:
         system = TransferSystem(model)
         beams = {name: beam_shape(system, shapes, name, [0.0, 1.0]) for name in beams}
-    n = shapes.frequencies_hz.size
-    out = np.zeros((n, n))
-    for hinge in damped:
-        d = _side_motion(model, shapes, beams, hinge, 0) - _side_motion(
-            model, shapes, beams, hinge, 1
-        )
-        c = np.where(hinge.rigid, 0.0, hinge.damping6)
-        out += (d.T * c) @ d
-    return out
+    return [
+        _side_motion(model, shapes, beams, h, 0) - _side_motion(model, shapes, beams, h, 1)
+        for h in hinges
+    ]
 
 
 def _side_motion(model: Model, shapes: ModeShapes, beams, hinge, side: int) -> np.ndarray:
@@ -127,7 +144,8 @@ class DampedModes:
 
     poles (m,) lambda_j [1/s], the upper half plane (a real pole stands for itself, its output
     weight halved); inputs (m, n) L: z' = lambda z + L f; outputs (n, m) P: q = 2 Re(P z);
-    damping (n, n) D [1/s]; omega (n,) [rad/s]. Arrays read-only.
+    damping (n, n) D [1/s]; omega (n,) [rad/s]; with film branches (:func:`film_matrices`)
+    film_outputs (b, m): s = 2 Re(P_s z) and film_forces (n, b) G. Arrays read-only.
     """
 
     poles: np.ndarray
@@ -135,6 +153,8 @@ class DampedModes:
     outputs: np.ndarray
     damping: np.ndarray
     omega: np.ndarray
+    film_outputs: np.ndarray | None = None
+    film_forces: np.ndarray | None = None
 
     def projected(self, z, force, on_q, on_qd, on_qdd):
         """q^T on_q, q'^T on_qd and q''^T on_qdd ((T, k) each) of complex coordinates z (m, T)
@@ -157,21 +177,19 @@ class DampedModes:
         coordinates z (m, T), shapes (n, k_q), (n, k_qd), (n, k_qdd), k their total (see
         :meth:`projected`)."""
         rate = self.outputs * self.poles  # P Lambda
-        return np.concatenate(
-            [
-                self.outputs.T @ on_q,
-                rate.T @ on_qd,
-                -(self.outputs.T @ ((self.omega**2)[:, None] * on_qdd))
-                - rate.T @ (self.damping.T @ on_qdd),
-            ],
-            axis=1,
+        accel = -(self.outputs.T @ ((self.omega**2)[:, None] * on_qdd)) - rate.T @ (
+            self.damping.T @ on_qdd
         )
+        if self.film_forces is not None:  # the film branches' forces on the modes
+            accel = accel - self.film_outputs.T @ (self.film_forces.T @ on_qdd)
+        return np.concatenate([self.outputs.T @ on_q, rate.T @ on_qd, accel], axis=1)
 
 
 def damped_modes(basis: ModalBasis, zeta) -> DampedModes | None:
     """:class:`DampedModes` of ``basis`` with structural ratios ``zeta``, or None when the basis
-    carries no hinge damping (the diagonal, classically damped modal equations)."""
-    if basis.hinge_damping is None:
+    carries no hinge damping and no frequency-dependent hinge (the diagonal, classically
+    damped modal equations)."""
+    if basis.hinge_damping is None and not basis.varying:
         return None
     return _damped_modes(basis, tuple(modal_damping(zeta, basis.n_modes).tolist()))
 
@@ -182,6 +200,16 @@ def _damped_modes(basis: ModalBasis, zeta: tuple) -> DampedModes:
     n = basis.n_modes
     d = damping_matrix(basis, np.array(zeta))
     a = np.block([[np.zeros((n, n)), np.eye(n)], [-np.diag(basis.omega**2), -d]])
+    film = film_matrices(basis)
+    if film is not None:  # one state per film branch (module docstring)
+        forces, rows, rates = film
+        b = rates.size
+        a = np.block(
+            [
+                [a, np.vstack([np.zeros((n, b)), -forces])],
+                [np.hstack([np.zeros((b, n)), rows]), -np.diag(rates)],
+            ]
+        )
     lam, vectors = np.linalg.eig(a)
     try:
         inverse = np.linalg.inv(vectors)
@@ -195,7 +223,25 @@ def _damped_modes(basis: ModalBasis, zeta: tuple) -> DampedModes:
     keep = np.flatnonzero(lam.imag >= 0.0)
     keep = keep[np.argsort(np.abs(lam[keep]), kind="stable")]
     weight = np.where(lam[keep].imag > 0.0, 1.0, 0.5)
-    out = (lam[keep], inverse[keep, n:], vectors[:n, keep] * weight, d, basis.omega)
+    out = [lam[keep], inverse[keep, n : 2 * n], vectors[:n, keep] * weight, d, basis.omega]
+    if film is not None:
+        out += [vectors[2 * n :, keep] * weight, film[0]]
     for x in out:
         x.setflags(write=False)
     return DampedModes(*out)
+
+
+def film_matrices(basis: ModalBasis) -> tuple | None:
+    """(G (n, b) = M^-1 d^T k1, d rows (b, n), 1/tau (b,) [1/s]) of the film branches of the
+    basis' frequency-dependent hinges (module docstring), one per direction whose k'(ω)
+    varies; None when there are none."""
+    forces, rows, rates = [], [], []
+    for hinge, d in basis.varying:
+        rate, k1 = hinge_kind_of(hinge).branches6(hinge)
+        for i in np.flatnonzero(k1 > 0.0):
+            forces.append(d[i] * k1[i] / basis.modal_mass)
+            rows.append(d[i])
+            rates.append(rate[i])
+    if not rates:
+        return None
+    return np.array(forces).T, np.array(rows), np.array(rates)

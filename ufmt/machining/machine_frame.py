@@ -21,7 +21,7 @@ from dataclasses import replace
 import numpy as np
 
 from ufmt.errors import ModelError
-from ufmt.kinds import kind_of
+from ufmt.kinds import hinge_kind_of, kind_of
 from ufmt.model.orientation import DIRECTION_FIELDS
 from ufmt.model.schema import Model, frozen_array
 from ufmt.recent import Recent
@@ -85,7 +85,8 @@ def _hinge(hinge, frame: np.ndarray, source: str):
     changes = {
         f: frozen_array(_along(getattr(hinge, f), frame, hinge.name, f, source)) for f in fields
     }
-    return replace(hinge, at=frozen_array(to_machine(hinge.at, frame)), **changes)
+    moved = replace(hinge, at=frozen_array(to_machine(hinge.at, frame)), **changes)
+    return hinge_kind_of(hinge).rotated(moved, lambda v, f: _along(v, frame, hinge.name, f, source))
 
 
 def _along(values, frame: np.ndarray, name: str, field: str, source: str) -> np.ndarray:

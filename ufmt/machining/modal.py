@@ -17,11 +17,14 @@ import numpy as np
 
 from ufmt.defaults import DEFAULT_BASIS_CUTOFF_HZ
 from ufmt.errors import UfmtError
+from ufmt.kinds import frequency_dependent
 from ufmt.machining.basis import ModalBasis
 from ufmt.machining.damping import hinge_damping_matrix
+from ufmt.machining.film_basis import film_basis
 from ufmt.machining.machine_frame import in_machine_frame
 from ufmt.machining.slide import carriage, cut_slide_position, model_at_slide
 from ufmt.model.schema import Model
+from ufmt.mstmm.dependent import bounding
 from ufmt.mstmm.modes import ModeShapes
 from ufmt.mstmm.solve import solve_modes
 
@@ -34,16 +37,24 @@ def modal_basis(
 ) -> ModalBasis:
     """ModalBasis of ``model`` (MSTMM) [SI]: every mode below ``cutoff_hz`` [Hz] (the default
     basis, :mod:`ufmt.defaults`), or the first ``n_modes`` when given (the paper's choice);
-    its hinge damping included. ``slide_y`` [m]: the slide position the modes are solved at
+    its hinge damping included; with frequency-dependent hinges the Ritz basis of
+    :mod:`ufmt.machining.film_basis` (its static and high-frequency models' modes, both by
+    ``cutoff_hz`` or ``n_modes``). ``slide_y`` [m]: the slide position the modes are solved at
     (default: half way through the cut, :func:`~ufmt.machining.slide.cut_slide_position`;
     0 for a model without a ``[machine]`` table); body centres stay in the file's coordinates."""
     slide_y, moved = model_where_it_cuts(model, slide_y)
-    solution = (
-        solve_modes(moved, count=n_modes)
-        if n_modes is not None
-        else solve_modes(moved, fmax_hz=cutoff_hz)
-    )
-    return basis_at_slide(model, moved, slide_y, solution)
+
+    def solved(m):
+        return (
+            solve_modes(m, count=n_modes)
+            if n_modes is not None
+            else solve_modes(m, fmax_hz=cutoff_hz)
+        )
+
+    if not frequency_dependent(moved):
+        return basis_at_slide(model, moved, slide_y, solved(moved))
+    static, high = (solved(bounding(moved, upper=u)).shapes for u in (False, True))
+    return _placed(model, film_basis(moved, static, high), slide_y)
 
 
 def model_where_it_cuts(model: Model, slide_y: float | None = None) -> tuple[float, Model]:
@@ -65,9 +76,15 @@ def basis_at_slide(model: Model, moved: Model, slide_y: float, solution) -> Moda
     shapes = solution.shapes
     if shapes is None or shapes.frequencies_hz.size == 0:
         raise UfmtError(f"{model.source}: the model has no elastic modes")
-    basis = basis_from_shapes(shapes, moved)
+    return _placed(model, basis_from_shapes(shapes, moved), slide_y)
+
+
+def _placed(model: Model, basis: ModalBasis, slide_y: float) -> ModalBasis:
+    """``basis`` solved at slide position ``slide_y`` [m] with the carried body centres back in
+    the file's coordinates."""
     if slide_y == 0.0:
         return basis
+    model = in_machine_frame(model)
     carried = carriage(model, model.machine.workpiece_body)
     back = np.array([0.0, slide_y, 0.0])  # the carried centres, back to the file's place
     centers = {k: c + back if k in carried else c for k, c in basis.body_centers.items()}

@@ -92,6 +92,8 @@ def _with_tool(
         body_centers=basis.body_centers,
         hinge_damping=carried,
         slide_y=basis.slide_y,
+        varying=tuple((h, d @ xq) for h, d in basis.varying),
+        resolved_hz=basis.resolved_hz,
         tool=ToolCoupling(
             body=body,
             stretch=stretch,

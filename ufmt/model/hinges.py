@@ -8,7 +8,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from ufmt.errors import ModelError
-from ufmt.kinds import kind_of
+from ufmt.kinds import HINGE_KINDS, kind_of
 from ufmt.limits import MAX_NAME_CHARS
 from ufmt.model.rules import HINGE_FIELDS, HINGE_REQUIRED, POINT_RTOL, derived, label, vector
 from ufmt.model.schema import GROUND, Body, Hinge, Model
@@ -35,7 +35,10 @@ def parse_hinges(source: str, tables: list[Mapping], bodies: dict[str, Body]) ->
 
 
 def _parse_hinge(where: Where, table: Mapping, bodies: dict[str, Body]) -> Hinge:
-    where.keys(table, HINGE_FIELDS, HINGE_REQUIRED)
+    kind = where.string("kind", table.get("kind", "spring"))
+    where.choice("kind", kind, list(HINGE_KINDS), "hinge kind")
+    module = HINGE_KINDS[kind]
+    where.keys(table, (*HINGE_FIELDS, "kind", *module.FIELDS), HINGE_REQUIRED + module.REQUIRED)
     name = where.string("name", table["name"], max_chars=MAX_NAME_CHARS)
     between = _between(where, table["between"], bodies)
     at = vector(where, "at", table["at"], "finite", "[m]", "coordinate")
@@ -56,6 +59,8 @@ def _parse_hinge(where: Where, table: Mapping, bodies: dict[str, Body]) -> Hinge
             where, "rotational_damping", table.get("rotational_damping", zeros)
         ),
         number=where.integer("number", table["number"]) if "number" in table else None,
+        kind=kind,
+        extra=module.parse(where, table),
     )
 
 

@@ -16,7 +16,7 @@ TOP_FIELDS = ("name", "description", "body", "hinge", "machine", "design", "unce
 BODY_FIELDS = ("name", "kind", "number")
 SECTION_FIELDS = ("area", "second_moment_y", "second_moment_z", "polar_moment")
 HINGE_REQUIRED = ("name", "between", "at", "stiffness", "rotational_stiffness")
-HINGE_FIELDS = HINGE_REQUIRED + ("damping", "rotational_damping", "number")
+HINGE_FIELDS = HINGE_REQUIRED + ("damping", "rotational_damping", "number")  # every kind's
 
 SYMMETRY_RTOL = 1e-9  # inertia symmetry, relative to its largest entry
 TRIANGLE_RTOL = 1e-9  # principal-moment triangle inequality, relative to the largest moment
@@ -43,6 +43,8 @@ LIMITS = {
     "rotational_stiffness": (1e-6, 1e15, "[N m/rad]"),
     "damping": (0.0, 1e12, "[N s/m]"),
     "rotational_damping": (0.0, 1e12, "[N m s/rad]"),
+    "stiffness_ratio": (1.0, 100.0, "[-]"),  # a frequency-dependent hinge's k_inf / k0
+    "corner": (1e-3, 1e6, "[Hz]"),  # a frequency-dependent hinge's corner frequency
 }
 
 # rule -> the sign rule and whether inf is allowed (Where.number)

@@ -7,6 +7,7 @@ field; constructing them directly skips validation. Vectors are read-only numpy 
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -111,6 +112,9 @@ class Hinge:
     between: two body names (or "ground"); at [m] the hinge point;
     stiffness [N/m] along global x, y, z; rotational_stiffness [N m/rad] about global x, y, z
     (0 = released direction, inf = rigid); damping [N s/m]; rotational_damping [N m s/rad].
+    ``kind`` names its hinge kind (:data:`ufmt.kinds.HINGE_KINDS`, default the constant
+    spring); ``extra`` holds that kind's own fields (name -> read-only array), e.g. an
+    aerostatic film's stiffness ratio; ``stiffness`` is then the static (zero-frequency) one.
     """
 
     name: str
@@ -121,6 +125,8 @@ class Hinge:
     damping: np.ndarray
     rotational_damping: np.ndarray
     number: int | None = None
+    kind: str = "spring"
+    extra: Mapping[str, np.ndarray] = field(default_factory=dict)
 
     @property
     def stiffness6(self) -> np.ndarray:

@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from ufmt.kinds import kind_of
+from ufmt.kinds import hinge_kind_of, kind_of
 from ufmt.model.rules import HINGE_FIELDS
 from ufmt.model.schema import Body, DesignParameter, Hinge, Model, UncertainInput
 
@@ -136,4 +136,6 @@ def _body_lines(body: Body) -> list[str]:
 
 
 def _hinge_lines(hinge: Hinge) -> list[str]:
-    return _pairs([(k, getattr(hinge, k)) for k in HINGE_FIELDS])
+    kind = [] if hinge.kind == "spring" else [("kind", hinge.kind)]  # the default stays implicit
+    pairs = [(k, getattr(hinge, k)) for k in HINGE_FIELDS]
+    return _pairs(pairs[:1] + kind + pairs[1:] + hinge_kind_of(hinge).written(hinge))

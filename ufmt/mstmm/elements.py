@@ -22,19 +22,19 @@ def hinge(
 ) -> np.ndarray:
     """Spatial spring-damper hinge (paper eqs. 2.13, 2.14) with complex stiffness k + iωc.
 
-    stiffness6 [N/m, N m/rad] along/about global x, y, z; ``inf`` is rigid (zero compliance).
+    stiffness6 [N/m, N m/rad] along/about global x, y, z, (6,) or per ω (n, 6) (a
+    frequency-dependent hinge's k'(ω)); ``inf`` is rigid (zero compliance).
     Released directions (stiffness 0) are not representable as a transfer matrix; the caller
     handles them exactly with an extra unknown, and this function gives them zero compliance.
     """
     omega = np.asarray(omega, dtype=float)
     k = np.asarray(stiffness6, dtype=float)
-    elastic = (k > 0) & np.isfinite(k)  # rigid and released directions get zero compliance
+    kc = np.broadcast_to(k, (omega.size, 6))
     if damping6 is not None and np.any(damping6):
-        kc = k[None, :] + 1j * omega[:, None] * np.asarray(damping6)[None, :]
-    else:
-        kc = np.broadcast_to(k, (omega.size, 6))
+        kc = kc + 1j * omega[:, None] * np.asarray(damping6)[None, :]
+    elastic = np.broadcast_to((k > 0) & np.isfinite(k), kc.shape)  # rigid, released: zero
     compliance = np.zeros(kc.shape, dtype=kc.dtype)
-    compliance[:, elastic] = 1.0 / kc[:, elastic]
+    compliance[elastic] = 1.0 / kc[elastic]
     u = np.zeros((omega.size, 12, 12), dtype=compliance.dtype)
     idx = np.arange(12)
     u[:, idx, idx] = 1.0

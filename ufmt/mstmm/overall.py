@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ufmt.kinds import hinge_kind_of
 from ufmt.kinematics import load_transfer
 from ufmt.model.schema import GROUND, Model
 from ufmt.mstmm import elements
@@ -294,6 +295,9 @@ class TransferSystem:
         """Transfer matrix of edge ``index``: (12, 12) if constant in ω, else (n, 12, 12)."""
         e = self.topology.edges[index]
         if e.kind == "hinge":
+            kind = hinge_kind_of(e.element)
+            if not kind.count_applies(e.element):  # k'(ω): the storage stiffness at each ω
+                return elements.hinge(omega, kind.storage_stiffness6(e.element, omega))
             if index not in self._constant_parts:
                 self._constant_parts[index] = _hinge_matrix(tuple(e.element.stiffness6))
             return self._constant_parts[index]
@@ -317,7 +321,8 @@ class TransferSystem:
         """Edge ``index``'s transfer matrix (12, 12) at one ω [rad/s] (a stage of
         :meth:`segment_for`); a body edge's is computed once per body, direction and ω."""
         if self.topology.edges[index].kind == "hinge":
-            return self._edge_matrix(index, np.array([omega]))
+            u = self._edge_matrix(index, np.array([omega]))
+            return u[0] if u.ndim == 3 else u
         return _body_edge_at(*self._body_edge_key(index), omega)
 
     def _first_input(self, node, omega: np.ndarray) -> np.ndarray | None:

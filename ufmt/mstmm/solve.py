@@ -4,7 +4,8 @@ The Wittrick-Williams count of the model's exact dynamic stiffness (:mod:`ufmt.m
 no mesh) counts the roots below any frequency and brackets each one; the MSTMM finds each
 root in its bracket from det U_all(ω) = 0 and builds its shape from the null vector of U_all.
 A counted root the MSTMM cannot find raises :class:`RootsLostError` (the CLI prints one line
-naming the missing frequencies and exits non-zero).
+naming the missing frequencies and exits non-zero). Where a hinge's stiffness depends on
+frequency the count does not apply: :mod:`ufmt.mstmm.dependent` finds those roots per branch.
 """
 
 from __future__ import annotations
@@ -18,8 +19,10 @@ from threadpoolctl import ThreadpoolController
 
 from ufmt import limits
 from ufmt.errors import UfmtError
+from ufmt.kinds import frequency_dependent
 from ufmt.model.load import as_model
 from ufmt.model.schema import Model
+from ufmt.mstmm.dependent import dependent_modes
 from ufmt.mstmm.modes import ModeShapes, kinetic_terms, mode_shapes, shape_state_keys
 from ufmt.mstmm.overall import State, TransferSystem, segment_designs
 from ufmt.mstmm.roots import Roots, RootsLostError, bracketed_roots
@@ -210,16 +213,20 @@ def solve_modes_batch(
     (:class:`ufmt.mstmm.wittrick.RootCounter`), every J evaluation one pass for all of them;
     each design's roots and shapes then come from its own Newton walks on det U_all. The BLAS
     thread limit is set once for the whole batch. Each result is the one :func:`solve_modes`
-    returns for that design alone (to rounding; ``seconds``: its own share). Parameters and
-    errors as :func:`solve_modes` (a lost root of any design raises for the batch).
+    returns for that design alone (to rounding; ``seconds``: its own share); a design with a
+    frequency-dependent hinge is solved alone. Parameters and errors as :func:`solve_modes`
+    (a lost root of any design raises for the batch).
     """
     models = [as_model(m) for m in models]
     _check(fmax_hz, count, "mstmm")
     with _blas_controller().limit(limits=1, user_api="blas"):
         groups: dict = {}  # designs of one structure are counted together
-        for i, m in enumerate(models):
-            groups.setdefault(m.structure_key(), []).append(i)
         out: list = [None] * len(models)
+        for i, m in enumerate(models):
+            if frequency_dependent(m):  # solved alone (ufmt.mstmm.dependent)
+                out[i] = _solve_modes(m, fmax_hz, count, "mstmm", shapes)
+            else:
+                groups.setdefault(m.structure_key(), []).append(i)
         for members in groups.values():
             t0 = time.perf_counter()
             counter = RootCounter([models[i] for i in members])
@@ -268,6 +275,11 @@ def _check(fmax_hz, count, method) -> None:
 def _solve_modes(model, fmax_hz, count, method, shapes) -> ModalSolution:
     _check(fmax_hz, count, method)
     t0 = time.perf_counter()
+    if frequency_dependent(model):  # the count does not apply: ufmt.mstmm.dependent
+        top = DEFAULT_FMAX_HZ if fmax_hz is None and count is None else fmax_hz
+        f, order, rigid, modes = dependent_modes(model, top, count, shapes, solve_modes_batch)
+        seconds = time.perf_counter() - t0
+        return ModalSolution(f, order, "mstmm", f.size, rigid, modes, seconds)
     counter = RootCounter(model)
     (brackets,) = _search_ranges(counter, fmax_hz, count)
     if count is None and brackets.total > limits.MAX_MODE_COUNT:  # counted, not yet solved
@@ -285,6 +297,8 @@ def certified_roots(model, fmax_hz: float, state_keys=()) -> tuple[TransferSyste
     count where Newton cannot certify), before any root is required or a shape built."""
     model = as_model(model)
     _check(fmax_hz, None, "mstmm")
+    if frequency_dependent(model):
+        raise UfmtError(f"{model.source}: a hinge's stiffness depends on frequency: no count")
     counter = RootCounter(model)
     (brackets,) = _search_ranges(counter, fmax_hz, None)
     system = TransferSystem(model)
