@@ -15,8 +15,8 @@ squeezed film a damper at low frequency and a stiffer spring at high frequency.
 Sources: F. Al-Bender, *Air Bearings: Theory, Design and Applications*, Wiley (2021), the
 film's dynamic stiffness; J. Plessers, R. Snoeys, "Dynamic identification of convergent
 externally pressurized gas bearing gaps", ASME J. Tribol. 110(2) (1988) 263, measured film
-frequency responses; "Vibration damping in externally pressurized gas bearings" (ASME J.
-Tribol.), the single-pole single-zero transfer function. Realistic values for precision
+frequency responses (dynamic stiffness and damping coefficients of circular thrust films),
+to which the single-pole, single-zero form is the lowest-order fit. Realistic values for precision
 spindles and slides (an uncertain input, not a measured one): static stiffness 2e7-5e8 N/m,
 r = 1-3, f_c = 10 Hz - 2 kHz (the squeeze number p_a h² / (24 pi mu R²) ~ 1 for films of
 5-20 um on pads of 10-50 mm radius sets the low end).
