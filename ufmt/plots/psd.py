@@ -2,10 +2,12 @@
 the PSD1 and PSD2 bands shaded and each band's RMS printed against the specification it is
 judged by.
 
-The PSDs are the simulation's line profiles' (``psd_spectra``, :mod:`ufmt.machining.lines`;
-else :func:`ufmt.machining.psd.surface_psd` of its grid: form removed, Hann window, the mean
-over the line profiles) of the surface without the feed marks; the band RMS values are
-the simulation's own metrics (``psd1_rms_along_nm``, ...), "not resolved" where the plate is
+The PSDs are the ones the band RMS values are computed from: the simulation's line profiles'
+(``psd_spectra``, :mod:`ufmt.machining.lines`; else :func:`ufmt.machining.psd.surface_psd` of
+its grid: form removed, Hann window, the mean over the line profiles) of the surface without
+the feed marks over the clear aperture (the plate less ``aperture_margin`` at every edge, as
+``pv_measured_nm``; the form fitted there); the band RMS values are the simulation's own
+metrics (``psd1_rms_along_nm``, ...), "not resolved" where the plate is
 too short for the band (:func:`ufmt.machining.psd.band_resolved`).
 
 Specification (:data:`KDP_SPEC_RMS_NM`): the mid-spatial-frequency limits quoted for the
@@ -25,6 +27,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from ufmt.machining.psd import BANDS, DIRECTIONS, N_MIN_PERIODS, surface_psd
+from ufmt.machining.surface import clear_aperture
 from ufmt.plots import new_axes, new_figure
 
 #: Band RMS limits [nm] a KDP surface is judged by (module docstring).
@@ -65,7 +68,7 @@ def plot_psd(result, ax=None, spec: dict[str, float] | None = None) -> Figure:
     _bands_and_axes(ax)
     lines = _verdicts(result, spec)
     lines.append(_limits(spec))
-    fig.suptitle("Surface PSD without the feed marks (form removed, Hann window)", fontsize=10)
+    fig.suptitle(f"Surface PSD without the feed marks: {_aperture_words(result)}", fontsize=10)
     fig.text(0.01, 0.0, "\n".join(lines), fontsize=8, va="bottom", family="monospace")
     fig.get_layout_engine().set(rect=(0, 0.16, 1, 0.84))
     return fig
@@ -96,7 +99,8 @@ def plot_psd_extremes(
     axes[1].set_ylabel("")
     lines = [f"{label:<6} " + line for label, r in results.items() for line in _verdicts(r, spec)]
     lines.append(_limits(spec) + f"; legend: {metric} [nm]")
-    fig.suptitle("Surface PSD without the feed marks (form removed, Hann window)", fontsize=10)
+    words = _aperture_words(next(iter(results.values())))
+    fig.suptitle(f"Surface PSD without the feed marks: {words}", fontsize=10)
     fig.text(0.01, 0.0, "\n".join(lines), fontsize=8, va="bottom", family="monospace")
     share = 0.02 + 0.024 * len(lines)  # of the height, for the verdict lines below
     fig.get_layout_engine().set(rect=(0, share, 1, 1 - share))
@@ -137,13 +141,24 @@ def _verdicts(result, spec: dict[str, float]) -> list[str]:
 
 def spectra(result) -> dict[str, tuple[int, float, np.ndarray, np.ndarray]]:
     """Per direction (points per profile, step [m], frequency [1/m], mean PSD [m^2 m]) of the
-    profiles ``result``'s bands read: its line profiles, else its smooth surface's grid."""
+    profiles ``result``'s bands read: its line profiles, else its smooth surface's grid, over
+    the clear aperture (``result.aperture_margin``) either way."""
     if result.psd_spectra is not None:
         return result.psd_spectra
-    surface = result.smooth_surface
+    surface, margin = result.smooth_surface, result.aperture_margin
     hx, hy = surface.spacing
-    size = {"along": (int(surface.core_rows.sum()), hy), "across": (surface.x.size, hx)}
-    return {d: (*size[d], *surface_psd(surface, d)) for d in DIRECTIONS}
+    n_y = int(clear_aperture(surface.y[surface.core_rows], margin).sum())
+    n_x = int(clear_aperture(surface.x, margin).sum())
+    size = {"along": (n_y, hy), "across": (n_x, hx)}
+    return {d: (*size[d], *surface_psd(surface, d, aperture_margin=margin)) for d in DIRECTIONS}
+
+
+def _aperture_words(result) -> str:
+    """Where the drawn spectra come from, for a title."""
+    return (
+        f"clear aperture ({result.aperture_margin * 1e3:g} mm margin), form removed there, "
+        "Hann window: the spectra of the band RMS"
+    )
 
 
 def _limits(spec: dict[str, float]) -> str:
