@@ -25,7 +25,7 @@ from ufmt.machining.psd import BANDS, DIRECTIONS, band_power, band_rms
 from ufmt.machining.surface import Surface
 from ufmt.measured.analysis import analyse
 from ufmt.measured.attribution import attribute_map
-from ufmt.measured.fits import map_psd
+from ufmt.measured.fits import clear_form_removed, complete_profiles, map_psd
 from ufmt.measured.read import HeightMap
 from ufmt.model.machine import read_machine
 from ufmt.model.schema import Model
@@ -64,7 +64,8 @@ def test_a_feature_on_the_edge_strips_leaves_the_bands_unchanged():
     assert np.abs(edged.z - clean.z).max() > 50e-9  # 50 x the interior's content
     a, b = bands(clean), bands(edged)
     for key in KEYS:
-        assert a[key] > 0.1  # [nm] the interior's PSD2 is resolved in both directions
+        # [nm] a 1 nm sine in each direction, mid-band: its RMS (Hann window, module psd)
+        assert a[key] == pytest.approx(1 / math.sqrt(2), rel=1e-4)
         assert b[key] == pytest.approx(a[key], rel=1e-12), key
     whole = bands(edged, margin=0.0)
     assert whole["psd2_rms_across_nm"] > 3 * a["psd2_rms_across_nm"]  # inside, it dominates
@@ -77,11 +78,18 @@ def test_missing_pixels_on_the_edge_strips_leave_the_bands_unchanged():
     a, b = bands(height_map(interior)), bands(HeightMap(X, Y, z, "holes"))
     for key in KEYS:
         assert b[key] == pytest.approx(a[key], rel=1e-9), key
-    # a hole inside the aperture drops its profiles from the mean, the others stay complete
+    # a hole inside the aperture drops its row and its column from the mean PSDs; the interior
+    # is a profile in x plus one in y plus form, so every other line reads the same PSD
     z[130, 110] = np.nan
-    assert bands(HeightMap(X, Y, z, "holes"))["psd2_rms_along_nm"] == pytest.approx(
-        a["psd2_rms_along_nm"], rel=1e-2
-    )
+    holed = HeightMap(X, Y, z, "holes")
+    flat = clear_form_removed(holed, MARGIN)
+    full = clear_form_removed(height_map(interior), MARGIN)
+    for direction, axis in (("along", 1), ("across", 0)):
+        lines = complete_profiles(flat, direction)[0]
+        assert lines.shape[axis] == full.z.shape[axis] - 1
+    c = bands(holed)
+    for key in KEYS:
+        assert c[key] == pytest.approx(a[key], rel=1e-9), key
 
 
 def test_the_bands_are_the_simulations_band_rms_of_the_same_grid(tmp_path):
