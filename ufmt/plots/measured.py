@@ -15,7 +15,7 @@ from matplotlib.figure import Figure
 from ufmt.machining.psd import BANDS, DIRECTIONS
 from ufmt.measured.fits import map_psd, plane_removed
 from ufmt.plots import new_axes, new_figure
-from ufmt.plots.psd import BAND_COLOURS, DIRECTION_STYLE, KDP_SPEC_RMS_NM
+from ufmt.plots.psd import BAND_COLOURS, DIRECTION_STYLE, KDP_SPEC_RMS_NM, aperture_words
 
 
 def _draw_map(ax, height_map, z_nm, norm, title):
@@ -88,16 +88,9 @@ def plot_measured_psd(measured, ax=None, spec: dict[str, float] | None = None) -
     fig, ax = new_axes(ax, (7.2, 5.0))
     _psd_lines(ax, measured, "measured", "-")
     _psd_axes(ax, spec or KDP_SPEC_RMS_NM)
-    ax.set_title(f"PSD of the measured map: {_aperture_words(measured)}", fontsize=9)
+    words = aperture_words(measured.aperture_margin)
+    ax.set_title(f"PSD of the measured map\n{words}", fontsize=9)
     return fig
-
-
-def _aperture_words(measured) -> str:
-    """Where the drawn spectra come from, for a title."""
-    return (
-        f"clear aperture ({measured.aperture_margin * 1e3:g} mm margin), form removed there, "
-        "Hann window: the spectra of the band RMS"
-    )
 
 
 def plot_comparison(comparison, spec: dict[str, float] | None = None) -> Figure:
@@ -118,5 +111,6 @@ def plot_comparison(comparison, spec: dict[str, float] | None = None) -> Figure:
     _psd_lines(ax, comparison.measured, "measured", "-")
     _psd_lines(ax, comparison.predicted, "predicted", ":")
     _psd_axes(ax, spec or KDP_SPEC_RMS_NM)
-    ax.set_title(f"PSDs over the {_aperture_words(comparison.measured)}", fontsize=9)
+    words = aperture_words(comparison.measured.aperture_margin)
+    ax.set_title(f"measured and predicted PSDs\n{words}", fontsize=9)
     return fig

@@ -68,7 +68,8 @@ def plot_psd(result, ax=None, spec: dict[str, float] | None = None) -> Figure:
     _bands_and_axes(ax)
     lines = _verdicts(result, spec)
     lines.append(_limits(spec))
-    fig.suptitle(f"Surface PSD without the feed marks: {_aperture_words(result)}", fontsize=10)
+    words = aperture_words(result.aperture_margin)
+    fig.suptitle(f"Surface PSD without the feed marks\n{words}", fontsize=10)
     fig.text(0.01, 0.0, "\n".join(lines), fontsize=8, va="bottom", family="monospace")
     fig.get_layout_engine().set(rect=(0, 0.16, 1, 0.84))
     return fig
@@ -99,8 +100,8 @@ def plot_psd_extremes(
     axes[1].set_ylabel("")
     lines = [f"{label:<6} " + line for label, r in results.items() for line in _verdicts(r, spec)]
     lines.append(_limits(spec) + f"; legend: {metric} [nm]")
-    words = _aperture_words(next(iter(results.values())))
-    fig.suptitle(f"Surface PSD without the feed marks: {words}", fontsize=10)
+    words = aperture_words(next(iter(results.values())).aperture_margin)
+    fig.suptitle(f"Surface PSD without the feed marks\n{words}", fontsize=10)
     fig.text(0.01, 0.0, "\n".join(lines), fontsize=8, va="bottom", family="monospace")
     share = 0.02 + 0.024 * len(lines)  # of the height, for the verdict lines below
     fig.get_layout_engine().set(rect=(0, share, 1, 1 - share))
@@ -153,11 +154,11 @@ def spectra(result) -> dict[str, tuple[int, float, np.ndarray, np.ndarray]]:
     return {d: (*size[d], *surface_psd(surface, d, aperture_margin=margin)) for d in DIRECTIONS}
 
 
-def _aperture_words(result) -> str:
-    """Where the drawn spectra come from, for a title."""
+def aperture_words(margin: float) -> str:
+    """Where the drawn spectra come from, for a title: the clear aperture, ``margin`` [m]."""
     return (
-        f"clear aperture ({result.aperture_margin * 1e3:g} mm margin), form removed there, "
-        "Hann window: the spectra of the band RMS"
+        f"clear aperture ({margin * 1e3:g} mm margin), form removed there, Hann window: "
+        "the bands' spectra"
     )
 
 
