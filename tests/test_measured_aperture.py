@@ -22,7 +22,7 @@ import ufmt
 from ufmt.exports import export_grid, write_sdf
 from ufmt.machining.process import Process
 from ufmt.machining.psd import BANDS, DIRECTIONS, band_power, band_rms
-from ufmt.machining.surface import Surface
+from ufmt.machining.surface import DEFAULT_APERTURE_MARGIN, Surface
 from ufmt.measured.analysis import analyse
 from ufmt.measured.attribution import attribute_map
 from ufmt.measured.fits import clear_form_removed, complete_profiles, map_psd
@@ -135,13 +135,14 @@ def test_the_drawn_measured_spectra_are_the_bands(margin):
                 assert value == pytest.approx(expected, rel=1e-12), (name, direction)
 
 
-def simulated(size, spacing, radius):
-    """A cut on the grid path (line_spacing None: the bands read the grid's columns and rows)."""
+def simulated(size, spacing, radius, margin=DEFAULT_APERTURE_MARGIN):
+    """A cut on the grid path (line_spacing None: the bands read the grid's columns and rows)
+    with the clear-aperture ``margin`` [m]."""
     table = {**MACHINE, "tool_radius": radius, "workpiece_size": size}
     model = Model("syn", (), (), machine=read_machine(table), source="syn.toml")
     return ufmt.simulate(
         model, Process(300, 15, 4), basis=synthetic_basis(n=6), static_correction=False,
-        line_spacing=None, spacing=spacing,
+        line_spacing=None, spacing=spacing, aperture_margin=margin,
     )  # fmt: skip
 
 
@@ -185,7 +186,7 @@ def test_an_exported_plate_reads_back_the_simulations_psd1(plate, tmp_path, caps
     plate.save(tmp_path)
     assert main(["surface", str(tmp_path / "surface.sdf"), "--json"]) == 0
     read = json.loads(capsys.readouterr().out)
-    assert read["aperture_margin_mm"] == pytest.approx(plate.aperture_margin * 1e3)
+    assert read["aperture_margin_mm"] == pytest.approx(DEFAULT_APERTURE_MARGIN * 1e3)
     assert_read_back(read, plate.metrics, "psd1")
     assert read["psd2_rms_nm"] is None and math.isnan(plate.metrics["psd2_rms_nm"])
     npz = ufmt.read_surface(tmp_path / "surface.npz").metrics
@@ -197,11 +198,11 @@ def test_an_exported_fine_grid_reads_back_the_simulations_psd2(tmp_path):
     result = simulated([0.02, 0.02], 0.05e-3, 0.06)
     assert math.isfinite(result.metrics["psd2_rms_nm"])
     write_sdf(result.measured_surface(), tmp_path / "surface.sdf")  # as result.save writes it
-    read = ufmt.read_surface(tmp_path / "surface.sdf", aperture_margin=result.aperture_margin)
+    read = ufmt.read_surface(tmp_path / "surface.sdf", aperture_margin=DEFAULT_APERTURE_MARGIN)
     assert_read_back(read.metrics, result.metrics, "psd2")
     # and the read-back is the simulation's band_rms of the exported lattice itself
     x, y, z = export_grid(result.measured_surface())
-    lattice = band_rms(Surface(x, y, z), aperture_margin=result.aperture_margin)
+    lattice = band_rms(Surface(x, y, z), aperture_margin=DEFAULT_APERTURE_MARGIN)
     for key in ("psd2_rms_along_nm", "psd2_rms_across_nm"):  # the SDF: 1e-6 nm per pixel
         assert read.metrics[key] == pytest.approx(lattice[key], rel=1e-4), key
 
@@ -209,20 +210,23 @@ def test_an_exported_fine_grid_reads_back_the_simulations_psd2(tmp_path):
 def test_the_psd_figure_draws_the_spectra_of_the_bands(plate):
     from ufmt.plots.psd import plot_psd, spectra
 
-    drawn = spectra(plate)
-    for direction in DIRECTIONS:
-        n, h, f, psd = drawn[direction]
-        for name, band in BANDS.items():
-            expected = plate.metrics[f"{name}_rms_{direction}_nm"]
-            if math.isfinite(expected):
-                value = math.sqrt(band_power(f, psd, band)) * 1e9
-                assert value == pytest.approx(expected, rel=1e-12), (name, direction)
-    # the profiles drawn span the clear aperture, the plate less 2 margins, to its nodes
-    n, h = drawn["along"][:2]
-    clear = 0.12 - 2 * plate.aperture_margin
-    assert clear - 2 * h < (n - 1) * h <= clear + 1e-12
-    fig = plot_psd(plate)
-    assert "clear aperture (5 mm margin)" in fig.get_suptitle()
+    wide = simulated([0.12, 0.12], (1e-3, 1.25e-3), 0.25, margin=8e-3)  # 104 mm: PSD1 still
+    for result, margin in ((plate, DEFAULT_APERTURE_MARGIN), (wide, 8e-3)):
+        drawn = spectra(result, margin)
+        for direction in DIRECTIONS:
+            n, h, f, psd = drawn[direction]
+            for name, band in BANDS.items():
+                expected = result.metrics[f"{name}_rms_{direction}_nm"]
+                if math.isfinite(expected):
+                    value = math.sqrt(band_power(f, psd, band)) * 1e9
+                    assert value == pytest.approx(expected, rel=1e-12), (margin, name, direction)
+        # the profiles drawn span the clear aperture, the plate less 2 margins, to its nodes
+        n, h = drawn["along"][:2]
+        clear = 0.12 - 2 * margin
+        assert clear - 2 * h < (n - 1) * h <= clear + 1e-12
+    assert math.isfinite(wide.metrics["psd1_rms_nm"])
+    assert "clear aperture (5 mm margin)" in plot_psd(plate).get_suptitle()
+    assert "clear aperture (8 mm margin)" in plot_psd(wide, aperture_margin=8e-3).get_suptitle()
 
 
 def test_the_measured_psd_figure_names_the_clear_aperture():

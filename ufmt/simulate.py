@@ -368,7 +368,6 @@ def _run(
         samples_per_rev=options.n_phi,
         tool_mode_hz=_tool_mode_hz(basis),
         psd_spectra=spectra,
-        aperture_margin=options.aperture_margin,
     )
 
 

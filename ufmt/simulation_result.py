@@ -16,7 +16,6 @@ from ufmt.machining.instruments import (
 from ufmt.machining.process import Process
 from ufmt.machining.response import Response
 from ufmt.machining.surface import (
-    DEFAULT_APERTURE_MARGIN,
     Surface,
 )
 from ufmt.model.machine import Machine
@@ -57,8 +56,7 @@ class SimulationResult:
     the feed marks, whose scallops (wavelength (v/f) cos(phi), tens of um) the grid only
     samples (the map uses it). psd_spectra: the line profiles' mean PSD per direction, (points
     per line, step [m], frequency [1/m], PSD [m^2 m]) (:func:`ufmt.machining.lines.
-    line_spectra`; None: the bands read the smooth surface's grid). aperture_margin: the edge
-    exclusion [m] of the clear aperture of pv_measured_nm and the PSD bands.
+    line_spectra`; None: the bands read the smooth surface's grid).
     """
 
     process: Process
@@ -78,7 +76,6 @@ class SimulationResult:
     samples_per_rev: int
     tool_mode_hz: float | None = None
     psd_spectra: dict | None = None
-    aperture_margin: float = DEFAULT_APERTURE_MARGIN
 
     def __repr__(self) -> str:
         p = self.process
