@@ -25,7 +25,7 @@ from ufmt.errors import ModelError
 from ufmt.exports import export_grid, read_sdf, write_sdf, write_x3p
 from ufmt.machining.process import Process
 from ufmt.machining.psd import profile_psd
-from ufmt.machining.surface import Surface
+from ufmt.machining.surface import DEFAULT_APERTURE_MARGIN, Surface
 from ufmt.measured.analysis import analyse
 from ufmt.measured.areal import gaussian_mean
 from ufmt.measured.compare import compare
@@ -205,11 +205,12 @@ def test_bands_of_an_exported_surface_are_the_simulations(tmp_path):
 
     write_sdf(surface, tmp_path / "s.sdf")
     write_x3p(surface, tmp_path / "s.x3p")
-    expected = band_rms(surface)
-    for name, rel in (("s.sdf", 1e-6), ("s.x3p", 1e-9)):  # the SDF holds 1e-6 nm of ~20 nm
-        m = ufmt.read_surface(tmp_path / name).metrics
-        for key, value in expected.items():
-            assert m[key] == pytest.approx(value, rel=rel, nan_ok=True), (name, key)
+    for margin in (0.0, DEFAULT_APERTURE_MARGIN):  # whole map and the default clear aperture
+        expected = band_rms(surface, aperture_margin=margin)
+        for name, rel in (("s.sdf", 1e-6), ("s.x3p", 1e-9)):  # the SDF: 1e-6 nm of ~20 nm
+            m = ufmt.read_surface(tmp_path / name, aperture_margin=margin).metrics
+            for key, value in expected.items():
+                assert m[key] == pytest.approx(value, rel=rel, nan_ok=True), (name, key)
 
 
 def test_compare_a_surface_with_its_own_simulation(result, tmp_path):

@@ -10,12 +10,14 @@
   plate map), else none (a sub-aperture or microscope map is its own clear aperture).
 * ``form_pv_nm``, ``waviness_pv_nm``, ``waviness_rms_nm``: the least-squares Legendre fit up
   to 2nd order over the whole map; form = PV of its 2nd-order part, waviness = what it leaves
-  (as :func:`ufmt.machining.surface.surface_metrics`).
+  (as :func:`ufmt.machining.surface.surface_metrics`, whole plate).
 * ``psd1_rms_nm``, ``psd2_rms_nm`` and their ``_along``/``_across`` parts: band RMS of the 1-D
-  PSDs of the waviness' line profiles along the feed (y) and across it (x)
-  (:mod:`ufmt.machining.psd`: detrend, Hann window, band rules), None where the map does not
-  resolve the band; the overall value the larger direction. Profiles with a missing pixel are
-  left out of the mean PSD (a band with no complete profile is None).
+  PSDs of the line profiles along the feed (y) and across it (x) over the same clear aperture
+  as the PV, the Legendre fit up to 2nd order fitted and removed there
+  (:func:`ufmt.measured.fits.band_rms_of`; :mod:`ufmt.machining.psd`: detrend, Hann window,
+  band rules, as a simulated surface's bands), None where the clear aperture does not resolve
+  the band; the overall value the larger direction. Profiles with a missing pixel are left out
+  of the mean PSD (a band with no complete profile is None).
 * ISO 25178-2 parameters ``sa_nm``, ``sq_nm``, ``sp_nm``, ``sv_nm``, ``sz_nm``, ``ssk``,
   ``sku`` of the map about its mean, unfiltered (:mod:`.areal`); with a ``cutoff`` lambda_c
   [m], the same of the S-L surface (the map less its least-squares plane, the F-operator, less
@@ -35,10 +37,9 @@ from pathlib import Path
 import numpy as np
 
 from ufmt.errors import ModelError
-from ufmt.machining.psd import BANDS, DIRECTIONS, band_power, band_resolved, profile_psd
 from ufmt.machining.surface import DEFAULT_APERTURE_MARGIN
 from ufmt.measured.areal import areal_parameters, gaussian_mean
-from ufmt.measured.fits import fit_removed, legendre_basis
+from ufmt.measured.fits import aperture, band_rms_of, fit_removed, legendre_basis
 from ufmt.measured.read import HeightMap, read_map
 
 FEED_DIRECTIONS = ("y", "x")
@@ -52,48 +53,6 @@ def default_margin(height_map: HeightMap) -> float:
     return (
         DEFAULT_APERTURE_MARGIN if side >= FULL_APERTURE_MARGINS * DEFAULT_APERTURE_MARGIN else 0.0
     )
-
-
-def aperture(height_map: HeightMap, margin: float) -> tuple[np.ndarray, np.ndarray]:
-    """Column (Nx,) and row (Ny,) masks of the clear aperture: ``margin`` [m] off every edge."""
-    x, y = height_map.x, height_map.y
-    half_x, half_y = np.ptp(x) / 2 - margin, np.ptp(y) / 2 - margin
-    if not (math.isfinite(margin) and margin >= 0 and half_x > 0 and half_y > 0):
-        size = f"{np.ptp(x) * 1e3:.4g} x {np.ptp(y) * 1e3:.4g} mm"
-        raise ModelError(
-            f"{height_map.path}: aperture_margin {margin * 1e3:g} mm must be >= 0 and leave a "
-            f"clear aperture of the {size} map"
-        )
-    in_x = np.abs(x - (x[0] + x[-1]) / 2) <= half_x + 1e-12
-    in_y = np.abs(y - (y[0] + y[-1]) / 2) <= half_y + 1e-12
-    return in_x, in_y
-
-
-def band_rms_of(flat: np.ndarray, spacing: tuple[float, float]) -> dict[str, float]:
-    """Band RMS [nm] of each band of :data:`~ufmt.machining.psd.BANDS` along (y, axis 0) and
-    across (x, axis 1) the feed of the form-removed heights ``flat`` (Ny, Nx) [m], complete
-    profiles only; NaN where unresolved (keys as :func:`ufmt.machining.psd.band_rms`)."""
-    hx, hy = spacing
-    complete = np.isfinite(flat)
-    profiles = {
-        "along": (flat[:, complete.all(axis=0)], hy, 0),
-        "across": (flat[complete.all(axis=1), :], hx, 1),
-    }
-    out = {}
-    for name, band in BANDS.items():
-        each = {}
-        for direction, (lines, h, axis) in profiles.items():
-            n = flat.shape[axis]
-            if lines.size == 0 or not band_resolved(n, h, band):
-                each[direction] = math.nan
-                continue
-            each[direction] = math.sqrt(band_power(*profile_psd(lines, h, axis), band)) * 1e9
-        out[f"{name}_rms_nm"] = (
-            max(each.values()) if not any(map(math.isnan, each.values())) else math.nan
-        )
-        for direction in DIRECTIONS:
-            out[f"{name}_rms_{direction}_nm"] = each[direction]
-    return out
 
 
 def map_metrics(
@@ -117,7 +76,7 @@ def map_metrics(
         "form_pv_nm": float(np.ptp(form)) * 1e9,
         "waviness_pv_nm": float(np.nanmax(waviness) - np.nanmin(waviness)) * 1e9,
         "waviness_rms_nm": float(np.sqrt(np.nanmean(waviness**2))) * 1e9,
-        **band_rms_of(waviness, height_map.spacing),
+        **band_rms_of(height_map, margin),
         **areal_parameters(z),
     }
     if cutoff is not None:
@@ -140,6 +99,11 @@ class MeasuredSurface:
     map: HeightMap
     metrics: dict[str, float]
     options: dict = field(default_factory=dict)
+
+    @property
+    def aperture_margin(self) -> float:
+        """Edge exclusion [m] of the clear aperture its PV and PSD bands read."""
+        return self.options.get("aperture_margin_mm", 0.0) * 1e-3
 
     def to_dict(self) -> dict:
         """The file, the map's size and the metrics, NaN as None (JSON-ready)."""

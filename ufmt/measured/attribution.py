@@ -17,10 +17,11 @@ part of the vibration); ``mode <i>`` each natural frequency f_i mapped both ways
 ``pressure_ripple`` f_p / v along (f_p << f_s); ``straightness`` 1 / L along (the guideway's
 profile, wavelength L).
 
-Shares (:func:`band_shares`): every bin of a 1-D PSD inside a band belongs to the source whose
-line lies nearest within the Hann window's main lobe (+-2 bins); a source's share is the power
-of its bins over the band's power (the partial-bin rule of
-:func:`ufmt.machining.psd.band_power`), ``unexplained`` the rest.
+Shares (:func:`band_shares`), of the spectra the band RMS read (the clear aperture, form
+removed there): every bin of a 1-D PSD inside a band belongs to the source whose line lies
+nearest within the Hann window's main lobe (+-2 bins); a source's share is the power of its
+bins over the band's power (the partial-bin rule of :func:`ufmt.machining.psd.band_power`),
+``unexplained`` the rest.
 """
 
 from __future__ import annotations
@@ -123,15 +124,22 @@ def attribute(
     return out
 
 
-def attribute_map(height_map, lines: dict[str, dict[str, np.ndarray]]):
-    """Shares (:func:`attribute`) of the PSDs of a map whose feed runs along y
-    (:func:`ufmt.measured.fits.map_psd`), in the bands its profiles resolve."""
+def attribute_map(
+    height_map, lines: dict[str, dict[str, np.ndarray]], aperture_margin: float | None = None
+):
+    """Shares (:func:`attribute`) of the PSDs of a map whose feed runs along y over its clear
+    aperture, form removed there (:func:`ufmt.measured.fits.map_psd`, the spectra of its band
+    RMS), in the bands its profiles resolve; ``aperture_margin`` [m] (None:
+    :func:`ufmt.measured.analysis.default_margin`)."""
     from ufmt.machining.psd import band_resolved
-    from ufmt.measured.fits import map_psd
+    from ufmt.measured.analysis import default_margin
+    from ufmt.measured.fits import aperture, map_psd
 
+    margin = default_margin(height_map) if aperture_margin is None else aperture_margin
+    in_x, in_y = aperture(height_map, margin)
     hx, hy = height_map.spacing
-    profile = {"along": (height_map.y.size, hy), "across": (height_map.x.size, hx)}
-    spectra = {direction: map_psd(height_map, direction) for direction in profile}
+    profile = {"along": (int(in_y.sum()), hy), "across": (int(in_x.sum()), hx)}
+    spectra = {direction: map_psd(height_map, direction, margin) for direction in profile}
     resolved = {
         name: {d: band_resolved(*profile[d], band) for d in profile} for name, band in BANDS.items()
     }

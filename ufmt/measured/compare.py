@@ -82,9 +82,9 @@ class Comparison:
 def compare(measured: MeasuredSurface, simulation, mode_frequencies_hz=()) -> Comparison:
     """The :class:`Comparison` of a measured surface with a
     :class:`ufmt.simulate.SimulationResult`, the prediction analysed with the measured
-    surface's options (clear-aperture margin, cutoff); the measured spectrum attributed to the
-    sources of the simulated machine and process and to the natural frequencies
-    ``mode_frequencies_hz`` [Hz]."""
+    surface's options (clear-aperture margin, cutoff); the measured spectrum over its clear
+    aperture attributed to the sources of the simulated machine and process and to the
+    natural frequencies ``mode_frequencies_hz`` [Hz]."""
     from ufmt.exports import export_grid
     from ufmt.measured.attribution import attribute_map, source_lines
 
@@ -97,4 +97,5 @@ def compare(measured: MeasuredSurface, simulation, mode_frequencies_hz=()) -> Co
         cutoff=None if cutoff is None else cutoff * 1e-3,
     )
     lines = source_lines(simulation.machine, simulation.process, mode_frequencies_hz)
-    return Comparison(measured, predicted, simulation, attribute_map(measured.map, lines))
+    shares = attribute_map(measured.map, lines, measured.aperture_margin)
+    return Comparison(measured, predicted, simulation, shares)

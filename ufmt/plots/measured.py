@@ -1,6 +1,8 @@
 """Figures of a measured map (:mod:`ufmt.measured`) and of its comparison with a prediction:
-the map (piston and tilt removed), the 1-D PSDs along and across the feed with the PSD1/PSD2
-bands shaded and their KDP limits (:data:`ufmt.plots.psd.KDP_SPEC_RMS_NM`, band RMS) named."""
+the map (piston and tilt removed), the 1-D PSDs along and across the feed over the clear
+aperture, form removed there (the spectra the PSD band RMS are computed from,
+:func:`ufmt.measured.fits.map_psd`), with the PSD1/PSD2 bands shaded and their KDP limits
+(:data:`ufmt.plots.psd.KDP_SPEC_RMS_NM`, band RMS) named."""
 
 from __future__ import annotations
 
@@ -13,7 +15,7 @@ from matplotlib.figure import Figure
 from ufmt.machining.psd import BANDS, DIRECTIONS
 from ufmt.measured.fits import map_psd, plane_removed
 from ufmt.plots import new_axes, new_figure
-from ufmt.plots.psd import BAND_COLOURS, DIRECTION_STYLE, KDP_SPEC_RMS_NM
+from ufmt.plots.psd import BAND_COLOURS, DIRECTION_STYLE, KDP_SPEC_RMS_NM, aperture_words
 
 
 def _draw_map(ax, height_map, z_nm, norm, title):
@@ -67,10 +69,11 @@ def _psd_axes(ax, spec) -> None:
     ax.legend(fontsize=7, loc="lower left")
 
 
-def _psd_lines(ax, height_map, label, ls) -> None:
-    """The map's PSDs along and across the feed on log-log axes."""
+def _psd_lines(ax, measured, label, ls) -> None:
+    """The PSDs of a :class:`ufmt.measured.analysis.MeasuredSurface` along and across the
+    feed over its clear aperture (its bands' spectra) on log-log axes."""
     for direction in DIRECTIONS:
-        f, psd = map_psd(height_map, direction)
+        f, psd = map_psd(measured.map, direction, measured.aperture_margin)
         keep = (f > 0) & (psd > 0)
         if keep.any():
             style = {**DIRECTION_STYLE[direction], "ls": ls}
@@ -79,18 +82,20 @@ def _psd_lines(ax, height_map, label, ls) -> None:
 
 
 def plot_measured_psd(measured, ax=None, spec: dict[str, float] | None = None) -> Figure:
-    """The 1-D PSDs [nm^2 mm] of a measured map along and across the feed, form removed,
-    PSD1/PSD2 shaded with their limits (``spec``, default the KDP ones)."""
+    """The 1-D PSDs [nm^2 mm] of a measured map along and across the feed over its clear
+    aperture, form removed there (the spectra of its band RMS), PSD1/PSD2 shaded with their
+    limits (``spec``, default the KDP ones)."""
     fig, ax = new_axes(ax, (7.2, 5.0))
-    _psd_lines(ax, measured.map, "measured", "-")
+    _psd_lines(ax, measured, "measured", "-")
     _psd_axes(ax, spec or KDP_SPEC_RMS_NM)
-    ax.set_title("PSD of the measured map (form removed, Hann window)", fontsize=9)
+    words = aperture_words(measured.aperture_margin)
+    ax.set_title(f"PSD of the measured map\n{words}", fontsize=9)
     return fig
 
 
 def plot_comparison(comparison, spec: dict[str, float] | None = None) -> Figure:
     """Measured and predicted maps on one colour scale [nm] (piston and tilt removed) above
-    their 1-D PSDs overlaid (measured solid, predicted dotted)."""
+    their 1-D PSDs over the clear aperture overlaid (measured solid, predicted dotted)."""
     fig = new_figure((12.0, 9.6))
     top, bottom = fig.subfigures(2, 1, height_ratios=[1.1, 1])
     axes = top.subplots(1, 2)
@@ -103,7 +108,9 @@ def plot_comparison(comparison, spec: dict[str, float] | None = None) -> Figure:
         )
     top.colorbar(mesh, ax=axes, label="height about the best-fit plane [nm]", shrink=0.85)
     ax = bottom.subplots()
-    _psd_lines(ax, comparison.measured.map, "measured", "-")
-    _psd_lines(ax, comparison.predicted.map, "predicted", ":")
+    _psd_lines(ax, comparison.measured, "measured", "-")
+    _psd_lines(ax, comparison.predicted, "predicted", ":")
     _psd_axes(ax, spec or KDP_SPEC_RMS_NM)
+    words = aperture_words(comparison.measured.aperture_margin)
+    ax.set_title(f"measured and predicted PSDs\n{words}", fontsize=9)
     return fig

@@ -2,10 +2,12 @@
 the PSD1 and PSD2 bands shaded and each band's RMS printed against the specification it is
 judged by.
 
-The PSDs are the simulation's line profiles' (``psd_spectra``, :mod:`ufmt.machining.lines`;
-else :func:`ufmt.machining.psd.surface_psd` of its grid: form removed, Hann window, the mean
-over the line profiles) of the surface without the feed marks; the band RMS values are
-the simulation's own metrics (``psd1_rms_along_nm``, ...), "not resolved" where the plate is
+The PSDs are the ones the band RMS values are computed from: the simulation's line profiles'
+(``psd_spectra``, :mod:`ufmt.machining.lines`; else :func:`ufmt.machining.psd.surface_psd` of
+its grid: form removed, Hann window, the mean over the line profiles) of the surface without
+the feed marks over the clear aperture (the plate less ``aperture_margin`` at every edge, as
+``pv_measured_nm``; the form fitted there); the band RMS values are the simulation's own
+metrics (``psd1_rms_along_nm``, ...), "not resolved" where the plate is
 too short for the band (:func:`ufmt.machining.psd.band_resolved`).
 
 Specification (:data:`KDP_SPEC_RMS_NM`): the mid-spatial-frequency limits quoted for the
@@ -25,6 +27,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from ufmt.machining.psd import BANDS, DIRECTIONS, N_MIN_PERIODS, surface_psd
+from ufmt.machining.surface import DEFAULT_APERTURE_MARGIN, clear_aperture
 from ufmt.plots import new_axes, new_figure
 
 #: Band RMS limits [nm] a KDP surface is judged by (module docstring).
@@ -52,39 +55,52 @@ def band_verdict(value_nm: float, spec_nm: float, n: int, spacing: float, band) 
     return f"{value_nm:.2f} nm (limit {spec_nm:g} nm: {verdict})"
 
 
-def plot_psd(result, ax=None, spec: dict[str, float] | None = None) -> Figure:
+def plot_psd(
+    result,
+    ax=None,
+    spec: dict[str, float] | None = None,
+    aperture_margin: float = DEFAULT_APERTURE_MARGIN,
+) -> Figure:
     """The 1-D PSDs [nm^2 mm] of a :class:`ufmt.simulate.SimulationResult`'s surface along
     and across the feed against spatial frequency [1/mm], PSD1/PSD2 shaded, band RMS against
-    ``spec`` (default :data:`KDP_SPEC_RMS_NM`) printed below. Draws into ``ax`` if given."""
+    ``spec`` (default :data:`KDP_SPEC_RMS_NM`) printed below; ``aperture_margin`` [m] the one
+    the result was simulated with (:func:`spectra`). Draws into ``ax`` if given."""
     spec = spec or KDP_SPEC_RMS_NM
     fig, ax = new_axes(ax, (7.2, 5.6))
+    drawn = spectra(result, aperture_margin)
     for direction in DIRECTIONS:
-        _, _, f, psd = spectra(result)[direction]
+        _, _, f, psd = drawn[direction]
         keep = (f > 0) & (psd > 0)
         ax.loglog(f[keep] * 1e-3, psd[keep] * 1e18 * 1e3, lw=1.2, **DIRECTION_STYLE[direction])
     _bands_and_axes(ax)
-    lines = _verdicts(result, spec)
+    lines = _verdicts(result, spec, drawn)
     lines.append(_limits(spec))
-    fig.suptitle("Surface PSD without the feed marks (form removed, Hann window)", fontsize=10)
+    words = aperture_words(aperture_margin)
+    fig.suptitle(f"Surface PSD without the feed marks\n{words}", fontsize=10)
     fig.text(0.01, 0.0, "\n".join(lines), fontsize=8, va="bottom", family="monospace")
     fig.get_layout_engine().set(rect=(0, 0.16, 1, 0.84))
     return fig
 
 
 def plot_psd_extremes(
-    results: dict[str, object], metric: str = "pv_measured_nm", spec: dict[str, float] | None = None
+    results: dict[str, object],
+    metric: str = "pv_measured_nm",
+    spec: dict[str, float] | None = None,
+    aperture_margin: float = DEFAULT_APERTURE_MARGIN,
 ) -> Figure:
     """The 1-D PSDs [nm^2 mm] of several simulations in one figure: a panel along and one
     across the feed, one line style per result (``results``: label -> SimulationResult, e.g.
-    a sweep's best and worst design), PSD1/PSD2 shaded, each result's ``metric`` [nm] in the
-    legend and its band RMS against ``spec`` (default :data:`KDP_SPEC_RMS_NM`) below."""
+    a sweep's best and worst design, simulated with one ``aperture_margin`` [m]), PSD1/PSD2
+    shaded, each result's ``metric`` [nm] in the legend and its band RMS against ``spec``
+    (default :data:`KDP_SPEC_RMS_NM`) below."""
     spec = spec or KDP_SPEC_RMS_NM
+    drawn = {label: spectra(result, aperture_margin) for label, result in results.items()}
     fig = new_figure((11.0, 6.4))
     axes = fig.subplots(1, 2, sharey=True)
     styles = ("-", "--", ":", "-.")
     for ax, direction in zip(axes, DIRECTIONS, strict=True):
         for (label, result), ls in zip(results.items(), styles, strict=False):
-            _, _, f, psd = spectra(result)[direction]
+            _, _, f, psd = drawn[label][direction]
             keep = (f > 0) & (psd > 0)
             value = result.metrics.get(metric, math.nan)
             ax.loglog(
@@ -94,9 +110,14 @@ def plot_psd_extremes(
         _bands_and_axes(ax)
         ax.set_title(DIRECTION_STYLE[direction]["label"], fontsize=9)
     axes[1].set_ylabel("")
-    lines = [f"{label:<6} " + line for label, r in results.items() for line in _verdicts(r, spec)]
+    lines = [
+        f"{label:<6} " + line
+        for label, r in results.items()
+        for line in _verdicts(r, spec, drawn[label])
+    ]
     lines.append(_limits(spec) + f"; legend: {metric} [nm]")
-    fig.suptitle("Surface PSD without the feed marks (form removed, Hann window)", fontsize=10)
+    words = aperture_words(aperture_margin)
+    fig.suptitle(f"Surface PSD without the feed marks\n{words}", fontsize=10)
     fig.text(0.01, 0.0, "\n".join(lines), fontsize=8, va="bottom", family="monospace")
     share = 0.02 + 0.024 * len(lines)  # of the height, for the verdict lines below
     fig.get_layout_engine().set(rect=(0, share, 1, 1 - share))
@@ -122,9 +143,10 @@ def _bands_and_axes(ax) -> None:
     ax.legend(fontsize=8, loc="lower left")
 
 
-def _verdicts(result, spec: dict[str, float]) -> list[str]:
-    """One line per band and direction: the band RMS of ``result`` against its limit."""
-    m, profile = result.metrics, spectra(result)
+def _verdicts(result, spec: dict[str, float], profile: dict) -> list[str]:
+    """One line per band and direction: the band RMS of ``result`` against its limit;
+    ``profile`` its :func:`spectra`."""
+    m = result.metrics
     return [
         f"{name.upper()} RMS {direction:<6}: "
         + band_verdict(
@@ -135,15 +157,30 @@ def _verdicts(result, spec: dict[str, float]) -> list[str]:
     ]
 
 
-def spectra(result) -> dict[str, tuple[int, float, np.ndarray, np.ndarray]]:
+def spectra(
+    result, aperture_margin: float = DEFAULT_APERTURE_MARGIN
+) -> dict[str, tuple[int, float, np.ndarray, np.ndarray]]:
     """Per direction (points per profile, step [m], frequency [1/m], mean PSD [m^2 m]) of the
-    profiles ``result``'s bands read: its line profiles, else its smooth surface's grid."""
+    profiles ``result``'s bands read, over the clear aperture: its line profiles (over the
+    aperture it was simulated with), else its smooth surface's grid over the plate less
+    ``aperture_margin`` [m] at every edge, which must be the one it was simulated with
+    (:func:`ufmt.simulate`'s default, as every study's)."""
     if result.psd_spectra is not None:
         return result.psd_spectra
-    surface = result.smooth_surface
+    surface, margin = result.smooth_surface, aperture_margin
     hx, hy = surface.spacing
-    size = {"along": (int(surface.core_rows.sum()), hy), "across": (surface.x.size, hx)}
-    return {d: (*size[d], *surface_psd(surface, d)) for d in DIRECTIONS}
+    n_y = int(clear_aperture(surface.y[surface.core_rows], margin).sum())
+    n_x = int(clear_aperture(surface.x, margin).sum())
+    size = {"along": (n_y, hy), "across": (n_x, hx)}
+    return {d: (*size[d], *surface_psd(surface, d, aperture_margin=margin)) for d in DIRECTIONS}
+
+
+def aperture_words(margin: float) -> str:
+    """Where the drawn spectra come from, for a title: the clear aperture, ``margin`` [m]."""
+    return (
+        f"clear aperture ({margin * 1e3:g} mm margin), form removed there, Hann window: "
+        "the bands' spectra"
+    )
 
 
 def _limits(spec: dict[str, float]) -> str:
