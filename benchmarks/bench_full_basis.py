@@ -56,6 +56,7 @@ ROUNDS = 3
 MSTMM_BLOCK = 8  # MSTMM calls (new designs) in a row per round: see interleaved
 PARAMETER = "head_radial_stiffness_N_m"
 CHAIN_SIZES = (10, 20, 40, 80)
+PITCH = 0.2  # [m] between a chain's bodies (0.35 m made the 80-body chain 28 m long)
 CHAIN_MODES = 20
 CHAIN_MESHES = (2, 4, 8, 16, 32)
 CHAIN_TARGET = 1e-6
@@ -203,7 +204,8 @@ def batches(model) -> None:
 def chain_model(bodies: int) -> dict:
     """A chain of ``bodies`` rigid bodies along x on springs, a beam every fifth link
     (rigidly held by its neighbours), a spring from body i to body i + 2 every tenth body
-    (a closed loop), grounded at both ends."""
+    (a closed loop), grounded at both ends; links PITCH [m] apart, so 80 bodies stay inside
+    the 20 m a model file may span."""
     rng = np.random.default_rng(bodies)
     spring = {"stiffness": [5e7] * 3, "rotational_stiffness": [5e5] * 3}
     rigid = {"stiffness": [float("inf")] * 3, "rotational_stiffness": [float("inf")] * 3}
@@ -220,26 +222,34 @@ def chain_model(bodies: int) -> dict:
         if i % 5 == 4:  # a beam between the previous body and this one
             name = f"beam{i}"
             body.append(
-                {"name": name, "kind": "beam", "start": [x - 0.3, 0, 0], "end": [x - 0.05, 0, 0]}
+                {
+                    "name": name,
+                    "kind": "beam",
+                    "start": [x - 0.6 * PITCH, 0, 0],
+                    "end": [x - 0.1 * PITCH, 0, 0],
+                }
                 | steel
                 | {"diameter": 0.04}
             )
             hinge.append(
-                {"name": f"h{i}a", "between": [previous, name], "at": [x - 0.3, 0, 0]} | rigid
+                {"name": f"h{i}a", "between": [previous, name], "at": [x - 0.6 * PITCH, 0, 0]}
+                | rigid
             )
             hinge.append(
-                {"name": f"h{i}b", "between": [name, f"b{i}"], "at": [x - 0.05, 0, 0]} | rigid
+                {"name": f"h{i}b", "between": [name, f"b{i}"], "at": [x - 0.1 * PITCH, 0, 0]}
+                | rigid
             )
         else:
             hinge.append(
-                {"name": f"h{i}", "between": [previous, f"b{i}"], "at": [x - 0.15, 0, 0]} | spring
+                {"name": f"h{i}", "between": [previous, f"b{i}"], "at": [x - 0.3 * PITCH, 0, 0]}
+                | spring
             )
         if i % 10 == 9:  # a loop: body i - 2 to body i
             hinge.append(
-                {"name": f"loop{i}", "between": [f"b{i - 2}", f"b{i}"], "at": [x - 0.5, 0.1, 0]}
+                {"name": f"loop{i}", "between": [f"b{i - 2}", f"b{i}"], "at": [x - PITCH, 0.1, 0]}
                 | spring
             )
-        x += 0.35
+        x += PITCH
     hinge.append({"name": "end", "between": [f"b{bodies - 1}", "ground"], "at": [x, 0, 0]} | spring)
     return {"name": f"chain{bodies}", "body": body, "hinge": hinge}
 
