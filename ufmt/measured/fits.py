@@ -11,12 +11,14 @@ import numpy as np
 
 from ufmt.errors import ModelError
 from ufmt.machining.psd import BANDS, DIRECTIONS, profile_psd, spectra_band_rms
+from ufmt.machining.surface import clear_aperture
 from ufmt.measured.read import HeightMap
 
 
 def aperture(height_map: HeightMap, margin: float) -> tuple[np.ndarray, np.ndarray]:
     """Column (Nx,) and row (Ny,) masks of the clear aperture: ``margin`` [m] off every edge
-    (the nodes :func:`ufmt.machining.surface.clear_aperture` keeps on a simulated grid)."""
+    (:func:`ufmt.machining.surface.clear_aperture` on each axis, as on a simulated grid), or
+    one line naming the map if the margin leaves none."""
     x, y = height_map.x, height_map.y
     half_x, half_y = np.ptp(x) / 2 - margin, np.ptp(y) / 2 - margin
     if not (math.isfinite(margin) and margin >= 0 and half_x > 0 and half_y > 0):
@@ -25,9 +27,7 @@ def aperture(height_map: HeightMap, margin: float) -> tuple[np.ndarray, np.ndarr
             f"{height_map.path}: aperture_margin {margin * 1e3:g} mm must be >= 0 and leave a "
             f"clear aperture of the {size} map"
         )
-    in_x = np.abs(x - (x[0] + x[-1]) / 2) <= half_x + 1e-12
-    in_y = np.abs(y - (y[0] + y[-1]) / 2) <= half_y + 1e-12
-    return in_x, in_y
+    return clear_aperture(x, margin), clear_aperture(y, margin)
 
 
 def legendre_basis(x: np.ndarray, y: np.ndarray) -> np.ndarray:
