@@ -70,7 +70,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ufmt.machining.surface import DEFAULT_APERTURE_MARGIN, Surface
+from ufmt.machining.surface import DEFAULT_APERTURE_MARGIN, Surface, clear_aperture
 from ufmt.model.machine import Machine
 
 #: Lateral resolution [m] of the modelled interferometer (module docstring).
@@ -107,14 +107,8 @@ def scallop_height(x: np.ndarray, machine: Machine, feed_per_rev: float) -> np.n
 
 
 def _aperture_masks(surface: Surface, margin: float) -> tuple[np.ndarray, np.ndarray]:
-    """Column (Nx,) and row (Ny,) masks of the clear aperture."""
-    x, y = surface.x, surface.y
-    half_x = (x[-1] - x[0]) / 2 - margin
-    half_y = (y[-1] - y[0]) / 2 - margin
-    if half_x <= 0 or half_y <= 0:
-        raise ValueError(f"aperture_margin {margin!r} m leaves no clear aperture")
-    cx, cy = (x[-1] + x[0]) / 2, (y[-1] + y[0]) / 2
-    return np.abs(x - cx) <= half_x + 1e-12, np.abs(y - cy) <= half_y + 1e-12
+    """Column (Nx,) and row (Ny,) masks of the clear aperture (:func:`clear_aperture`)."""
+    return clear_aperture(surface.x, margin), clear_aperture(surface.y, margin)
 
 
 def plane_removed(x: np.ndarray, y: np.ndarray, z: np.ndarray) -> np.ndarray:
